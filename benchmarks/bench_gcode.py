@@ -1,0 +1,111 @@
+"""Reader throughput on a CAM-style 3-axis finishing program.
+
+Generates a raster finishing program over a smooth freeform surface (ball
+end mill, zig-zag passes joined by G3/G2 turn-arounds, modal coordinates
+written only when they change, 3 decimals, as CAM posts write them), then
+times :func:`nc.read_program` on it.
+
+Prints: lines, lines per second, peak memory of the parse (tracemalloc), and
+the ratio to a baseline run in the same process: Python's own ``re.findall``
+tokenization of the same text, which is a floor for any pure-Python reader.
+
+Usage: python benchmarks/bench_gcode.py [--lines N] [--repeat R]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import re
+import sys
+import tempfile
+import time
+import tracemalloc
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+
+from nc import read_program  # noqa: E402
+
+
+def finishing_program(n_lines: int) -> str:
+    """A raster finishing program of about ``n_lines`` lines [mm]."""
+    out = ["%", "O1001 (FREEFORM FINISH R3 BALL)", "G21 G17 G90 G94 G40 G49 G80",
+           "T5 M6", "G54", "S12000 M3", "G43 H5", "G0 X0. Y0. Z25.", "G1 Z2. F2000."]
+    step_x, pick = 0.05, 0.4
+    per_pass = 400
+    y = 0.0
+    direction = 1
+    lastz = None
+    n = 0
+    f_first = True
+    while len(out) < n_lines:
+        for k in range(per_pass):
+            x = (k if direction > 0 else per_pass - 1 - k) * step_x
+            z = 2.0 * math.sin(x / 7.0) * math.cos(y / 5.0) - 3.0
+            words = [f"X{x:.3f}"]
+            if k == 0:
+                words.append(f"Y{y:.3f}")
+            zs = f"Z{z:.3f}"
+            if zs != lastz:
+                words.append(zs)
+                lastz = zs
+            if k == 0:
+                words.insert(0, "G1")
+            if f_first:
+                words.append("F1500.")
+                f_first = False
+            out.append(" ".join(words))
+            n += 1
+        # turn-around: a half circle to the next pass
+        r = pick / 2
+        code = "G3" if direction > 0 else "G2"
+        out.append(f"{code} Y{y + pick:.3f} I0. J{r:.3f}")
+        y += pick
+        direction = -direction
+    out += ["G0 Z25.", "M5", "G49", "M30", "%"]
+    return "\n".join(out) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--lines", type=int, default=120_000)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args(argv)
+    text = finishing_program(args.lines)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "finish.nc")
+        with open(path, "w") as fh:
+            fh.write(text)
+        n_lines = text.count("\n")
+        token = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))|(\S)")
+        best_base = math.inf
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            with open(path) as fh:
+                for line in fh.read().splitlines():
+                    token.findall(line.upper())
+            best_base = min(best_base, time.perf_counter() - t0)
+        best = math.inf
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            prog = read_program(path)
+            best = min(best, time.perf_counter() - t0)
+        tracemalloc.start()
+        read_program(path)
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+    print(f"program: {n_lines} lines, {len(prog)} motion blocks, "
+          f"{len(text) / 1e6:.1f} MB")
+    print(f"read_program: {best * 1e3:.0f} ms best of {args.repeat} -> "
+          f"{n_lines / best:,.0f} lines/s (target >= 200,000)")
+    print(f"baseline re.findall tokenize only: {best_base * 1e3:.0f} ms -> "
+          f"{n_lines / best_base:,.0f} lines/s; reader/baseline time ratio "
+          f"{best / best_base:.2f}")
+    print(f"peak memory during parse (tracemalloc): {peak / 1e6:.1f} MB "
+          f"({peak / n_lines:.0f} B/line, source text included)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

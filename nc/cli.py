@@ -1,0 +1,208 @@
+"""Command line: ``python -m nc parse|post|check|machines``.
+
+Units at this edge: mm, mm/min and degrees on the screen and in JSON; the
+package inside works in mm and radians.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import tomllib
+
+import numpy as np
+
+from .errors import KinematicsError
+from .gcode import ALLOWABLE_EXAMPLES, read_program
+from .summary import blocks_as_json, summarize
+
+__all__ = ["main"]
+
+
+def _allow_list(text: str | None) -> list[str]:
+    return [t for t in (text or "").replace(" ", ",").split(",") if t]
+
+
+def _offsets(path: str | None) -> dict | None:
+    """Work offsets from TOML: ``[G55] xyz_mm = [..]`` and optional ``abc_deg``."""
+    if path is None:
+        return None
+    with open(path, "rb") as fh:
+        try:
+            data = tomllib.load(fh)
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"{path}: not valid TOML: {exc}") from None
+    out = {}
+    for key, table in data.items():
+        if not isinstance(table, dict) or "xyz_mm" not in table:
+            raise ValueError(f"{path}: [{key}] needs xyz_mm = [x, y, z] (and optionally "
+                             "abc_deg = [a, b, c])")
+        out[key] = list(table["xyz_mm"]) + list(table.get("abc_deg", []))
+    return out
+
+
+def _machine(arg: str):
+    from .kinematics import get_machine, load_machine
+
+    if arg.endswith(".toml") or os.path.sep in arg:
+        return load_machine(arg)
+    return get_machine(arg)
+
+
+def _print_summary(s, console=None) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    console = console or Console(width=None if sys.stdout.isatty() else 110)
+    t = Table(title=f"{s.file}", show_header=False, box=None, pad_edge=False)
+    t.add_column(style="bold")
+    t.add_column()
+    t.add_row("lines", f"{s.lines:,}")
+    t.add_row("motion blocks", f"{s.motion_blocks:,} ({s.rapid_blocks:,} rapid, "
+              f"{s.linear_blocks:,} linear, {s.arc_blocks:,} arc)")
+    t.add_row("cutting path", f"{s.cutting_length_mm:,.3f} mm")
+    t.add_row("rapid path", f"{s.rapid_length_mm:,.3f} mm")
+    minutes = s.cutting_time_min
+    t.add_row("time at programmed feed",
+              f"{minutes:,.2f} min ({int(minutes // 60)} h {minutes % 60:04.1f} min)")
+    lo, hi = s.bbox_min_mm, s.bbox_max_mm
+    if all(math.isfinite(v) for v in lo):
+        t.add_row("bounding box", "  ".join(f"{a} {lo[i]:.3f} .. {hi[i]:.3f}"
+                                            for i, a in enumerate("XYZ")) + " mm")
+    for name, (a, b) in s.rotary_range_deg.items():
+        t.add_row(f"{name} range", f"{a:.3f} .. {b:.3f} deg")
+    t.add_row("tools", ", ".join(f"T{x}" for x in s.tools) or "-")
+    t.add_row("spindle", f"{s.spindle_rpm[0]:g} .. {s.spindle_rpm[1]:g} rev/min")
+    t.add_row("units in program", ", ".join(s.units) or "-")
+    t.add_row("tool centre point", ", ".join(s.tcp_modes) or "-")
+    console.print(t)
+
+
+def _cmd_parse(args) -> int:
+    prog = read_program(args.file, allow=_allow_list(args.allow),
+                        block_delete=args.block_delete, work_offsets=_offsets(args.offsets))
+    if args.json:
+        json.dump(blocks_as_json(prog), sys.stdout, separators=(",", ":"))
+        sys.stdout.write("\n")
+    else:
+        _print_summary(summarize(prog))
+    return 0
+
+
+def _cmd_post(args) -> int:
+    from .path import read_cl_csv
+    from .writer import PostOptions, write_program
+
+    cl = read_cl_csv(args.cl, spindle_rpm=args.spindle or 0.0)
+    machine = _machine(args.machine)
+    if args.tool_length is not None:
+        machine = machine.with_tool_length(args.tool_length)
+    opts = PostOptions(
+        dialect=args.dialect, tool=args.tool, spindle_rpm=args.spindle,
+        linear_decimals=args.decimals, line_numbers=args.line_numbers,
+        header=not args.no_header, end_code=None if args.end == "none" else args.end,
+        source=os.path.basename(args.cl),
+    )
+    res = write_program(args.output, cl, machine, opts)
+    print(f"wrote {args.output}: {len(cl)} cutter locations -> {len(res.tip)} points "
+          f"({len(res.tip) - len(cl)} inserted by linearization), "
+          f"{res.inverse_time_moves} inverse-time moves, "
+          f"{res.singular_points} points at the singularity (free axis held)")
+    if args.summary:
+        prog = read_program(args.output)
+        _print_summary(summarize(prog))
+    return 0
+
+
+def _cmd_check(args) -> int:
+    from .linuxcnc import run_rs274
+
+    prog = read_program(args.file, allow=_allow_list(args.allow))
+    canon = run_rs274(args.file)
+    if len(canon.kind) != len(prog):
+        print(f"MISMATCH: rs274 reports {len(canon.kind)} moves, this reader "
+              f"{len(prog)}", file=sys.stderr)
+        return 1
+    ours = prog.end.copy()
+    ours[:, 3:] = np.degrees(ours[:, 3:])
+    dev_mm = np.abs(ours[:, :3] - canon.end[:, :3]).max(initial=0.0)
+    dev_deg = np.abs(ours[:, 3:] - canon.end[:, 3:]).max(initial=0.0)
+    ok_mm = np.all(np.abs(ours[:, :3] - canon.end[:, :3]) <= canon.resolution[:, None] + 1e-9)
+    ok_deg = dev_deg <= 0.5e-4 + 1e-9
+    status = "agrees" if ok_mm and ok_deg else "DISAGREES"
+    print(f"rs274 {status} with this reader on {args.file}: {len(prog)} moves, largest "
+          f"difference {dev_mm:.2g} mm, {dev_deg:.2g} deg (rs274 prints 4 decimals)")
+    return 0 if status == "agrees" else 1
+
+
+def _cmd_machines(args) -> int:
+    from .kinematics import MACHINES, get_machine
+
+    for name in MACHINES:
+        m = get_machine(name)
+        lim = ", ".join(f"{a.name} {math.degrees(a.min_rad):g}..{math.degrees(a.max_rad):g} deg"
+                        for a in m.axes)
+        print(f"{name:22s} rotary {'/'.join(m.rotary_names)}  {lim}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="python -m nc", description=(
+        "Read G-code, post cutter locations to 5-axis NC programs, check them with "
+        "LinuxCNC's interpreter."))
+    sub = ap.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("parse", help="read a program; print its summary or its blocks as JSON")
+    p.add_argument("file")
+    p.add_argument("--json", action="store_true",
+                   help="print every motion block: line, motion, xyz_mm, abc_deg, feed")
+    p.add_argument("--allow", metavar="CODES",
+                   help=f"comma-separated codes to pass over, e.g. {','.join(ALLOWABLE_EXAMPLES[:3])}")
+    p.add_argument("--block-delete", action="store_true", help="skip lines starting with '/'")
+    p.add_argument("--offsets", metavar="TOML", help="work offsets: [G55] xyz_mm = [x, y, z]")
+    p.set_defaults(func=_cmd_parse)
+
+    p = sub.add_parser("post", help="write an NC program from a cutter-location CSV")
+    p.add_argument("cl", help="CSV with columns x,y,z,i,j,k,feed [mm, unit vector, mm/min]")
+    p.add_argument("--machine", required=True,
+                   help="a named machine (see 'machines') or a machine TOML file")
+    p.add_argument("--dialect", default="linuxcnc",
+                   choices=["linuxcnc", "fanuc-g43.4", "fanuc-g43.5"])
+    p.add_argument("-o", "--output", required=True)
+    p.add_argument("--tool", type=int, default=1)
+    p.add_argument("--tool-length", type=float, metavar="MM",
+                   help="tool length [mm] (head machines)")
+    p.add_argument("--spindle", type=float, metavar="RPM", help="spindle speed [rev/min]")
+    p.add_argument("--decimals", type=int, default=4, help="digits for mm words")
+    p.add_argument("--line-numbers", action="store_true")
+    p.add_argument("--no-header", action="store_true")
+    p.add_argument("--end", default="M30", choices=["M30", "M2", "none"])
+    p.add_argument("--summary", action="store_true", help="read the result back and summarize")
+    p.set_defaults(func=_cmd_post)
+
+    p = sub.add_parser("check", help="compare this reader with LinuxCNC's rs274 on a file")
+    p.add_argument("file")
+    p.add_argument("--allow", metavar="CODES")
+    p.set_defaults(func=_cmd_check)
+
+    p = sub.add_parser("machines", help="list the named machines")
+    p.set_defaults(func=_cmd_machines)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status (2 for bad input)."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (ValueError, KinematicsError, FileNotFoundError, IsADirectoryError,
+            PermissionError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:  # output piped into head & co.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0

@@ -1,0 +1,98 @@
+"""Tolerances and defaults of the ``nc`` package, in one place.
+
+Every number a kernel compares against lives here, with its unit in the name
+and the reason beside it. Change a default here, not in the middle of a
+function.
+"""
+
+from __future__ import annotations
+
+import math
+
+#: Millimetres per inch (exact, by definition).
+MM_PER_INCH = 25.4
+
+# --- reader -----------------------------------------------------------------
+
+#: Start and end radius of an IJK arc may differ by this much before the block
+#: is refused, whatever the radius [mm]. LinuxCNC's rule, kept so that a
+#: program LinuxCNC accepts is accepted here too.
+ARC_RADIUS_TOL_ABS_MM = 0.005
+#: ... or by this fraction of the radius, if that is larger [-].
+ARC_RADIUS_TOL_REL = 1.0e-3
+#: ... but never by more than this [mm].
+ARC_RADIUS_TOL_MAX_MM = 0.5
+#: An R-form arc whose chord exceeds 2|R| by less than this is taken as a
+#: half circle (rounding in the programmed digits) [mm]; beyond it the arc is
+#: impossible and refused.
+ARC_R_CHORD_TOL_MM = 1.0e-3
+#: Largest absolute coordinate or feed accepted from a program, in program
+#: units. Anything beyond is a typo or an overflow, not a machine [-].
+MAX_ABS_WORD_VALUE = 1.0e7
+
+#: Codes the reader understands and treats as asserting the state it assumes
+#: (cutter compensation off, no canned cycle, program end/stop). They need no
+#: ``allow`` option.
+IMPLIED_DEFAULT_CODES = frozenset({"G40", "G80", "M0", "M1", "M2", "M30"})
+
+# --- paths ------------------------------------------------------------------
+
+#: Chord tolerance when arcs are expanded into lines [mm].
+CHORD_TOL_MM = 1.0e-3
+#: Tool-axis vectors from a file must have unit length within this [-].
+UNIT_VECTOR_TOL = 1.0e-6
+
+# --- kinematics -------------------------------------------------------------
+
+#: Half-angle of the cone around the free rotary axis inside which the free
+#: axis is held instead of solved [rad] (0.001 rad = 0.057 deg).
+SINGULAR_CONE_RAD = 1.0e-3
+#: Largest deviation of the tool tip from the programmed straight line while
+#: the machine axes move linearly between two points [mm].
+LINEARIZE_TOL_MM = 2.0e-3
+#: Largest number of bisections of one segment during linearization [-].
+LINEARIZE_MAX_DEPTH = 12
+
+# --- writer -----------------------------------------------------------------
+
+#: Decimals written for linear axes (mm) and rotary axes (deg) and vectors.
+LINEAR_DECIMALS = 4
+ANGLE_DECIMALS = 4
+VECTOR_DECIMALS = 6
+#: Feed used for moves that only turn rotary axes, in G94 [deg/min].
+ROTARY_ONLY_FEED_DEG_MIN = 3600.0
+#: Rotary motion below this counts as "no rotary motion" when the writer
+#: decides between G93 and G94 [rad].
+ROTARY_STILL_RAD = math.radians(1.0e-6)
+
+# --- kinematics (nc.kinematics, nc.machines) --------------------------------
+
+#: A joint may pass its limit by this much before it counts as outside
+#: (rounding in the inverse kinematics) [rad] ...
+LIMIT_TOL_RAD = 1.0e-9
+#: ... and a linear axis by this much [mm].
+LIMIT_TOL_MM = 1.0e-9
+#: The squared sine that decides whether a tool axis is reachable by the two
+#: rotary axes may be this negative (rounding) before the orientation counts
+#: as unreachable [-].
+REACH_TOL = 1.0e-12
+#: Tilt and rotary axes of a machine, and the tilt axis and the tool axis,
+#: must be at least this far from parallel [rad].
+MIN_AXIS_ANGLE_RAD = 1.0e-3
+#: Interior fractions of each segment (k / (N + 1), k = 1..N) at which
+#: linearization checks the tip deviation [-] ...
+LINEARIZE_CHECKS = 7
+#: ... and of each half made by bisection, short enough for its deviation
+#: to be a smooth bump [-].
+LINEARIZE_CHECKS_BISECTED = 3
+#: Singular points tried (closest to the free axis first) when the path solver
+#: looks for a place to flip to the other solution [-].
+SINGULAR_FLIP_TRIES = 64
+#: A singular point whose rotary joints are farther than this from the ones
+#: holding the rotary axis at its neighbour's value is reached by a flip;
+#: linearization then turns the rotary axis at that point [rad].
+FLIP_TOL_RAD = 1.0e-9
+#: Linearization bisects a segment when its estimated deviation exceeds
+#: (1 - this) x the tolerance: the sampled estimate (parabola through the
+#: largest samples) can fall short of the true peak by ~0.2 % [-].
+LINEARIZE_MARGIN = 0.02

@@ -1,0 +1,759 @@
+"""Read ISO/Fanuc and LinuxCNC style G-code into a :class:`~nc.program.Program`.
+
+The dialect is what CAM systems write for milling: G0/G1/G2/G3 (IJK centre
+and R forms, full circles, helical arcs, LinuxCNC's P turns), G17/G18/G19,
+G90/G91, G90.1/G91.1, G20/G21, G93/G94, F, S, M3/M4/M5, T and M6, G43 H,
+G43.4/G43.5/G49 (tool centre point on/off; under G43.5 the words I J K of a
+G0/G1 block are the tool vector), G54...G59 (offsets from a table), comments
+in parentheses and after ``;``, block delete ``/``, N numbers, ``%`` and O
+program numbers. G40 and G80 (which assert the state the reader assumes), and
+M0/M1/M2/M30 are understood.
+
+Anything else is refused with an :class:`~nc.errors.NCParseError` naming the
+file, line and column. Codes that change nothing this package cares about
+(coolant M8/M9, path blending G64, dwell G4, ...) pass only when the caller
+lists them in ``allow``; their own parameter words (P, Q, D, E, L) are then
+taken as theirs. Codes that move the tool or the coordinate frame (G28, G92,
+canned cycles, cutter compensation...) cannot be allowed.
+
+The execution order inside a block follows LinuxCNC (feed mode, F, S, T, M6,
+spindle, plane, units, tool length, work offset, distance mode, motion), so a
+block ``G20 X1`` moves to one inch.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from . import constants as K
+from .errors import NCParseError
+from .program import PLANE_AXES, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
+
+__all__ = ["read_program", "parse_program", "ALLOWABLE_EXAMPLES"]
+
+#: Codes commonly worth allowing in CAM output, for the CLI help and docs.
+ALLOWABLE_EXAMPLES = ("G64", "G61", "G61.1", "G4", "M7", "M8", "M9", "M1")
+
+_TOKEN = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))|(\S)")
+
+# G codes as int(10 * number): 10 = G1, 434 = G43.4.
+_MOTION = {0: 0, 10: 1, 20: 2, 30: 3}
+_G_GROUP = {
+    0: "motion", 10: "motion", 20: "motion", 30: "motion", 800: "motion",
+    170: "plane", 180: "plane", 190: "plane",
+    900: "distance", 910: "distance",
+    901: "arc_distance", 911: "arc_distance",
+    930: "feed_mode", 940: "feed_mode",
+    200: "units", 210: "units",
+    400: "cutter_comp",
+    430: "length", 434: "length", 435: "length", 490: "length",
+    540: "wcs", 550: "wcs", 560: "wcs", 570: "wcs", 580: "wcs", 590: "wcs",
+}
+_M_GROUP = {0: "stop", 10: "stop", 20: "stop", 300: "stop", 30: "spindle", 40: "spindle",
+            50: "spindle", 60: "toolchange"}
+
+#: Codes that cannot be allowed: they move the tool or the frame.
+_NOT_ALLOWABLE = {
+    "G": {
+        40 * 10 + 1: "cutter compensation", 410: "cutter compensation",
+        420: "cutter compensation", 411: "cutter compensation", 421: "cutter compensation",
+        280: "a return to home", 300: "a return to home", 281: "a return to home",
+        301: "a return to home", 100: "a change of offsets", 520: "a local offset",
+        530: "a move in machine coordinates", 920: "a change of offsets",
+        921: "a change of offsets", 922: "a change of offsets", 923: "a change of offsets",
+        680: "a coordinate rotation", 690: "a coordinate rotation", 510: "scaling",
+        501: "scaling", 950: "feed per revolution", 330: "spindle-synchronized motion",
+        331: "spindle-synchronized motion", 50: "a spline", 51: "a spline", 52: "a spline",
+        431: "a dynamic tool length offset", 432: "a tool length offset",
+        **{c: "a canned cycle" for c in (730, 740, 760, 810, 820, 830, 840, 850, 860,
+                                         870, 880, 890)},
+        **{c: "a probing move" for c in (382, 383, 384, 385)},
+    },
+    "M": {980: "a subroutine call", 990: "a subroutine return"},
+}
+_AXIS_LETTERS = "XYZABC"
+_AXIS_INDEX = {c: i for i, c in enumerate(_AXIS_LETTERS)}
+_BASE_WORDS = frozenset("NGMXYZABCIJKRFSTHP")
+_PARAM_WORDS = frozenset("PQDELHR")  # words an allowed code may bring
+
+
+def _code_key(letter: str, text: str) -> int | None:
+    """``("G", "43.4")`` -> 434; None when not a multiple of 0.1."""
+    v = float(text)
+    k = round(v * 10)
+    return k if abs(v * 10 - k) < 1e-6 and k >= 0 else None
+
+
+def _code_name(letter: str, key: int) -> str:
+    return f"{letter}{key // 10}" + (f".{key % 10}" if key % 10 else "")
+
+
+def _normalise_allow(allow: Iterable[str]) -> dict[str, set[int]]:
+    out: dict[str, set[int]] = {"G": set(), "M": set()}
+    for item in allow:
+        s = str(item).strip().upper()
+        m = re.fullmatch(r"([GM])\s*(\d+(?:\.\d)?)", s)
+        if not m:
+            raise ValueError(f"allow: {item!r} is not a G or M code such as 'G64' or 'M8'")
+        letter, key = m.group(1), _code_key(m.group(1), m.group(2))
+        assert key is not None
+        reason = _NOT_ALLOWABLE[letter].get(key)
+        if reason:
+            raise ValueError(f"allow: {s} is {reason}; ignoring it would misplace the tool")
+        out[letter].add(key)
+    return out
+
+
+def _offset_table(work_offsets: Mapping[str, Sequence[float]] | None) -> np.ndarray:
+    """G54...G59 offsets from ``{"G55": (x, y, z[, a, b, c])}`` [mm, deg]."""
+    table = np.zeros((6, 6))
+    for key, value in (work_offsets or {}).items():
+        m = re.fullmatch(r"G5([4-9])", str(key).strip().upper())
+        if not m:
+            raise ValueError(f"work_offsets: key {key!r} must be one of G54...G59")
+        v = np.asarray(value, dtype=float)
+        if v.ndim != 1 or v.size not in (3, 6) or not np.all(np.isfinite(v)):
+            raise ValueError(f"work_offsets[{key!r}]: expected 3 or 6 finite numbers "
+                             f"(x y z [mm], a b c [deg]), got {value!r}")
+        row = int(m.group(1)) - 4
+        table[row, :3] = v[:3]
+        if v.size == 6:
+            table[row, 3:] = np.radians(v[3:])
+    return table
+
+
+def read_program(path: str | os.PathLike, **options) -> Program:
+    """Read a G-code file; see :func:`parse_program` for ``options``.
+
+    Raises
+    ------
+    NCParseError
+        Naming the file, line and column, for anything outside the dialect
+        and for bytes that are not text.
+    """
+    name = os.fspath(path)
+    with open(name, "rb") as fh:
+        data = fh.read()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        col = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise NCParseError("expected text (UTF-8 or ASCII), found a non-text byte "
+                           f"0x{data[exc.start]:02x}", file=name, line=line,
+                           column=col) from None
+    return parse_program(text, file=name, **options)
+
+
+def parse_program(
+    text: str,
+    *,
+    file: str = "<string>",
+    allow: Iterable[str] = (),
+    block_delete: bool = False,
+    work_offsets: Mapping[str, Sequence[float]] | None = None,
+) -> Program:
+    """Interpret G-code text.
+
+    Parameters
+    ----------
+    text : str
+        The program.
+    file : str
+        Name used in error messages and kept in the result.
+    allow : iterable of str
+        Codes (``"G64"``, ``"M8"``) that may appear and are passed over.
+    block_delete : bool
+        Skip lines that start with ``/`` (the operator's block-delete switch);
+        when False they run like any other line.
+    work_offsets : mapping, optional
+        ``{"G55": (x, y, z)}`` or ``(x, y, z, a, b, c)`` [mm, deg]: the work
+        offset table, used by :attr:`Program.end_machine`.
+
+    Returns
+    -------
+    Program
+    """
+    return _Interpreter(text, file, _normalise_allow(allow), block_delete,
+                        _offset_table(work_offsets)).run()
+
+
+# ---------------------------------------------------------------------------
+class _Interpreter:
+    """One pass over the lines; appends columns as plain Python lists."""
+
+    def __init__(self, text: str, file: str, allow: dict[str, set[int]],
+                 block_delete: bool, offsets: np.ndarray) -> None:
+        # split on "\n" only, as controls count lines (str.splitlines would also
+        # split on form feeds and other separators and shift line numbers)
+        lines = text.split("\n")
+        if lines and lines[-1] == "":
+            lines.pop()
+        self.newline = "\n"
+        if "\r" in text:
+            self.newline = "\r\n" if "\r\n" in text[:65536] else "\n"
+            lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
+        self.lines = lines
+        self.file = file
+        self.allow = allow
+        self.allowed_names = frozenset(
+            _code_name(letter, k) for letter, ks in allow.items() for k in ks)
+        self.block_delete = block_delete
+        self.offsets = offsets
+        self.number: str | None = None
+
+    # -- errors -----------------------------------------------------------
+    def _error(self, lineno: int, message: str, token: int | None = None,
+               column: int | None = None) -> NCParseError:
+        raw = self.lines[lineno - 1]
+        if token is not None and column is None:
+            column = _token_column(raw, token)
+        return NCParseError(message, file=self.file, line=lineno, column=column, text=raw)
+
+    def _word_error(self, lineno: int, toks: list, letter: str, message: str) -> NCParseError:
+        idx = next((i for i, t in enumerate(toks) if t[0] == letter), None)
+        return self._error(lineno, message, token=idx)
+
+    # -- main loop -------------------------------------------------------
+    def run(self) -> Program:  # noqa: C901 - one flat loop is the fast form
+        lines = self.lines
+        findall = _TOKEN.findall
+        allow_g, allow_m = self.allow["G"], self.allow["M"]
+
+        # modal state
+        plane, units, distance, arc_distance, feed_mode = 17, 21, 90, 911, 94
+        spindle_rpm, spindle_dir, tool, selected, length_offset, tcp, wcs = (
+            0.0, 0, 0, 0, 0, TCP_OFF, 1)
+        motion_mode: int | None = None
+        feed = math.nan
+        scale = 1.0
+        tv = (math.nan, math.nan, math.nan)
+        pos = [0.0] * 6
+        modal_ids: dict[tuple, int] = {}
+        modals: list[Modal] = []
+        modal_id = -1
+        dirty = True
+
+        # output columns
+        out_line: list[int] = []
+        out_motion: list[int] = []
+        out_end: list[float] = []
+        out_feed: list[float] = []
+        out_modal: list[int] = []
+        out_tv: list[float] = []
+        out_arc: list[int] = []
+        arc_centre: list[float] = []
+        arc_radius: list[float] = []
+        arc_sweep: list[float] = []
+        arc_plane: list[int] = []
+
+        percent_seen = False
+        first_content = True
+        ended = False
+        for lineno0, raw in enumerate(lines):
+            lineno = lineno0 + 1
+            s = raw.strip()
+            if not s:
+                continue
+            if ended:
+                if s == "%":
+                    break
+                continue  # after M2/M30 the control reads no further
+            c0 = s[0]
+            if c0 == "%":
+                if s.strip("% \t") and not s.lstrip("%").lstrip().startswith("("):
+                    raise self._error(lineno, "expected '%' alone on its line", column=1)
+                if percent_seen or not first_content:
+                    break  # the closing '%': the tape ends here
+                percent_seen = True
+                first_content = False
+                continue
+            first_content = False
+            if c0 == "/":
+                if self.block_delete:
+                    continue
+                s = s[1:]
+            if "(" in s or ";" in s:
+                s = self._strip_comments(s, lineno)
+            s = s.upper()
+            toks = findall(s)
+            if not toks:
+                continue
+
+            # -- words ----------------------------------------------------
+            gs: list[str] | None = None
+            ms: list[str] | None = None
+            w: dict[str, str] = {}
+            for i, (letter, num, bad) in enumerate(toks):
+                if bad:
+                    raise self._bad_token(lineno, i, bad, s)
+                if letter == "G":
+                    if gs is None:
+                        gs = [num]
+                    else:
+                        gs.append(num)
+                elif letter == "M":
+                    if ms is None:
+                        ms = [num]
+                    else:
+                        ms.append(num)
+                elif letter in w:
+                    raise self._error(lineno, f"word {letter} appears twice in one block; "
+                                      "expected each word at most once", token=i)
+                else:
+                    w[letter] = num
+
+            if "O" in w:
+                if len(toks) != 1 or gs or ms:
+                    raise self._word_error(lineno, toks, "O", "expected an O program number "
+                                           "alone on its line (O-word subroutines are not "
+                                           "supported)")
+                self.number = w["O"]
+                continue
+
+            gcodes: dict[str, int] = {}
+            allowed_here = False
+            if gs is not None:
+                for g in gs:
+                    key = _code_key("G", g)
+                    group = _G_GROUP.get(key) if key is not None else None
+                    if group is None:
+                        if key is not None and key in allow_g:
+                            allowed_here = True
+                            continue
+                        raise self._error(lineno, f"unknown or unsupported code G{g}"
+                                          + self._why_not("G", key), token=_find_token(toks, "G", g))
+                    if group in gcodes:
+                        raise self._error(lineno, f"two codes of the {group} group in one "
+                                          "block; expected at most one",
+                                          token=_find_token(toks, "G", g))
+                    gcodes[group] = key
+            mcodes: dict[str, int] = {}
+            if ms is not None:
+                for m in ms:
+                    key = _code_key("M", m)
+                    group = _M_GROUP.get(key) if key is not None else None
+                    if group is None:
+                        if key is not None and key in allow_m:
+                            allowed_here = True
+                            continue
+                        raise self._error(lineno, f"unknown or unsupported code M{m}"
+                                          + self._why_not("M", key), token=_find_token(toks, "M", m))
+                    if group in mcodes:
+                        raise self._error(lineno, f"two codes of the {group} group in one "
+                                          "block; expected at most one",
+                                          token=_find_token(toks, "M", m))
+                    mcodes[group] = key
+
+            # values
+            vals: dict[str, float] = {}
+            for letter, num in w.items():
+                if letter not in _BASE_WORDS and not (allowed_here and letter in _PARAM_WORDS):
+                    raise self._word_error(lineno, toks, letter,
+                                           f"unknown word {letter}; expected one of "
+                                           "N G M X Y Z A B C I J K R F S T H P")
+                v = float(num)
+                if not abs(v) <= K.MAX_ABS_WORD_VALUE:
+                    raise self._word_error(lineno, toks, letter,
+                                           f"{letter}{num} is out of range; expected |value| "
+                                           f"<= {K.MAX_ABS_WORD_VALUE:g}")
+                vals[letter] = v
+
+            changed = False
+            # 1. feed mode, F, S, T, M6, spindle
+            if gcodes:
+                fm = gcodes.get("feed_mode")
+                if fm is not None and fm // 10 != feed_mode:
+                    feed_mode = fm // 10
+                    feed = math.nan  # LinuxCNC: a new feed mode needs a new F
+                    changed = True
+            if "F" in vals:
+                f = vals["F"]
+                if f < 0:
+                    raise self._word_error(lineno, toks, "F", "negative feed; expected F >= 0")
+                feed = f * (scale if feed_mode == 94 else 1.0)
+            if "S" in vals:
+                if vals["S"] < 0:
+                    raise self._word_error(lineno, toks, "S",
+                                           "negative spindle speed; expected S >= 0")
+                spindle_rpm = vals["S"]
+                changed = True
+            if "T" in vals:
+                t = vals["T"]
+                if t < 0 or t != int(t):
+                    raise self._word_error(lineno, toks, "T",
+                                           "expected a tool number: a whole number >= 0")
+                selected = int(t)
+            if mcodes:
+                if "toolchange" in mcodes:
+                    tool = selected
+                    changed = True
+                sp = mcodes.get("spindle")
+                if sp is not None:
+                    spindle_dir = {30: 1, 40: -1, 50: 0}[sp]
+                    changed = True
+            # 2. plane, units, tool length, wcs, distance
+            if gcodes:
+                v = gcodes.get("plane")
+                if v is not None:
+                    plane = v // 10
+                    changed = True
+                v = gcodes.get("units")
+                if v is not None:
+                    units = v // 10
+                    scale = K.MM_PER_INCH if units == 20 else 1.0
+                    changed = True
+                    if "F" in vals and feed_mode == 94:
+                        feed = vals["F"] * scale
+                v = gcodes.get("length")
+                if v is not None:
+                    changed = True
+                    if v == 490:
+                        length_offset, tcp = 0, TCP_OFF
+                        if "H" in vals:
+                            raise self._word_error(lineno, toks, "H", "H word with G49; "
+                                                   "expected H only with G43, G43.4, G43.5")
+                    else:
+                        h = vals.get("H", float(tool))
+                        if h < 0 or h != int(h):
+                            raise self._word_error(lineno, toks, "H",
+                                                   "expected an H number: a whole number >= 0")
+                        length_offset = int(h)
+                        tcp = {430: TCP_OFF, 434: TCP_ANGLES, 435: TCP_VECTOR}[v]
+                        if tcp != TCP_VECTOR:
+                            tv = (math.nan, math.nan, math.nan)
+                elif "H" in vals:
+                    raise self._word_error(lineno, toks, "H", "H word without G43, G43.4 "
+                                           "or G43.5; expected it with a tool length code")
+                v = gcodes.get("wcs")
+                if v is not None:
+                    wcs = v // 10 - 53
+                    changed = True
+                v = gcodes.get("distance")
+                if v is not None:
+                    distance = v // 10
+                    changed = True
+                v = gcodes.get("arc_distance")
+                if v is not None:
+                    arc_distance = v
+                    changed = True
+                v = gcodes.get("motion")
+                if v is not None:
+                    motion_mode = _MOTION.get(v)  # G80 -> None
+            elif "H" in vals:
+                raise self._word_error(lineno, toks, "H", "H word without G43, G43.4 or "
+                                       "G43.5; expected it with a tool length code")
+            if changed:
+                dirty = True
+
+            # 3. motion
+            has_axes = False
+            for c in _AXIS_LETTERS:
+                if c in vals:
+                    has_axes = True
+                    break
+            explicit_motion = gcodes.get("motion") is not None if gcodes else False
+            vector_words = tcp == TCP_VECTOR and motion_mode in (0, 1) and (
+                "I" in vals or "J" in vals or "K" in vals)
+            if not (has_axes or vector_words or (explicit_motion and motion_mode is not None)):
+                for c in ("I", "J", "K", "R"):
+                    if c in vals:
+                        raise self._word_error(lineno, toks, c, f"{c} word with no arc; "
+                                               "expected it in a G2/G3 block")
+                if "P" in vals and not allowed_here:
+                    raise self._word_error(lineno, toks, "P",
+                                           "P word with nothing to use it")
+                if mcodes and mcodes.get("stop") in (20, 300):
+                    ended = True
+                continue
+            if motion_mode is None:
+                col_letter = next(c for c in "XYZABCIJK" if c in vals)
+                raise self._word_error(lineno, toks, col_letter,
+                                       "axis words without a motion mode; expected G0, G1, "
+                                       "G2 or G3 in effect (G80 cancels it)")
+
+            start = pos
+            new = pos[:]
+            inc = distance == 91
+            for c, i in _AXIS_INDEX.items():
+                if c in vals:
+                    if i < 3:
+                        v = vals[c] * scale
+                    else:
+                        if tcp == TCP_VECTOR:
+                            raise self._word_error(lineno, toks, c, f"rotary word {c} under "
+                                                   "G43.5; expected the tool vector as I J K")
+                        v = math.radians(vals[c])
+                    new[i] = new[i] + v if inc else v
+
+            if motion_mode >= 2:
+                arc = self._arc(lineno, toks, vals, motion_mode, plane, scale, arc_distance,
+                                start, new)
+                out_arc.append(len(arc_sweep))
+                arc_centre.extend(arc[0])
+                arc_radius.extend(arc[1])
+                arc_sweep.append(arc[2])
+                arc_plane.append(plane)
+            else:
+                for c in ("R",):
+                    if c in vals:
+                        raise self._word_error(lineno, toks, c,
+                                               "R word in a straight move; expected it with G2/G3")
+                if vector_words:
+                    tv = self._tool_vector(lineno, toks, vals, tv)
+                elif ("I" in vals or "J" in vals or "K" in vals):
+                    c = next(c for c in "IJK" if c in vals)
+                    raise self._word_error(lineno, toks, c, f"{c} word in a straight move; "
+                                           "expected I J K only in G2/G3 (or as the tool "
+                                           "vector under G43.5)")
+                if "P" in vals and not allowed_here:
+                    raise self._word_error(lineno, toks, "P", "P word in a straight move")
+                out_arc.append(-1)
+
+            if motion_mode != 0:
+                if feed_mode == 93:
+                    if "F" not in vals:
+                        raise self._error(lineno, "F word missing in an inverse-time (G93) "
+                                          "feed move; expected F in every G1/G2/G3 block")
+                    if not feed > 0:
+                        raise self._word_error(lineno, toks, "F",
+                                               "inverse-time feed F0; expected F > 0")
+                elif not feed > 0:
+                    raise self._error(lineno, "cutting move with no feed; expected an F > 0 "
+                                      "in this block or before it")
+
+            if dirty:
+                key = (plane, units, distance, arc_distance, feed_mode, spindle_rpm,
+                       spindle_dir, tool, length_offset, tcp, wcs)
+                modal_id = modal_ids.get(key, -1)
+                if modal_id < 0:
+                    modal_id = modal_ids[key] = len(modals)
+                    modals.append(Modal(*key))
+                dirty = False
+            out_line.append(lineno)
+            out_motion.append(motion_mode)
+            out_end.extend(new)
+            out_feed.append(feed)
+            out_modal.append(modal_id)
+            out_tv.extend(tv)
+            pos = new
+            if mcodes and mcodes.get("stop") in (20, 300):
+                ended = True
+
+        n = len(out_line)
+        m = len(arc_sweep)
+        return Program(
+            file=self.file,
+            lines=tuple(lines),
+            line=np.array(out_line, dtype=np.int64),
+            motion=np.array(out_motion, dtype=np.int8),
+            end=np.array(out_end, dtype=float).reshape(n, 6),
+            initial=np.zeros(6),
+            feed=np.array(out_feed, dtype=float),
+            modal_index=np.array(out_modal, dtype=np.int64),
+            modals=tuple(modals),
+            tool_vector=np.array(out_tv, dtype=float).reshape(n, 3),
+            arc_index=np.array(out_arc, dtype=np.int64),
+            arc_centre=np.array(arc_centre, dtype=float).reshape(m, 3),
+            arc_radius=np.array(arc_radius, dtype=float).reshape(m, 2),
+            arc_sweep=np.array(arc_sweep, dtype=float),
+            arc_plane=np.array(arc_plane, dtype=np.int64),
+            work_offsets=self.offsets,
+            number=self.number,
+            newline=self.newline,
+            allowed=self.allowed_names,
+            block_delete=self.block_delete,
+        )
+
+    # -- pieces ------------------------------------------------------------
+    @staticmethod
+    def _why_not(letter: str, key: int | None) -> str:
+        if key is None:
+            return ""
+        reason = _NOT_ALLOWABLE[letter].get(key)
+        if reason:
+            return f" ({reason}, which this reader does not model)"
+        return f"; if it is harmless here, pass it in allow (e.g. --allow {_code_name(letter, key)})"
+
+    def _strip_comments(self, s: str, lineno: int) -> str:
+        out = []
+        i = 0
+        n = len(s)
+        while i < n:
+            c = s[i]
+            if c == "(":
+                j = s.find(")", i + 1)
+                if j < 0:
+                    raise self._error(lineno, "comment not closed; expected ')'",
+                                      column=_raw_column(self.lines[lineno - 1], s, i))
+                if "(" in s[i + 1:j]:
+                    raise self._error(lineno, "nested comment; expected ')' before '('",
+                                      column=_raw_column(self.lines[lineno - 1], s,
+                                                         s.index("(", i + 1)))
+                out.append(" ")
+                i = j + 1
+            elif c == ";":
+                break
+            elif c == ")":
+                raise self._error(lineno, "')' without '('",
+                                  column=_raw_column(self.lines[lineno - 1], s, i))
+            else:
+                out.append(c)
+                i += 1
+        return "".join(out)
+
+    def _bad_token(self, lineno: int, i: int, bad: str, s: str) -> NCParseError:
+        raw = self.lines[lineno - 1]
+        blank = _blank_comments(raw)
+        if "#" in blank or "[" in blank:
+            col = min(k for k in (blank.find("#"), blank.find("[")) if k >= 0) + 1
+            return self._error(lineno, "parameters and expressions ('#', '[') are not "
+                               "supported; expected plain numbers", column=col)
+        if s.startswith("O"):
+            return self._error(lineno, "O-word subroutines and control flow are not "
+                               "supported; expected O and a number alone (a program number)",
+                               column=blank.find("O") + 1)
+        if bad.isalpha():
+            msg = f"expected a number after {bad}"
+        elif bad in "#[":
+            msg = ("parameters and expressions ('#', '[') are not supported; "
+                   "expected plain numbers")
+        elif bad == "%":
+            msg = "expected '%' alone on its line"
+        else:
+            msg = f"unexpected character {bad!r}; expected a letter followed by a number"
+        return self._error(lineno, msg, token=i)
+
+    def _tool_vector(self, lineno, toks, vals, tv):
+        vec = [vals.get(c, tv[k] if not math.isnan(tv[k]) else 0.0)
+               for k, c in enumerate("IJK")]
+        norm = math.sqrt(vec[0] ** 2 + vec[1] ** 2 + vec[2] ** 2)
+        if not norm > 1e-9:
+            raise self._word_error(lineno, toks, next(c for c in "IJK" if c in vals),
+                                   "tool vector I J K of zero length; expected a direction")
+        return (vec[0] / norm, vec[1] / norm, vec[2] / norm)
+
+    def _arc(self, lineno, toks, vals, motion_mode, plane, scale, arc_distance, start, end):
+        a1, a2, ax = PLANE_AXES[plane]
+        letters = "IJK"
+        l1, l2, lax = letters[a1], letters[a2], letters[ax]
+        if lax in vals:
+            raise self._word_error(lineno, toks, lax, f"{lax} word in a G{plane} arc; "
+                                   f"expected only {l1} and {l2} (or R)")
+        s1, s2, e1, e2 = start[a1], start[a2], end[a1], end[a2]
+        sign = 1.0 if motion_mode == 3 else -1.0
+        turns = 1
+        if "P" in vals:
+            p = vals["P"]
+            if p < 1 or p != int(p):
+                raise self._word_error(lineno, toks, "P", "expected P (arc turns) to be a "
+                                       "whole number >= 1")
+            turns = int(p)
+        if "R" in vals:
+            if l1 in vals or l2 in vals:
+                raise self._word_error(lineno, toks, "R", "both R and a centre word in one "
+                                       f"arc; expected either R or {l1} {l2}")
+            r = vals["R"] * scale
+            d1, d2 = e1 - s1, e2 - s2
+            chord = math.hypot(d1, d2)
+            if chord < 1e-12:
+                raise self._word_error(lineno, toks, "R", "R arc whose end point is its "
+                                       "start point; expected I J K for a full circle")
+            half = chord / 2
+            if half > abs(r) + K.ARC_R_CHORD_TOL_MM or r == 0:
+                raise self._word_error(lineno, toks, "R",
+                                       f"impossible arc: the chord ({chord:.6g} mm) is longer "
+                                       f"than the diameter 2|R| ({2 * abs(r):.6g} mm)")
+            h = math.sqrt(max(r * r - half * half, 0.0))
+            # centre right of the chord for a short G2, left for a short G3
+            side = -sign if r > 0 else sign
+            u1, u2 = d1 / chord, d2 / chord
+            c1 = (s1 + e1) / 2 + side * h * u2
+            c2 = (s2 + e2) / 2 - side * h * u1
+        else:
+            if l1 not in vals and l2 not in vals:
+                raise self._error(lineno, f"arc without a centre; expected {l1} and/or {l2}, "
+                                  "or R")
+            if arc_distance == 911:
+                c1 = s1 + vals.get(l1, 0.0) * scale
+                c2 = s2 + vals.get(l2, 0.0) * scale
+            else:
+                c1 = vals.get(l1, 0.0) * scale
+                c2 = vals.get(l2, 0.0) * scale
+        rs = math.hypot(s1 - c1, s2 - c2)
+        re_ = math.hypot(e1 - c1, e2 - c2)
+        if rs < 1e-9:
+            raise self._error(lineno, "arc of zero radius: the centre is the start point")
+        tol = min(K.ARC_RADIUS_TOL_MAX_MM,
+                  max(K.ARC_RADIUS_TOL_ABS_MM, K.ARC_RADIUS_TOL_REL * rs))
+        if abs(rs - re_) > tol:
+            raise self._error(lineno, f"arc start radius {rs:.6g} mm and end radius "
+                              f"{re_:.6g} mm differ by {abs(rs - re_):.3g} mm; expected "
+                              f"them equal within {tol:.3g} mm")
+        ang_s = math.atan2(s2 - c2, s1 - c1)
+        ang_e = math.atan2(e2 - c2, e1 - c1)
+        sweep = ang_e - ang_s
+        if sign > 0:
+            while sweep <= 1e-12:
+                sweep += 2 * math.pi
+        else:
+            while sweep >= -1e-12:
+                sweep -= 2 * math.pi
+        sweep += sign * 2 * math.pi * (turns - 1)
+        centre = [0.0, 0.0, 0.0]
+        centre[a1], centre[a2], centre[ax] = c1, c2, start[ax]
+        return centre, (rs, re_), sweep
+
+
+def _find_token(toks: list, letter: str, num: str) -> int | None:
+    for i, t in enumerate(toks):
+        if t[0] == letter and t[1] == num:
+            return i
+    return None
+
+
+def _blank_comments(raw: str) -> str:
+    """Same length as ``raw``, comments and the block-delete slash blanked."""
+    chars = list(raw)
+    depth = False
+    for i, c in enumerate(chars):
+        if depth:
+            if c == ")":
+                depth = False
+            chars[i] = " "
+        elif c == "(":
+            depth = True
+            chars[i] = " "
+        elif c == ";":
+            for j in range(i, len(chars)):
+                chars[j] = " "
+            break
+    s = "".join(chars)
+    stripped = s.lstrip()
+    if stripped.startswith("/"):
+        k = len(s) - len(stripped)
+        s = s[:k] + " " + s[k + 1:]
+    return s.upper()
+
+
+def _token_column(raw: str, index: int | None) -> int | None:
+    """1-based column of token ``index`` of ``raw`` (comments skipped)."""
+    if index is None:
+        return None
+    for i, m in enumerate(_TOKEN.finditer(_blank_comments(raw))):
+        if i == index:
+            return m.start() + 1
+    return None
+
+
+def _raw_column(raw: str, s: str, i: int) -> int:
+    """Column in ``raw`` of character ``i`` of its stripped form ``s``."""
+    offset = raw.find(s)
+    if offset < 0:  # a leading '/' was removed
+        offset = raw.find(s[1:]) - 1 if len(s) > 1 else 0
+    return max(offset, 0) + i + 1

@@ -1,0 +1,298 @@
+"""Parsed NC programs: motion blocks with their modal state.
+
+A :class:`Program` is columnar: one numpy array per quantity, one row per
+motion block, so that a 10^6-block program stays compact and fast to
+process. :class:`Block` objects are made on demand when a program is indexed
+or iterated; they are views for people and for code that handles one block
+at a time.
+
+Frames and units (see ``docs/method.md`` §1): everything is in mm and
+radians. End points are absolute, in the program's coordinate system (the
+workpiece frame of the active work offset, G54...G59), which is what CAM
+writes and what LinuxCNC's interpreter reports. :attr:`Program.end_machine`
+adds the work offset of each block.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Iterator
+
+import numpy as np
+
+__all__ = [
+    "Modal",
+    "Arc",
+    "Block",
+    "Program",
+    "RAPID",
+    "LINEAR",
+    "ARC_CW",
+    "ARC_CCW",
+    "PLANE_AXES",
+    "TCP_OFF",
+    "TCP_ANGLES",
+    "TCP_VECTOR",
+]
+
+#: Motion codes stored in :attr:`Program.motion` (the G number).
+RAPID, LINEAR, ARC_CW, ARC_CCW = 0, 1, 2, 3
+
+#: Tool-centre-point modes stored in :attr:`Modal.tcp`.
+TCP_OFF, TCP_ANGLES, TCP_VECTOR = 0, 1, 2  # G49 / G43, G43.4, G43.5
+
+#: For each plane (17, 18, 19): indices of the first and second in-plane axis
+#: and of the axial direction, in the order LinuxCNC's canonical ARC_FEED uses.
+PLANE_AXES: dict[int, tuple[int, int, int]] = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
+
+
+@dataclass(frozen=True, slots=True)
+class Modal:
+    """The modal state a motion block runs under.
+
+    Attributes
+    ----------
+    plane : int
+        17, 18 or 19 (G17 XY, G18 ZX, G19 YZ).
+    units : int
+        20 (inch) or 21 (mm): the units the *program* speaks at this block.
+        Values stored in :class:`Program` are always mm.
+    distance : int
+        90 (absolute) or 91 (incremental).
+    arc_distance : int
+        911 (G91.1, IJK incremental from the start, the default) or 901.
+    feed_mode : int
+        94 (units per minute) or 93 (inverse time).
+    spindle_rpm : float
+        Programmed spindle speed S [rev/min].
+    spindle_dir : int
+        +1 clockwise (M3), -1 counter-clockwise (M4), 0 stopped (M5).
+    tool : int
+        Active tool number (after the last M6); 0 before any change.
+    length_offset : int
+        H number of the active tool length offset; 0 when cancelled (G49).
+    tcp : int
+        Tool centre point mode: 0 off, 1 G43.4 (angles), 2 G43.5 (vector).
+    wcs : int
+        Work coordinate system: 1...6 for G54...G59.
+    """
+
+    plane: int = 17
+    units: int = 21
+    distance: int = 90
+    arc_distance: int = 911
+    feed_mode: int = 94
+    spindle_rpm: float = 0.0
+    spindle_dir: int = 0
+    tool: int = 0
+    length_offset: int = 0
+    tcp: int = TCP_OFF
+    wcs: int = 1
+
+    @property
+    def wcs_code(self) -> str:
+        """The G code of the work coordinate system, e.g. ``"G54"``."""
+        return f"G{53 + self.wcs}"
+
+
+@dataclass(frozen=True, slots=True)
+class Arc:
+    """Geometry of a circular or helical arc move.
+
+    Attributes
+    ----------
+    centre : ndarray, shape (3,) [mm]
+        Centre in the arc's plane at the start's axial height.
+    normal : ndarray, shape (3,)
+        Unit axis of the arc plane (+Z for G17, +Y for G18, +X for G19).
+    radius_start, radius_end : float [mm]
+        Distances of start and end from the centre, in the plane. They differ
+        within the reader's tolerance; expansion blends them linearly.
+    sweep_rad : float [rad]
+        Signed sweep about ``normal``: positive counter-clockwise (G3),
+        negative clockwise (G2); full turns included.
+    plane : int
+        17, 18 or 19.
+    """
+
+    centre: np.ndarray
+    normal: np.ndarray
+    radius_start: float
+    radius_end: float
+    sweep_rad: float
+    plane: int
+
+    @property
+    def turns(self) -> int:
+        """Number of times the arc passes the start angle (LinuxCNC's P)."""
+        return max(1, math.ceil(abs(self.sweep_rad) / (2 * math.pi) - 1e-12))
+
+
+@dataclass(frozen=True, slots=True)
+class Block:
+    """One motion block, as a person reads it.
+
+    Attributes
+    ----------
+    index : int
+        Position among the program's motion blocks.
+    line : int
+        1-based source line number.
+    text : str
+        The source line, unchanged.
+    motion : int
+        0 rapid, 1 linear, 2 clockwise arc, 3 counter-clockwise arc.
+    start, end : ndarray, shape (6,) [mm, mm, mm, rad, rad, rad]
+        X Y Z A B C before and after the block, absolute, program frame.
+    feed : float
+        Programmed feed: [mm/min] under G94, [1/min] under G93; NaN if unset.
+    modal : Modal
+        The state the block runs under.
+    arc : Arc or None
+        Arc geometry for motion 2 and 3.
+    tool_vector : ndarray, shape (3,), or None
+        Programmed tool-axis unit vector under G43.5, else None.
+    """
+
+    index: int
+    line: int
+    text: str
+    motion: int
+    start: np.ndarray
+    end: np.ndarray
+    feed: float
+    modal: Modal
+    arc: Arc | None = None
+    tool_vector: np.ndarray | None = None
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.ascontiguousarray(a)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Program:
+    """A parsed NC program: its motion blocks, columnar.
+
+    Attributes
+    ----------
+    file : str
+        Where the program came from (path, or ``"<string>"``).
+    lines : tuple of str
+        Every source line, unchanged (no line terminators).
+    line : ndarray, shape (n,), int
+        1-based source line of each motion block.
+    motion : ndarray, shape (n,), int8
+        0, 1, 2, 3 (G0...G3).
+    end : ndarray, shape (n, 6) [mm, rad]
+        Absolute X Y Z A B C after each block, program frame.
+    initial : ndarray, shape (6,) [mm, rad]
+        Position before the first block (the reader assumes the origin).
+    feed : ndarray, shape (n,)
+        Programmed feed [mm/min] (G94) or [1/min] (G93); NaN where unset.
+    modal_index : ndarray, shape (n,), int
+        Index into :attr:`modals` for each block.
+    modals : tuple of Modal
+        The distinct modal states of the program.
+    tool_vector : ndarray, shape (n, 3)
+        Tool-axis unit vector programmed under G43.5 (modal); NaN elsewhere.
+    arc_index : ndarray, shape (n,), int
+        Row into the arc arrays, -1 for straight moves.
+    arc_centre : ndarray, shape (m, 3) [mm]
+    arc_radius : ndarray, shape (m, 2) [mm]
+        Start and end radius of each arc.
+    arc_sweep : ndarray, shape (m,) [rad]
+    arc_plane : ndarray, shape (m,), int
+    work_offsets : ndarray, shape (6, 6) [mm, rad]
+        Offsets of G54...G59 (rows) added to get machine coordinates.
+    number : str or None
+        Program number (``O`` word), if any.
+    newline : str
+        The line terminator of the source (``"\n"`` or ``"\r\n"``).
+    allowed : frozenset of str
+        Codes the caller allowed to pass without effect.
+    block_delete : bool
+        Whether lines starting with ``/`` were skipped.
+    """
+
+    file: str
+    lines: tuple[str, ...]
+    line: np.ndarray
+    motion: np.ndarray
+    end: np.ndarray
+    initial: np.ndarray
+    feed: np.ndarray
+    modal_index: np.ndarray
+    modals: tuple[Modal, ...]
+    tool_vector: np.ndarray
+    arc_index: np.ndarray
+    arc_centre: np.ndarray
+    arc_radius: np.ndarray
+    arc_sweep: np.ndarray
+    arc_plane: np.ndarray
+    work_offsets: np.ndarray = field(default_factory=lambda: np.zeros((6, 6)))
+    number: str | None = None
+    newline: str = "\n"
+    allowed: frozenset[str] = frozenset()
+    block_delete: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("line", "motion", "end", "initial", "feed", "modal_index",
+                     "tool_vector", "arc_index", "arc_centre", "arc_radius",
+                     "arc_sweep", "arc_plane", "work_offsets"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+
+    # --- sequence protocol ---------------------------------------------
+    def __len__(self) -> int:
+        return int(self.line.shape[0])
+
+    def __iter__(self) -> Iterator[Block]:
+        for i in range(len(self)):
+            yield self[i]
+
+    def __getitem__(self, i: int) -> Block:
+        n = len(self)
+        if not -n <= i < n:
+            raise IndexError(f"block index {i} out of range for {n} blocks")
+        i %= n
+        arc = None
+        k = int(self.arc_index[i])
+        if k >= 0:
+            plane = int(self.arc_plane[k])
+            normal = np.zeros(3)
+            normal[PLANE_AXES[plane][2]] = 1.0
+            arc = Arc(self.arc_centre[k], normal, float(self.arc_radius[k, 0]),
+                      float(self.arc_radius[k, 1]), float(self.arc_sweep[k]), plane)
+        tv = self.tool_vector[i]
+        return Block(
+            index=i,
+            line=int(self.line[i]),
+            text=self.lines[int(self.line[i]) - 1],
+            motion=int(self.motion[i]),
+            start=self.start[i],
+            end=self.end[i],
+            feed=float(self.feed[i]),
+            modal=self.modals[int(self.modal_index[i])],
+            arc=arc,
+            tool_vector=None if np.isnan(tv[0]) else tv,
+        )
+
+    # --- derived columns -------------------------------------------------
+    @property
+    def start(self) -> np.ndarray:
+        """Start of each block, shape (n, 6) [mm, rad]: the previous end."""
+        return np.vstack([self.initial[None, :], self.end[:-1]]) if len(self) else self.end
+
+    def modal_column(self, name: str) -> np.ndarray:
+        """One field of :class:`Modal` for every block, shape (n,)."""
+        values = np.array([getattr(m, name) for m in self.modals])
+        return values[self.modal_index] if len(values) else values
+
+    @property
+    def end_machine(self) -> np.ndarray:
+        """End points plus each block's work offset, shape (n, 6) [mm, rad]."""
+        wcs = self.modal_column("wcs").astype(int) - 1
+        return self.end + self.work_offsets[wcs]

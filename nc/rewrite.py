@@ -1,0 +1,261 @@
+"""Rewrite the coordinates of chosen blocks, keeping everything else.
+
+``errpred`` corrects a program by moving end points (and arc centres) by a
+few micrometres. The corrected program must read like the original: same
+lines, words, order, comments, N numbers and number style; only coordinate
+numbers change. Where a changed point would silently move a later block (a
+modal coordinate it inherits, an incremental word, an arc centre given
+relative to the start), that block gets the word it needs to stay where it
+was.
+
+The result is checked by reading it back: every block must end where it was
+asked to, within the resolution of the digits written.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Mapping
+
+import numpy as np
+
+from . import constants as K
+from .atomic import atomic_write
+from .gcode import _TOKEN, _blank_comments, parse_program
+from .program import PLANE_AXES, TCP_VECTOR, Program
+
+__all__ = ["rewrite_coordinates", "write_rewritten", "RewriteError"]
+
+_AXES = "XYZABC"
+#: Decimals for words the rewrite inserts or must extend, by units.
+_MIN_DECIMALS = {21: 3, 20: 4}
+_ANGLE_DECIMALS = 4
+
+
+class RewriteError(ValueError):
+    """The requested coordinates cannot be written into the program."""
+
+
+def _decimals(text: str) -> int:
+    return len(text.split(".", 1)[1]) if "." in text else 0
+
+
+def _format_like(original: str | None, value: float, decimals: int) -> str:
+    """Format ``value`` in the style of ``original`` (sign, leading zero, dot)."""
+    s = f"{value:.{decimals}f}"
+    if float(s) == 0.0:
+        s = s.lstrip("-")
+    if original is None:
+        return s
+    body = original.lstrip("+-")
+    if body.startswith(".") and decimals > 0:  # no leading zero: ".5"
+        if s.startswith("0."):
+            s = s[1:]
+        elif s.startswith("-0."):
+            s = "-" + s[2:]
+    if original.startswith("+") and not s.startswith("-"):
+        s = "+" + s
+    if decimals == 0 and body.endswith("."):
+        s += "."
+    return s
+
+
+def _words(raw: str) -> list[tuple[str, str, int, int]]:
+    """(letter, number text, start, end) of every word of a line, raw columns."""
+    out = []
+    for m in _TOKEN.finditer(_blank_comments(raw)):
+        if m.group(1):
+            out.append((m.group(1), raw[m.start(2):m.end(2)], m.start(), m.end()))
+    return out
+
+
+def rewrite_coordinates(
+    program: Program,
+    ends: Mapping[int, np.ndarray] | None = None,
+    *,
+    centres: Mapping[int, np.ndarray] | None = None,
+    min_decimals: int | None = None,
+) -> str:
+    """New program text with changed end points and arc centres.
+
+    Parameters
+    ----------
+    program : Program
+        The parsed original (its source lines are reused).
+    ends : mapping of int to ndarray, shape (6,) or (3,) [mm, rad]
+        Block index -> new absolute end point (X Y Z [A B C]), program frame.
+    centres : mapping of int to ndarray, shape (3,) [mm]
+        Arc block index -> new absolute arc centre (in-plane coordinates are
+        used). Arcs whose start moved keep their old centre unless given.
+    min_decimals : int, optional
+        Decimals for changed or inserted linear words when the original has
+        fewer (default 3 in mm, 4 in inch programs). Rotary words: 4.
+
+    Returns
+    -------
+    str
+        The new program, lines joined with the original's line terminator.
+
+    Raises
+    ------
+    RewriteError
+        For an unknown block index, non-finite coordinates, a rotary change
+        under G43.5, or when the result does not read back as requested.
+    """
+    n = len(program)
+    target = program.end.copy()
+    for i, e in (ends or {}).items():
+        if not 0 <= i < n:
+            raise RewriteError(f"ends: block index {i} out of range (program has {n})")
+        e = np.asarray(e, dtype=float)
+        if e.shape not in ((3,), (6,)) or not np.all(np.isfinite(e)):
+            raise RewriteError(f"ends[{i}]: expected 3 or 6 finite numbers, got {e!r}")
+        target[i, : e.size] = e
+    new_centre: dict[int, np.ndarray] = {}
+    for i, c in (centres or {}).items():
+        if not 0 <= i < n or program.arc_index[i] < 0:
+            raise RewriteError(f"centres: block {i} is not an arc")
+        c = np.asarray(c, dtype=float)
+        if c.shape != (3,) or not np.all(np.isfinite(c)):
+            raise RewriteError(f"centres[{i}]: expected 3 finite numbers, got {c!r}")
+        new_centre[i] = c
+
+    lines = list(program.lines)
+    cur = program.initial.astype(float).copy()
+    modal_index = program.modal_index
+    for i in range(n):
+        m = program.modals[int(modal_index[i])]
+        scale = K.MM_PER_INCH if m.units == 20 else 1.0
+        lin_dec = min_decimals if min_decimals is not None else _MIN_DECIMALS[m.units]
+        res_lin = 0.5 * 10.0 ** -lin_dec * scale
+        li = int(program.line[i]) - 1
+        raw = lines[li]
+        words = _words(raw)
+        present = {w[0]: w for w in words}
+        edits: list[tuple[int, int, str]] = []  # (start, end, text) replacements
+        inserts: list[tuple[str, str]] = []  # (letter, text) to insert
+        reached = cur.copy()
+        inc = m.distance == 91
+        for a, letter in enumerate(_AXES):
+            want = target[i, a]
+            if a >= 3 and m.tcp == TCP_VECTOR:
+                if want != program.end[i, a]:
+                    raise RewriteError(f"line {li + 1}: block {i} is under G43.5; rotary "
+                                       "axes cannot be rewritten there")
+                continue
+            if a < 3:
+                to_word, from_word, dec, res = (1.0 / scale), scale, lin_dec, res_lin
+            else:
+                to_word, from_word = math.degrees(1.0), math.radians(1.0)
+                dec, res = _ANGLE_DECIMALS, math.radians(0.5 * 10.0 ** -_ANGLE_DECIMALS)
+            base = cur[a] if inc else 0.0
+            w = present.get(letter)
+            if w is not None:
+                orig_text = w[1]
+                if abs(base + float(orig_text) * from_word - want) <= 1e-12:
+                    text = orig_text  # untouched: keep it exactly
+                else:
+                    text = _format_like(orig_text, (want - base) * to_word,
+                                        max(_decimals(orig_text), dec))
+                    if text != orig_text:
+                        start = w[2] + raw[w[2]:w[3]].index(orig_text, 1)
+                        edits.append((start, w[3], text))
+            else:
+                if abs(want - cur[a]) <= res:
+                    continue  # the inherited value is as close as a word could be
+                text = _format_like(None, (want - base) * to_word, dec)
+                inserts.append((letter, text))
+            reached[a] = base + float(text) * from_word
+
+        k = int(program.arc_index[i])
+        if k >= 0:
+            a1, a2, _ = PLANE_AXES[int(program.arc_plane[k])]
+            ijk = "IJK"
+            centre = new_centre.get(i, program.arc_centre[k])
+            start_orig = program.start[i]
+            if "R" in present:
+                if i in new_centre:
+                    r_new = math.hypot(cur[a1] - centre[a1], cur[a2] - centre[a2]) / scale
+                    w = present["R"]
+                    sign = -1.0 if float(w[1]) < 0 else 1.0
+                    text = _format_like(w[1], sign * r_new, max(_decimals(w[1]), lin_dec))
+                    if text != w[1]:
+                        edits.append((w[2] + raw[w[2]:w[3]].index(w[1], 1), w[3], text))
+            else:
+                start_moved = (abs(cur[a1] - start_orig[a1]) > 1e-12
+                               or abs(cur[a2] - start_orig[a2]) > 1e-12)
+                if i in new_centre or start_moved:
+                    for ax in (a1, a2):
+                        letter = ijk[ax]
+                        value = (centre[ax] - (cur[ax] if m.arc_distance == 911 else 0.0))
+                        value /= scale
+                        w = present.get(letter)
+                        if w is not None:
+                            text = _format_like(w[1], value, max(_decimals(w[1]), lin_dec))
+                            if text != w[1]:
+                                edits.append((w[2] + raw[w[2]:w[3]].index(w[1], 1), w[3],
+                                              text))
+                        else:
+                            text = _format_like(None, value, lin_dec)
+                            if float(text) != 0.0:
+                                inserts.append((letter, text))
+        if edits or inserts:
+            lines[li] = _apply(raw, words, edits, inserts)
+        cur = reached
+
+    text = program.newline.join(lines) + program.newline
+    _verify(program, text, target)
+    return text
+
+
+def _apply(raw: str, words, edits, inserts) -> str:
+    """Replace number spans, then insert words in X Y Z A B C I J K order."""
+    out = raw
+    for start, end, text in sorted(edits, reverse=True):
+        out = out[:start] + text + out[end:]
+    order = "XYZABCIJK"
+    spaced = any(raw[w[3]:w[3] + 1].isspace() for w in words[:-1]) or len(words) < 2
+    sep = " " if spaced else ""
+    for letter, text in inserts:
+        current = _words(out)
+        rank = order.index(letter)
+        before = [w for w in current if w[0] in order and order.index(w[0]) < rank]
+        after = [w for w in current if w[0] in order and order.index(w[0]) > rank]
+        if before:
+            pos, word = before[-1][3], f"{sep}{letter}{text}"
+        elif after:
+            pos, word = after[0][2], f"{letter}{text}{sep}"
+        else:  # after the last word that is not N, F, S or T
+            others = [w for w in current if w[0] not in "NFST"] or current
+            pos, word = others[-1][3], f"{sep}{letter}{text}"
+        out = out[:pos] + word + out[pos:]
+    return out
+
+
+def _verify(program: Program, text: str, target: np.ndarray) -> None:
+    try:
+        back = parse_program(text, file=program.file, allow=program.allowed,
+                             block_delete=program.block_delete)
+    except ValueError as exc:
+        raise RewriteError(f"the rewritten program does not read back: {exc}") from exc
+    if len(back) != len(program):
+        raise RewriteError(f"the rewritten program has {len(back)} motion blocks; the "
+                           f"original has {len(program)}")
+    units = program.modal_column("units")
+    res = np.where(units == 20, 0.5e-4 * K.MM_PER_INCH, 0.5e-3) + 1e-9
+    err = np.abs(back.end[:, :3] - target[:, :3]).max(axis=1)
+    bad = err > res * 6  # a few roundings may add up in incremental mode
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise RewriteError(f"line {program.line[i]}: block ends {err[i]:.3g} mm from the "
+                           "requested point after rewriting")
+
+
+def write_rewritten(path: str | os.PathLike, program: Program,
+                    ends: Mapping[int, np.ndarray] | None = None, **kwargs) -> None:
+    """Rewrite coordinates (see :func:`rewrite_coordinates`) into ``path``, atomically."""
+    text = rewrite_coordinates(program, ends, **kwargs)
+    with atomic_write(path, newline="") as fh:
+        fh.write(text)

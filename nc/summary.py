@@ -1,0 +1,128 @@
+"""Figures a programmer checks first: blocks, path length, time, extent."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from . import constants as K
+from .path import block_lengths, expand_arcs
+from .program import ARC_CCW, ARC_CW, LINEAR, RAPID, Program
+
+__all__ = ["ProgramSummary", "summarize", "block_minutes", "blocks_as_json"]
+
+
+@dataclass(frozen=True)
+class ProgramSummary:
+    """Summary of a program (lengths in mm, time in minutes, angles in degrees)."""
+
+    file: str
+    lines: int
+    motion_blocks: int
+    rapid_blocks: int
+    linear_blocks: int
+    arc_blocks: int
+    cutting_length_mm: float
+    rapid_length_mm: float
+    cutting_time_min: float
+    bbox_min_mm: tuple[float, float, float]
+    bbox_max_mm: tuple[float, float, float]
+    rotary_range_deg: dict[str, tuple[float, float]]
+    tools: tuple[int, ...]
+    spindle_rpm: tuple[float, float]
+    units: tuple[str, ...]
+    tcp_modes: tuple[str, ...]
+
+    def as_dict(self) -> dict:
+        """Plain types, ready for JSON."""
+        return asdict(self)
+
+
+def block_minutes(program: Program, lengths_mm: np.ndarray | None = None) -> np.ndarray:
+    """Time of each block at its programmed feed, shape (n,) [min].
+
+    G94: path length / feed; a move that only turns rotary axes takes its
+    feed in deg/min (LinuxCNC's rule). G93: 1 / F. Rapids: 0 (their speed is
+    the machine's, not the program's).
+    """
+    length = block_lengths(program) if lengths_mm is None else lengths_mm
+    feed_mode = program.modal_column("feed_mode")
+    minutes = np.zeros(len(program))
+    cut = program.motion != RAPID
+    inv = cut & (feed_mode == 93)
+    minutes[inv] = 1.0 / program.feed[inv]
+    per_min = cut & (feed_mode == 94)
+    travel = np.where(length > 0, length,
+                      np.degrees(np.abs(program.end[:, 3:] - program.start[:, 3:]).max(axis=1)))
+    minutes[per_min] = travel[per_min] / program.feed[per_min]
+    return minutes
+
+
+def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> ProgramSummary:
+    """Summarize a program; the bounding box covers arcs between their ends."""
+    length = block_lengths(program)
+    rapid = program.motion == RAPID
+    if len(program):
+        pts, _ = expand_arcs(program, chord_tol_mm)
+        pts = np.vstack([program.start[:1], pts])
+        lo, hi = pts[:, :3].min(axis=0), pts[:, :3].max(axis=0)
+    else:
+        pts = np.zeros((0, 6))
+        lo = hi = np.full(3, math.nan)
+    rotary = {}
+    for j, name in enumerate("ABC"):
+        col = pts[:, 3 + j]
+        if col.size and np.any(col != 0):
+            rotary[name] = (float(np.degrees(col.min())), float(np.degrees(col.max())))
+    tcp_names = {0: "off", 1: "G43.4", 2: "G43.5"}
+    used = [program.modals[i] for i in np.unique(program.modal_index)]
+    rpm = [m.spindle_rpm for m in used]
+    return ProgramSummary(
+        file=program.file,
+        lines=len(program.lines),
+        motion_blocks=len(program),
+        rapid_blocks=int(np.sum(rapid)),
+        linear_blocks=int(np.sum(program.motion == LINEAR)),
+        arc_blocks=int(np.sum((program.motion == ARC_CW) | (program.motion == ARC_CCW))),
+        cutting_length_mm=float(length[~rapid].sum()),
+        rapid_length_mm=float(length[rapid].sum()),
+        cutting_time_min=float(block_minutes(program, length).sum()),
+        bbox_min_mm=tuple(float(v) for v in lo),
+        bbox_max_mm=tuple(float(v) for v in hi),
+        rotary_range_deg=rotary,
+        tools=tuple(sorted({m.tool for m in used})),
+        spindle_rpm=(min(rpm), max(rpm)) if rpm else (0.0, 0.0),
+        units=tuple(sorted({"inch" if m.units == 20 else "mm" for m in used})),
+        tcp_modes=tuple(sorted({tcp_names[m.tcp] for m in used})),
+    )
+
+
+def blocks_as_json(program: Program) -> list[dict]:
+    """Every motion block as a dict: line, motion code, end point, feed.
+
+    End points are absolute in the program frame: ``xyz_mm`` [mm] and
+    ``abc_deg`` [deg]. ``feed`` is as programmed in ``feed_mode``: [mm/min]
+    for G94, [1/min] for G93; ``null`` when unset (rapids before any F).
+    """
+    feed_mode = program.modal_column("feed_mode")
+    tcp = program.modal_column("tcp")
+    end = program.end
+    xyz = np.round(end[:, :3], 9).tolist()
+    abc = np.round(np.degrees(end[:, 3:]), 9).tolist()
+    feed = [None if math.isnan(f) else f for f in program.feed.tolist()]
+    out = []
+    for i in range(len(program)):
+        d = {
+            "line": int(program.line[i]),
+            "motion": f"G{int(program.motion[i])}",
+            "xyz_mm": xyz[i],
+            "abc_deg": abc[i],
+            "feed": feed[i],
+            "feed_mode": f"G{int(feed_mode[i])}",
+        }
+        if tcp[i] == 2:
+            d["tool_vector"] = np.round(program.tool_vector[i], 12).tolist()
+        out.append(d)
+    return out

@@ -1,0 +1,331 @@
+"""Write 5-axis NC programs from cutter locations.
+
+Three dialects:
+
+``linuxcnc``
+    Machine-axis program: X Y Z and the machine's two rotary words, from
+    :func:`nc.kinematics.solve_path` (continuous branch, unwrapped, singular
+    points held) and :func:`nc.kinematics.linearize` (points inserted where
+    the linear interpolation of the machine axes would take the tip off the
+    programmed line). Moves that turn a rotary axis are fed in inverse time
+    (G93, ``F = 1/t`` with ``t`` the move's time at the programmed tip feed);
+    pure linear moves in G94. LinuxCNC has no G43.4, so this form carries the
+    kinematics in the numbers; it is what ``rs274`` checks.
+``fanuc-g43.4``
+    Tool centre point control, type 1: X Y Z is the tool tip in the
+    workpiece frame, rotary words the machine angles; feed is tip feed (G94).
+``fanuc-g43.5``
+    Tool centre point control, type 2: X Y Z tip and I J K the unit tool
+    vector; no rotary words.
+
+Files are written atomically. Every program starts with a header of
+comments (source, machine, tool, units), sets its modes explicitly and ends
+with the configured end code.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import constants as K
+from .atomic import atomic_write
+from .kinematics import Machine, linearize, solve_path
+from .path import CutterLocations
+
+__all__ = ["DIALECTS", "PostOptions", "PostResult", "post", "write_program"]
+
+DIALECTS = ("linuxcnc", "fanuc-g43.4", "fanuc-g43.5")
+
+
+@dataclass(frozen=True)
+class PostOptions:
+    """How a program is written.
+
+    Attributes
+    ----------
+    dialect : str
+        One of :data:`DIALECTS`.
+    tool : int
+        Tool number (T and H words).
+    spindle_rpm : float or None [rev/min]
+        Spindle speed; None takes the first cutter location's.
+    linear_decimals, angle_decimals, vector_decimals : int
+        Digits after the point for mm, degrees and unit vectors.
+    line_numbers : bool
+        Write N words.
+    line_number_start, line_number_step : int
+        First N and increment.
+    header : bool
+        Write the comment header (source, machine, tool, units, date-free).
+    program_number : int or None
+        O number for Fanuc dialects (None: no O word).
+    percent : bool or None
+        Enclose the program in ``%`` lines; None: for Fanuc dialects only.
+    end_code : str or None
+        ``"M30"``, ``"M2"`` or None (no end code).
+    clearance_mm : float [mm]
+        Approach and retract distance along the tool axis.
+    linearize_tol_mm : float [mm]
+        Tolerance of :func:`nc.kinematics.linearize` (``linuxcnc`` only).
+    rotary_only_feed_deg_min : float [deg/min]
+        Rate for moves that turn rotary axes without moving the tip.
+    source : str
+        Name of the data the program was made from, for the header.
+    """
+
+    dialect: str = "linuxcnc"
+    tool: int = 1
+    spindle_rpm: float | None = None
+    linear_decimals: int = K.LINEAR_DECIMALS
+    angle_decimals: int = K.ANGLE_DECIMALS
+    vector_decimals: int = K.VECTOR_DECIMALS
+    line_numbers: bool = False
+    line_number_start: int = 10
+    line_number_step: int = 10
+    header: bool = True
+    program_number: int | None = 1000
+    percent: bool | None = None
+    end_code: str | None = "M30"
+    clearance_mm: float = 10.0
+    linearize_tol_mm: float = K.LINEARIZE_TOL_MM
+    rotary_only_feed_deg_min: float = K.ROTARY_ONLY_FEED_DEG_MIN
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        if self.dialect not in DIALECTS:
+            raise ValueError(f"dialect: {self.dialect!r}; expected one of {', '.join(DIALECTS)}")
+        for name in ("linear_decimals", "angle_decimals", "vector_decimals"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and 0 <= v <= 9):
+                raise ValueError(f"{name}: expected an integer 0..9, got {v!r}")
+        if self.end_code not in ("M30", "M2", None):
+            raise ValueError(f"end_code: {self.end_code!r}; expected 'M30', 'M2' or None")
+        if not (isinstance(self.tool, int) and self.tool >= 0):
+            raise ValueError(f"tool: expected a whole number >= 0, got {self.tool!r}")
+        for name in ("clearance_mm", "linearize_tol_mm", "rotary_only_feed_deg_min"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name}: expected a finite value > 0, got {v!r}")
+        if self.spindle_rpm is not None and not (math.isfinite(self.spindle_rpm)
+                                                 and self.spindle_rpm >= 0):
+            raise ValueError(f"spindle_rpm: expected a finite value >= 0, got {self.spindle_rpm!r}")
+
+
+@dataclass(frozen=True)
+class PostResult:
+    """A written program and what it was computed from.
+
+    Attributes
+    ----------
+    text : str
+        The program.
+    tip, axis : ndarray, shape (m, 3)
+        Cutting points written, after linearization [mm], unit axis.
+    joints : ndarray, shape (m, 5) [mm, rad]
+        Machine axes of those points (X Y Z and the two rotary axes).
+    source : ndarray, shape (m,)
+        Fractional index of each written point in the input path.
+    inverse_time_moves : int
+        Moves written in G93.
+    singular_points : int
+        Points where the free rotary axis was held (inside the singular cone).
+    """
+
+    text: str
+    tip: np.ndarray
+    axis: np.ndarray
+    joints: np.ndarray
+    source: np.ndarray
+    inverse_time_moves: int
+    singular_points: int = 0
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+class _Lines:
+    def __init__(self, opts: PostOptions) -> None:
+        self.opts = opts
+        self.out: list[str] = []
+        self.n = opts.line_number_start
+
+    def add(self, text: str, numbered: bool = True) -> None:
+        if self.opts.line_numbers and numbered:
+            text = f"N{self.n} {text}"
+            self.n += self.opts.line_number_step
+        self.out.append(text)
+
+
+def _num(v: float, decimals: int) -> str:
+    s = f"{v:.{decimals}f}"
+    return s[1:] if s.startswith("-") and float(s) == 0.0 else s
+
+
+def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptions()
+         ) -> PostResult:
+    """Turn cutter locations into an NC program for ``machine``.
+
+    Parameters
+    ----------
+    cl : CutterLocations
+        Cutting points (rapids in ``cl`` are written as G0 moves).
+    machine : Machine
+        The machine: kinematics and axis limits (all dialects check limits;
+        ``linuxcnc`` also writes its machine axes).
+    options : PostOptions
+
+    Returns
+    -------
+    PostResult
+
+    Raises
+    ------
+    nc.errors.KinematicsError
+        When a point cannot be reached within the machine's limits.
+    """
+    if len(cl) == 0:
+        raise ValueError("cl: no cutter locations to post")
+    o = options
+    sol = solve_path(machine, cl.tip, cl.axis)
+    tip, axis, joints = cl.tip, cl.axis, sol.joints
+    source = np.arange(len(cl), dtype=float)
+    if o.dialect == "linuxcnc":
+        lin = linearize(machine, tip, axis, joints, tol_mm=o.linearize_tol_mm)
+        tip, axis, joints, source = lin.tip, lin.axis, lin.joints, lin.source
+    # the move ending at an inserted point belongs to the segment it splits
+    seg = np.clip(np.ceil(source - 1e-9).astype(int), 0, len(cl) - 1)
+    feed = cl.feed_mm_min[seg]
+    rapid = cl.rapid[seg]
+    spindle = o.spindle_rpm if o.spindle_rpm is not None else float(cl.spindle_rpm[0])
+    names = machine.rotary_names
+    L = _Lines(o)
+    ld, ad, vd = o.linear_decimals, o.angle_decimals, o.vector_decimals
+    fanuc = o.dialect.startswith("fanuc")
+    percent = fanuc if o.percent is None else o.percent
+    if percent:
+        L.add("%", numbered=False)
+    if fanuc and o.program_number is not None:
+        L.add(f"O{o.program_number:04d}", numbered=False)
+    if o.header:
+        L.add(f"(PROGRAM: {o.source or 'cutter locations'} - {len(tip)} points)", numbered=False)
+        L.add(f"(MACHINE: {machine.name}, ROTARY {names[0]}/{names[1]}, "
+              f"DIALECT {o.dialect.upper()})", numbered=False)
+        L.add(f"(TOOL: T{o.tool} H{o.tool}, UNITS: MM, FEED: MM/MIN)", numbered=False)
+    L.add("G21 G90 G94 G17 G40 G49 G80")
+    L.add(f"T{o.tool} M6")
+    L.add(f"S{_num(spindle, 0)} M3")
+
+    def words(i: int, with_rotary: bool = True) -> str:
+        if o.dialect == "linuxcnc":
+            x, y, z = joints[i, :3]
+        else:
+            x, y, z = tip[i]
+        w = f"X{_num(x, ld)} Y{_num(y, ld)} Z{_num(z, ld)}"
+        if o.dialect == "fanuc-g43.5":
+            w += (f" I{_num(axis[i, 0], vd)} J{_num(axis[i, 1], vd)}"
+                  f" K{_num(axis[i, 2], vd)}")
+        elif with_rotary:
+            w += (f" {names[0]}{_num(math.degrees(joints[i, 3]), ad)}"
+                  f" {names[1]}{_num(math.degrees(joints[i, 4]), ad)}")
+        return w
+
+    # approach: above the first point along its tool axis, same angles
+    first = int(np.argmax(~rapid)) if np.any(~rapid) else 0
+    app = _offset_point(machine, tip[first], axis[first], joints[first], o.clearance_mm)
+    if o.dialect == "linuxcnc":
+        L.add(f"G43 H{o.tool}")
+        L.add(f"G0 X{_num(app[0], ld)} Y{_num(app[1], ld)} Z{_num(app[2], ld)} "
+              f"{names[0]}{_num(math.degrees(joints[first, 3]), ad)} "
+              f"{names[1]}{_num(math.degrees(joints[first, 4]), ad)}")
+    else:
+        code = "G43.4" if o.dialect == "fanuc-g43.4" else "G43.5"
+        t_app = tip[first] + o.clearance_mm * axis[first]
+        tail = (f" I{_num(axis[first, 0], vd)} J{_num(axis[first, 1], vd)} "
+                f"K{_num(axis[first, 2], vd)}" if code == "G43.5" else
+                f" {names[0]}{_num(math.degrees(joints[first, 3]), ad)} "
+                f"{names[1]}{_num(math.degrees(joints[first, 4]), ad)}")
+        L.add(f"G0 {code} H{o.tool} X{_num(t_app[0], ld)} Y{_num(t_app[1], ld)} "
+              f"Z{_num(t_app[2], ld)}{tail}")
+
+    mode = 94
+    last_feed = None
+    n_inv = 0
+    prev_tip, prev_j = None, None
+    for i in range(len(tip)):
+        if i < first:
+            continue
+        if rapid[i] or i == first:
+            if i == first:
+                code = "G1"
+                f_mm = feed[i]
+                dist = o.clearance_mm
+            else:
+                L.add(f"G0 {words(i)}")
+                prev_tip, prev_j = tip[i], joints[i]
+                continue
+        else:
+            code = "G1"
+            f_mm = feed[i]
+            dist = float(np.linalg.norm(tip[i] - prev_tip))
+        turn = 0.0 if prev_j is None else float(np.max(np.abs(joints[i, 3:] - prev_j[3:])))
+        if o.dialect == "linuxcnc" and turn > K.ROTARY_STILL_RAD:
+            minutes = max(dist / f_mm if dist > 0 else 0.0,
+                          math.degrees(turn) / o.rotary_only_feed_deg_min * (dist == 0))
+            inv = 1.0 / minutes
+            lead = "G93 " if mode != 93 else ""
+            mode = 93
+            L.add(f"{lead}{code} {words(i)} F{_fmt_feed(inv)}")
+            last_feed = None
+            n_inv += 1
+        else:
+            lead = "G94 " if mode != 94 else ""
+            if mode != 94:
+                last_feed = None
+            mode = 94
+            fw = f" F{_fmt_feed(f_mm)}" if (last_feed is None or abs(f_mm - last_feed) > 1e-9) else ""
+            L.add(f"{lead}{code} {words(i)}{fw}")
+            last_feed = f_mm
+        prev_tip, prev_j = tip[i], joints[i]
+
+    last = len(tip) - 1
+    if mode != 94:
+        L.add("G94")
+    ret = _offset_point(machine, tip[last], axis[last], joints[last], o.clearance_mm)
+    if o.dialect == "linuxcnc":
+        L.add(f"G0 X{_num(ret[0], ld)} Y{_num(ret[1], ld)} Z{_num(ret[2], ld)}")
+    else:
+        t_ret = tip[last] + o.clearance_mm * axis[last]
+        L.add(f"G0 X{_num(t_ret[0], ld)} Y{_num(t_ret[1], ld)} Z{_num(t_ret[2], ld)}")
+        L.add("G49")
+    L.add("M5")
+    if o.end_code:
+        L.add(o.end_code)
+    if percent:
+        L.add("%", numbered=False)
+    return PostResult(text="\n".join(L.out) + "\n", tip=tip, axis=axis, joints=joints,
+                      source=source, inverse_time_moves=n_inv,
+                      singular_points=int(np.sum(sol.singular)))
+
+
+def _fmt_feed(f: float) -> str:
+    """Feed with 4 significant decimals, no trailing zeros beyond one."""
+    s = f"{f:.4f}".rstrip("0")
+    return s + "0" if s.endswith(".") else s
+
+
+def _offset_point(machine: Machine, tip, axis, joints, clearance_mm: float) -> np.ndarray:
+    """Machine XYZ of the point ``clearance_mm`` up the tool axis, same angles."""
+    up = np.asarray(tip) + clearance_mm * np.asarray(axis)
+    sol = solve_path(machine, up[None, :], np.asarray(axis)[None, :], start=joints)
+    return sol.joints[0, :3]
+
+
+def write_program(path: str | os.PathLike, cl: CutterLocations, machine: Machine,
+                  options: PostOptions = PostOptions()) -> PostResult:
+    """Post ``cl`` (see :func:`post`) and write the program atomically to ``path``."""
+    result = post(cl, machine, options)
+    with atomic_write(path) as fh:
+        fh.write(result.text)
+    return result
