@@ -28,6 +28,7 @@ __all__ = [
     "CutterLocations",
     "expand_arcs",
     "block_lengths",
+    "block_minutes",
     "cutter_locations",
     "read_cl_csv",
     "write_cl_csv",
@@ -157,6 +158,26 @@ def block_lengths(program: Program) -> np.ndarray:
     return length
 
 
+def block_minutes(program: Program, lengths_mm: np.ndarray | None = None) -> np.ndarray:
+    """Time of each block at its programmed feed, shape (n,) [min].
+
+    G94: path length of the programmed axes X Y Z / feed; a move that only
+    turns rotary axes takes its feed in deg/min (LinuxCNC's rule). G93:
+    1 / F. Rapids: 0 (their speed is the machine's, not the program's).
+    """
+    length = block_lengths(program) if lengths_mm is None else lengths_mm
+    feed_mode = program.modal_column("feed_mode")
+    minutes = np.zeros(len(program))
+    cut = program.motion != RAPID
+    inv = cut & (feed_mode == 93)
+    minutes[inv] = 1.0 / program.feed[inv]
+    per_min = cut & (feed_mode == 94)
+    travel = np.where(length > 0, length,
+                      np.degrees(np.abs(program.end[:, 3:] - program.start[:, 3:]).max(axis=1)))
+    minutes[per_min] = travel[per_min] / program.feed[per_min]
+    return minutes
+
+
 def _arc_segments(program: Program, chord_tol_mm: float) -> np.ndarray:
     """Segments per block so that arcs stay within the chord tolerance."""
     nseg = np.ones(len(program), dtype=np.int64)
@@ -273,15 +294,24 @@ def cutter_locations(program: Program, machine: "Machine | None" = None, *,
                              f"machine {machine.name} does not have")
         joints = np.column_stack([pts[:, :3], pts[:, cols]])
         ftip, faxis = machine.forward(joints)
-        angles = rotary & (tcp == TCP_ANGLES)
         direct = rotary & (tcp == TCP_OFF)
         axis[rotary] = faxis[rotary]
         tip[direct] = ftip[direct]
-    prog_len = block_lengths(program)
-    feed_mode = program.modal_column("feed_mode")
-    feed = program.feed.copy()
-    inv = feed_mode == 93
-    feed[inv] = prog_len[inv] * program.feed[inv]  # 1/min -> mm/min along the tip
+    # tip speed = tip travel in the workpiece / the block's time at its feed
+    # (G94 feeds machine X Y Z, G93 gives the time; both differ from the
+    # tip's own speed once rotary axes turn)
+    start_tip = tip[0] if len(tip) else np.zeros(3)
+    if len(program) and np.any(rotary):
+        j0 = np.concatenate([program.initial[:3], program.initial[cols]])
+        t0, _ = machine.forward(j0[None, :])
+        start_tip = t0[0] if tcp[0] == TCP_OFF else program.initial[:3]
+    elif len(program):
+        start_tip = program.initial[:3]
+    seg = np.linalg.norm(np.diff(np.vstack([start_tip[None, :], tip]), axis=0), axis=1)
+    tip_len = np.bincount(block, weights=seg, minlength=len(program))
+    minutes = block_minutes(program)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        feed = np.where(minutes > 0, tip_len / minutes, np.nan)
     rapid = program.motion[block] == RAPID
     f = np.where(rapid, np.nan, feed[block])
     spindle = program.modal_column("spindle_rpm")[block]

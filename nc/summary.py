@@ -8,10 +8,10 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from . import constants as K
-from .path import block_lengths, expand_arcs
+from .path import block_lengths, block_minutes, expand_arcs
 from .program import ARC_CCW, ARC_CW, LINEAR, RAPID, Program
 
-__all__ = ["ProgramSummary", "summarize", "block_minutes", "blocks_as_json"]
+__all__ = ["ProgramSummary", "summarize", "blocks_as_json"]
 
 
 @dataclass(frozen=True)
@@ -38,26 +38,6 @@ class ProgramSummary:
     def as_dict(self) -> dict:
         """Plain types, ready for JSON."""
         return asdict(self)
-
-
-def block_minutes(program: Program, lengths_mm: np.ndarray | None = None) -> np.ndarray:
-    """Time of each block at its programmed feed, shape (n,) [min].
-
-    G94: path length / feed; a move that only turns rotary axes takes its
-    feed in deg/min (LinuxCNC's rule). G93: 1 / F. Rapids: 0 (their speed is
-    the machine's, not the program's).
-    """
-    length = block_lengths(program) if lengths_mm is None else lengths_mm
-    feed_mode = program.modal_column("feed_mode")
-    minutes = np.zeros(len(program))
-    cut = program.motion != RAPID
-    inv = cut & (feed_mode == 93)
-    minutes[inv] = 1.0 / program.feed[inv]
-    per_min = cut & (feed_mode == 94)
-    travel = np.where(length > 0, length,
-                      np.degrees(np.abs(program.end[:, 3:] - program.start[:, 3:]).max(axis=1)))
-    minutes[per_min] = travel[per_min] / program.feed[per_min]
-    return minutes
 
 
 def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> ProgramSummary:

@@ -160,7 +160,7 @@ class _Lines:
 
 def _num(v: float, decimals: int) -> str:
     s = f"{v:.{decimals}f}"
-    return s[1:] if s.startswith("-") and float(s) == 0.0 else s
+    return s[1:] if s[0] == "-" and not s.strip("-0.") else s
 
 
 def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptions()
@@ -217,66 +217,56 @@ def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptio
     L.add(f"T{o.tool} M6")
     L.add(f"S{_num(spindle, 0)} M3")
 
-    def words(i: int, with_rotary: bool = True) -> str:
-        if o.dialect == "linuxcnc":
-            x, y, z = joints[i, :3]
-        else:
-            x, y, z = tip[i]
-        w = f"X{_num(x, ld)} Y{_num(y, ld)} Z{_num(z, ld)}"
-        if o.dialect == "fanuc-g43.5":
-            w += (f" I{_num(axis[i, 0], vd)} J{_num(axis[i, 1], vd)}"
-                  f" K{_num(axis[i, 2], vd)}")
-        elif with_rotary:
-            w += (f" {names[0]}{_num(math.degrees(joints[i, 3]), ad)}"
-                  f" {names[1]}{_num(math.degrees(joints[i, 4]), ad)}")
-        return w
+    # every point's words at once (numpy to Python floats, then f-strings)
+    lcnc = o.dialect == "linuxcnc"
+    xyz = (joints[:, :3] if lcnc else tip).tolist()
+    if o.dialect == "fanuc-g43.5":
+        tails = [f" I{_num(i, vd)} J{_num(j, vd)} K{_num(k, vd)}" for i, j, k in axis.tolist()]
+    else:
+        r0, r1 = names
+        tails = [f" {r0}{_num(a, ad)} {r1}{_num(c, ad)}"
+                 for a, c in np.degrees(joints[:, 3:]).tolist()]
+    words = [f"X{_num(x, ld)} Y{_num(y, ld)} Z{_num(z, ld)}{t}"
+             for (x, y, z), t in zip(xyz, tails)]
 
     # approach: above the first point along its tool axis, same angles
     first = int(np.argmax(~rapid)) if np.any(~rapid) else 0
     app = _offset_point(machine, tip[first], axis[first], joints[first], o.clearance_mm)
-    if o.dialect == "linuxcnc":
+    if lcnc:
         L.add(f"G43 H{o.tool}")
-        L.add(f"G0 X{_num(app[0], ld)} Y{_num(app[1], ld)} Z{_num(app[2], ld)} "
-              f"{names[0]}{_num(math.degrees(joints[first, 3]), ad)} "
-              f"{names[1]}{_num(math.degrees(joints[first, 4]), ad)}")
+        L.add(f"G0 X{_num(app[0], ld)} Y{_num(app[1], ld)} Z{_num(app[2], ld)}{tails[first]}")
     else:
         code = "G43.4" if o.dialect == "fanuc-g43.4" else "G43.5"
         t_app = tip[first] + o.clearance_mm * axis[first]
-        tail = (f" I{_num(axis[first, 0], vd)} J{_num(axis[first, 1], vd)} "
-                f"K{_num(axis[first, 2], vd)}" if code == "G43.5" else
-                f" {names[0]}{_num(math.degrees(joints[first, 3]), ad)} "
-                f"{names[1]}{_num(math.degrees(joints[first, 4]), ad)}")
         L.add(f"G0 {code} H{o.tool} X{_num(t_app[0], ld)} Y{_num(t_app[1], ld)} "
-              f"Z{_num(t_app[2], ld)}{tail}")
+              f"Z{_num(t_app[2], ld)}{tails[first]}")
+
+    # per move: tip distance, rotary turn, time; inverse time where rotaries turn
+    n = len(tip)
+    dist = np.zeros(n)
+    dist[1:] = np.linalg.norm(np.diff(tip, axis=0), axis=1)
+    dist[first] = o.clearance_mm  # the descent from the approach point
+    turn = np.zeros(n)
+    turn[1:] = np.abs(np.diff(joints[:, 3:], axis=0)).max(axis=1)
+    turn[first] = 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        minutes = np.where(dist > 0, dist / feed,
+                           np.degrees(turn) / o.rotary_only_feed_deg_min)
+        inverse = 1.0 / minutes
+    use_g93 = (lcnc & (turn > K.ROTARY_STILL_RAD) & ~rapid).tolist()
+    rapid_l, feed_l, inverse_l = rapid.tolist(), feed.tolist(), inverse.tolist()
 
     mode = 94
     last_feed = None
     n_inv = 0
-    prev_tip, prev_j = None, None
-    for i in range(len(tip)):
-        if i < first:
+    for i in range(first, n):
+        if rapid_l[i] and i != first:
+            L.add(f"G0 {words[i]}")
             continue
-        if rapid[i] or i == first:
-            if i == first:
-                code = "G1"
-                f_mm = feed[i]
-                dist = o.clearance_mm
-            else:
-                L.add(f"G0 {words(i)}")
-                prev_tip, prev_j = tip[i], joints[i]
-                continue
-        else:
-            code = "G1"
-            f_mm = feed[i]
-            dist = float(np.linalg.norm(tip[i] - prev_tip))
-        turn = 0.0 if prev_j is None else float(np.max(np.abs(joints[i, 3:] - prev_j[3:])))
-        if o.dialect == "linuxcnc" and turn > K.ROTARY_STILL_RAD:
-            minutes = max(dist / f_mm if dist > 0 else 0.0,
-                          math.degrees(turn) / o.rotary_only_feed_deg_min * (dist == 0))
-            inv = 1.0 / minutes
+        if use_g93[i]:
             lead = "G93 " if mode != 93 else ""
             mode = 93
-            L.add(f"{lead}{code} {words(i)} F{_fmt_feed(inv)}")
+            L.add(f"{lead}G1 {words[i]} F{_fmt_feed(inverse_l[i])}")
             last_feed = None
             n_inv += 1
         else:
@@ -284,10 +274,10 @@ def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptio
             if mode != 94:
                 last_feed = None
             mode = 94
+            f_mm = feed_l[i]
             fw = f" F{_fmt_feed(f_mm)}" if (last_feed is None or abs(f_mm - last_feed) > 1e-9) else ""
-            L.add(f"{lead}{code} {words(i)}{fw}")
+            L.add(f"{lead}G1 {words[i]}{fw}")
             last_feed = f_mm
-        prev_tip, prev_j = tip[i], joints[i]
 
     last = len(tip) - 1
     if mode != 94:

@@ -1,0 +1,114 @@
+"""``python -m nc``: called with argument lists, as a user would type them."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from nc import read_program
+from nc.cli import main
+
+ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
+BLADE = os.path.join(ROOT, "nc", "data", "blade_cl.csv")
+
+
+def test_parse_summary(tmp_path, capsys):
+    path = tmp_path / "p.nc"
+    path.write_text("G21 G90\nG0 X0 Y0 Z5\nG1 Z0 F100\nG1 X30 Y40\nM30\n")
+    assert main(["parse", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "3 (2 rapid" not in out
+    assert "3 (1 rapid, 2 linear, 0 arc)" in out
+    assert "55.000 mm" in out  # 5 + 50
+    assert "0.55 min" in out
+
+
+def test_parse_json_has_every_block_in_mm_and_degrees(tmp_path, capsys):
+    path = tmp_path / "p.nc"
+    path.write_text("G20 G90 G93\nG1 X1 A90 F2\nG94 G0 Y2\nM30\n")
+    assert main(["parse", str(path), "--json"]) == 0
+    blocks = json.loads(capsys.readouterr().out)
+    assert blocks == [
+        {"line": 2, "motion": "G1", "xyz_mm": [25.4, 0.0, 0.0], "abc_deg": [90.0, 0.0, 0.0],
+         "feed": 2.0, "feed_mode": "G93"},
+        {"line": 3, "motion": "G0", "xyz_mm": [25.4, 50.8, 0.0], "abc_deg": [90.0, 0.0, 0.0],
+         "feed": None, "feed_mode": "G94"},
+    ]
+
+
+def test_parse_error_is_one_clear_line(tmp_path, capsys):
+    path = tmp_path / "bad.nc"
+    path.write_text("G21\nG1 X1 Y2 Y3 F10\n")
+    assert main(["parse", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {path}:2:10: word Y appears twice")
+    assert "Traceback" not in err
+    assert main(["parse", str(tmp_path / "missing.nc")]) == 2
+    assert "No such file" in capsys.readouterr().err
+
+
+def test_allow_option(tmp_path, capsys):
+    path = tmp_path / "p.nc"
+    path.write_text("G21 G64 P0.01\nM8\nG0 X1\nM30\n")
+    assert main(["parse", str(path)]) == 2
+    assert "--allow G64" in capsys.readouterr().err
+    assert main(["parse", str(path), "--allow", "G64,M8"]) == 0
+
+
+def test_offsets_file(tmp_path, capsys):
+    path = tmp_path / "p.nc"
+    path.write_text("G21 G55\nG0 X1\nM30\n")
+    offsets = tmp_path / "offsets.toml"
+    offsets.write_text("[G55]\nxyz_mm = [100.0, 0.0, -50.0]\n")
+    assert main(["parse", str(path), "--offsets", str(offsets)]) == 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[G55]\nxyz = [1, 2, 3]\n")
+    assert main(["parse", str(path), "--offsets", str(bad)]) == 2
+    assert "xyz_mm" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("dialect", ["linuxcnc", "fanuc-g43.4", "fanuc-g43.5"])
+def test_post_bundled_blade(tmp_path, capsys, dialect):
+    out = tmp_path / "blade.nc"
+    assert main(["post", BLADE, "--machine", "xyzac-trt", "--dialect", dialect,
+                 "-o", str(out), "--summary"]) == 0
+    text = capsys.readouterr().out
+    assert f"wrote {out}: 1458 cutter locations" in text
+    assert "motion blocks" in text
+    prog = read_program(out)
+    assert len(prog) >= 1458
+
+
+def test_post_errors_leave_no_file(tmp_path, capsys):
+    out = tmp_path / "blade.ngc"
+    assert main(["post", BLADE, "--machine", "no-such-machine", "-o", str(out)]) == 2
+    assert "unknown machine" in capsys.readouterr().err
+    machine = tmp_path / "narrow.toml"
+    machine.write_text('kind = "xyzac-trt"\n[tilt]\nmin_deg = -20.0\nmax_deg = 20.0\n')
+    assert main(["post", BLADE, "--machine", str(machine), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "error: point" in err and "limit" in err
+    assert not out.exists() and os.listdir(tmp_path) == ["narrow.toml"]
+
+
+def test_check_against_rs274(tmp_path, capsys, rs274):
+    out = tmp_path / "blade.ngc"
+    assert main(["post", BLADE, "--machine", "xyzbc-trt", "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["check", str(out)]) == 0
+    assert "rs274 agrees" in capsys.readouterr().out
+
+
+def test_module_runs_as_a_program(tmp_path):
+    out = tmp_path / "b.ngc"
+    proc = subprocess.run([sys.executable, "-m", "nc", "post", BLADE, "--machine",
+                           "xyzbc-head-table", "--tool-length", "90", "-o", str(out)],
+                          capture_output=True, text=True, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    prog = read_program(out)
+    assert np.isfinite(prog.end).all()

@@ -1,0 +1,114 @@
+"""Rewriting coordinates keeps the program as it was written."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nc import parse_program
+from nc.rewrite import RewriteError, rewrite_coordinates, write_rewritten
+
+SRC = """%
+O2001 (FINISH)
+N10 G21 G90 G17 (mm)
+N20 G0 X0. Y0. Z5.
+N30 G1 Z-1. F200 ; plunge
+N40 X10.5
+N50 Y5.
+N60 G3 X5.5 Y10. I-5. J0.
+N70 G91 G1 X-1. Y-.5
+N80 G90 X0 Y0
+N90 M30
+%
+"""
+
+
+def test_only_the_numbers_of_changed_words_change():
+    prog = parse_program(SRC)
+    out = rewrite_coordinates(prog, {2: [10.512, 0.0, -1.0]})
+    old, new = SRC.splitlines(), out.splitlines()
+    changed = [i for i, (a, b) in enumerate(zip(old, new)) if a != b]
+    # N40 gets the new X; N50 keeps its X by gaining the word it used to inherit
+    assert changed == [5, 6]
+    assert new[5] == "N40 X10.512"
+    assert new[6] == "N50 X10.500 Y5."
+    back = parse_program(out)
+    np.testing.assert_allclose(back.end[2:, :3], prog.end[2:, :3] + np.array(
+        [[0.012, 0, 0]] + [[0, 0, 0]] * (len(prog) - 3)), atol=1e-9)
+
+
+def test_incremental_successor_compensates():
+    prog = parse_program(SRC)
+    e = prog.end[4].copy()  # the arc end, before the G91 block
+    e[:3] += (0.004, -0.003, 0.002)
+    out = rewrite_coordinates(prog, {4: e}, centres={4: prog.arc_centre[0]})
+    back = parse_program(out)
+    np.testing.assert_allclose(back.end[4, :3], e[:3], atol=1e-9)
+    np.testing.assert_allclose(back.end[5:, :3], prog.end[5:, :3], atol=1e-9)
+    assert "N70 G91 G1 X-1.004 Y-.497 Z-0.002" in out
+
+
+def test_moved_arc_start_keeps_centre_and_new_centre_is_written():
+    src = "G21 G90 G17\nG0 X10 Y0\nG3 X0 Y10 I-10 J0 F100\nG2 X10 Y0 R10\nM2\n"
+    prog = parse_program(src)
+    out = rewrite_coordinates(prog, {0: [10.01, 0, 0]})
+    back = parse_program(out)
+    np.testing.assert_allclose(back.arc_centre[0], prog.arc_centre[0], atol=1e-9)
+    assert "I-10.010" in out
+    # a new centre for the R arc changes R
+    c = np.array([0.002, 0.001, 0.0])
+    with pytest.raises(RewriteError):
+        # moving the centre while the ends stay breaks the equal-radius rule
+        # only beyond tolerance; 2 mm does
+        rewrite_coordinates(prog, {}, centres={1: [2.0, 0.0, 0.0]})
+    out = rewrite_coordinates(prog, {}, centres={2: c})
+    assert "G2 X10 Y0 R9.999" in out  # |start - new centre| = 9.9990002
+    back = parse_program(out)
+    np.testing.assert_allclose(back.end, prog.end, atol=1e-9)
+
+
+def test_inch_program_rewritten_in_inch():
+    src = "G20 G90\nG0 X1. Y1.\nG1 X2.5 F20.\nM2\n"
+    prog = parse_program(src)
+    e = prog.end[1].copy()
+    e[0] += 0.0254  # one thousandth of an inch
+    out = rewrite_coordinates(prog, {1: e})
+    assert "X2.5010" in out
+    np.testing.assert_allclose(parse_program(out).end[1, 0], 2.501 * 25.4, atol=1e-9)
+
+
+def test_crlf_and_rotary_words():
+    src = "G21 G90\r\nG1 X1 A10.5 F100\r\nG1 X2\r\nM2\r\n"
+    prog = parse_program(src)
+    e = prog.end[0].copy()
+    e[3] = math.radians(10.25)
+    out = rewrite_coordinates(prog, {0: e})
+    # the next block inherited A10.5; it now says so
+    assert out == "G21 G90\r\nG1 X1 A10.2500 F100\r\nG1 X2 A10.5000\r\nM2\r\n"
+
+
+def test_bad_requests_are_refused():
+    prog = parse_program(SRC)
+    with pytest.raises(RewriteError, match="out of range"):
+        rewrite_coordinates(prog, {99: [0, 0, 0]})
+    with pytest.raises(RewriteError, match="finite"):
+        rewrite_coordinates(prog, {1: [0, math.nan, 0]})
+    with pytest.raises(RewriteError, match="not an arc"):
+        rewrite_coordinates(prog, {}, centres={1: [0, 0, 0]})
+    vec = parse_program("G21 G43.5 H1\nG1 X1 I0 J0 K1 F10\nM2\n")
+    with pytest.raises(RewriteError, match="G43.5"):
+        rewrite_coordinates(vec, {0: [1, 0, 0, 0.1, 0, 0]})
+
+
+def test_write_is_atomic(tmp_path):
+    prog = parse_program(SRC)
+    out = tmp_path / "corrected.nc"
+    out.write_text("old\n")
+    with pytest.raises(RewriteError):
+        write_rewritten(out, prog, {99: [0, 0, 0]})
+    assert out.read_text() == "old\n"
+    write_rewritten(out, prog, {2: [10.51, 0, -1]})
+    assert "N40 X10.510" in out.read_text()
+    assert [p.name for p in tmp_path.iterdir()] == ["corrected.nc"]
