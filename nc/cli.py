@@ -13,8 +13,6 @@ import os
 import sys
 import tomllib
 
-import numpy as np
-
 from .errors import KinematicsError
 from .gcode import ALLOWABLE_EXAMPLES, read_program
 from .summary import blocks_as_json, summarize
@@ -118,24 +116,12 @@ def _cmd_post(args) -> int:
 
 
 def _cmd_check(args) -> int:
-    from .linuxcnc import run_rs274
+    from .linuxcnc import compare_with_rs274
 
     prog = read_program(args.file, allow=_allow_list(args.allow))
-    canon = run_rs274(args.file)
-    if len(canon.kind) != len(prog):
-        print(f"MISMATCH: rs274 reports {len(canon.kind)} moves, this reader "
-              f"{len(prog)}", file=sys.stderr)
-        return 1
-    ours = prog.end.copy()
-    ours[:, 3:] = np.degrees(ours[:, 3:])
-    dev_mm = np.abs(ours[:, :3] - canon.end[:, :3]).max(initial=0.0)
-    dev_deg = np.abs(ours[:, 3:] - canon.end[:, 3:]).max(initial=0.0)
-    ok_mm = np.all(np.abs(ours[:, :3] - canon.end[:, :3]) <= canon.resolution[:, None] + 1e-9)
-    ok_deg = dev_deg <= 0.5e-4 + 1e-9
-    status = "agrees" if ok_mm and ok_deg else "DISAGREES"
-    print(f"rs274 {status} with this reader on {args.file}: {len(prog)} moves, largest "
-          f"difference {dev_mm:.2g} mm, {dev_deg:.2g} deg (rs274 prints 4 decimals)")
-    return 0 if status == "agrees" else 1
+    result = compare_with_rs274(args.file, prog)
+    print(result.message, file=sys.stdout if result.ok else sys.stderr)
+    return 0 if result.ok else 1
 
 
 def _cmd_machines(args) -> int:

@@ -31,84 +31,28 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 
 from . import constants as K
+from .arcs import ArcWordError, arc_from_words
+from .dialect import (
+    ALLOWABLE_EXAMPLES,
+    AXIS_INDEX,
+    AXIS_LETTERS,
+    BASE_WORDS,
+    G_GROUPS,
+    M_GROUPS,
+    MOTION_CODES,
+    PARAM_WORDS,
+    code_key,
+    code_name,
+    normalise_allow,
+    why_not,
+)
 from .errors import NCParseError
-from .program import PLANE_AXES, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
+from .lexer import TOKEN, blank_comments, find_token, raw_column, token_column
+from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
 __all__ = ["read_program", "parse_program", "ALLOWABLE_EXAMPLES"]
 
 #: Codes commonly worth allowing in CAM output, for the CLI help and docs.
-ALLOWABLE_EXAMPLES = ("G64", "G61", "G61.1", "G4", "M7", "M8", "M9", "M1")
-
-_TOKEN = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))|(\S)")
-
-# G codes as int(10 * number): 10 = G1, 434 = G43.4.
-_MOTION = {0: 0, 10: 1, 20: 2, 30: 3}
-_G_GROUP = {
-    0: "motion", 10: "motion", 20: "motion", 30: "motion", 800: "motion",
-    170: "plane", 180: "plane", 190: "plane",
-    900: "distance", 910: "distance",
-    901: "arc_distance", 911: "arc_distance",
-    930: "feed_mode", 940: "feed_mode",
-    200: "units", 210: "units",
-    400: "cutter_comp",
-    430: "length", 434: "length", 435: "length", 490: "length",
-    540: "wcs", 550: "wcs", 560: "wcs", 570: "wcs", 580: "wcs", 590: "wcs",
-}
-_M_GROUP = {0: "stop", 10: "stop", 20: "stop", 300: "stop", 30: "spindle", 40: "spindle",
-            50: "spindle", 60: "toolchange"}
-
-#: Codes that cannot be allowed: they move the tool or the frame.
-_NOT_ALLOWABLE = {
-    "G": {
-        40 * 10 + 1: "cutter compensation", 410: "cutter compensation",
-        420: "cutter compensation", 411: "cutter compensation", 421: "cutter compensation",
-        280: "a return to home", 300: "a return to home", 281: "a return to home",
-        301: "a return to home", 100: "a change of offsets", 520: "a local offset",
-        530: "a move in machine coordinates", 920: "a change of offsets",
-        921: "a change of offsets", 922: "a change of offsets", 923: "a change of offsets",
-        680: "a coordinate rotation", 690: "a coordinate rotation", 510: "scaling",
-        501: "scaling", 950: "feed per revolution", 330: "spindle-synchronized motion",
-        331: "spindle-synchronized motion", 50: "a spline", 51: "a spline", 52: "a spline",
-        431: "a dynamic tool length offset", 432: "a tool length offset",
-        **{c: "a canned cycle" for c in (730, 740, 760, 810, 820, 830, 840, 850, 860,
-                                         870, 880, 890)},
-        **{c: "a probing move" for c in (382, 383, 384, 385)},
-    },
-    "M": {980: "a subroutine call", 990: "a subroutine return"},
-}
-_AXIS_LETTERS = "XYZABC"
-_AXIS_INDEX = {c: i for i, c in enumerate(_AXIS_LETTERS)}
-_BASE_WORDS = frozenset("NGMXYZABCIJKRFSTHP")
-_PARAM_WORDS = frozenset("PQDELHR")  # words an allowed code may bring
-
-
-def _code_key(letter: str, text: str) -> int | None:
-    """``("G", "43.4")`` -> 434; None when not a multiple of 0.1."""
-    v = float(text)
-    k = round(v * 10)
-    return k if abs(v * 10 - k) < 1e-6 and k >= 0 else None
-
-
-def _code_name(letter: str, key: int) -> str:
-    return f"{letter}{key // 10}" + (f".{key % 10}" if key % 10 else "")
-
-
-def _normalise_allow(allow: Iterable[str]) -> dict[str, set[int]]:
-    out: dict[str, set[int]] = {"G": set(), "M": set()}
-    for item in allow:
-        s = str(item).strip().upper()
-        m = re.fullmatch(r"([GM])\s*(\d+(?:\.\d)?)", s)
-        if not m:
-            raise ValueError(f"allow: {item!r} is not a G or M code such as 'G64' or 'M8'")
-        letter, key = m.group(1), _code_key(m.group(1), m.group(2))
-        assert key is not None
-        reason = _NOT_ALLOWABLE[letter].get(key)
-        if reason:
-            raise ValueError(f"allow: {s} is {reason}; ignoring it would misplace the tool")
-        out[letter].add(key)
-    return out
-
-
 def _offset_table(work_offsets: Mapping[str, Sequence[float]] | None) -> np.ndarray:
     """G54...G59 offsets from ``{"G55": (x, y, z[, a, b, c])}`` [mm, deg]."""
     table = np.zeros((6, 6))
@@ -179,7 +123,7 @@ def parse_program(
     -------
     Program
     """
-    return _Interpreter(text, file, _normalise_allow(allow), block_delete,
+    return _Interpreter(text, file, normalise_allow(allow), block_delete,
                         _offset_table(work_offsets)).run()
 
 
@@ -202,7 +146,7 @@ class _Interpreter:
         self.file = file
         self.allow = allow
         self.allowed_names = frozenset(
-            _code_name(letter, k) for letter, ks in allow.items() for k in ks)
+            code_name(letter, k) for letter, ks in allow.items() for k in ks)
         self.block_delete = block_delete
         self.offsets = offsets
         self.number: str | None = None
@@ -212,7 +156,7 @@ class _Interpreter:
                column: int | None = None) -> NCParseError:
         raw = self.lines[lineno - 1]
         if token is not None and column is None:
-            column = _token_column(raw, token)
+            column = token_column(raw, token)
         return NCParseError(message, file=self.file, line=lineno, column=column, text=raw)
 
     def _word_error(self, lineno: int, toks: list, letter: str, message: str) -> NCParseError:
@@ -222,7 +166,7 @@ class _Interpreter:
     # -- main loop -------------------------------------------------------
     def run(self) -> Program:  # noqa: C901 - one flat loop is the fast form
         lines = self.lines
-        findall = _TOKEN.findall
+        findall = TOKEN.findall
         allow_g, allow_m = self.allow["G"], self.allow["M"]
 
         # modal state
@@ -320,40 +264,40 @@ class _Interpreter:
             allowed_here = False
             if gs is not None:
                 for g in gs:
-                    key = _code_key("G", g)
-                    group = _G_GROUP.get(key) if key is not None else None
+                    key = code_key("G", g)
+                    group = G_GROUPS.get(key) if key is not None else None
                     if group is None:
                         if key is not None and key in allow_g:
                             allowed_here = True
                             continue
                         raise self._error(lineno, f"unknown or unsupported code G{g}"
-                                          + self._why_not("G", key), token=_find_token(toks, "G", g))
+                                          + why_not("G", key), token=find_token(toks, "G", g))
                     if group in gcodes:
                         raise self._error(lineno, f"two codes of the {group} group in one "
                                           "block; expected at most one",
-                                          token=_find_token(toks, "G", g))
+                                          token=find_token(toks, "G", g))
                     gcodes[group] = key
             mcodes: dict[str, int] = {}
             if ms is not None:
                 for m in ms:
-                    key = _code_key("M", m)
-                    group = _M_GROUP.get(key) if key is not None else None
+                    key = code_key("M", m)
+                    group = M_GROUPS.get(key) if key is not None else None
                     if group is None:
                         if key is not None and key in allow_m:
                             allowed_here = True
                             continue
                         raise self._error(lineno, f"unknown or unsupported code M{m}"
-                                          + self._why_not("M", key), token=_find_token(toks, "M", m))
+                                          + why_not("M", key), token=find_token(toks, "M", m))
                     if group in mcodes:
                         raise self._error(lineno, f"two codes of the {group} group in one "
                                           "block; expected at most one",
-                                          token=_find_token(toks, "M", m))
+                                          token=find_token(toks, "M", m))
                     mcodes[group] = key
 
             # values
             vals: dict[str, float] = {}
             for letter, num in w.items():
-                if letter not in _BASE_WORDS and not (allowed_here and letter in _PARAM_WORDS):
+                if letter not in BASE_WORDS and not (allowed_here and letter in PARAM_WORDS):
                     raise self._word_error(lineno, toks, letter,
                                            f"unknown word {letter}; expected one of "
                                            "N G M X Y Z A B C I J K R F S T H P")
@@ -444,7 +388,7 @@ class _Interpreter:
                     changed = True
                 v = gcodes.get("motion")
                 if v is not None:
-                    motion_mode = _MOTION.get(v)  # G80 -> None
+                    motion_mode = MOTION_CODES.get(v)  # G80 -> None
             elif "H" in vals:
                 raise self._word_error(lineno, toks, "H", "H word without G43, G43.4 or "
                                        "G43.5; expected it with a tool length code")
@@ -453,7 +397,7 @@ class _Interpreter:
 
             # 3. motion
             has_axes = False
-            for c in _AXIS_LETTERS:
+            for c in AXIS_LETTERS:
                 if c in vals:
                     has_axes = True
                     break
@@ -480,7 +424,7 @@ class _Interpreter:
             start = pos
             new = pos[:]
             inc = distance == 91
-            for c, i in _AXIS_INDEX.items():
+            for c, i in AXIS_INDEX.items():
                 if c in vals:
                     if i < 3:
                         v = vals[c] * scale
@@ -492,8 +436,13 @@ class _Interpreter:
                     new[i] = new[i] + v if inc else v
 
             if motion_mode >= 2:
-                arc = self._arc(lineno, toks, vals, motion_mode, plane, scale, arc_distance,
-                                start, new)
+                try:
+                    arc = arc_from_words(vals, motion_mode, plane, scale, arc_distance,
+                                         start, new)
+                except ArcWordError as exc:
+                    if exc.letter is None:
+                        raise self._error(lineno, str(exc)) from None
+                    raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
                 out_arc.append(len(arc_sweep))
                 arc_centre.extend(arc[0])
                 arc_radius.extend(arc[1])
@@ -571,15 +520,6 @@ class _Interpreter:
         )
 
     # -- pieces ------------------------------------------------------------
-    @staticmethod
-    def _why_not(letter: str, key: int | None) -> str:
-        if key is None:
-            return ""
-        reason = _NOT_ALLOWABLE[letter].get(key)
-        if reason:
-            return f" ({reason}, which this reader does not model)"
-        return f"; if it is harmless here, pass it in allow (e.g. --allow {_code_name(letter, key)})"
-
     def _strip_comments(self, s: str, lineno: int) -> str:
         out = []
         i = 0
@@ -590,10 +530,10 @@ class _Interpreter:
                 j = s.find(")", i + 1)
                 if j < 0:
                     raise self._error(lineno, "comment not closed; expected ')'",
-                                      column=_raw_column(self.lines[lineno - 1], s, i))
+                                      column=raw_column(self.lines[lineno - 1], s, i))
                 if "(" in s[i + 1:j]:
                     raise self._error(lineno, "nested comment; expected ')' before '('",
-                                      column=_raw_column(self.lines[lineno - 1], s,
+                                      column=raw_column(self.lines[lineno - 1], s,
                                                          s.index("(", i + 1)))
                 out.append(" ")
                 i = j + 1
@@ -601,7 +541,7 @@ class _Interpreter:
                 break
             elif c == ")":
                 raise self._error(lineno, "')' without '('",
-                                  column=_raw_column(self.lines[lineno - 1], s, i))
+                                  column=raw_column(self.lines[lineno - 1], s, i))
             else:
                 out.append(c)
                 i += 1
@@ -609,7 +549,7 @@ class _Interpreter:
 
     def _bad_token(self, lineno: int, i: int, bad: str, s: str) -> NCParseError:
         raw = self.lines[lineno - 1]
-        blank = _blank_comments(raw)
+        blank = blank_comments(raw)
         if "#" in blank or "[" in blank:
             col = min(k for k in (blank.find("#"), blank.find("[")) if k >= 0) + 1
             return self._error(lineno, "parameters and expressions ('#', '[') are not "
@@ -637,123 +577,3 @@ class _Interpreter:
             raise self._word_error(lineno, toks, next(c for c in "IJK" if c in vals),
                                    "tool vector I J K of zero length; expected a direction")
         return (vec[0] / norm, vec[1] / norm, vec[2] / norm)
-
-    def _arc(self, lineno, toks, vals, motion_mode, plane, scale, arc_distance, start, end):
-        a1, a2, ax = PLANE_AXES[plane]
-        letters = "IJK"
-        l1, l2, lax = letters[a1], letters[a2], letters[ax]
-        if lax in vals:
-            raise self._word_error(lineno, toks, lax, f"{lax} word in a G{plane} arc; "
-                                   f"expected only {l1} and {l2} (or R)")
-        s1, s2, e1, e2 = start[a1], start[a2], end[a1], end[a2]
-        sign = 1.0 if motion_mode == 3 else -1.0
-        turns = 1
-        if "P" in vals:
-            p = vals["P"]
-            if p < 1 or p != int(p):
-                raise self._word_error(lineno, toks, "P", "expected P (arc turns) to be a "
-                                       "whole number >= 1")
-            turns = int(p)
-        if "R" in vals:
-            if l1 in vals or l2 in vals:
-                raise self._word_error(lineno, toks, "R", "both R and a centre word in one "
-                                       f"arc; expected either R or {l1} {l2}")
-            r = vals["R"] * scale
-            d1, d2 = e1 - s1, e2 - s2
-            chord = math.hypot(d1, d2)
-            if chord < 1e-12:
-                raise self._word_error(lineno, toks, "R", "R arc whose end point is its "
-                                       "start point; expected I J K for a full circle")
-            half = chord / 2
-            if half > abs(r) + K.ARC_R_CHORD_TOL_MM or r == 0:
-                raise self._word_error(lineno, toks, "R",
-                                       f"impossible arc: the chord ({chord:.6g} mm) is longer "
-                                       f"than the diameter 2|R| ({2 * abs(r):.6g} mm)")
-            h = math.sqrt(max(r * r - half * half, 0.0))
-            # centre right of the chord for a short G2, left for a short G3
-            side = -sign if r > 0 else sign
-            u1, u2 = d1 / chord, d2 / chord
-            c1 = (s1 + e1) / 2 + side * h * u2
-            c2 = (s2 + e2) / 2 - side * h * u1
-        else:
-            if l1 not in vals and l2 not in vals:
-                raise self._error(lineno, f"arc without a centre; expected {l1} and/or {l2}, "
-                                  "or R")
-            if arc_distance == 911:
-                c1 = s1 + vals.get(l1, 0.0) * scale
-                c2 = s2 + vals.get(l2, 0.0) * scale
-            else:
-                c1 = vals.get(l1, 0.0) * scale
-                c2 = vals.get(l2, 0.0) * scale
-        rs = math.hypot(s1 - c1, s2 - c2)
-        re_ = math.hypot(e1 - c1, e2 - c2)
-        if rs < 1e-9:
-            raise self._error(lineno, "arc of zero radius: the centre is the start point")
-        tol = min(K.ARC_RADIUS_TOL_MAX_MM,
-                  max(K.ARC_RADIUS_TOL_ABS_MM, K.ARC_RADIUS_TOL_REL * rs))
-        if abs(rs - re_) > tol:
-            raise self._error(lineno, f"arc start radius {rs:.6g} mm and end radius "
-                              f"{re_:.6g} mm differ by {abs(rs - re_):.3g} mm; expected "
-                              f"them equal within {tol:.3g} mm")
-        ang_s = math.atan2(s2 - c2, s1 - c1)
-        ang_e = math.atan2(e2 - c2, e1 - c1)
-        sweep = ang_e - ang_s
-        if sign > 0:
-            while sweep <= 1e-12:
-                sweep += 2 * math.pi
-        else:
-            while sweep >= -1e-12:
-                sweep -= 2 * math.pi
-        sweep += sign * 2 * math.pi * (turns - 1)
-        centre = [0.0, 0.0, 0.0]
-        centre[a1], centre[a2], centre[ax] = c1, c2, start[ax]
-        return centre, (rs, re_), sweep
-
-
-def _find_token(toks: list, letter: str, num: str) -> int | None:
-    for i, t in enumerate(toks):
-        if t[0] == letter and t[1] == num:
-            return i
-    return None
-
-
-def _blank_comments(raw: str) -> str:
-    """Same length as ``raw``, comments and the block-delete slash blanked."""
-    chars = list(raw)
-    depth = False
-    for i, c in enumerate(chars):
-        if depth:
-            if c == ")":
-                depth = False
-            chars[i] = " "
-        elif c == "(":
-            depth = True
-            chars[i] = " "
-        elif c == ";":
-            for j in range(i, len(chars)):
-                chars[j] = " "
-            break
-    s = "".join(chars)
-    stripped = s.lstrip()
-    if stripped.startswith("/"):
-        k = len(s) - len(stripped)
-        s = s[:k] + " " + s[k + 1:]
-    return s.upper()
-
-
-def _token_column(raw: str, index: int | None) -> int | None:
-    """1-based column of token ``index`` of ``raw`` (comments skipped)."""
-    if index is None:
-        return None
-    for i, m in enumerate(_TOKEN.finditer(_blank_comments(raw))):
-        if i == index:
-            return m.start() + 1
-    return None
-
-
-def _raw_column(raw: str, s: str, i: int) -> int:
-    """Column in ``raw`` of character ``i`` of its stripped form ``s``."""
-    offset = raw.find(s)
-    if offset < 0:  # a leading '/' was removed
-        offset = raw.find(s[1:]) - 1 if len(s) > 1 else 0
-    return max(offset, 0) + i + 1

@@ -26,13 +26,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from .constants import MM_PER_INCH
-from .program import PLANE_AXES
+from .program import PLANE_AXES, Program
 
 __all__ = [
     "rs274_path",
     "Rs274Error",
     "CanonMoves",
+    "Comparison",
     "run_rs274",
+    "compare_with_rs274",
     "write_tool_table",
 ]
 
@@ -180,3 +182,67 @@ def parse_canon(text: str) -> CanonMoves:
     return CanonMoves(kind=np.array(kinds, dtype=object), end=np.array(ends).reshape(n, 6),
                       resolution=np.array(res), turns=np.array(turns, dtype=int),
                       centre=np.array(centres).reshape(n, 3), lines=lines)
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """This package's reading of a program against ``rs274``'s.
+
+    Attributes
+    ----------
+    ok : bool
+        Same number and kind of moves, end points within the printed
+        resolution (0.00005 in the program's units, 0.00005 deg).
+    moves : int
+        Moves reported by ``rs274``.
+    max_mm, max_deg : float
+        Largest end-point difference [mm], [deg].
+    message : str
+        One line for people.
+    """
+
+    ok: bool
+    moves: int
+    max_mm: float
+    max_deg: float
+    message: str
+
+
+_KINDS = {0: "TRAVERSE", 1: "FEED", 2: "ARC", 3: "ARC"}
+
+
+def compare_with_rs274(path: str | os.PathLike, program: Program, **kwargs) -> Comparison:
+    """Run ``rs274`` on ``path`` and compare its moves with ``program``.
+
+    Parameters
+    ----------
+    path : path-like
+        The program file.
+    program : Program
+        This package's reading of the same file.
+    **kwargs
+        Passed to :func:`run_rs274`.
+    """
+    canon = run_rs274(path, **kwargs)
+    name = os.fspath(path)
+    if len(canon.kind) != len(program):
+        return Comparison(False, len(canon.kind), np.inf, np.inf,
+                          f"{name}: rs274 reports {len(canon.kind)} moves, this reader "
+                          f"{len(program)}")
+    kinds = [_KINDS[int(m)] for m in program.motion]
+    if kinds != list(canon.kind):
+        i = next(k for k, (a, b) in enumerate(zip(kinds, canon.kind)) if a != b)
+        return Comparison(False, len(kinds), np.inf, np.inf,
+                          f"{name}:{program.line[i]}: rs274 makes a {canon.kind[i]} move, "
+                          f"this reader a {kinds[i]} move")
+    d_mm = np.abs(program.end[:, :3] - canon.end[:, :3])
+    d_deg = np.abs(np.degrees(program.end[:, 3:]) - canon.end[:, 3:])
+    ok = bool(np.all(d_mm <= canon.resolution[:, None] + 1e-9)
+              and np.all(d_deg <= 0.5e-4 + 1e-9))
+    max_mm = float(d_mm.max(initial=0.0))
+    max_deg = float(d_deg.max(initial=0.0))
+    word = "agrees" if ok else "DISAGREES"
+    return Comparison(ok, len(kinds), max_mm, max_deg,
+                      f"rs274 {word} with this reader on {name}: {len(kinds)} moves, largest "
+                      f"difference {max_mm:.2g} mm, {max_deg:.2g} deg (rs274 prints 4 "
+                      "decimals)")

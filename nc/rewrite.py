@@ -16,14 +16,14 @@ from __future__ import annotations
 
 import math
 import os
-import re
 from collections.abc import Mapping
 
 import numpy as np
 
 from . import constants as K
 from .atomic import atomic_write
-from .gcode import _TOKEN, _blank_comments, parse_program
+from .gcode import parse_program
+from .lexer import words_with_spans
 from .program import PLANE_AXES, TCP_VECTOR, Program
 
 __all__ = ["rewrite_coordinates", "write_rewritten", "RewriteError"]
@@ -60,15 +60,6 @@ def _format_like(original: str | None, value: float, decimals: int) -> str:
     if decimals == 0 and body.endswith("."):
         s += "."
     return s
-
-
-def _words(raw: str) -> list[tuple[str, str, int, int]]:
-    """(letter, number text, start, end) of every word of a line, raw columns."""
-    out = []
-    for m in _TOKEN.finditer(_blank_comments(raw)):
-        if m.group(1):
-            out.append((m.group(1), raw[m.start(2):m.end(2)], m.start(), m.end()))
-    return out
 
 
 def rewrite_coordinates(
@@ -132,7 +123,7 @@ def rewrite_coordinates(
         res_lin = 0.5 * 10.0 ** -lin_dec * scale
         li = int(program.line[i]) - 1
         raw = lines[li]
-        words = _words(raw)
+        words = words_with_spans(raw)
         present = {w[0]: w for w in words}
         edits: list[tuple[int, int, str]] = []  # (start, end, text) replacements
         inserts: list[tuple[str, str]] = []  # (letter, text) to insert
@@ -219,7 +210,7 @@ def _apply(raw: str, words, edits, inserts) -> str:
     spaced = any(raw[w[3]:w[3] + 1].isspace() for w in words[:-1]) or len(words) < 2
     sep = " " if spaced else ""
     for letter, text in inserts:
-        current = _words(out)
+        current = words_with_spans(out)
         rank = order.index(letter)
         before = [w for w in current if w[0] in order and order.index(w[0]) < rank]
         after = [w for w in current if w[0] in order and order.index(w[0]) > rank]

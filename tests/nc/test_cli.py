@@ -73,7 +73,7 @@ def test_offsets_file(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("dialect", ["linuxcnc", "fanuc-g43.4", "fanuc-g43.5"])
-def test_post_bundled_blade(tmp_path, capsys, dialect):
+def test_post_bundled_blade(tmp_path, capsys, dialect, lcnc_agrees):
     out = tmp_path / "blade.nc"
     assert main(["post", BLADE, "--machine", "xyzac-trt", "--dialect", dialect,
                  "-o", str(out), "--summary"]) == 0
@@ -82,6 +82,8 @@ def test_post_bundled_blade(tmp_path, capsys, dialect):
     assert "motion blocks" in text
     prog = read_program(out)
     assert len(prog) >= 1458
+    if dialect == "linuxcnc":
+        lcnc_agrees(out)
 
 
 def test_post_errors_leave_no_file(tmp_path, capsys):
@@ -104,7 +106,7 @@ def test_check_against_rs274(tmp_path, capsys, rs274):
     assert "rs274 agrees" in capsys.readouterr().out
 
 
-def test_module_runs_as_a_program(tmp_path):
+def test_module_runs_as_a_program(tmp_path, lcnc_agrees):
     out = tmp_path / "b.ngc"
     proc = subprocess.run([sys.executable, "-m", "nc", "post", BLADE, "--machine",
                            "xyzbc-head-table", "--tool-length", "90", "-o", str(out)],
@@ -112,3 +114,4 @@ def test_module_runs_as_a_program(tmp_path):
     assert proc.returncode == 0, proc.stderr
     prog = read_program(out)
     assert np.isfinite(prog.end).all()
+    lcnc_agrees(out)

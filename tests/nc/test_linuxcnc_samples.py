@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from nc import read_program
-from nc.linuxcnc import parse_canon, run_rs274
+from nc.linuxcnc import compare_with_rs274, parse_canon
 
 NCFILES = "/usr/share/linuxcnc/ncfiles"
 TRT = ("/usr/share/doc/linuxcnc/examples/sample-configs/sim/gmoccapy/"
@@ -33,13 +33,8 @@ def test_sample_program_matches_rs274(path, allow, rs274):
     if not os.path.exists(path):
         pytest.skip(f"{path} not shipped with this linuxcnc-uspace")
     prog = read_program(path, allow=allow)
-    canon = run_rs274(path)
-    assert len(prog) == len(canon.kind) > 0
-    kinds = {0: "TRAVERSE", 1: "FEED", 2: "ARC", 3: "ARC"}
-    assert [kinds[int(m)] for m in prog.motion] == list(canon.kind)
-    dev = np.abs(prog.end[:, :3] - canon.end[:, :3])
-    assert np.all(dev <= canon.resolution[:, None] + 1e-9), dev.max()
-    assert np.all(np.abs(np.degrees(prog.end[:, 3:]) - canon.end[:, 3:]) <= 0.5e-4 + 1e-9)
+    result = compare_with_rs274(path, prog)
+    assert result.ok and result.moves == len(prog) > 0, result.message
 
 
 def test_parse_canon_units_and_planes():
