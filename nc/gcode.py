@@ -167,6 +167,8 @@ class _Interpreter:
     def run(self) -> Program:  # noqa: C901 - one flat loop is the fast form
         lines = self.lines
         findall = TOKEN.findall
+        axis_index = AXIS_INDEX
+        max_word = K.MAX_ABS_WORD_VALUE
         allow_g, allow_m = self.allow["G"], self.allow["M"]
 
         # modal state
@@ -294,19 +296,26 @@ class _Interpreter:
                                           token=find_token(toks, "M", m))
                     mcodes[group] = key
 
-            # values
+            # values; axis words are noted on the way
             vals: dict[str, float] = {}
+            axes: list[tuple[int, float]] | None = None
             for letter, num in w.items():
                 if letter not in BASE_WORDS and not (allowed_here and letter in PARAM_WORDS):
                     raise self._word_error(lineno, toks, letter,
                                            f"unknown word {letter}; expected one of "
                                            "N G M X Y Z A B C I J K R F S T H P")
                 v = float(num)
-                if not abs(v) <= K.MAX_ABS_WORD_VALUE:
+                if not abs(v) <= max_word:
                     raise self._word_error(lineno, toks, letter,
                                            f"{letter}{num} is out of range; expected |value| "
-                                           f"<= {K.MAX_ABS_WORD_VALUE:g}")
+                                           f"<= {max_word:g}")
                 vals[letter] = v
+                k = axis_index.get(letter)
+                if k is not None:
+                    if axes is None:
+                        axes = [(k, v)]
+                    else:
+                        axes.append((k, v))
 
             changed = False
             # 1. feed mode, F, S, T, M6, spindle
@@ -396,11 +405,7 @@ class _Interpreter:
                 dirty = True
 
             # 3. motion
-            has_axes = False
-            for c in AXIS_LETTERS:
-                if c in vals:
-                    has_axes = True
-                    break
+            has_axes = axes is not None
             explicit_motion = gcodes.get("motion") is not None if gcodes else False
             vector_words = tcp == TCP_VECTOR and motion_mode in (0, 1) and (
                 "I" in vals or "J" in vals or "K" in vals)
@@ -424,15 +429,16 @@ class _Interpreter:
             start = pos
             new = pos[:]
             inc = distance == 91
-            for c, i in AXIS_INDEX.items():
-                if c in vals:
+            if axes is not None:
+                for i, v in axes:
                     if i < 3:
-                        v = vals[c] * scale
+                        v *= scale
                     else:
                         if tcp == TCP_VECTOR:
+                            c = AXIS_LETTERS[i]
                             raise self._word_error(lineno, toks, c, f"rotary word {c} under "
                                                    "G43.5; expected the tool vector as I J K")
-                        v = math.radians(vals[c])
+                        v = math.radians(v)
                     new[i] = new[i] + v if inc else v
 
             if motion_mode >= 2:
