@@ -263,38 +263,14 @@ class _Interpreter:
                 continue
 
             gcodes: dict[str, int] = {}
+            mcodes: dict[str, int] = {}
             allowed_here = False
             if gs is not None:
-                for g in gs:
-                    key = code_key("G", g)
-                    group = G_GROUPS.get(key) if key is not None else None
-                    if group is None:
-                        if key is not None and key in allow_g:
-                            allowed_here = True
-                            continue
-                        raise self._error(lineno, f"unknown or unsupported code G{g}"
-                                          + why_not("G", key), token=find_token(toks, "G", g))
-                    if group in gcodes:
-                        raise self._error(lineno, f"two codes of the {group} group in one "
-                                          "block; expected at most one",
-                                          token=find_token(toks, "G", g))
-                    gcodes[group] = key
-            mcodes: dict[str, int] = {}
+                gcodes, allowed_here = self._group_codes(lineno, toks, "G", gs, G_GROUPS,
+                                                         allow_g)
             if ms is not None:
-                for m in ms:
-                    key = code_key("M", m)
-                    group = M_GROUPS.get(key) if key is not None else None
-                    if group is None:
-                        if key is not None and key in allow_m:
-                            allowed_here = True
-                            continue
-                        raise self._error(lineno, f"unknown or unsupported code M{m}"
-                                          + why_not("M", key), token=find_token(toks, "M", m))
-                    if group in mcodes:
-                        raise self._error(lineno, f"two codes of the {group} group in one "
-                                          "block; expected at most one",
-                                          token=find_token(toks, "M", m))
-                    mcodes[group] = key
+                mcodes, allowed_m = self._group_codes(lineno, toks, "M", ms, M_GROUPS, allow_m)
+                allowed_here = allowed_here or allowed_m
 
             # values; axis words are noted on the way
             vals: dict[str, float] = {}
@@ -526,6 +502,26 @@ class _Interpreter:
         )
 
     # -- pieces ------------------------------------------------------------
+    def _group_codes(self, lineno: int, toks: list, letter: str, nums: list[str],
+                     groups: dict[int, str], allowed: set[int]) -> tuple[dict[str, int], bool]:
+        """The block's G (or M) codes by modal group; refuses unknown and clashing codes."""
+        out: dict[str, int] = {}
+        allowed_here = False
+        for num in nums:
+            key = code_key(letter, num)
+            group = groups.get(key) if key is not None else None
+            if group is None:
+                if key is not None and key in allowed:
+                    allowed_here = True
+                    continue
+                raise self._error(lineno, f"unknown or unsupported code {letter}{num}"
+                                  + why_not(letter, key), token=find_token(toks, letter, num))
+            if group in out:
+                raise self._error(lineno, f"two codes of the {group} group in one block; "
+                                  "expected at most one", token=find_token(toks, letter, num))
+            out[group] = key
+        return out, allowed_here
+
     def _strip_comments(self, s: str, lineno: int) -> str:
         out = []
         i = 0
