@@ -13,6 +13,7 @@ import os
 import sys
 import tomllib
 
+from .constants import SINGULAR_CONE_RAD
 from .errors import KinematicsError
 from .gcode import ALLOWABLE_EXAMPLES, read_program
 from .summary import blocks_as_json, summarize
@@ -103,6 +104,7 @@ def _cmd_post(args) -> int:
         linear_decimals=args.decimals, line_numbers=args.line_numbers,
         header=not args.no_header, end_code=None if args.end == "none" else args.end,
         source=os.path.basename(args.cl),
+        singular_cone_rad=math.radians(args.singular_cone_deg),
     )
     res = write_program(args.output, cl, machine, opts)
     print(f"wrote {args.output}: {len(cl)} cutter locations -> {len(res.tip)} points "
@@ -163,6 +165,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="tool length [mm] (head machines)")
     p.add_argument("--spindle", type=float, metavar="RPM", help="spindle speed [rev/min]")
     p.add_argument("--decimals", type=int, default=4, help="digits for mm words")
+    p.add_argument("--singular-cone-deg", type=float, metavar="DEG",
+                   default=math.degrees(SINGULAR_CONE_RAD),
+                   help="cone around the C axis inside which C is held (default 0.057)")
     p.add_argument("--line-numbers", action="store_true")
     p.add_argument("--no-header", action="store_true")
     p.add_argument("--end", default="M30", choices=["M30", "M2", "none"])

@@ -96,3 +96,7 @@ FLIP_TOL_RAD = 1.0e-9
 #: (1 - this) x the tolerance: the sampled estimate (parabola through the
 #: largest samples) can fall short of the true peak by ~0.2 % [-].
 LINEARIZE_MARGIN = 0.02
+#: Linearization may grow a path to this many points per input point ...
+LINEARIZE_MAX_POINTS_PER_POINT = 16
+#: ... plus this many, before it gives up with a clear error [-].
+LINEARIZE_MAX_POINTS_EXTRA = 10_000

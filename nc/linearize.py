@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import constants as K
+from .errors import KinematicsError
 from .machines import _TWO_PI, Machine, _rows, _unit_rows
 
 __all__ = ["Linearized", "linearize"]
@@ -51,7 +52,8 @@ class Linearized:
 
 def linearize(machine: Machine, tip: ArrayLike, axis: ArrayLike, joints: ArrayLike, *,
               tol_mm: float = K.LINEARIZE_TOL_MM, max_depth: int = K.LINEARIZE_MAX_DEPTH,
-              singular_cone_rad: float = K.SINGULAR_CONE_RAD) -> Linearized:
+              singular_cone_rad: float = K.SINGULAR_CONE_RAD,
+              max_points: int | None = None) -> Linearized:
     """Insert points where linear joint motion takes the tip off the programmed line.
 
     Between consecutive points the control moves all five joints linearly.
@@ -80,10 +82,23 @@ def linearize(machine: Machine, tip: ArrayLike, axis: ArrayLike, joints: ArrayLi
         Largest number of bisections of one input segment.
     singular_cone_rad : float [rad]
         As in :func:`solve_path`, for the inserted points.
+    max_points : int, optional
+        Refuse to grow the path beyond this many points (default
+        ``LINEARIZE_MAX_POINTS_PER_POINT`` per input point plus
+        ``LINEARIZE_MAX_POINTS_EXTRA``). A path that needs more usually
+        grazes the singularity with a noisy tool axis, so that the rotary
+        axis swings between neighbours; a larger ``singular_cone_rad`` is the
+        cure, not millions of points.
 
     Returns
     -------
     Linearized
+
+    Raises
+    ------
+    KinematicsError
+        When more than ``max_points`` points would be needed, naming the
+        first input segment that asks for them.
     """
     w, _ = _rows(tip, 3, "tip")
     u, _ = _unit_rows(axis, "axis")
@@ -95,6 +110,8 @@ def linearize(machine: Machine, tip: ArrayLike, axis: ArrayLike, joints: ArrayLi
         raise ValueError(f"tol_mm: expected a positive number, got {tol_mm!r}")
     if int(max_depth) != max_depth or max_depth < 0:
         raise ValueError(f"max_depth: expected an integer >= 0, got {max_depth!r}")
+    if max_points is None:
+        max_points = K.LINEARIZE_MAX_POINTS_PER_POINT * n + K.LINEARIZE_MAX_POINTS_EXTRA
     src = np.arange(n, dtype=float)
     if n < 2:
         return Linearized(w, u, j, src, 0.0)
@@ -113,6 +130,14 @@ def linearize(machine: Machine, tip: ArrayLike, axis: ArrayLike, joints: ArrayLi
             worst = max(worst, float(dev.max(initial=0.0)))
             break
         worst = max(worst, float(dev[~bad].max(initial=0.0)))
+        total = len(pts[0]) + sum(len(m[0]) for m in added) + int(bad.sum())
+        if total > max_points:
+            first = int(np.floor(a[3][bad].min()))
+            raise KinematicsError(
+                f"linearizing within {tol_mm:g} mm needs more than {max_points:,} points "
+                f"(bisection depth {depth + 1}); the rotary axes swing between neighbouring "
+                "points, typically near the singularity with a noisy tool axis: raise "
+                "singular_cone_rad or smooth the tool axes", index=first)
         a = tuple(x[bad] for x in a)
         b = tuple(x[bad] for x in b)
         mid = _midpoint(machine, a, b, singular_cone_rad)

@@ -33,6 +33,7 @@ import numpy as np
 
 from . import constants as K
 from .atomic import atomic_write
+from .errors import KinematicsError
 from .kinematics import Machine, linearize, solve_path
 from .path import CutterLocations
 
@@ -71,6 +72,10 @@ class PostOptions:
         Approach and retract distance along the tool axis.
     linearize_tol_mm : float [mm]
         Tolerance of :func:`nc.kinematics.linearize` (``linuxcnc`` only).
+    singular_cone_rad : float [rad]
+        Half-angle of the cone around the rotary (C) axis inside which C is
+        held (:func:`nc.kinematics.solve_path`). Widen it for CAM output whose
+        tool axes wobble near vertical; the orientation error stays below it.
     rotary_only_feed_deg_min : float [deg/min]
         Rate for moves that turn rotary axes without moving the tip.
     source : str
@@ -92,6 +97,7 @@ class PostOptions:
     end_code: str | None = "M30"
     clearance_mm: float = 10.0
     linearize_tol_mm: float = K.LINEARIZE_TOL_MM
+    singular_cone_rad: float = K.SINGULAR_CONE_RAD
     rotary_only_feed_deg_min: float = K.ROTARY_ONLY_FEED_DEG_MIN
     source: str = ""
 
@@ -106,7 +112,8 @@ class PostOptions:
             raise ValueError(f"end_code: {self.end_code!r}; expected 'M30', 'M2' or None")
         if not (isinstance(self.tool, int) and self.tool >= 0):
             raise ValueError(f"tool: expected a whole number >= 0, got {self.tool!r}")
-        for name in ("clearance_mm", "linearize_tol_mm", "rotary_only_feed_deg_min"):
+        for name in ("clearance_mm", "linearize_tol_mm", "rotary_only_feed_deg_min",
+                     "singular_cone_rad"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name}: expected a finite value > 0, got {v!r}")
@@ -188,11 +195,20 @@ def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptio
     if len(cl) == 0:
         raise ValueError("cl: no cutter locations to post")
     o = options
-    sol = solve_path(machine, cl.tip, cl.axis)
+    sol = solve_path(machine, cl.tip, cl.axis, singular_cone_rad=o.singular_cone_rad)
     tip, axis, joints = cl.tip, cl.axis, sol.joints
     source = np.arange(len(cl), dtype=float)
     if o.dialect == "linuxcnc":
-        lin = linearize(machine, tip, axis, joints, tol_mm=o.linearize_tol_mm)
+        lin = linearize(machine, tip, axis, joints, tol_mm=o.linearize_tol_mm,
+                        singular_cone_rad=o.singular_cone_rad)
+        if lin.max_deviation_mm > o.linearize_tol_mm:
+            seg = np.diff(lin.source)
+            raise KinematicsError(
+                f"cannot keep the tool tip within {o.linearize_tol_mm:g} mm of the programmed "
+                f"line: {lin.max_deviation_mm:.3g} mm remain after linearization; the rotary "
+                "axes swing between neighbouring points (a noisy tool axis near the "
+                "singularity?): widen singular_cone_rad or smooth the tool axes",
+                index=int(np.floor(lin.source[int(np.argmin(seg))])) if len(seg) else None)
         tip, axis, joints, source = lin.tip, lin.axis, lin.joints, lin.source
     # the move ending at an inserted point belongs to the segment it splits
     seg = np.clip(np.ceil(source - 1e-9).astype(int), 0, len(cl) - 1)

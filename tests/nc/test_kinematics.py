@@ -618,3 +618,25 @@ def test_registry() -> None:
         get_machine("xyz")
     m = get_machine("xyzbc-head-table", tool_length_mm=50.0)
     assert m.with_tool_length(80.0).tool_length_mm == 80.0 and m.tool_length_mm == 50.0
+
+
+def test_linearize_point_budget_and_noisy_singularity() -> None:
+    """A tool axis wobbling 2 mrad around the C axis swings C between neighbours."""
+    rng = np.random.default_rng(5)
+    n = 400
+    m = get_machine("xyzac-trt", tilt_pivot_mm=(0.0, 20.0, -35.0))
+    tip = np.column_stack([np.linspace(-30, 30, n), np.zeros(n), np.full(n, -2.0)])
+    axis = np.column_stack([rng.normal(0, 2e-3, n), rng.normal(0, 2e-3, n), np.ones(n)])
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    sol = solve_path(m, tip, axis)
+    # bisection cannot converge: inserted points are as singular as their ends
+    lin = linearize(m, tip, axis, sol.joints)
+    assert lin.max_deviation_mm > 1.0
+    with pytest.raises(KinematicsError, match="singular_cone_rad") as info:
+        linearize(m, tip, axis, sol.joints, max_points=2 * n)
+    assert info.value.index is not None and 0 <= info.value.index < n
+    # with a cone wider than the wobble, C is held and nothing explodes
+    sol = solve_path(m, tip, axis, singular_cone_rad=0.01)
+    lin = linearize(m, tip, axis, sol.joints, singular_cone_rad=0.01)
+    assert len(lin.tip) < 2 * n and lin.max_deviation_mm <= K.LINEARIZE_TOL_MM
+    assert sol.orientation_error_rad.max() <= 0.01

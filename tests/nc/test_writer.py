@@ -199,3 +199,22 @@ def test_options_are_checked():
         PostOptions(linear_decimals=12)
     with pytest.raises(ValueError, match="clearance_mm"):
         PostOptions(clearance_mm=float("nan"))
+
+
+def test_noisy_axis_near_singularity_is_refused_not_written(tmp_path):
+    rng = np.random.default_rng(5)
+    n = 200
+    m = machine("xyzac-trt")
+    tip = np.column_stack([np.linspace(-30, 30, n), np.zeros(n), np.full(n, -2.0)])
+    axis = np.column_stack([rng.normal(0, 2e-3, n), rng.normal(0, 2e-3, n), np.ones(n)])
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    cl = CutterLocations.from_arrays(tip, axis, 1000.0, 8000.0)
+    out = tmp_path / "noisy.ngc"
+    with pytest.raises(KinematicsError, match="singular_cone_rad"):
+        write_program(out, cl, m)
+    assert not out.exists()
+    res = write_program(out, cl, m, PostOptions(singular_cone_rad=0.01))
+    assert res.singular_points == n
+    prog = read_program(out)
+    c = np.degrees(prog.end[1:-1, 5])
+    assert np.ptp(c) == 0.0  # C held, never spun
