@@ -1,0 +1,68 @@
+"""Compiled (numba) kernel of :func:`errpred.force.tool_forces`.
+
+Optional: numba is not a declared dependency of the package. When it cannot
+be imported, :data:`forces_kernel` is None and ``errpred.force`` uses its
+numpy path (same result to round-off; ``tests/errpred/test_force.py``
+compares them). Measured for (n_ang, n_fl, m) = (180, 2, 120), ball end mill:
+19 % of the entries cutting, numba 0.16 ms, numpy 0.9 ms per call; 50 %
+cutting, 0.37 ms and 2.3 ms. First call compiles (~0.6 s, then cached on
+disk).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["forces_kernel"]
+
+try:  # pragma: no cover - exercised where numba is installed
+    import numba
+except ImportError:  # pragma: no cover
+    numba = None
+
+
+def _forces(phi: np.ndarray, h: np.ndarray, cutting: np.ndarray, db: np.ndarray,
+            sk: np.ndarray, ck: np.ndarray, kte: np.ndarray, kre: np.ndarray,
+            kae: np.ndarray, ktc: float, krc: float, kac: float) -> np.ndarray:
+    """Sum of the micro-edge forces per angle sample, shape (n_ang, 3) [N].
+
+    Parameters
+    ----------
+    phi, h : ndarray, shape (n_ang, n_fl, m) [rad], [mm]
+    cutting : ndarray of bool, shape (n_ang, n_fl, m)
+    db, sk, ck : ndarray, shape (m,) [mm], [-], [-]
+        Chip width, sin and cos of the immersion angle.
+    kte, kre, kae : ndarray, shape (n_fl, m) [N/mm]
+        Edge coefficients including wear.
+    ktc, krc, kac : float [N/mm^2]
+        Chip coefficients.
+    """
+    n_ang, n_fl, m = phi.shape
+    out = np.zeros((n_ang, 3))
+    for i in range(n_ang):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        for k in range(n_fl):
+            for j in range(m):
+                if cutting[i, k, j]:
+                    hh = h[i, k, j]
+                    w = db[j]
+                    dft = (kte[k, j] + ktc * hh) * w
+                    dfr = (kre[k, j] + krc * hh) * w
+                    dfa = (kae[k, j] + kac * hh) * w
+                    sp = math.sin(phi[i, k, j])
+                    cp = math.cos(phi[i, k, j])
+                    a = dfr * sk[j] + dfa * ck[j]
+                    fx -= dft * cp + a * sp
+                    fy += dft * sp - a * cp
+                    fz += dfr * ck[j] - dfa * sk[j]
+        out[i, 0] = fx
+        out[i, 1] = fy
+        out[i, 2] = fz
+    return out
+
+
+forces_kernel = None if numba is None else numba.njit(cache=True, nogil=True)(_forces)

@@ -1,0 +1,396 @@
+"""Numba kernels: is a point inside the volume a tool swept along a straight move?
+
+A tool solid is the set of points within ``r`` (corner radius) of its
+*core* ``C = {rho <= R - r, r <= z <= L}`` (tool frame; see
+``errpred/tool.py``), ``L`` the flute length: above it the shank does not
+cut, so material there is not removed. Moving the tool along a segment
+``d`` with a constant axis ``w`` sweeps the set of points within ``r`` of
+``C + [0, 1] d``. So a point ``q`` is inside the sweep when
+``min_s dist(q - s d, C) <= r``; the distance is convex in ``s``.
+
+* Ball end mill (``R - r = 0``): the core is a half-line (the ball centre and
+  up the axis); the swept core is a planar half-strip and the distance has a
+  closed form (:func:`_dist_half_strip`).
+* Radius and flat end mills: golden-section search over ``s`` of the
+  closed-form distance to the half-cylinder core.
+
+All kernels take plain float64 arrays so they run without the GIL.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+__all__ = ["inside_any_sweep", "sweep_distance", "GOLDEN_ITERATIONS"]
+
+#: Golden-section iterations for non-ball tools: the bracket shrinks to
+#: 0.618^40 = 4e-9 of the segment, far below any micrometre.
+GOLDEN_ITERATIONS = 40
+_INV_PHI = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+@njit(cache=True, inline="always")
+def _core_dist(x, y, z, px, py, pz, wx, wy, wz, c, r, top):
+    """Distance from (x,y,z) to the core of a tool with tip p, axis w, flute top."""
+    vx, vy, vz = x - px, y - py, z - pz
+    h = vx * wx + vy * wy + vz * wz
+    ex, ey, ez = vx - h * wx, vy - h * wy, vz - h * wz
+    rho = math.sqrt(ex * ex + ey * ey + ez * ez)
+    dr = rho - c
+    if dr < 0.0:
+        dr = 0.0
+    dz = r - h
+    if dz < 0.0:
+        dz = h - top
+        if dz < 0.0:
+            dz = 0.0
+    return math.sqrt(dr * dr + dz * dz)
+
+
+@njit(cache=True, inline="always")
+def _dist_half_strip(ax, ay, az, dx, dy, dz, wx, wy, wz, lmax):
+    """Distance from a to {s d + l w : 0 <= s <= 1, 0 <= l <= lmax} (|w| = 1)."""
+    dd = dx * dx + dy * dy + dz * dz
+    dw = dx * wx + dy * wy + dz * wz
+    ad = ax * dx + ay * dy + az * dz
+    aw = ax * wx + ay * wy + az * wz
+    best = 1e300
+    # interior of the strip
+    det = dd - dw * dw
+    if det > 1e-14 * (dd + 1e-300):
+        s = (ad - dw * aw) / det
+        lam = (dd * aw - dw * ad) / det
+        if 0.0 <= s <= 1.0 and 0.0 <= lam <= lmax:
+            qx, qy, qz = ax - s * dx - lam * wx, ay - s * dy - lam * wy, az - s * dz - lam * wz
+            return math.sqrt(qx * qx + qy * qy + qz * qz)
+    # edge s = 0: the axis segment from the start centre up
+    lam = aw if aw > 0.0 else 0.0
+    if lam > lmax:
+        lam = lmax
+    qx, qy, qz = ax - lam * wx, ay - lam * wy, az - lam * wz
+    v = qx * qx + qy * qy + qz * qz
+    if v < best:
+        best = v
+    # edge s = 1: from the end centre
+    bx, by, bz = ax - dx, ay - dy, az - dz
+    bw = bx * wx + by * wy + bz * wz
+    lam = bw if bw > 0.0 else 0.0
+    if lam > lmax:
+        lam = lmax
+    qx, qy, qz = bx - lam * wx, by - lam * wy, bz - lam * wz
+    v = qx * qx + qy * qy + qz * qz
+    if v < best:
+        best = v
+    # edge l = 0: the segment of centres
+    if dd > 0.0:
+        s = ad / dd
+        if s < 0.0:
+            s = 0.0
+        elif s > 1.0:
+            s = 1.0
+        qx, qy, qz = ax - s * dx, ay - s * dy, az - s * dz
+        v = qx * qx + qy * qy + qz * qz
+        if v < best:
+            best = v
+        # edge l = lmax: the segment of the flute tops
+        tx, ty, tz = ax - lmax * wx, ay - lmax * wy, az - lmax * wz
+        s = (tx * dx + ty * dy + tz * dz) / dd
+        if s < 0.0:
+            s = 0.0
+        elif s > 1.0:
+            s = 1.0
+        qx, qy, qz = tx - s * dx, ty - s * dy, tz - s * dz
+        v = qx * qx + qy * qy + qz * qz
+        if v < best:
+            best = v
+    return math.sqrt(best)
+
+
+@njit(cache=True)
+def sweep_distance(x, y, z, p0, d, w, c, r, top):
+    """Distance from a point to the swept core of one sweep [mm].
+
+    Parameters
+    ----------
+    x, y, z : float [mm]
+    p0, d, w : ndarray, shape (3,)
+        Tip at the start [mm], tip displacement [mm], unit axis.
+    c, r : float [mm]
+        Core radius ``R - r`` and corner radius ``r``.
+    top : float [mm]
+        Flute length: the core's top above the tip.
+    """
+    if c == 0.0:
+        return _dist_half_strip(x - (p0[0] + r * w[0]), y - (p0[1] + r * w[1]),
+                                z - (p0[2] + r * w[2]), d[0], d[1], d[2], w[0], w[1], w[2],
+                                top - r)
+    lo, hi = 0.0, 1.0
+    m1 = hi - _INV_PHI * (hi - lo)
+    m2 = lo + _INV_PHI * (hi - lo)
+    f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
+                    w[0], w[1], w[2], c, r, top)
+    f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
+                    w[0], w[1], w[2], c, r, top)
+    for _ in range(GOLDEN_ITERATIONS):
+        if f1 <= f2:
+            hi = m2
+            m2, f2 = m1, f1
+            m1 = hi - _INV_PHI * (hi - lo)
+            f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
+                            w[0], w[1], w[2], c, r, top)
+        else:
+            lo = m1
+            m1, f1 = m2, f2
+            m2 = lo + _INV_PHI * (hi - lo)
+            f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
+                            w[0], w[1], w[2], c, r, top)
+    best = f1 if f1 < f2 else f2
+    # the ends are candidates too (the minimum may sit at s = 0 or 1)
+    e0 = _core_dist(x, y, z, p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r, top)
+    e1 = _core_dist(x - d[0], y - d[1], z - d[2], p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r, top)
+    if e0 < best:
+        best = e0
+    if e1 < best:
+        best = e1
+    return best
+
+
+@njit(cache=True, parallel=False)
+def inside_any_sweep(points, candidates, p0, d, w, lo, hi, c, r, top, eps):
+    """For each point: is it inside any of the sweeps?
+
+    Parameters
+    ----------
+    points : ndarray, shape (k, 3) [mm]
+    candidates : ndarray, shape (k,), bool
+        Only these points are tested; the others come back False.
+    p0, d, w : ndarray, shape (n, 3)
+        Sweeps: start tip [mm], displacement [mm], unit axis. Test order is
+        array order: put the likeliest containers first.
+    lo, hi : ndarray, shape (n, 3) [mm]
+        Axis-aligned bounds of each sweep (for a cheap first rejection).
+    c, r, top : float [mm]
+        Core radius, corner radius and flute length of the tool.
+    eps : float [mm]
+        A point this close to a sweep's boundary counts as inside.
+
+    Returns
+    -------
+    ndarray, shape (k,), bool
+    """
+    k = points.shape[0]
+    n = p0.shape[0]
+    out = np.zeros(k, dtype=np.bool_)
+    lim = r + eps
+    for i in range(k):
+        if not candidates[i]:
+            continue
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        for j in range(n):
+            if (x < lo[j, 0] or x > hi[j, 0] or y < lo[j, 1] or y > hi[j, 1]
+                    or z < lo[j, 2] or z > hi[j, 2]):
+                continue
+            if sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) <= lim:
+                out[i] = True
+                break
+    return out
+
+
+@njit(cache=True, parallel=True)
+def inside_any_sweep_parallel(points, candidates, p0, d, w, lo, hi, c, r, top, eps):
+    """:func:`inside_any_sweep` over threads (for large point sets)."""
+    k = points.shape[0]
+    n = p0.shape[0]
+    out = np.zeros(k, dtype=np.bool_)
+    lim = r + eps
+    for i in prange(k):
+        if not candidates[i]:
+            continue
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        for j in range(n):
+            if (x < lo[j, 0] or x > hi[j, 0] or y < lo[j, 1] or y > hi[j, 1]
+                    or z < lo[j, 2] or z > hi[j, 2]):
+                continue
+            if sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) <= lim:
+                out[i] = True
+                break
+    return out
+
+
+@njit(cache=True)
+def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, eps, cell):
+    """:func:`inside_any_sweep`, pruning sweeps per cluster of nearby points.
+
+    Points are binned into cubes of side ``cell`` [mm]. For each bin, a sweep
+    can only contain one of its points if the swept core passes within
+    ``r + eps + bin radius`` of the bin's centre (triangle inequality), so the
+    exact test runs against that short list only. Same result as
+    :func:`inside_any_sweep`, much faster when many sweeps are near but few
+    reach the points (finishing: the neighbouring passes).
+    """
+    k = points.shape[0]
+    n = p0.shape[0]
+    out = np.zeros(k, dtype=np.bool_)
+    if k == 0 or n == 0:
+        return out
+    lim = r + eps
+    # bin the candidate points
+    idx = np.empty(k, dtype=np.int64)
+    keys = np.empty(k, dtype=np.int64)
+    m = 0
+    big = 1 << 20
+    for i in range(k):
+        if candidates[i]:
+            ix = int(math.floor(points[i, 0] / cell)) + big
+            iy = int(math.floor(points[i, 1] / cell)) + big
+            iz = int(math.floor(points[i, 2] / cell)) + big
+            keys[m] = (ix * (2 * big) + iy) * (2 * big) + iz
+            idx[m] = i
+            m += 1
+    if m == 0:
+        return out
+    order = np.argsort(keys[:m])
+    short = np.empty(n, dtype=np.int64)
+    s = 0
+    while s < m:
+        e = s
+        key = keys[order[s]]
+        while e < m and keys[order[e]] == key:
+            e += 1
+        # bounding sphere of the bin's points
+        cx = cy = cz = 0.0
+        for t in range(s, e):
+            i = idx[order[t]]
+            cx += points[i, 0]
+            cy += points[i, 1]
+            cz += points[i, 2]
+        cnt = e - s
+        cx /= cnt
+        cy /= cnt
+        cz /= cnt
+        rad = 0.0
+        for t in range(s, e):
+            i = idx[order[t]]
+            dx, dy, dz = points[i, 0] - cx, points[i, 1] - cy, points[i, 2] - cz
+            v = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if v > rad:
+                rad = v
+        # sweeps that can reach the bin
+        ns = 0
+        for j in range(n):
+            if (cx + rad < lo[j, 0] or cx - rad > hi[j, 0] or cy + rad < lo[j, 1]
+                    or cy - rad > hi[j, 1] or cz + rad < lo[j, 2] or cz - rad > hi[j, 2]):
+                continue
+            # the swept core lies within c of the swept axis strip: a cheap bound
+            ax = cx - (p0[j, 0] + r * w[j, 0])
+            ay = cy - (p0[j, 1] + r * w[j, 1])
+            az = cz - (p0[j, 2] + r * w[j, 2])
+            lb = _dist_half_strip(ax, ay, az, d[j, 0], d[j, 1], d[j, 2], w[j, 0], w[j, 1],
+                                  w[j, 2], top - r) - c
+            if lb <= lim + rad:
+                short[ns] = j
+                ns += 1
+        for t in range(s, e):
+            i = idx[order[t]]
+            x, y, z = points[i, 0], points[i, 1], points[i, 2]
+            for q in range(ns):
+                j = short[q]
+                if sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) <= lim:
+                    out[i] = True
+                    break
+        s = e
+    return out
+
+
+@njit(cache=True)
+def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floor, cell):
+    """How far each point lies outside all sweeps, ``min_j dist_j - r`` [mm].
+
+    Negative inside a sweep. The value is clipped to ``[floor, -floor]``
+    (``floor`` < 0): a point deeper inside than ``-floor`` is decided and the
+    search stops there, and sweeps that cannot come closer than ``-floor``
+    are pruned, so points farther out than that read ``-floor``. Points not
+    in ``candidates`` get ``floor``. Uses the same per-bin pruning as
+    :func:`inside_any_sweep_clustered`.
+    """
+    k = points.shape[0]
+    n = p0.shape[0]
+    out = np.full(k, floor)
+    if k == 0:
+        return out
+    idx = np.empty(k, dtype=np.int64)
+    keys = np.empty(k, dtype=np.int64)
+    m = 0
+    big = 1 << 20
+    for i in range(k):
+        if candidates[i]:
+            ix = int(math.floor(points[i, 0] / cell)) + big
+            iy = int(math.floor(points[i, 1] / cell)) + big
+            iz = int(math.floor(points[i, 2] / cell)) + big
+            keys[m] = (ix * (2 * big) + iy) * (2 * big) + iz
+            idx[m] = i
+            m += 1
+    if m == 0:
+        return out
+    order = np.argsort(keys[:m])
+    short = np.empty(max(n, 1), dtype=np.int64)
+    s = 0
+    while s < m:
+        e = s
+        key = keys[order[s]]
+        while e < m and keys[order[e]] == key:
+            e += 1
+        cx = cy = cz = 0.0
+        for t in range(s, e):
+            i = idx[order[t]]
+            cx += points[i, 0]
+            cy += points[i, 1]
+            cz += points[i, 2]
+        cnt = e - s
+        cx /= cnt
+        cy /= cnt
+        cz /= cnt
+        rad = 0.0
+        for t in range(s, e):
+            i = idx[order[t]]
+            dx, dy, dz = points[i, 0] - cx, points[i, 1] - cy, points[i, 2] - cz
+            v = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if v > rad:
+                rad = v
+        # a sweep matters if it may come within r - floor of a point of the bin
+        reach = r - floor + rad
+        ns = 0
+        for j in range(n):
+            if (cx + rad - floor < lo[j, 0] or cx - rad + floor > hi[j, 0]
+                    or cy + rad - floor < lo[j, 1] or cy - rad + floor > hi[j, 1]
+                    or cz + rad - floor < lo[j, 2] or cz - rad + floor > hi[j, 2]):
+                continue
+            ax = cx - (p0[j, 0] + r * w[j, 0])
+            ay = cy - (p0[j, 1] + r * w[j, 1])
+            az = cz - (p0[j, 2] + r * w[j, 2])
+            lb = _dist_half_strip(ax, ay, az, d[j, 0], d[j, 1], d[j, 2], w[j, 0], w[j, 1],
+                                  w[j, 2], top - r) - c
+            if lb <= reach:
+                short[ns] = j
+                ns += 1
+        for t in range(s, e):
+            i = idx[order[t]]
+            x, y, z = points[i, 0], points[i, 1], points[i, 2]
+            best = 1e300
+            for q in range(ns):
+                j = short[q]
+                v = sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) - r
+                if v < best:
+                    best = v
+                    if best <= floor:
+                        break
+            if best < floor:
+                best = floor
+            elif best > -floor:
+                best = -floor
+            out[i] = best
+        s = e
+    return out

@@ -1,0 +1,190 @@
+"""The bottom view, precomputed once per tool and resolution.
+
+The bottom view (``docs/method.md`` §3) looks up the tool axis from below
+the tip, a window of the tool's diameter. In tool coordinates it is the same
+at every cutter location: the pixel centres, the envelope point each pixel
+ray meets (with its analytic rotation and contact angle), and the pixel and
+depth of every micro-edge sample over a revolution. Only the placement in
+the world (tip and frame) changes, so this template holds the constant part
+and :meth:`BottomTemplate.finished_surface` does the per-location work.
+
+Finished-surface search, coarse to fine: the finished region a revolution
+leaves is a strip about one feed per tooth wide, usually narrower than a
+pixel. At pixel centres the margins to T1 and T2 (distance outside the
+nearest sweep) are computed; since the distance is 1-Lipschitz and the
+envelope point moves by at most ``p / (sqrt(2) cos kappa)`` within a pixel,
+pixels whose margins are above minus that bound may hold finished area and
+are refined into ``VIEW_ZOOM`` x ``VIEW_ZOOM`` sub-pixels, which are tested
+exactly. The cost follows the strip, not the window.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import constants as K
+from ._kernels import inside_any_sweep_clustered, sweep_margin_clustered
+from .tool import MicroEdges, Tool
+
+__all__ = ["BottomTemplate", "Finished"]
+
+
+@dataclass(frozen=True, eq=False)
+class Finished:
+    """Cutting and finished area found at one cutter location.
+
+    Attributes
+    ----------
+    cutting_pixels : int
+        Coarse pixels whose envelope point is in the cutting region.
+    xyz : ndarray, shape (k, 3) [mm]
+        Tool-frame envelope points of the finished sub-pixels.
+    phi, kappa : ndarray, shape (k,) [rad]
+    cutting_phi : ndarray [rad]
+        Rotation angle of the coarse cutting pixels (for the side view).
+    cutting_z : ndarray [mm]
+    refined_pixels : int
+        Coarse pixels refined.
+    """
+
+    cutting_pixels: int
+    xyz: np.ndarray
+    phi: np.ndarray
+    kappa: np.ndarray
+    cutting_phi: np.ndarray
+    cutting_z: np.ndarray
+    refined_pixels: int
+
+
+class BottomTemplate:
+    """Tool-frame constants of the bottom view and the micro-edge samples.
+
+    Parameters
+    ----------
+    tool : Tool
+    edges : MicroEdges
+    theta : ndarray, shape (n,) [rad]
+    pixel_mm : float [mm]
+    """
+
+    def __init__(self, tool: Tool, edges: MicroEdges, theta: np.ndarray, pixel_mm: float):
+        self.tool = tool
+        self.pixel_mm = p = float(pixel_mm)
+        self.window_mm = tool.diameter_mm + 2 * p
+        self.n = n = int(math.ceil(self.window_mm / p - 1e-9))
+        self.depth_offset_mm = tool.radius_mm
+        centres = (np.arange(n) + 0.5) * p - 0.5 * n * p
+        X, Y = np.meshgrid(centres, centres)  # rows: v (y'), columns: u (x')
+        rho = np.hypot(X, Y).ravel()
+        self.valid = rho <= tool.radius_mm
+        z = tool.envelope_z(np.where(self.valid, rho, 0.0))
+        self.xyz = np.column_stack([X.ravel(), Y.ravel(), z])
+        self.phi = np.arctan2(X.ravel(), Y.ravel())
+        self.kappa = tool.kappa_at_rho(np.where(self.valid, rho, 0.0))
+        # refinement bound: how far the envelope point moves inside a pixel
+        kap = np.minimum(self.kappa, K.VIEW_CORRECTION_KAPPA_RAD)
+        self.reach = p / (math.sqrt(2.0) * np.cos(kap)) + K.MEMBERSHIP_EPS_MM
+        # micro-edge samples of flute 0 over a revolution
+        phi = theta[:, None] - edges.psi[None, :]
+        rr = edges.rho[None, :]
+        pts = np.stack(np.broadcast_arrays(rr * np.sin(phi), rr * np.cos(phi),
+                                           edges.z[None, :]), axis=-1)
+        self.samples = pts.reshape(-1, 3)
+        self.sample_shape = pts.shape[:2]
+        step = 2 * math.pi / theta.shape[0]
+        phi2 = phi + step
+        self.rotation_step = np.stack(np.broadcast_arrays(rr * np.sin(phi2), rr * np.cos(phi2),
+                                                          edges.z[None, :]), axis=-1) - pts
+        self.sample_ij = self._pixel(self.samples)
+        sub = int(K.VIEW_ZOOM)
+        off = (np.arange(sub) + 0.5) / sub - 0.5
+        self.sub_offsets = np.stack(np.meshgrid(off, off), axis=-1).reshape(-1, 2) * p
+
+    def _pixel(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        p, n = self.pixel_mm, self.n
+        j = np.floor((xyz[:, 0] + 0.5 * n * p) / p).astype(np.int64)
+        i = np.floor((xyz[:, 1] + 0.5 * n * p) / p).astype(np.int64)
+        return np.clip(i, 0, n - 1), np.clip(j, 0, n - 1)
+
+    # --- stock membership ----------------------------------------------------
+    def in_stock_local(self, stock, interval, tip, frame, xyz_local: np.ndarray,
+                       ij: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """Stock material at tool-frame points (box: analytic; mesh: the view buffer)."""
+        if getattr(stock, "is_box", False):
+            world = tip + xyz_local @ frame
+            lo, hi = stock.bounds
+            e = K.MEMBERSHIP_EPS_MM
+            return np.all((world >= lo - e) & (world <= hi + e), axis=1)
+        bottom, top = interval
+        i, j = self._pixel(xyz_local) if ij is None else ij
+        depth = xyz_local[:, 2] + self.depth_offset_mm
+        e = K.MEMBERSHIP_EPS_MM
+        return (bottom[i, j] - e <= depth) & (depth <= top[i, j] + e)
+
+    def _bound(self, m: np.ndarray, known: np.ndarray) -> np.ndarray:
+        """How much ``m`` may rise from a pixel centre to its corners [mm].
+
+        Twice the steepest difference to the neighbouring centres, capped by
+        the rigorous bound (1-Lipschitz distance along an envelope that
+        tilts by kappa); the rigorous bound where a neighbour is unknown.
+        """
+        n, p = self.n, self.pixel_mm
+        grid = np.where(known, m, np.nan).reshape(n, n)
+        slope = np.zeros((n, n))
+        unknown = np.zeros((n, n), dtype=bool)
+        for sl_a, sl_b in (((slice(1, None), slice(None)), (slice(None, -1), slice(None))),
+                           ((slice(None), slice(1, None)), (slice(None), slice(None, -1)))):
+            diff = np.abs(grid[sl_a] - grid[sl_b]) / p
+            for sl, other in ((sl_a, sl_b), (sl_b, sl_a)):
+                nan = np.isnan(diff)
+                slope[sl] = np.maximum(slope[sl], np.where(nan, 0.0, diff))
+                unknown[sl] |= nan
+        unknown[0, :] = unknown[-1, :] = unknown[:, 0] = unknown[:, -1] = True
+        rigorous = self.reach.reshape(n, n)
+        est = np.minimum(2.0 * slope * p / math.sqrt(2.0) + K.MEMBERSHIP_EPS_MM, rigorous)
+        return np.where(unknown, rigorous, est).ravel()
+
+    # --- the finished surface ----------------------------------------------
+    def finished_surface(self, stock, interval, tip, frame, t1, t2) -> Finished:
+        tool = self.tool
+        c, r, top = tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm
+        eps = K.MEMBERSHIP_EPS_MM
+        cell = K.CLUSTER_CELL_MM
+        cand = self.valid.copy()
+        idx = np.flatnonzero(cand)
+        n = self.n
+        ij = (idx // n, idx % n)
+        cand[idx] = self.in_stock_local(stock, interval, tip, frame, self.xyz[idx], ij)
+        world = tip + self.xyz @ frame
+        floor = -float(self.reach.max())
+        m1 = sweep_margin_clustered(world, cand, *t1, c, r, top, floor, cell)
+        cutting = cand & (m1 > 0)
+        b1 = self._bound(m1, cand)
+        near = cand & (m1 + b1 > 0)
+        m2 = sweep_margin_clustered(world, near, *t2, c, r, top, floor, cell)
+        near &= m2 + self._bound(m2, near) > 0
+        refine = np.flatnonzero(near)
+        if refine.size == 0:
+            return Finished(int(cutting.sum()), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
+                            self.phi[cutting], self.xyz[cutting, 2], 0)
+        # sub-pixels of the refined pixels
+        xy = (self.xyz[refine, None, :2] + self.sub_offsets[None, :, :]).reshape(-1, 2)
+        rho = np.hypot(xy[:, 0], xy[:, 1])
+        ok = rho <= tool.radius_mm
+        xy, rho = xy[ok], rho[ok]
+        sub = np.column_stack([xy, tool.envelope_z(rho)])
+        # the stock at a sub-pixel: its coarse pixel's interval (the stock
+        # surface is smooth at pixel scale; the strip lies well inside it)
+        incand = self.in_stock_local(stock, interval, tip, frame, sub)
+        sw = tip + sub @ frame
+        in1 = inside_any_sweep_clustered(sw, incand, *t1, c, r, top, eps, cell)
+        cut = incand & ~in1
+        in2 = inside_any_sweep_clustered(sw, cut, *t2, c, r, top, eps, cell)
+        fin = cut & ~in2
+        phi = np.arctan2(sub[fin, 0], sub[fin, 1])
+        kappa = tool.kappa_at_rho(rho[fin])
+        return Finished(int(cutting.sum()), sub[fin], phi, kappa, self.phi[cutting],
+                        self.xyz[cutting, 2], int(refine.size))

@@ -1,0 +1,42 @@
+"""Defaults and tolerances of the ``errpred`` package, in one place.
+
+Resolution defaults are the ones shown to converge by
+``tests/errpred/test_convergence.py`` (the predicted error at the default is
+within 0.5 um of the value at a 4x finer setting on the bundled scenarios).
+"""
+
+from __future__ import annotations
+
+import math
+
+# --- resolution (see docs/method.md §9) -----------------------------------
+#: Pixel size of the depth buffer, as a fraction of the tool diameter [-].
+PIXEL_PER_DIAMETER = 1.0 / 64.0
+#: Micro edges along the lower envelope (bottom face + corner arc) [-].
+MICRO_EDGES_ENVELOPE = 40
+#: Rotation step of the engagement and force computation [rad].
+ANGLE_STEP_RAD = math.radians(2.0)
+#: Chord tolerance when arcs are expanded into lines [mm].
+CHORD_TOL_MM = 1.0e-3
+
+# --- geometry ---------------------------------------------------------------
+#: A point closer than this to a sweep's or the stock's boundary counts as
+#: on it (inside) [mm]. Keeps flat-floor contacts from flickering.
+MEMBERSHIP_EPS_MM = 1.0e-6
+#: Side of the cubes into which points are binned before their membership
+#: tests, so that each bin tests only the sweeps that can reach it [mm].
+CLUSTER_CELL_MM = 0.5
+#: Tool-axis change inside one sweep segment above which the segment is
+#: split so that each piece has a nearly constant axis [rad].
+SWEEP_AXIS_STEP_RAD = math.radians(1.0)
+
+# --- prediction -------------------------------------------------------------
+#: Below this angle between tool axis and surface normal the cutting speed
+#: at the generation point is too small for the force model (flat floors cut
+#: by the ball's tip); no prediction is made there [rad].
+MIN_AXIS_NORMAL_ANGLE_RAD = math.radians(5.0)
+#: View correction: contact angle above which the bottom view is replaced by
+#: a view toward the cutting region's normal [rad] (seeds: 60 deg).
+VIEW_CORRECTION_KAPPA_RAD = math.radians(60.0)
+#: Zoom factor of the corrected view [-].
+VIEW_ZOOM = 8.0

@@ -1,0 +1,287 @@
+"""Correct a program against its predicted error (``docs/method.md`` §6).
+
+Each NC point joins block ``i`` (ending there) and block ``j`` (starting
+there). With errors ``E`` along normals ``n`` (positive: material left),
+block ``k`` needs a displacement of ``-E_k`` along ``n_k``. The point moves
+by ``M = s d``, ``d`` along ``-(E_i n_i + E_j n_j)`` (the seeds' direction).
+The seeds fit each point's ``s`` to its two blocks alone; here the ``s`` of
+a whole chain of connected blocks are fitted together, so that each block's
+prediction point (at fraction ``t`` along it) moves by
+``((1 - t) M_start + t M_end) . n = -E``: the per-point fit is the local
+version of this, and leaves alternating residuals where the error steps
+from block to block (which iterating cannot remove, they are its fixed
+point). A small Tikhonov term fixes the one free combination. Arcs: their
+ends move like any point, and the centre is refitted through the corrected
+start, end and middle.
+
+Correcting changes the engagement, so :func:`compensate` can iterate:
+predict on the corrected program, measure the error against the *original*
+program's surface (the prediction on the corrected program plus how far its
+path moved along the normal), correct again, until the largest change of a
+coordinate is below a tolerance.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from nc.gcode import parse_program
+from nc.program import PLANE_AXES, RAPID, Program
+from nc.rewrite import rewrite_coordinates
+
+from .predict import Prediction
+
+__all__ = ["BlockError", "block_errors", "correction_moves", "corrected_program",
+           "Compensation", "compensate"]
+
+
+@dataclass(frozen=True)
+class BlockError:
+    """The error of one block, for correction.
+
+    Attributes
+    ----------
+    E_mm : float [mm]
+        Error against the reference surface (positive: material left).
+    normal : ndarray, shape (3,)
+    fraction : float
+        Where along the block it was predicted (0 start, 1 end).
+    """
+
+    E_mm: float
+    normal: np.ndarray
+    fraction: float
+
+
+def block_errors(program: Program, prediction: Prediction,
+                 reference: Program | None = None) -> dict[int, BlockError]:
+    """Per-block error against ``reference`` (default: the program itself).
+
+    With a reference (the original of a corrected program), the error is the
+    predicted one plus the normal component of how far the program's path
+    moved from the reference's at the prediction point.
+    """
+    out: dict[int, BlockError] = {}
+    start, end = program.start, program.end
+    if reference is not None:
+        ref_start, ref_end = reference.start, reference.end
+    for p in prediction.predicted():
+        b = p.block
+        g = p.geometry
+        n = g.gen.normal_world
+        a, e = start[b, :3], end[b, :3]
+        length = float(np.linalg.norm(e - a))
+        t = float(np.clip(np.dot(g.tip - a, e - a) / length ** 2, 0, 1)) if length > 0 else 1.0
+        E = p.result.E_um * 1e-3
+        if reference is not None:
+            disp = ((1 - t) * (a - ref_start[b, :3]) + t * (e - ref_end[b, :3]))
+            E += float(disp @ n)
+        out[b] = BlockError(E, n, t)
+    return out
+
+
+def _direction(errors: list[BlockError]) -> np.ndarray:
+    v = sum(-be.E_mm * be.normal for be in errors)
+    norm = float(np.linalg.norm(v))
+    if norm == 0.0:
+        # errors cancel: move along the first normal; the fit decides how far
+        return errors[0].normal.copy()
+    return v / norm
+
+
+#: Tikhonov weight of the chain fit, relative to the equations (unit normals).
+_RIDGE = 1e-6
+
+
+def correction_moves(program: Program, errors: dict[int, BlockError]) -> dict[int, np.ndarray]:
+    """The displacement of each block's end point [mm], (3,) each.
+
+    Chains are runs of consecutive predicted blocks, each starting where the
+    previous ends (no rapid between). Point ``P_0`` of a chain is the end of
+    the block before its first block, ``P_K`` the end of its last block.
+    """
+    moves: dict[int, np.ndarray] = {}
+    blocks = sorted(errors)
+    chains: list[list[int]] = []
+    for b in blocks:
+        if chains and chains[-1][-1] == b - 1 and program.motion[b] != RAPID:
+            chains[-1].append(b)
+        else:
+            chains.append([b])
+    for chain in chains:
+        K = len(chain)
+        # point p (0..K) is the end of block chain[0] - 1 + p
+        dirs = []
+        for p in range(K + 1):
+            adj = [errors[chain[k]] for k in (p - 1, p) if 0 <= k < K]
+            dirs.append(_direction(adj))
+        A = np.zeros((K, K + 1))
+        rhs = np.zeros(K)
+        for k, b in enumerate(chain):
+            be = errors[b]
+            A[k, k] = (1 - be.fraction) * float(dirs[k] @ be.normal)
+            A[k, k + 1] = be.fraction * float(dirs[k + 1] @ be.normal)
+            rhs[k] = -be.E_mm
+        s = _banded_lstsq(A, rhs)
+        for p in range(K + 1):
+            block = chain[0] - 1 + p
+            if block >= 0:
+                moves[block] = s[p] * dirs[p]
+    return moves
+
+
+def _banded_lstsq(A: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Ridge least squares of a bidiagonal system (normal equations, tridiagonal)."""
+    from scipy.linalg import solveh_banded
+
+    n = A.shape[1]
+    diag = np.zeros(n)
+    off = np.zeros(n - 1)
+    k = A.shape[0]
+    idx = np.arange(k)
+    diag[:k] += A[idx, idx] ** 2
+    diag[1:k + 1] += A[idx, idx + 1] ** 2
+    off[:k] += A[idx, idx] * A[idx, idx + 1]
+    scale = max(float(diag.max()), 1e-300)
+    diag += _RIDGE * scale
+    b = np.zeros(n)
+    b[:k] += A[idx, idx] * rhs
+    b[1:k + 1] += A[idx, idx + 1] * rhs
+    ab = np.zeros((2, n))
+    ab[0, 1:] = off
+    ab[1] = diag
+    return solveh_banded(ab, b)
+
+
+def _circle_centre(p1, p2, p3, a1: int, a2: int) -> np.ndarray | None:
+    """Centre of the circle through three points, in the plane axes (a1, a2)."""
+    x1, y1 = p1[a1], p1[a2]
+    x2, y2 = p2[a1], p2[a2]
+    x3, y3 = p3[a1], p3[a2]
+    det = 2 * ((x2 - x1) * (y3 - y1) - (y2 - y1) * (x3 - x1))
+    if abs(det) < 1e-12:
+        return None
+    s1 = x2 * x2 - x1 * x1 + y2 * y2 - y1 * y1
+    s2 = x3 * x3 - x1 * x1 + y3 * y3 - y1 * y1
+    cx = (s1 * (y3 - y1) - s2 * (y2 - y1)) / det
+    cy = (s2 * (x2 - x1) - s1 * (x3 - x1)) / det
+    c = np.zeros(3)
+    c[a1], c[a2] = cx, cy
+    return c
+
+
+def corrected_program(program: Program, errors: dict[int, BlockError], *,
+                      min_decimals: int | None = None) -> tuple[str, float]:
+    """Program text with the corrections applied, and the largest move [mm].
+
+    Written through :func:`nc.rewrite.rewrite_coordinates`: the original's
+    words, order, comments and formatting stay; only coordinates change.
+    """
+    moves = correction_moves(program, errors)
+    ends = {}
+    for i, m in moves.items():
+        e = program.end[i].copy()
+        e[:3] += m
+        ends[i] = e
+    centres = {}
+    for b in np.flatnonzero(program.arc_index >= 0):
+        b = int(b)
+        k = int(program.arc_index[b])
+        if b not in errors and b not in moves and (b - 1) not in moves:
+            continue
+        plane = int(program.arc_plane[k])
+        a1, a2, ax = PLANE_AXES[plane]
+        s0 = program.start[b, :3] + (moves.get(b - 1, np.zeros(3)) if b > 0 else 0)
+        e0 = program.end[b, :3] + moves.get(b, np.zeros(3))
+        centre = program.arc_centre[k]
+        sweep = float(program.arc_sweep[k])
+        r = float(program.arc_radius[k, 0])
+        ang0 = math.atan2(program.start[b, a2] - centre[a2], program.start[b, a1] - centre[a1])
+        mid = np.zeros(3)
+        mid[a1] = centre[a1] + r * math.cos(ang0 + sweep / 2)
+        mid[a2] = centre[a2] + r * math.sin(ang0 + sweep / 2)
+        if b in errors:
+            mid += -errors[b].E_mm * errors[b].normal
+        else:
+            mid += 0.5 * (moves.get(b - 1, np.zeros(3)) + moves.get(b, np.zeros(3)))
+        if abs(sweep) >= 2 * math.pi - 1e-9:
+            continue  # full circles keep their centre
+        c = _circle_centre(s0, mid, e0, a1, a2)
+        if c is not None:
+            centres[b] = c
+    text = rewrite_coordinates(program, ends, centres=centres, min_decimals=min_decimals)
+    largest = max((float(np.linalg.norm(m)) for m in moves.values()), default=0.0)
+    return text, largest
+
+
+@dataclass
+class Compensation:
+    """Result of :func:`compensate`.
+
+    Attributes
+    ----------
+    text : str
+        The corrected program.
+    iterations : int
+    largest_change_mm : list of float
+        Largest coordinate change of each pass.
+    max_error_um : list of float
+        Largest |error| against the original surface before each pass, and
+        after the last (re-predicted), so ``len = iterations + 1``.
+    """
+
+    text: str
+    iterations: int
+    largest_change_mm: list[float] = field(default_factory=list)
+    max_error_um: list[float] = field(default_factory=list)
+    predictions: list[Prediction] = field(default_factory=list)
+
+
+def compensate(program: Program, predict: Callable[[Program], Prediction], *,
+               iterate: bool = False, tolerance_mm: float = 1e-4, max_iterations: int = 5,
+               min_decimals: int | None = 4) -> Compensation:
+    """Correct ``program``; with ``iterate``, until changes drop below ``tolerance_mm``.
+
+    Parameters
+    ----------
+    program : Program
+        The original.
+    predict : callable
+        ``predict(program) -> Prediction`` (same scenario, any program).
+    iterate : bool
+        One pass (False) or predict-then-correct until converged.
+    tolerance_mm : float [mm]
+        Stop when the largest coordinate change of a pass is below this.
+    max_iterations : int
+    min_decimals : int, optional
+        Decimals for changed words (the correction is micrometres).
+    """
+    if not (math.isfinite(tolerance_mm) and tolerance_mm > 0):
+        raise ValueError(f"tolerance_mm: expected a finite value > 0, got {tolerance_mm!r}")
+    current = program
+    text = "\n".join(program.lines) + program.newline
+    out = Compensation(text=text, iterations=0)
+    passes = max_iterations if iterate else 1
+    for _ in range(passes):
+        pred = predict(current)
+        errs = block_errors(current, pred, reference=program)
+        out.predictions.append(pred)
+        out.max_error_um.append(max((abs(e.E_mm) * 1e3 for e in errs.values()), default=0.0))
+        # corrections accumulate: errors are measured against the original surface
+        text, largest = corrected_program(current, errs, min_decimals=min_decimals)
+        out.text = text
+        out.iterations += 1
+        out.largest_change_mm.append(largest)
+        current = parse_program(text, file=program.file, allow=program.allowed,
+                                block_delete=program.block_delete)
+        if largest < tolerance_mm:
+            break
+    final = predict(current)
+    out.predictions.append(final)
+    errs = block_errors(current, final, reference=program)
+    out.max_error_um.append(max((abs(e.E_mm) * 1e3 for e in errs.values()), default=0.0))
+    return out

@@ -1,0 +1,213 @@
+"""Cutting force of an end mill over one revolution (``docs/method.md`` §4).
+
+Conventions (``docs/errpred-contracts.md``): tool frame with the origin at the
+tip, ``z'`` up the tool axis, feed along ``x'``; a flute's angle ``phi`` is
+measured from ``+y'`` toward ``+x'`` (clockwise seen from the spindle), an edge
+point at ``phi`` sits at ``(rho sin phi, rho cos phi, z)`` and moves along
+``(cos phi, -sin phi, 0)``. The outward envelope normal at ``(phi, kappa)``
+is ``n = (sin k sin phi, sin k cos phi, -cos k)``.
+
+Per micro edge, while it cuts (units: ``h``, ``db`` [mm], coefficients
+[N/mm^2] and [N/mm], forces [N])::
+
+    dFt = (Kte0 + Kte1 cl + Ktc h) db     opposes the edge velocity
+    dFr = (Kre0 + Kre1 cl + Krc h) db     toward the centre of curvature (-n)
+    dFa = (Kae0 + Kae1 cl + Kac h) db     the third direction, a = r x t
+
+and the force **on the tool**, tool frame::
+
+    Fx' = -dFt cos phi - dFr sin k sin phi - dFa cos k sin phi
+    Fy' = +dFt sin phi - dFr sin k cos phi - dFa cos k cos phi
+    Fz' = +dFr cos k - dFa sin k
+
+The unit vectors of the force on the tool are ``t = (-cos phi, sin phi, 0)``,
+``r = -n`` and ``a = r x t = (-cos k sin phi, -cos k cos phi, -sin k)``. On the
+flank (``k = 90 deg``) a positive ``dFa`` pushes the tool toward its tip
+(``-z'``). This is the ball-end transformation of Lee & Altintas (1996); for
+a flat end mill it reads ``Fz' = -Fa``, where Altintas' flat-end-mill section
+(Manufacturing Automation, 2nd ed., §2.3) writes ``Fz = +Fa``: the contract's
+sign is the one used, so a fitted ``Kac``/``Kae`` of a flat end mill has the
+opposite sign of a value quoted in that convention.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ._force_kernels import forces_kernel
+from .coefficients import CuttingCoefficients
+from .tool import MicroEdges
+
+__all__ = ["chip_thickness", "local_components", "to_tool_frame", "tool_forces"]
+
+
+def chip_thickness(edges: MicroEdges, phi: Any, f_tooth_tool: Any) -> np.ndarray:
+    """Uncut chip thickness ``h = max(f_tooth . n, 0)``.
+
+    Parameters
+    ----------
+    edges : MicroEdges
+        ``m`` micro edges; their ``kappa`` is used.
+    phi : ndarray, shape (..., m) [rad]
+        Angular positions of the micro edges (helix lag included), e.g.
+        (n_ang, n_fl, m).
+    f_tooth_tool : ndarray, shape (3,) or broadcastable to phi.shape + (3,) [mm]
+        Feed per tooth vector in the tool frame (``(fz, 0, 0)`` for feed along
+        ``+x'``; an axial component for plunges and ramps). A per-sample feed
+        has shape e.g. (n_ang, 1, 1, 3).
+
+    Returns
+    -------
+    ndarray, shape of ``phi`` (broadcast with the feed) [mm]
+        ``fz sin phi sin k`` for feed ``(fz, 0, 0)``, clamped at 0.
+    """
+    phi = np.asarray(phi, dtype=float)
+    f = np.asarray(f_tooth_tool, dtype=float)
+    if f.ndim == 0 or f.shape[-1] != 3:
+        raise ValueError(f"f_tooth_tool: expected a vector of 3 components (last axis), got "
+                         f"shape {f.shape}")
+    m = len(edges)
+    if phi.ndim == 0 or phi.shape[-1] != m:
+        raise ValueError(f"phi: last axis must hold the {m} micro edges, got shape {phi.shape}")
+    sk, ck = np.sin(edges.kappa), np.cos(edges.kappa)
+    h = (f[..., 0] * sk) * np.sin(phi) + (f[..., 1] * sk) * np.cos(phi) - f[..., 2] * ck
+    return np.maximum(h, 0.0)
+
+
+def local_components(coeffs: CuttingCoefficients, h: Any, cl: Any, db: Any
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Tangential, radial and axial force of micro edges (as if all cut).
+
+    Parameters
+    ----------
+    coeffs : CuttingCoefficients
+    h : ndarray, any shape broadcasting with ``cl`` and ``db`` [mm]
+        Uncut chip thickness.
+    cl : ndarray, broadcasting [mm]
+        Actual cutting distance of the micro edge.
+    db : ndarray, broadcasting [mm]
+        Chip width of the micro edge.
+
+    Returns
+    -------
+    dFt, dFr, dFa : ndarray, broadcast shape [N]
+        ``(Kxe0 + Kxe1 cl + Kxc h) db``. No cutting mask is applied here.
+    """
+    h = np.asarray(h, dtype=float)
+    db = np.asarray(db, dtype=float)
+    kte, kre, kae = coeffs.edge(cl)
+    return ((kte + coeffs.Ktc_N_mm2 * h) * db,
+            (kre + coeffs.Krc_N_mm2 * h) * db,
+            (kae + coeffs.Kac_N_mm2 * h) * db)
+
+
+def to_tool_frame(dFt: Any, dFr: Any, dFa: Any, phi: Any, kappa: Any) -> np.ndarray:
+    """Local force components to the force on the tool in the tool frame.
+
+    Parameters
+    ----------
+    dFt, dFr, dFa : ndarray, broadcasting [N]
+        Tangential (opposing the edge velocity), radial (toward the centre
+        of curvature) and axial components.
+    phi : ndarray, broadcasting [rad]
+        Angular position.
+    kappa : ndarray, broadcasting [rad]
+        Axial immersion angle.
+
+    Returns
+    -------
+    ndarray, shape broadcast + (3,) [N]
+        ``(Fx', Fy', Fz')`` per element; see the module docstring.
+    """
+    sp, cp = np.sin(phi), np.cos(phi)
+    sk, ck = np.sin(kappa), np.cos(kappa)
+    a = dFr * sk + dFa * ck          # in-plane part of the radial and axial forces
+    fx = -dFt * cp - a * sp
+    fy = dFt * sp - a * cp
+    fz = dFr * ck - dFa * sk
+    return np.stack(np.broadcast_arrays(fx, fy, fz), axis=-1)
+
+
+def _check_inputs(edges: MicroEdges, phi: Any, h: Any, cutting: Any, cl_mm: Any
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    phi = np.asarray(phi, dtype=float)
+    h = np.asarray(h, dtype=float)
+    cutting = np.asarray(cutting, dtype=bool)
+    if phi.ndim != 3:
+        raise ValueError(f"phi: expected shape (n_angles, n_flutes, m), got {phi.shape}")
+    _, n_fl, m = phi.shape
+    if m != len(edges):
+        raise ValueError(f"phi: last axis has {m} entries, the tool has {len(edges)} micro edges")
+    if h.shape != phi.shape:
+        raise ValueError(f"h: shape {h.shape} differs from phi's {phi.shape}")
+    if cutting.shape != phi.shape:
+        raise ValueError(f"cutting: shape {cutting.shape} differs from phi's {phi.shape}")
+    cl = np.asarray(cl_mm, dtype=float)
+    if cl.shape not in ((m,), (n_fl, m), (1, m), ()):
+        raise ValueError(f"cl_mm: expected shape ({m},) or ({n_fl}, {m}), got {cl.shape}")
+    return phi, h, cutting, np.broadcast_to(cl, (n_fl, m))
+
+
+def tool_forces(edges: MicroEdges, coeffs: CuttingCoefficients, phi: Any, h: Any,
+                cutting: Any, cl_mm: Any) -> np.ndarray:
+    """Force on the tool over the sampled rotation, tool frame.
+
+    Sums the micro-edge forces (:func:`local_components`,
+    :func:`to_tool_frame`) over flutes and micro edges at each angle sample.
+
+    Parameters
+    ----------
+    edges : MicroEdges
+        ``m`` micro edges of one flute (all flutes alike); ``kappa`` and
+        ``db`` are used.
+    coeffs : CuttingCoefficients
+    phi : ndarray, shape (n_ang, n_fl, m) [rad]
+        Angular position of each micro edge of each flute at each sample.
+    h : ndarray, shape (n_ang, n_fl, m) [mm]
+        Uncut chip thickness (ignored where not cutting; may be NaN there).
+    cutting : ndarray of bool, shape (n_ang, n_fl, m)
+        Whether the micro edge cuts; non-cutting entries contribute exactly 0.
+    cl_mm : ndarray, shape (m,) or (n_fl, m) [mm]
+        Actual cutting distance: (m,) the same wear on every flute,
+        (n_fl, m) per flute.
+
+    Returns
+    -------
+    ndarray, shape (n_ang, 3) [N]
+        ``(Fx', Fy', Fz')`` on the tool at each sample.
+    """
+    phi, h, cutting, cl = _check_inputs(edges, phi, h, cutting, cl_mm)
+    if forces_kernel is not None:
+        return _forces_numba(edges, coeffs, phi, h, cutting, cl)
+    return _forces_numpy(edges, coeffs, phi, h, cutting, cl)
+
+
+def _forces_numba(edges: MicroEdges, coeffs: CuttingCoefficients, phi: np.ndarray,
+                  h: np.ndarray, cutting: np.ndarray, cl: np.ndarray) -> np.ndarray:
+    """Compiled loop (``errpred._force_kernels``); ``cl`` already (n_fl, m)."""
+    kte, kre, kae = (np.ascontiguousarray(k) for k in coeffs.edge(cl))
+    kappa = np.asarray(edges.kappa, dtype=float)
+    return forces_kernel(np.ascontiguousarray(phi), np.ascontiguousarray(h),
+                         np.ascontiguousarray(cutting), np.ascontiguousarray(edges.db, dtype=float),
+                         np.sin(kappa), np.cos(kappa), kte, kre, kae,
+                         coeffs.Ktc_N_mm2, coeffs.Krc_N_mm2, coeffs.Kac_N_mm2)
+
+
+def _forces_numpy(edges: MicroEdges, coeffs: CuttingCoefficients, phi: np.ndarray,
+                  h: np.ndarray, cutting: np.ndarray, cl: np.ndarray) -> np.ndarray:
+    """Vectorized sum over the cutting entries only; ``cl`` already (n_fl, m)."""
+    i, k, j = np.nonzero(cutting)
+    n_ang = phi.shape[0]
+    kappa = np.asarray(edges.kappa, dtype=float)
+    sk, ck = np.sin(kappa)[j], np.cos(kappa)[j]
+    dft, dfr, dfa = local_components(coeffs, h[i, k, j], cl[k, j], np.asarray(edges.db)[j])
+    p = phi[i, k, j]
+    sp, cp = np.sin(p), np.cos(p)
+    a = dfr * sk + dfa * ck   # as in to_tool_frame, without the (n, 3) stack
+    out = np.empty((n_ang, 3))
+    out[:, 0] = np.bincount(i, -(dft * cp + a * sp), minlength=n_ang)
+    out[:, 1] = np.bincount(i, dft * sp - a * cp, minlength=n_ang)
+    out[:, 2] = np.bincount(i, dfr * ck - dfa * sk, minlength=n_ang)
+    return out

@@ -1,0 +1,310 @@
+"""Stage 1 of the prediction: the geometry of each prediction point.
+
+Per block (``docs/method.md`` §3): place the prediction point, set up the
+tool frame and the bottom view, find the sweeps near the tool (T1 before,
+T2 after, one feed per tooth either side of the point), find which micro
+edges cut during one revolution, and the finished surface with its
+generation point (correcting the view when the finished region is below a
+pixel or the contact angle is steep). Nothing here depends on earlier
+predictions, so blocks can be processed in any order and on any worker;
+the wear that links them is stage 2 (:mod:`errpred.physics`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from nc.path import CutterLocations
+
+from . import constants as K
+from ._kernels import inside_any_sweep_clustered
+from .bottomview import BottomTemplate
+from .engagement import revolution_angles
+from .frames import tool_frame
+from .probe import StockProbe
+from .raster.camera import View
+from .surface import GenerationPoint, envelope_hits, generation_point, regions
+from .sweeps import Sweeps, build_sweeps
+from .tool import MicroEdges, Tool
+
+__all__ = ["Resolution", "PointGeometry", "GeometryModel", "STATUS"]
+
+#: Status of a prediction point, and what it means.
+STATUS = {
+    "predicted": "error predicted",
+    "rapid": "rapid move: not a cut",
+    "no-cut": "the tool removes no material here",
+    "axis-normal": ("generation point at the tool's centre: the tool axis is nearly "
+                    "normal to the surface, cutting speed ~0, the force model does not hold"),
+    "no-finished-surface": "cuts, but later moves remove everything it leaves",
+    "spindle-stopped": "cutting move with the spindle stopped",
+}
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """Discretization (``docs/method.md`` §9).
+
+    Attributes
+    ----------
+    pixel_mm : float [mm]
+    micro_edges : int
+        Micro edges on the lower envelope (flank edges get the same spacing).
+    angle_step_rad : float [rad]
+    chord_tol_mm : float [mm]
+    """
+
+    pixel_mm: float
+    micro_edges: int = K.MICRO_EDGES_ENVELOPE
+    angle_step_rad: float = K.ANGLE_STEP_RAD
+    chord_tol_mm: float = K.CHORD_TOL_MM
+
+    @classmethod
+    def default(cls, tool: Tool) -> "Resolution":
+        return cls(pixel_mm=tool.diameter_mm * K.PIXEL_PER_DIAMETER)
+
+    def finer(self, factor: float) -> "Resolution":
+        """Every discretization refined by ``factor``."""
+        return Resolution(self.pixel_mm / factor, int(round(self.micro_edges * factor)),
+                          self.angle_step_rad / factor, self.chord_tol_mm / factor)
+
+
+@dataclass(frozen=True, eq=False)
+class PointGeometry:
+    """Stage-1 result for one prediction point (small: safe to ship between processes).
+
+    Attributes
+    ----------
+    block : int
+        Program block index.
+    status : str
+        A key of :data:`STATUS`.
+    path_mm : float [mm]
+        Cumulative tip path length of the point.
+    tip, axis : ndarray, shape (3,)
+    frame : ndarray, shape (3, 3)
+    feed_mm_min, spindle_rpm : float
+    feed_per_tooth_world : ndarray, shape (3,) [mm]
+    cut_length_mm : float [mm]
+        Length of the block this point stands for (for the revolutions spent
+        cutting, which advance the wear).
+    cutting0 : ndarray, shape (n, m), bool, or None
+        Flute 0's engagement over one revolution.
+    cl_per_rev : ndarray, shape (m,), or None [mm]
+        Actual cutting distance per revolution of each micro edge.
+    gen : GenerationPoint or None
+    view : str
+        ``"bottom"``, ``"bottom-zoom"`` or ``"side"``: the view that gave ``gen``.
+    cutting_pixels, finished_pixels : int
+    """
+
+    block: int
+    status: str
+    path_mm: float
+    tip: np.ndarray
+    axis: np.ndarray
+    frame: np.ndarray
+    feed_mm_min: float
+    spindle_rpm: float
+    feed_per_tooth_world: np.ndarray
+    cut_length_mm: float = 0.0
+    cutting0: np.ndarray | None = None
+    cl_per_rev: np.ndarray | None = None
+    gen: GenerationPoint | None = None
+    view: str = "bottom"
+    cutting_pixels: int = 0
+    finished_pixels: int = 0
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+class GeometryModel:
+    """Everything stage 1 needs: tool, stock, path, sweeps, discretization.
+
+    Parameters
+    ----------
+    tool : Tool
+    stock : errpred.raster.meshes.Stock
+    cl : CutterLocations
+        The program's path (arcs expanded), ``cl.block`` the program block.
+    resolution : Resolution
+    """
+
+    def __init__(self, tool: Tool, stock, cl: CutterLocations, resolution: Resolution) -> None:
+        self.tool = tool
+        self.stock = stock
+        self.cl = cl
+        self.res = resolution
+        self.sweeps: Sweeps = build_sweeps(cl, tool)
+        self.edges: MicroEdges = tool.micro_edges(resolution.micro_edges)
+        self.theta = revolution_angles(resolution.angle_step_rad, tool.flutes)
+        self.bottom = BottomTemplate(tool, self.edges, self.theta, resolution.pixel_mm)
+        seg = np.zeros(len(cl))
+        if len(cl) > 1:
+            seg[1:] = np.linalg.norm(np.diff(cl.tip, axis=0), axis=1)
+        self.path = np.cumsum(seg)
+        # CL point range of each block
+        blocks = cl.block
+        order = np.argsort(blocks, kind="stable")
+        self._block_ids, first = np.unique(blocks[order], return_index=True)
+        self._first = order[first]
+        last = np.r_[first[1:], blocks.size] - 1
+        self._last = order[last]
+
+    # --- placing points ----------------------------------------------------
+    def block_points(self, block: int) -> tuple[int, int] | None:
+        """First and last CL index of a block, or None if it has none."""
+        k = np.searchsorted(self._block_ids, block)
+        if k >= self._block_ids.size or self._block_ids[k] != block:
+            return None
+        return int(self._first[k]), int(self._last[k])
+
+    def _at(self, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """Tip, axis, feed direction and ending CL index at path length L."""
+        s = int(np.searchsorted(self.path, L, side="left"))
+        s = min(max(s, 1), len(self.cl) - 1)
+        L0, L1 = self.path[s - 1], self.path[s]
+        t = 0.0 if L1 <= L0 else (L - L0) / (L1 - L0)
+        a, b = self.cl.tip[s - 1], self.cl.tip[s]
+        tip = a + t * (b - a)
+        ua, ub = self.cl.axis[s - 1], self.cl.axis[s]
+        u = (1 - t) * ua + t * ub
+        u /= np.linalg.norm(u)
+        return tip, u, b - a, s
+
+    def geometry(self, block: int) -> list[PointGeometry]:
+        """Prediction point(s) of one block, with their stage-1 geometry."""
+        rng = self.block_points(block)
+        if rng is None:
+            return []
+        i0, i1 = rng
+        cl = self.cl
+        if bool(np.all(cl.rapid[i0:i1 + 1])):
+            tip = cl.tip[i1]
+            return [PointGeometry(block, "rapid", float(self.path[i1]), tip, cl.axis[i1],
+                                  np.eye(3), math.nan, float(cl.spindle_rpm[i1]), np.zeros(3))]
+        start = self.path[i0 - 1] if i0 > 0 else 0.0
+        end = self.path[i1]
+        length = end - start
+        # the midpoint first; the quarters if the midpoint does not cut
+        last = None
+        for frac in (0.5, 0.25, 0.75):
+            g = self.point(block, start + frac * length, length)
+            if g.status != "no-cut":
+                return [g]
+            last = g
+        return [last]
+
+    # --- one point ---------------------------------------------------------
+    def point(self, block: int, L: float, cut_length: float) -> PointGeometry:
+        tool, res, bt = self.tool, self.res, self.bottom
+        tip, u, seg, s = self._at(L)
+        feed = float(self.cl.feed_mm_min[s])
+        spindle = float(self.cl.spindle_rpm[s])
+        frame = tool_frame(u, seg, tool.rotation_sign)
+        feed_dir = seg / max(np.linalg.norm(seg), 1e-300)
+        base = dict(block=block, path_mm=float(L), tip=tip, axis=u, frame=frame,
+                    feed_mm_min=feed, spindle_rpm=spindle)
+        if not spindle > 0:
+            return PointGeometry(status="spindle-stopped", feed_per_tooth_world=np.zeros(3),
+                                 **base)
+        fz = feed / (spindle * tool.flutes)
+        f_tooth = fz * feed_dir
+        base["feed_per_tooth_world"] = f_tooth
+        t1, t2 = self._near_sweeps(tip, u, L, fz)
+        # the stock's material in the bottom view
+        interval = None
+        if not getattr(self.stock, "is_box", False):
+            view = View.along_axis(tip, frame, bt.window_mm, bt.pixel_mm, bt.depth_offset_mm)
+            drange = (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm)
+            interval = self.stock.interval(view, depth_range=drange)
+        # engagement of flute 0 over one revolution
+        cand = bt.in_stock_local(self.stock, interval, tip, frame, bt.samples, bt.sample_ij)
+        world = tip + bt.samples @ frame
+        c, r, top = tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm
+        removed = inside_any_sweep_clustered(world, cand, *t1, c, r, top,
+                                             K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
+        cutting0 = (cand & ~removed).reshape(bt.sample_shape)
+        if not cutting0.any():
+            return PointGeometry(status="no-cut", **base)
+        feed_step = (frame @ (f_tooth * tool.flutes)) / bt.sample_shape[0]
+        step_len = np.linalg.norm(bt.rotation_step + feed_step, axis=-1)
+        cl_rev = np.where(cutting0, step_len, 0.0).sum(axis=0)
+        base.update(cut_length_mm=float(cut_length), cutting0=cutting0, cl_per_rev=cl_rev)
+        fin = bt.finished_surface(self.stock, interval, tip, frame, t1, t2)
+        notes = []
+        gen, used = None, "bottom"
+        if fin.xyz.shape[0]:
+            gen = _generation(tool, fin.xyz, fin.phi, fin.kappa, frame, tip)
+            if fin.refined_pixels:
+                used = "bottom-zoom"
+        if gen is None or gen.kappa_rad > K.VIEW_CORRECTION_KAPPA_RAD:
+            sgen = self._side_view(tip, frame, fin, cutting0, t1, t2)
+            if sgen is not None:
+                gen, used = sgen, "side"
+                notes.append("side view (steep contact)")
+        if gen is None:
+            return PointGeometry(status="no-finished-surface", cutting_pixels=fin.cutting_pixels,
+                                 notes=tuple(notes), **base)
+        rho_m = float(np.hypot(gen.point_tool[0], gen.point_tool[1]))
+        status = "predicted"
+        if rho_m < tool.radius_mm * math.sin(K.MIN_AXIS_NORMAL_ANGLE_RAD):
+            status = "axis-normal"
+        return PointGeometry(status=status, gen=gen, view=used,
+                             cutting_pixels=fin.cutting_pixels, finished_pixels=gen.pixels,
+                             notes=tuple(notes), **base)
+
+    def _near_sweeps(self, tip, u, L, fz):
+        """T1 and T2 near the tool, nearest first."""
+        tool = self.tool
+        R = tool.radius_mm
+        height = tool.flute_length_mm + tool.corner_radius_mm
+        top = tip + height * u
+        ext = R * np.sqrt(np.clip(1 - u * u, 0, None)) + 2 * self.res.pixel_mm
+        lo, hi = np.minimum(tip, top) - ext, np.maximum(tip, top) + ext
+        ids = self.sweeps.query(lo, hi)
+        if ids.size:
+            centre = tip + R * u
+            mid = self.sweeps.p0[ids] + 0.5 * self.sweeps.d[ids]
+            ids = ids[np.argsort(np.sum((mid - centre) ** 2, axis=1), kind="stable")]
+        return (self.sweeps.clipped(ids, -math.inf, L - fz),
+                self.sweeps.clipped(ids, L + fz, math.inf))
+
+    def _side_view(self, tip, frame, fin, cutting0, t1, t2) -> GenerationPoint | None:
+        """Finished surface seen from the side where the cutting region lies."""
+        tool, res = self.tool, self.res
+        phi_c = fin.cutting_phi
+        if phi_c.size == 0:
+            # nothing cuts in the bottom view (the flank): aim at the cutting edges
+            i, j = np.nonzero(cutting0)
+            phi_c = self.theta[i] - self.edges.psi[j]
+        az = math.atan2(float(np.sin(phi_c).mean()), float(np.cos(phi_c).mean()))
+        cut_edges = cutting0.any(axis=0)
+        zmax = float(self.edges.z[cut_edges].max()) if cut_edges.any() else 0.0
+        zcut = float(fin.cutting_z.max()) if fin.cutting_z.size else 0.0
+        height = min(tool.flute_length_mm, max(zmax, zcut) + res.pixel_mm)
+        side = View.side(tip, frame, az, tool.diameter_mm + 2 * res.pixel_mm,
+                         max(height, 2 * res.pixel_mm), res.pixel_mm / K.VIEW_ZOOM * 2)
+        probe = StockProbe(self.stock, side, (0.0, tool.diameter_mm + 2 * res.pixel_mm))
+        hits = envelope_hits(tool, side, frame, tip)
+        reg = regions(tool, hits, side.pixel_mm, probe, t1, t2)
+        return generation_point(tool, reg, frame, tip)
+
+
+def _generation(tool: Tool, xyz, phi, kappa, frame, tip) -> GenerationPoint:
+    """Generation point from finished sub-pixels (means of their attributes)."""
+    phi_m = math.atan2(float(np.sin(phi).mean()), float(np.cos(phi).mean()))
+    kappa_m = float(kappa.mean())
+    if kappa_m < math.pi / 2 - 1e-9:
+        rho, z = (float(v) for v in tool.profile_point(kappa_m))
+    else:
+        rho, z = tool.radius_mm, float(xyz[:, 2].mean())
+    pt = np.array([rho * math.sin(phi_m), rho * math.cos(phi_m), z])
+    sk, ck = math.sin(kappa_m), math.cos(kappa_m)
+    n_tool = np.array([-sk * math.sin(phi_m), -sk * math.cos(phi_m), ck])
+    theta = (phi_m + float(tool.helix_lag(z))) % (2 * math.pi)
+    return GenerationPoint(theta_rad=theta, phi_rad=phi_m, kappa_rad=kappa_m, point_tool=pt,
+                           point_world=tip + pt @ frame, normal_world=n_tool @ frame,
+                           pixels=int(xyz.shape[0]))

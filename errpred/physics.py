@@ -1,0 +1,165 @@
+"""Stage 2 of the prediction: forces with wear, deflection, and the error.
+
+Per prediction point, in program order (``docs/method.md`` §4-6): the
+actual cutting distance of each micro edge so far (carried from the
+previous points), the cutting force over one revolution, the tool's
+deflection by FFT with its compliance, the deflection at the instant the
+surface is generated, and the error ``E = E_d + E_p`` along the surface
+normal (positive: material left). The wear that makes this sequential is a
+running sum; everything else was computed in stage 1 (:mod:`errpred.geometry`).
+
+Bending directions: the compliance's ``x`` and ``y`` are world X and Y
+projected onto the plane normal to the tool axis (exactly X and Y for a
+vertical tool); ``z`` is the tool axis.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .coefficients import CuttingCoefficients
+from .dynamics import Compliance
+from .engagement import expand_flutes
+from .force import chip_thickness, tool_forces
+from .geometry import PointGeometry
+from .tool import MicroEdges, Tool
+
+__all__ = ["PointResult", "ShapeErrorModel", "WearState", "bending_basis", "evaluate",
+           "revolution"]
+
+
+def bending_basis(axis: np.ndarray) -> dict[str, np.ndarray]:
+    """Unit vectors of the compliance directions 'x', 'y', 'z' for a tool axis."""
+    u = np.asarray(axis, dtype=float)
+    x = np.array([1.0, 0.0, 0.0]) - u[0] * u
+    if np.linalg.norm(x) < 1e-6:  # tool along X: take Y as the first direction
+        x = np.array([0.0, 1.0, 0.0]) - u[1] * u
+    x /= np.linalg.norm(x)
+    return {"x": x, "y": np.cross(u, x), "z": u}
+
+
+class ShapeErrorModel:
+    """The tool's effective-radius error and its growth with wear.
+
+    Parameters
+    ----------
+    deviation : callable or None
+        ``deviation(kappa_rad, z_mm) -> mm``: effective cutting radius minus
+        nominal, measured on the spinning tool (form error, runout).
+    wear_rate : float [mm radius loss per mm of actual cutting distance]
+    """
+
+    def __init__(self, deviation=None, wear_rate: float = 0.0) -> None:
+        self.deviation = deviation
+        self.wear_rate = float(wear_rate)
+
+    def error_mm(self, kappa: float, z: float, cl_mm: float) -> float:
+        """``E_p``: a smaller effective radius leaves material (positive)."""
+        dev = float(self.deviation(kappa, z)) if self.deviation is not None else 0.0
+        return -dev + self.wear_rate * cl_mm
+
+
+@dataclass
+class WearState:
+    """Actual cutting distance of every micro edge so far (same for every flute) [mm]."""
+
+    cl_mm: np.ndarray
+
+    @classmethod
+    def new(cls, edges: MicroEdges) -> "WearState":
+        return cls(np.zeros(len(edges)))
+
+
+@dataclass(frozen=True)
+class PointResult:
+    """Stage-2 result of one prediction point (all physics in report units).
+
+    Attributes
+    ----------
+    peak_force_N : float
+        Largest magnitude of the force on the tool over the revolution.
+    mean_force_N : ndarray, shape (3,)
+        Revolution-mean force on the tool, world frame.
+    deflection_um : ndarray, shape (3,)
+        Tool deflection at the generation instant, world frame.
+    E_d_um, E_p_um, E_um : float
+        Error from deflection, from tool shape (with wear), total.
+    cl_max_mm, cl_gen_mm : float
+        Largest actual cutting distance of any micro edge, and that of the
+        micro edge generating the surface, at this point (wear so far).
+    """
+
+    peak_force_N: float
+    mean_force_N: np.ndarray
+    deflection_um: np.ndarray
+    E_d_um: float
+    E_p_um: float
+    E_um: float
+    cl_max_mm: float
+    cl_gen_mm: float
+
+
+def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
+               compliance: Compliance, g: PointGeometry, theta: np.ndarray,
+               cl_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Force on the tool and its deflection over one revolution, world frame.
+
+    Returns
+    -------
+    force_N : ndarray, shape (n, 3)
+    deflection_mm : ndarray, shape (n, 3)
+    """
+    phi, cutting = expand_flutes(theta, g.cutting0, edges, tool.flutes)
+    f_tool = g.frame @ g.feed_per_tooth_world
+    h = np.where(cutting, chip_thickness(edges, phi, f_tool), 0.0)
+    f_tool_frame = tool_forces(edges, coeffs, phi, h, cutting, cl_mm)
+    force = f_tool_frame @ g.frame  # rows: tool frame -> world
+    basis = bending_basis(g.axis)
+    dirs = compliance.directions
+    comp = np.stack([force @ basis[d] for d in dirs], axis=1)
+    defl = compliance.deflection(comp, g.spindle_rpm)  # (n, ndir) [mm]
+    deflection = sum(defl[:, k:k + 1] * basis[d][None, :] for k, d in enumerate(dirs))
+    return force, deflection
+
+
+def _at_angle(series: np.ndarray, theta: np.ndarray, angle: float) -> np.ndarray:
+    """Periodic linear interpolation of a (n, 3) series at ``angle`` [rad]."""
+    n = theta.shape[0]
+    x = (angle % (2 * math.pi)) / (2 * math.pi) * n
+    i = int(math.floor(x)) % n
+    t = x - math.floor(x)
+    return (1 - t) * series[i] + t * series[(i + 1) % n]
+
+
+def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
+             compliance: Compliance, shape: ShapeErrorModel, theta: np.ndarray,
+             g: PointGeometry, wear: WearState) -> PointResult | None:
+    """Stage 2 for one point; advances ``wear`` by the revolutions it cuts.
+
+    Returns None for points that do not cut (the wear does not advance).
+    """
+    if g.cutting0 is None:
+        return None
+    revs = g.spindle_rpm * g.cut_length_mm / g.feed_mm_min if g.feed_mm_min > 0 else 0.0
+    increment = g.cl_per_rev * revs
+    cl_mid = wear.cl_mm + 0.5 * increment
+    result = None
+    if g.gen is not None and g.status in ("predicted", "axis-normal"):
+        force, defl = revolution(tool, edges, coeffs, compliance, g, theta, cl_mm=cl_mid)
+        d_gen = _at_angle(defl, theta, g.gen.theta_rad)
+        n = g.gen.normal_world
+        E_d = float(d_gen @ n)
+        j = int(np.argmin(np.abs(edges.kappa - g.gen.kappa_rad)
+                          + np.abs(edges.z - g.gen.point_tool[2]) * 1e-3))
+        E_p = shape.error_mm(g.gen.kappa_rad, float(g.gen.point_tool[2]), float(cl_mid[j]))
+        result = PointResult(
+            peak_force_N=float(np.linalg.norm(force, axis=1).max()),
+            mean_force_N=force.mean(axis=0),
+            deflection_um=d_gen * 1e3,
+            E_d_um=E_d * 1e3, E_p_um=E_p * 1e3, E_um=(E_d + E_p) * 1e3,
+            cl_max_mm=float(cl_mid.max()), cl_gen_mm=float(cl_mid[j]))
+    wear.cl_mm = wear.cl_mm + increment
+    return result

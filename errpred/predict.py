@@ -1,0 +1,200 @@
+"""The prediction pipeline: a program in, an error per block out.
+
+Two stages (``docs/architecture.md``): stage 1, the geometry of every
+prediction point (:mod:`errpred.geometry`), depends only on the program and
+the stock, so it runs block by block in any order, in this process or in a
+pool of worker processes; stage 2, forces with wear, deflection and error
+(:mod:`errpred.physics`), runs in program order because the actual cutting
+distance of each micro edge carries from block to block. Memory stays
+bounded: stage-1 results are consumed in order as they arrive.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from nc.path import CutterLocations, cutter_locations
+from nc.program import Program
+
+from .coefficients import CuttingCoefficients
+from .dynamics import Compliance
+from .geometry import STATUS, GeometryModel, PointGeometry, Resolution
+from .physics import PointResult, ShapeErrorModel, WearState, evaluate
+from .tool import Tool
+
+__all__ = ["Prediction", "PointPrediction", "Predictor", "predict_points"]
+
+
+@dataclass(frozen=True, eq=False)
+class PointPrediction:
+    """Stage 1 and stage 2 of one prediction point, together."""
+
+    geometry: PointGeometry
+    result: PointResult | None
+    line: int
+
+    @property
+    def block(self) -> int:
+        return self.geometry.block
+
+    @property
+    def status(self) -> str:
+        return self.geometry.status
+
+    @property
+    def E_um(self) -> float:
+        return self.result.E_um if self.result is not None else math.nan
+
+
+@dataclass(eq=False)
+class Prediction:
+    """Results along a program.
+
+    Attributes
+    ----------
+    points : list of PointPrediction
+        In program order.
+    wear_mm : ndarray, shape (m,)
+        Actual cutting distance of each micro edge at the end [mm].
+    edges_kappa_rad, edges_z_mm : ndarray, shape (m,)
+        Where the micro edges are (for plots of wear along the edge).
+    """
+
+    points: list[PointPrediction]
+    wear_mm: np.ndarray
+    edges_kappa_rad: np.ndarray
+    edges_z_mm: np.ndarray
+    notes: list[str] = field(default_factory=list)
+
+    def errors_um(self) -> np.ndarray:
+        return np.array([p.E_um for p in self.points])
+
+    def predicted(self) -> list[PointPrediction]:
+        return [p for p in self.points if p.result is not None and p.status == "predicted"]
+
+
+# --- the worker side of stage 1 ----------------------------------------------
+_WORKER_MODEL: GeometryModel | None = None
+
+
+def _init_worker(model: GeometryModel) -> None:
+    global _WORKER_MODEL
+    _WORKER_MODEL = model
+
+
+def _worker_chunk(blocks: list[int]) -> list[list[PointGeometry]]:
+    assert _WORKER_MODEL is not None
+    return [_WORKER_MODEL.geometry(b) for b in blocks]
+
+
+class Predictor:
+    """Holds the models; :meth:`run` predicts.
+
+    Parameters
+    ----------
+    tool : Tool
+    stock : errpred.raster.meshes.Stock
+    program : Program
+    coefficients : CuttingCoefficients
+    compliance : Compliance
+    shape_error : ShapeErrorModel, optional
+    resolution : Resolution, optional
+    machine : nc.kinematics.Machine, optional
+        For programs that move rotary axes.
+    cl : CutterLocations, optional
+        The path, if already made (else from ``program`` and ``machine``).
+    """
+
+    def __init__(self, tool: Tool, stock, program: Program,
+                 coefficients: CuttingCoefficients, compliance: Compliance,
+                 shape_error: ShapeErrorModel | None = None,
+                 resolution: Resolution | None = None, machine=None,
+                 cl: CutterLocations | None = None) -> None:
+        self.tool = tool
+        self.program = program
+        self.coefficients = coefficients
+        self.compliance = compliance
+        self.shape = shape_error or ShapeErrorModel()
+        self.resolution = resolution or Resolution.default(tool)
+        self.cl = cl if cl is not None else cutter_locations(
+            program, machine, chord_tol_mm=self.resolution.chord_tol_mm)
+        self.model = GeometryModel(tool, stock, self.cl, self.resolution)
+
+    @property
+    def edges(self):
+        return self.model.edges
+
+    @property
+    def theta(self) -> np.ndarray:
+        return self.model.theta
+
+    def geometries(self, blocks: Iterable[int], *, workers: int = 1,
+                   chunk: int = 64) -> Iterator[list[PointGeometry]]:
+        """Stage 1 of ``blocks``, yielded in the given order."""
+        blocks = list(blocks)
+        if workers <= 1 or len(blocks) < 2 * chunk:
+            for b in blocks:
+                yield self.model.geometry(b)
+            return
+        chunks = [blocks[i:i + chunk] for i in range(0, len(blocks), chunk)]
+        import multiprocessing as mp
+
+        ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                 initializer=_init_worker, initargs=(self.model,)) as pool:
+            for res in pool.map(_worker_chunk, chunks):
+                yield from res
+
+    def run(self, blocks: Iterable[int] | None = None, *, workers: int = 1,
+            progress: Callable[[int], None] | None = None) -> Prediction:
+        """Predict the error of ``blocks`` (default: every block of the program).
+
+        Parameters
+        ----------
+        blocks : iterable of int, optional
+            Program block indices, ascending. Wear is carried through the
+            blocks given only: pass every block (the default) for wear along
+            the whole program.
+        workers : int
+            Processes for stage 1 (1: this process).
+        progress : callable, optional
+            Called with the number of blocks done after each block.
+        """
+        blocks = list(range(len(self.program))) if blocks is None else list(blocks)
+        wear = WearState.new(self.edges)
+        out: list[PointPrediction] = []
+        done = 0
+        for geoms in self.geometries(blocks, workers=workers):
+            for g in geoms:
+                res = evaluate(self.tool, self.edges, self.coefficients, self.compliance,
+                               self.shape, self.theta, g, wear)
+                out.append(PointPrediction(g, res, int(self.program.line[g.block])))
+            done += 1
+            if progress is not None:
+                progress(done)
+        return Prediction(points=out, wear_mm=wear.cl_mm, edges_kappa_rad=self.edges.kappa,
+                          edges_z_mm=self.edges.z)
+
+
+def predict_points(predictor: Predictor, blocks=None, **kwargs) -> Prediction:
+    """Functional form of :meth:`Predictor.run`."""
+    return predictor.run(blocks, **kwargs)
+
+
+def status_text(status: str) -> str:
+    """Human-readable meaning of a point's status."""
+    return STATUS.get(status, status)
+
+
+def default_workers() -> int:
+    """Stage-1 workers for this machine (the cores available to the process)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover
+        return max(1, os.cpu_count() or 1)

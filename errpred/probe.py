@@ -1,0 +1,52 @@
+"""Is there stock material at these points? One view's answer.
+
+A box answers analytically. A mesh answers through the depth buffer of the
+current view: the material along a pixel ray lies between the first entry
+(``bottom``) and the first exit (``top``) of the stock
+(:meth:`errpred.raster.meshes.Stock.interval`); a point is in material when
+its depth lies in its pixel's interval. Points outside the view's window
+have no answer and count as no material, so a view must cover the points it
+is asked about (the bottom view covers the tool's disk).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .constants import MEMBERSHIP_EPS_MM
+
+__all__ = ["StockProbe"]
+
+
+class StockProbe:
+    """``probe(points) -> bool`` for one stock and one view.
+
+    Parameters
+    ----------
+    stock : errpred.raster.meshes.Stock
+    view : errpred.raster.camera.View
+    depth_range : tuple of float [mm]
+        Depths of the view that matter (the tool's extent along the rays).
+    """
+
+    def __init__(self, stock, view, depth_range: tuple[float, float]) -> None:
+        self.stock = stock
+        self.view = view
+        self._box = getattr(stock, "is_box", False)
+        if not self._box:
+            self.bottom, self.top = stock.interval(view, depth_range=depth_range)
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        pts = np.asarray(points, dtype=float).reshape(-1, 3)
+        if self._box:
+            lo, hi = self.stock.bounds
+            e = MEMBERSHIP_EPS_MM
+            return np.all((pts >= lo - e) & (pts <= hi + e), axis=1)
+        i, j, inside = self.view.pixel_of(pts)
+        depth = self.view.to_view(pts)[:, 2]
+        out = np.zeros(pts.shape[0], dtype=bool)
+        ii, jj = i[inside], j[inside]
+        d = depth[inside]
+        e = MEMBERSHIP_EPS_MM
+        out[inside] = (self.bottom[ii, jj] - e <= d) & (d <= self.top[ii, jj] + e)
+        return out

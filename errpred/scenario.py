@@ -1,0 +1,628 @@
+"""Scenario files: everything one prediction run needs, in one TOML file.
+
+A scenario names the stock, the tool, the NC program, the cutting
+coefficients, the tool-tip dynamics, the tool's shape error and wear, and
+optional resolution, correction and tool-change settings. Every path is
+relative to the scenario file. Units are in the key names (``diameter_mm``,
+``stiffness_N_m``); degrees only in keys ending ``_deg``. The format is
+described key by key in ``docs/scenario-format.md``.
+
+:func:`load_scenario` checks the whole file before anything is computed. Every
+problem raises :class:`ScenarioError` (a ``ValueError``) whose message names
+the file, the dotted key (``tool.diameter_mm``, ``dynamics.modes[1].frequency_hz``)
+and what was expected: missing keys, unknown keys (typos and wrong units are
+refused, with a suggestion), wrong types, NaN and infinity (TOML has ``nan``
+and ``inf`` literals), zero or negative values where a positive one is
+needed, unknown tool types, files that do not exist (with the resolved path),
+and both or neither of ``stock.stl`` and ``stock.box_*``.
+
+Two scenarios are bundled (:data:`BUNDLED`, :func:`bundled_scenario`); they
+are made by ``scripts/make_errpred_scenarios.py``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import constants as K
+from .tool import TOOL_KINDS, Holder, Tool
+
+__all__ = ["ScenarioError", "StockSpec", "ShapeError", "Resolution", "CorrectionOptions",
+           "Scenario", "load_scenario", "BUNDLED", "bundled_scenario"]
+
+_HERE = Path(__file__).resolve().parent / "scenarios"
+#: Bundled scenarios: name -> path of their ``scenario.toml``.
+BUNDLED: dict[str, Path] = {n: _HERE / n / "scenario.toml" for n in ("mold-ball", "wall-radius")}
+
+_MISSING = object()
+_DIRECTIONS = ("x", "y", "z")
+
+
+def bundled_scenario(name: str) -> Path:
+    """Path of the bundled scenario ``name`` (a key of :data:`BUNDLED`)."""
+    try:
+        return BUNDLED[name]
+    except KeyError:
+        raise ValueError(f"no bundled scenario {name!r}; expected one of "
+                         f"{', '.join(BUNDLED)}") from None
+
+
+class ScenarioError(ValueError):
+    """A scenario file that cannot be used: names the file and the dotted key.
+
+    Attributes
+    ----------
+    file : str
+        The scenario file as given.
+    key : str or None
+        Dotted key (``tool.diameter_mm``), None for the file as a whole.
+    """
+
+    def __init__(self, file: str, key: str | None, message: str) -> None:
+        self.file, self.key = file, key
+        super().__init__(f"{file}: {key}: {message}" if key else f"{file}: {message}")
+
+
+# --------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class StockSpec:
+    """Where the stock comes from.
+
+    Attributes
+    ----------
+    kind : str
+        ``'stl'`` or ``'box'``.
+    path : Path or None
+        The stock mesh (kind ``'stl'``).
+    bounds : tuple of two 3-tuples or None
+        ``(min_mm, max_mm)`` (kind ``'box'``) [mm].
+    design_path : Path or None
+        The design surface mesh, for over- and undercut against the design.
+    """
+
+    kind: str
+    path: Path | None = None
+    bounds: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+    design_path: Path | None = None
+
+    def load(self):
+        """The stock as an :class:`errpred.raster.meshes.Stock`."""
+        from .raster.meshes import Stock
+
+        if self.kind == "stl":
+            return Stock.from_stl(self.path)
+        return Stock.from_box(*self.bounds)
+
+    def load_design(self):
+        """The design mesh as a ``trimesh.Trimesh``, or None without one."""
+        if self.design_path is None:
+            return None
+        import trimesh
+
+        return trimesh.load(os.fspath(self.design_path), force="mesh")
+
+
+@dataclass(frozen=True, eq=False)
+class ShapeError:
+    """Tool shape error (measured on the spinning tool) and wear.
+
+    The table gives the effective cutting radius minus nominal against the
+    contact angle kappa (``axis == 'kappa'``, abscissa in rad) or against the
+    height above the tip (``axis == 'z'``, in mm); ``axis == 'none'`` means no
+    table (zero deviation). Between table points the deviation is linear;
+    beyond the first and last point it is held at the end value.
+
+    Sign: the machining error from the tool's shape is ``E_p = -deviation +
+    wear loss`` [mm], positive = material left. A tool whose effective radius
+    is smaller than nominal (negative deviation) or that has worn leaves
+    material. The wear loss is ``wear_rate_mm_per_mm * cl``, ``cl`` the
+    micro edge's actual cutting distance [mm].
+
+    Attributes
+    ----------
+    axis : str
+    abscissa : ndarray [rad or mm]
+    deviation_mm : ndarray [mm]
+    wear_rate_mm_per_mm : float
+        Radius loss per mm of actual cutting distance [mm/mm] (the file's
+        ``wear_rate_um_per_m`` times 1e-6).
+    source : str
+    """
+
+    axis: str = "none"
+    abscissa: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    deviation_mm: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    wear_rate_mm_per_mm: float = 0.0
+    source: str = ""
+
+    def radius_deviation_mm(self, kappa_rad: Any, z_mm: Any) -> np.ndarray:
+        """Effective radius minus nominal at contact angle / height [mm].
+
+        Both arguments are given (broadcast together); the table's axis
+        decides which one is used.
+        """
+        k, z = np.broadcast_arrays(np.asarray(kappa_rad, float), np.asarray(z_mm, float))
+        if self.axis == "none":
+            return np.zeros(k.shape)
+        return np.interp(k if self.axis == "kappa" else z, self.abscissa, self.deviation_mm)
+
+    def wear_loss_mm(self, cl_mm: Any) -> np.ndarray:
+        """Radius lost to wear after actual cutting distance ``cl_mm`` [mm]."""
+        return self.wear_rate_mm_per_mm * np.asarray(cl_mm, float)
+
+    def material_left_mm(self, kappa_rad: Any, z_mm: Any, cl_mm: Any = 0.0) -> np.ndarray:
+        """``E_p = -deviation + wear loss`` [mm] (positive = undercut, material left)."""
+        return self.wear_loss_mm(cl_mm) - self.radius_deviation_mm(kappa_rad, z_mm)
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """Discretization settings (defaults from :mod:`errpred.constants`)."""
+
+    pixel_mm: float
+    micro_edges: int = K.MICRO_EDGES_ENVELOPE
+    angle_step_rad: float = K.ANGLE_STEP_RAD
+    chord_tol_mm: float = K.CHORD_TOL_MM
+
+
+@dataclass(frozen=True)
+class CorrectionOptions:
+    """Path correction: one pass, or predict-correct iterations until the
+    largest change of a point is below ``tolerance_um``."""
+
+    iterate: bool = False
+    tolerance_um: float = 1.0
+    max_iterations: int = 5
+
+
+@dataclass(frozen=True, eq=False)
+class Scenario:
+    """A loaded, checked scenario (see :func:`load_scenario`)."""
+
+    name: str
+    path: Path
+    stock: StockSpec
+    tool: Tool
+    program_path: Path
+    allow: tuple[str, ...]
+    lines: tuple[int, int] | None
+    machine: str | Path | None
+    coefficients: Any
+    compliance: Any
+    shape_error: ShapeError
+    resolution: Resolution
+    correction: CorrectionOptions
+    tool_change_tolerance_um: float | None
+    sources: dict[str, str]
+    description: str = ""
+
+    def read_program(self):
+        """The NC program (``nc.read_program`` with the scenario's allow list)."""
+        from nc import read_program
+
+        return read_program(self.program_path, allow=self.allow)
+
+
+# --------------------------------------------------------------------------- reading
+class _Reader:
+    """Typed access to one TOML file's tables; every error names file and key."""
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        self.file = os.fspath(path)
+        self.base = Path(self.file).resolve().parent
+
+    def fail(self, key: str | None, message: str) -> ScenarioError:
+        return ScenarioError(self.file, key, message)
+
+    def table(self, value: Any, key: str) -> dict:
+        if not isinstance(value, dict):
+            raise self.fail(key, f"expected a table ([{key}]), got {_kind(value)}")
+        return value
+
+    def keys(self, d: dict, prefix: str, required: tuple, optional: tuple = ()) -> None:
+        allowed = required + optional
+        for k in d:
+            if k not in allowed:
+                hint = _suggest(k, allowed)
+                raise self.fail(_dot(prefix, k), "unknown key" + (
+                    f"; did you mean {_dot(prefix, hint)!r}?" if hint else "")
+                    + f" (expected {', '.join(allowed)})")
+        for k in required:
+            if k not in d:
+                raise self.fail(_dot(prefix, k), "missing")
+
+    def number(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
+               sign: str = "") -> float:
+        key = _dot(prefix, k)
+        if k not in d:
+            if default is _MISSING:
+                raise self.fail(key, "missing")
+            return default
+        v = d[k]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise self.fail(key, f"expected a number, got {_kind(v)}")
+        v = float(v)
+        if not math.isfinite(v):
+            raise self.fail(key, f"expected a finite number, got {v}")
+        if (sign == ">0" and v <= 0) or (sign == ">=0" and v < 0):
+            raise self.fail(key, f"expected a value {sign[:-1]} 0, got {v:g}")
+        return v
+
+    def integer(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
+                minimum: int = 1) -> int:
+        key = _dot(prefix, k)
+        if k not in d:
+            if default is _MISSING:
+                raise self.fail(key, "missing")
+            return default
+        v = d[k]
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise self.fail(key, f"expected a whole number, got {_kind(v)}")
+        if v < minimum:
+            raise self.fail(key, f"expected a whole number >= {minimum}, got {v}")
+        return v
+
+    def string(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
+               choices: tuple = ()) -> str:
+        key = _dot(prefix, k)
+        if k not in d:
+            if default is _MISSING:
+                raise self.fail(key, "missing")
+            return default
+        v = d[k]
+        if not isinstance(v, str):
+            raise self.fail(key, f"expected a string, got {_kind(v)}")
+        if choices and v not in choices:
+            raise self.fail(key, f"unknown value {v!r}; expected one of "
+                                 f"{', '.join(map(repr, choices))}")
+        return v
+
+    def numbers(self, d: dict, k: str, prefix: str, *, length: int | None = None,
+                sign: str = "") -> list[float]:
+        key = _dot(prefix, k)
+        v = d[k]
+        if not isinstance(v, list) or not v:
+            raise self.fail(key, f"expected a non-empty array of numbers, got {_kind(v)}")
+        if length is not None and len(v) != length:
+            raise self.fail(key, f"expected {length} numbers, got {len(v)}")
+        return [self.number({f"{k}[{i}]": x}, f"{k}[{i}]", prefix, sign=sign)
+                for i, x in enumerate(v)]
+
+    def path(self, d: dict, k: str, prefix: str) -> Path:
+        key = _dot(prefix, k)
+        v = self.string(d, k, prefix)
+        p = (self.base / v).resolve()
+        if not p.is_file():
+            raise self.fail(key, f"file not found: {p}")
+        return p
+
+
+def _dot(prefix: str, k: str) -> str:
+    return f"{prefix}.{k}" if prefix else k
+
+
+def _kind(v: Any) -> str:
+    names = {bool: "a boolean", str: "a string", dict: "a table", list: "an array",
+             int: "an integer", float: "a number"}
+    return f"{names.get(type(v), type(v).__name__)} ({v!r})" if not isinstance(v, dict) \
+        else "a table"
+
+
+def _suggest(k: str, allowed: tuple) -> str | None:
+    stem = k.split("_")[0]
+    same_stem = [a for a in allowed if a.split("_")[0] == stem]
+    if len(same_stem) == 1:
+        return same_stem[0]
+    close = difflib.get_close_matches(k, allowed, n=1, cutoff=0.6)
+    return close[0] if close else None
+
+
+# --------------------------------------------------------------------------- sections
+def _stock(r: _Reader, d: dict) -> StockSpec:
+    r.keys(d, "stock", (), ("stl", "box_min_mm", "box_max_mm", "design_stl"))
+    design = r.path(d, "design_stl", "stock") if "design_stl" in d else None
+    box = [k for k in ("box_min_mm", "box_max_mm") if k in d]
+    if "stl" in d and box:
+        raise r.fail("stock.stl", "give either stl or box_min_mm and box_max_mm, not both")
+    if "stl" in d:
+        return StockSpec("stl", path=r.path(d, "stl", "stock"), design_path=design)
+    if not box:
+        raise r.fail("stock.stl", "missing; expected stl = \"file.stl\" or box_min_mm and "
+                                  "box_max_mm")
+    lo = r.numbers(d, "box_min_mm", "stock", length=3) if "box_min_mm" in d else None
+    hi = r.numbers(d, "box_max_mm", "stock", length=3) if "box_max_mm" in d else None
+    if lo is None or hi is None:
+        raise r.fail("stock.box_min_mm" if lo is None else "stock.box_max_mm",
+                     "missing; a box needs both box_min_mm and box_max_mm")
+    if any(b <= a for a, b in zip(lo, hi)):
+        raise r.fail("stock.box_max_mm", f"expected every coordinate above box_min_mm {lo}, "
+                                         f"got {hi}")
+    return StockSpec("box", bounds=(tuple(lo), tuple(hi)), design_path=design)
+
+
+def _tool(r: _Reader, d: dict) -> Tool:
+    p = "tool"
+    r.keys(d, p, ("type", "diameter_mm", "flutes", "helix_deg"),
+           ("corner_radius_mm", "flute_length_mm", "overhang_mm", "rotation",
+            "shank_diameter_mm", "holder"))
+    kind = r.string(d, "type", p)
+    if kind not in TOOL_KINDS:
+        raise r.fail("tool.type", f"unknown tool type {kind!r}; expected one of "
+                                  f"{', '.join(TOOL_KINDS)}")
+    dia = r.number(d, "diameter_mm", p, sign=">0")
+    corner = 0.0
+    if kind == "radius":
+        corner = r.number(d, "corner_radius_mm", p, sign=">0")
+        if corner >= dia / 2:
+            raise r.fail("tool.corner_radius_mm", f"expected less than diameter_mm / 2 = "
+                                                  f"{dia / 2:g} for a radius end mill, got "
+                                                  f"{corner:g}")
+    elif "corner_radius_mm" in d:
+        want = dia / 2 if kind == "ball" else 0.0
+        got = r.number(d, "corner_radius_mm", p, sign=">=0")
+        if abs(got - want) > 1e-9:
+            raise r.fail("tool.corner_radius_mm", f"a {kind} end mill has corner radius "
+                                                  f"{want:g} mm, got {got:g}")
+    helix = r.number(d, "helix_deg", p)
+    if abs(helix) > 60:
+        raise r.fail("tool.helix_deg", f"expected -60 to 60 degrees, got {helix:g}")
+    opt = {k: r.number(d, k, p, default=None, sign=">0")
+           for k in ("flute_length_mm", "overhang_mm", "shank_diameter_mm")}
+    holder = None
+    if "holder" in d:
+        h = r.table(d["holder"], "tool.holder")
+        r.keys(h, "tool.holder", ("diameter_mm", "length_mm"))
+        holder = Holder(r.number(h, "diameter_mm", "tool.holder", sign=">0"),
+                        r.number(h, "length_mm", "tool.holder", sign=">0"))
+    flutes = r.integer(d, "flutes", p)
+    rotation = r.string(d, "rotation", p, default="cw", choices=("cw", "ccw"))
+    try:
+        return Tool(kind, dia, corner, flutes, helix, rotation=rotation, holder=holder, **opt)
+    except ValueError as exc:
+        raise r.fail("tool", str(exc)) from None
+
+
+def _program(r: _Reader, d: dict) -> tuple:
+    p = "program"
+    r.keys(d, p, ("gcode",), ("allow", "lines", "machine"))
+    gcode = r.path(d, "gcode", p)
+    allow = d.get("allow", [])
+    if not isinstance(allow, list) or not all(isinstance(a, str) for a in allow):
+        raise r.fail("program.allow", f"expected an array of strings, got {_kind(allow)}")
+    try:
+        from nc.dialect import normalise_allow
+
+        normalise_allow(allow)
+    except ValueError as exc:
+        raise r.fail("program.allow", str(exc)) from None
+    lines = None
+    if "lines" in d:
+        v = d["lines"]
+        if not (isinstance(v, list) and len(v) == 2
+                and all(isinstance(x, int) and not isinstance(x, bool) and x >= 1 for x in v)
+                and v[0] <= v[1]):
+            raise r.fail("program.lines", f"expected [first, last], whole numbers >= 1 with "
+                                          f"first <= last, got {_kind(v)}")
+        lines = (v[0], v[1])
+    machine: str | Path | None = None
+    if "machine" in d:
+        m = r.string(d, "machine", p)
+        if m.endswith(".toml"):
+            machine = r.path(d, "machine", p)
+        else:
+            from nc.kinematics import _ALIASES, MACHINES
+
+            if m not in MACHINES and m not in _ALIASES:
+                raise r.fail("program.machine", f"unknown machine {m!r}; expected one of "
+                                                f"{', '.join(sorted(MACHINES))} or a .toml file")
+            machine = m
+    return gcode, tuple(allow), lines, machine
+
+
+def _cutting(r: _Reader, d: dict):
+    from .coefficients import CHIP_AND_EDGE_NAMES, WEAR_NAMES, CuttingCoefficients
+
+    p = "cutting"
+    r.keys(d, p, CHIP_AND_EDGE_NAMES, WEAR_NAMES + ("source",))
+    vals = {k: r.number(d, k, p, sign=">0" if k == "Ktc_N_mm2" else "")
+            for k in CHIP_AND_EDGE_NAMES}
+    vals.update({k: r.number(d, k, p, default=0.0) for k in WEAR_NAMES})
+    src = r.string(d, "source", p, default="")
+    return CuttingCoefficients(**vals, source=src), src
+
+
+def _dynamics(r: _Reader, d: dict):
+    from .dynamics import Compliance, Mode
+
+    p = "dynamics"
+    r.keys(d, p, (), ("model", "modes", "frf_uff", "frf_csv", "static_compliance_m_N",
+                      "source"))
+    model = r.string(d, "model", p, default="dynamic", choices=("dynamic", "static"))
+    src = r.string(d, "source", p, default="")
+    given = [k for k in ("modes", "frf_uff", "frf_csv") if k in d]
+    if len(given) > 1:
+        raise r.fail(f"dynamics.{given[1]}", f"give one of modes, frf_uff, frf_csv; got "
+                                             f"{', '.join(given)}")
+    static = None
+    if "static_compliance_m_N" in d:
+        t = r.table(d["static_compliance_m_N"], "dynamics.static_compliance_m_N")
+        r.keys(t, "dynamics.static_compliance_m_N", (), _DIRECTIONS)
+        static = {k: r.number(t, k, "dynamics.static_compliance_m_N", sign=">0") for k in t}
+    if not given and not (model == "static" and static):
+        raise r.fail("dynamics.modes", "missing; expected [[dynamics.modes]], frf_uff or "
+                                       "frf_csv (or model = \"static\" with "
+                                       "static_compliance_m_N)")
+    if given == ["modes"] and static:
+        raise r.fail("dynamics.static_compliance_m_N", "not with modes (their static "
+                                                       "compliance is sum 1/k)")
+    try:
+        if given == ["modes"]:
+            modes = _modes(r, d["modes"], Mode)
+            return Compliance.from_modes(modes, static_only=model == "static"), src
+        if given:
+            key = given[0]
+            if key == "frf_uff":
+                comp = Compliance.from_uff(r.path(d, key, p), static_m_N=static)
+            else:
+                t = r.table(d[key], "dynamics.frf_csv")
+                r.keys(t, "dynamics.frf_csv", ("x", "y"), ("z",))
+                comp = Compliance.from_csv({k: r.path(t, k, "dynamics.frf_csv") for k in t},
+                                           static_m_N=static)
+            _need_xy(r, comp.directions, f"dynamics.{key}")
+            if model == "dynamic":
+                return comp, src
+            static = comp.static_compliance_m_N
+        _need_xy(r, tuple(static), "dynamics.static_compliance_m_N")
+        return Compliance.from_modes({k: Mode(1.0 / c, 1.0, 0.0) for k, c in static.items()},
+                                     static_only=True), src
+    except ScenarioError:
+        raise
+    except (ValueError, TypeError, OSError) as exc:
+        raise r.fail(f"dynamics.{given[0] if given else 'static_compliance_m_N'}",
+                     str(exc)) from None
+
+
+def _need_xy(r: _Reader, dirs: tuple, key: str) -> None:
+    if not {"x", "y"} <= set(dirs):
+        raise r.fail(key, f"needs directions x and y (the tool's two bending directions), "
+                          f"got {', '.join(dirs) or 'none'}")
+
+
+def _modes(r: _Reader, v: Any, Mode) -> dict:
+    if not isinstance(v, list) or not v:
+        raise r.fail("dynamics.modes", f"expected [[dynamics.modes]] tables, got {_kind(v)}")
+    out: dict[str, list] = {}
+    for i, m in enumerate(v):
+        p = f"dynamics.modes[{i}]"
+        m = r.table(m, p)
+        by_freq = "frequency_hz" in m or "damping_ratio" in m
+        if by_freq:
+            r.keys(m, p, ("direction", "frequency_hz", "damping_ratio", "stiffness_N_m"))
+        else:
+            r.keys(m, p, ("direction", "mass_kg", "damping_Ns_m", "stiffness_N_m"))
+        dr = r.string(m, "direction", p, choices=_DIRECTIONS)
+        k = r.number(m, "stiffness_N_m", p, sign=">0")
+        if by_freq:
+            mode = Mode.from_frequency(r.number(m, "frequency_hz", p, sign=">0"),
+                                       r.number(m, "damping_ratio", p, sign=">=0"), k)
+        else:
+            mode = Mode(k, r.number(m, "mass_kg", p, sign=">0"),
+                        r.number(m, "damping_Ns_m", p, sign=">=0"))
+        out.setdefault(dr, []).append(mode)
+    _need_xy(r, tuple(out), "dynamics.modes")
+    return out
+
+
+def _shape_error(r: _Reader, d: dict) -> ShapeError:
+    p = "shape_error"
+    r.keys(d, p, (), ("kappa_deg", "z_mm", "radius_deviation_um", "wear_rate_um_per_m",
+                      "source"))
+    wear = r.number(d, "wear_rate_um_per_m", p, default=0.0, sign=">=0") * 1e-6
+    src = r.string(d, "source", p, default="")
+    axes = [k for k in ("kappa_deg", "z_mm") if k in d]
+    if len(axes) > 1:
+        raise r.fail("shape_error.z_mm", "give kappa_deg or z_mm, not both")
+    if not axes and "radius_deviation_um" not in d:
+        return ShapeError(wear_rate_mm_per_mm=wear, source=src)
+    if not axes:
+        raise r.fail("shape_error.kappa_deg", "missing; radius_deviation_um needs kappa_deg "
+                                              "or z_mm")
+    if "radius_deviation_um" not in d:
+        raise r.fail("shape_error.radius_deviation_um", "missing")
+    x = r.numbers(d, axes[0], p, sign=">=0")
+    dev = r.numbers(d, "radius_deviation_um", p, length=len(x))
+    if any(b <= a for a, b in zip(x, x[1:])):
+        raise r.fail(f"shape_error.{axes[0]}", "expected strictly increasing values")
+    if axes[0] == "kappa_deg":
+        if x[-1] > 90:
+            raise r.fail("shape_error.kappa_deg", f"expected 0 to 90 degrees, got {x[-1]:g}")
+        xs = np.radians(x)
+    else:
+        xs = np.asarray(x)
+    return ShapeError("kappa" if axes[0] == "kappa_deg" else "z", np.asarray(xs, float),
+                      np.asarray(dev) * 1e-3, wear, src)
+
+
+def _resolution(r: _Reader, d: dict, tool: Tool) -> Resolution:
+    p = "resolution"
+    r.keys(d, p, (), ("pixel_mm", "micro_edges", "angle_step_deg", "chord_tol_mm"))
+    return Resolution(
+        r.number(d, "pixel_mm", p, default=tool.diameter_mm * K.PIXEL_PER_DIAMETER, sign=">0"),
+        r.integer(d, "micro_edges", p, default=K.MICRO_EDGES_ENVELOPE, minimum=2),
+        math.radians(r.number(d, "angle_step_deg", p,
+                              default=math.degrees(K.ANGLE_STEP_RAD), sign=">0")),
+        r.number(d, "chord_tol_mm", p, default=K.CHORD_TOL_MM, sign=">0"))
+
+
+def _correction(r: _Reader, d: dict) -> CorrectionOptions:
+    p = "correction"
+    r.keys(d, p, (), ("iterate", "tolerance_um", "max_iterations"))
+    it = d.get("iterate", False)
+    if not isinstance(it, bool):
+        raise r.fail("correction.iterate", f"expected true or false, got {_kind(it)}")
+    return CorrectionOptions(it, r.number(d, "tolerance_um", p, default=1.0, sign=">0"),
+                             r.integer(d, "max_iterations", p, default=5))
+
+
+# --------------------------------------------------------------------------- entry point
+_TOP_REQUIRED = ("name", "stock", "tool", "program", "cutting", "dynamics")
+_TOP_OPTIONAL = ("description", "shape_error", "resolution", "correction", "tool_change")
+
+
+def load_scenario(path: str | os.PathLike) -> Scenario:
+    """Read and check a scenario file.
+
+    Parameters
+    ----------
+    path : path-like
+        The scenario TOML; relative paths inside it are relative to its folder.
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    ScenarioError
+        The first problem found, naming the file and the dotted key.
+    """
+    r = _Reader(path)
+    try:
+        with open(r.file, "rb") as fh:
+            doc = tomllib.load(fh)
+    except FileNotFoundError:
+        raise r.fail(None, f"scenario file not found: {Path(r.file).resolve()}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise r.fail(None, f"not valid TOML: {exc}") from None
+    r.keys(doc, "", _TOP_REQUIRED, _TOP_OPTIONAL)
+    sec = {k: r.table(doc[k], k) for k in _TOP_REQUIRED[1:] + _TOP_OPTIONAL[1:] if k in doc}
+    name = r.string(doc, "name", "")
+    if not name.strip():
+        raise r.fail("name", "expected a non-empty string")
+    description = r.string(doc, "description", "", default="")
+    stock = _stock(r, sec["stock"])
+    tool = _tool(r, sec["tool"])
+    gcode, allow, lines, machine = _program(r, sec["program"])
+    coeffs, cut_src = _cutting(r, sec["cutting"])
+    compliance, dyn_src = _dynamics(r, sec["dynamics"])
+    shape = _shape_error(r, sec["shape_error"]) if "shape_error" in sec else ShapeError()
+    tol = None
+    if "tool_change" in sec:
+        r.keys(sec["tool_change"], "tool_change", ("tolerance_um",))
+        tol = r.number(sec["tool_change"], "tolerance_um", "tool_change", sign=">0")
+    sources = {k: v for k, v in (("cutting", cut_src), ("dynamics", dyn_src),
+                                 ("shape_error", shape.source)) if v}
+    return Scenario(
+        name=name, path=Path(r.file).resolve(), stock=stock, tool=tool, program_path=gcode,
+        allow=allow, lines=lines, machine=machine, coefficients=coeffs, compliance=compliance,
+        shape_error=shape, resolution=_resolution(r, sec.get("resolution", {}), tool),
+        correction=_correction(r, sec.get("correction", {})), tool_change_tolerance_um=tol,
+        sources=sources, description=description)

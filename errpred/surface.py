@@ -1,0 +1,191 @@
+"""The finished surface a cutter location leaves, and where it is generated.
+
+``docs/method.md`` §3: in a view of the tool, each pixel's ray meets the
+rotating tool's envelope at one point. That point is in the **cutting
+region** if it holds material this revolution removes (inside the stock,
+outside every sweep before this location, T1), and on the **finished
+surface** if, in addition, no later sweep (T2) removes it again. The finished
+pixels' mean rotation and contact angle give the generation point: the
+rotation angle ``theta_m`` at which flute 0 passes it, the contact angle
+``kappa_m``, the point and the surface normal (from the point toward the
+envelope's centre of curvature). Per-pixel attributes are analytic, nothing
+is read back from colours.
+
+Views: the bottom view along the tool axis (rays parallel to ``z'``), and the
+side view (rays perpendicular to ``z'``) for steep walls.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._kernels import inside_any_sweep_clustered
+from .constants import CLUSTER_CELL_MM, MEMBERSHIP_EPS_MM
+from .tool import Tool
+
+__all__ = ["EnvelopeHits", "Region", "GenerationPoint", "envelope_hits", "regions",
+           "generation_point"]
+
+_PARALLEL_TOL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class EnvelopeHits:
+    """Where each pixel ray meets the tool envelope (flat arrays over pixels).
+
+    Attributes
+    ----------
+    valid : ndarray, shape (p,), bool
+    tool_xyz : ndarray, shape (p, 3) [mm]
+        Hit point in the tool frame.
+    world : ndarray, shape (p, 3) [mm]
+    phi, kappa : ndarray, shape (p,) [rad]
+        Angular position and contact angle of the envelope at the hit.
+    shape : tuple
+        (ny, nx) of the view.
+    """
+
+    valid: np.ndarray
+    tool_xyz: np.ndarray
+    world: np.ndarray
+    phi: np.ndarray
+    kappa: np.ndarray
+    shape: tuple[int, int]
+
+
+def _pixel_rays(view) -> tuple[np.ndarray, np.ndarray]:
+    j, i = np.meshgrid(np.arange(view.nx) + 0.5, np.arange(view.ny) + 0.5)
+    o = (np.asarray(view.origin)[None, :]
+         + (j.reshape(-1, 1) * view.pixel_mm) * view.basis[0][None, :]
+         + (i.reshape(-1, 1) * view.pixel_mm) * view.basis[1][None, :])
+    return o, np.asarray(view.basis[2], dtype=float)
+
+
+def envelope_hits(tool: Tool, view, frame: np.ndarray, tip: np.ndarray) -> EnvelopeHits:
+    """First hits of the view's pixel rays on the tool's cutting envelope.
+
+    The view must look along the tool axis (bottom view, ``+z'``) or across
+    it (side view); other directions raise ``ValueError``.
+    """
+    o, v = _pixel_rays(view)
+    o_t = (o - tip) @ frame.T
+    v_t = frame @ v
+    R, r, c = tool.radius_mm, tool.corner_radius_mm, tool.core_radius_mm
+    p = o_t.shape[0]
+    xyz = np.full((p, 3), np.nan)
+    if abs(abs(v_t[2]) - 1.0) < _PARALLEL_TOL:
+        if v_t[2] < 0:
+            raise ValueError("the bottom view must look up the tool axis (+z')")
+        rho = np.hypot(o_t[:, 0], o_t[:, 1])
+        valid = rho <= R
+        xyz[:, :2] = o_t[:, :2]
+        xyz[:, 2] = tool.envelope_z(rho)
+        kappa = tool.kappa_at_rho(rho)
+    elif abs(v_t[2]) < _PARALLEL_TOL:
+        z = o_t[:, 2]
+        with np.errstate(invalid="ignore"):
+            rad = np.where(z >= r, R, c + np.sqrt(np.maximum(r * r - (r - z) ** 2, 0.0)))
+        rad = np.where((z >= 0) & (z <= tool.flute_length_mm), rad, np.nan)
+        v2 = v_t[:2] / np.linalg.norm(v_t[:2])
+        b = o_t[:, :2] @ v2
+        cc = np.sum(o_t[:, :2] ** 2, axis=1) - rad ** 2
+        disc = b * b - cc
+        valid = np.isfinite(disc) & (disc >= 0)
+        t = -b - np.sqrt(np.where(valid, disc, 0.0))
+        xyz[:, :2] = o_t[:, :2] + t[:, None] * v2[None, :]
+        xyz[:, 2] = z
+        with np.errstate(invalid="ignore"):
+            kappa = np.where(z >= r, math.pi / 2,
+                             np.arccos(np.clip((r - z) / r if r > 0 else 0.0, -1, 1)))
+    else:
+        raise ValueError("views must look along or across the tool axis")
+    phi = np.arctan2(xyz[:, 0], xyz[:, 1])
+    world = tip + np.where(valid[:, None], xyz, 0.0) @ frame
+    return EnvelopeHits(valid=valid, tool_xyz=xyz, world=world, phi=phi, kappa=kappa,
+                        shape=(view.ny, view.nx))
+
+
+@dataclass(frozen=True, eq=False)
+class Region:
+    """Cutting and finished pixels of a view (flat boolean arrays)."""
+
+    hits: EnvelopeHits
+    cutting: np.ndarray
+    finished: np.ndarray
+    pixel_mm: float
+
+
+def _outside(tool: Tool, pts: np.ndarray, cand: np.ndarray, sweeps) -> np.ndarray:
+    p0, d, w, lo, hi = sweeps
+    if p0.shape[0] == 0:
+        return cand.copy()
+    inside = inside_any_sweep_clustered(pts, cand, p0, d, w, lo, hi, tool.core_radius_mm,
+                              tool.corner_radius_mm, tool.flute_length_mm, MEMBERSHIP_EPS_MM,
+                                        CLUSTER_CELL_MM)
+    return cand & ~inside
+
+
+def regions(tool: Tool, hits: EnvelopeHits, pixel_mm: float,
+            in_stock: Callable[[np.ndarray], np.ndarray], t1, t2) -> Region:
+    """Cutting region (material before, T1) and finished surface (also after, T2)."""
+    cand = hits.valid.copy()
+    if cand.any():
+        cand[cand] = in_stock(hits.world[cand])
+    cutting = _outside(tool, hits.world, cand, t1)
+    finished = _outside(tool, hits.world, cutting, t2)
+    return Region(hits=hits, cutting=cutting, finished=finished, pixel_mm=pixel_mm)
+
+
+@dataclass(frozen=True)
+class GenerationPoint:
+    """Where and when a cutter location generates the finished surface.
+
+    Attributes
+    ----------
+    theta_rad : float [rad]
+        Rotation of flute 0 (its tip) when its edge passes the point.
+    phi_rad, kappa_rad : float [rad]
+        Angular position and contact angle of the point on the envelope.
+    point_tool, point_world : ndarray, shape (3,) [mm]
+    normal_world : ndarray, shape (3,)
+        Outward normal of the finished surface (from the point toward the
+        envelope's centre of curvature).
+    pixels : int
+        Finished pixels it was computed from.
+    """
+
+    theta_rad: float
+    phi_rad: float
+    kappa_rad: float
+    point_tool: np.ndarray
+    point_world: np.ndarray
+    normal_world: np.ndarray
+    pixels: int
+
+
+def generation_point(tool: Tool, region: Region, frame: np.ndarray,
+                     tip: np.ndarray) -> GenerationPoint | None:
+    """Mean of the finished pixels' attributes; None if there are none."""
+    sel = region.finished
+    k = int(sel.sum())
+    if k == 0:
+        return None
+    phi = region.hits.phi[sel]
+    phi_m = math.atan2(float(np.sin(phi).mean()), float(np.cos(phi).mean()))
+    kappa_m = float(region.hits.kappa[sel].mean())
+    if kappa_m < math.pi / 2 - 1e-9:
+        rho, z = tool.profile_point(kappa_m)
+        rho, z = float(rho), float(z)
+    else:
+        rho, z = tool.radius_mm, float(region.hits.tool_xyz[sel, 2].mean())
+    pt = np.array([rho * math.sin(phi_m), rho * math.cos(phi_m), z])
+    sk, ck = math.sin(kappa_m), math.cos(kappa_m)
+    n_tool = np.array([-sk * math.sin(phi_m), -sk * math.cos(phi_m), ck])
+    theta = (phi_m + float(tool.helix_lag(z))) % (2 * math.pi)
+    return GenerationPoint(theta_rad=theta, phi_rad=phi_m, kappa_rad=kappa_m,
+                           point_tool=pt, point_world=tip + pt @ frame,
+                           normal_world=n_tool @ frame, pixels=k)

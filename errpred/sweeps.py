@@ -1,0 +1,263 @@
+"""The volumes swept by the tool along a program, and a spatial index over them.
+
+``docs/method.md`` §3: whether material is present at a point is known from
+the stock and the sweeps of the motion before (T1) or after (T2) a cutter
+location; no global model of the workpiece is kept. A :class:`Sweeps` holds
+one entry per straight move with a constant tool axis (5-axis moves are
+split where the axis turns by more than ``SWEEP_AXIS_STEP_RAD``), the
+cumulative tool-tip path length at its start and end (so T1/T2 are path
+intervals), its axis-aligned bounds, and a uniform grid over the bounds so
+that a query near a point costs the same whether the program has 10^3 or
+10^6 blocks.
+
+Rapid moves (G0) are not sweeps: a rapid through material is a crash, not a
+cut, and is not modelled.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from nc.path import CutterLocations
+
+from . import constants as K
+from .tool import Tool
+
+__all__ = ["Sweeps", "build_sweeps"]
+
+
+def _cylinder_bounds(p: np.ndarray, w: np.ndarray, height: float, radius: float):
+    """AABB of cylinders from p to p + height w with the given radius, (n,3) each."""
+    q = p + height * w
+    ext = radius * np.sqrt(np.clip(1.0 - w * w, 0.0, None))
+    return np.minimum(p, q) - ext, np.maximum(p, q) + ext
+
+
+@njit(cache=True)
+def _grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark):
+    i0 = max(int(math.floor((lo[0] - origin[0]) / cell)), 0)
+    j0 = max(int(math.floor((lo[1] - origin[1]) / cell)), 0)
+    k0 = max(int(math.floor((lo[2] - origin[2]) / cell)), 0)
+    i1 = min(int(math.floor((hi[0] - origin[0]) / cell)), shape[0] - 1)
+    j1 = min(int(math.floor((hi[1] - origin[1]) / cell)), shape[1] - 1)
+    k1 = min(int(math.floor((hi[2] - origin[2]) / cell)), shape[2] - 1)
+    count = 0
+    out = np.empty(64, dtype=np.int64)
+    for i in range(i0, i1 + 1):
+        for j in range(j0, j1 + 1):
+            for k in range(k0, k1 + 1):
+                c = (i * shape[1] + j) * shape[2] + k
+                for t in range(cell_start[c], cell_start[c + 1]):
+                    item = cell_items[t]
+                    if mark[item]:
+                        continue
+                    mark[item] = True
+                    if count == out.shape[0]:
+                        bigger = np.empty(2 * count, dtype=np.int64)
+                        bigger[:count] = out
+                        out = bigger
+                    out[count] = item
+                    count += 1
+    res = out[:count].copy()
+    for t in range(count):
+        mark[res[t]] = False
+    return res
+
+
+@dataclass(frozen=True, eq=False)
+class Sweeps:
+    """Straight, constant-axis tool moves of a program, indexed in space.
+
+    Attributes
+    ----------
+    p0, d, w : ndarray, shape (n, 3)
+        Tip at the start [mm], tip displacement [mm], unit tool axis.
+    lo, hi : ndarray, shape (n, 3) [mm]
+        Axis-aligned bounds of each swept tool solid.
+    path_start, path_end : ndarray, shape (n,) [mm]
+        Cumulative tip path length (from the first cutter location) at the
+        start and end of each sweep.
+    cl_index : ndarray, shape (n,), int
+        Index of the cutter location the move ends at.
+    core_radius_mm, corner_radius_mm, top_mm : float [mm]
+        The tool's ``R - r``, ``r`` and flute length.
+    """
+
+    p0: np.ndarray
+    d: np.ndarray
+    w: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    path_start: np.ndarray
+    path_end: np.ndarray
+    cl_index: np.ndarray
+    core_radius_mm: float
+    corner_radius_mm: float
+    top_mm: float
+    cell_mm: float
+    grid_origin: np.ndarray
+    grid_shape: np.ndarray
+    cell_start: np.ndarray
+    cell_items: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.p0.shape[0])
+
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the arrays and the index [bytes]."""
+        return sum(getattr(self, n).nbytes for n in (
+            "p0", "d", "w", "lo", "hi", "path_start", "path_end", "cl_index",
+            "cell_start", "cell_items"))
+
+    def query(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Ids of the sweeps whose bounds may overlap the box ``[lo, hi]`` [mm].
+
+        A superset: the grid cells overlapping the box give candidates, and
+        their bounds are then tested exactly.
+        """
+        if len(self) == 0:
+            return np.zeros(0, dtype=np.int64)
+        mark = np.zeros(len(self), dtype=np.bool_)
+        ids = _grid_query(self.cell_start, self.cell_items, self.grid_shape,
+                          self.grid_origin, self.cell_mm, np.asarray(lo, float),
+                          np.asarray(hi, float), mark)
+        ok = np.all((self.lo[ids] <= hi) & (self.hi[ids] >= lo), axis=1)
+        return np.sort(ids[ok])
+
+    def clipped(self, ids: np.ndarray, path_lo: float, path_hi: float):
+        """The parts of sweeps ``ids`` between two path lengths.
+
+        Parameters
+        ----------
+        ids : ndarray of int
+        path_lo, path_hi : float [mm]
+            Keep the motion whose cumulative path length lies in this interval
+            (``-inf``/``inf`` for open ends).
+
+        Returns
+        -------
+        p0, d, w, lo, hi : ndarray, shape (k, 3)
+            The kept pieces, in the order of ``ids`` (empty pieces dropped).
+        """
+        ps, pe = self.path_start[ids], self.path_end[ids]
+        length = pe - ps
+        with np.errstate(divide="ignore", invalid="ignore"):
+            a = np.where(length > 0, (path_lo - ps) / length, np.where(ps >= path_lo, 0.0, 1.0))
+            b = np.where(length > 0, (path_hi - ps) / length, np.where(pe <= path_hi, 1.0, 0.0))
+        a = np.clip(a, 0.0, 1.0)
+        b = np.clip(b, 0.0, 1.0)
+        keep = (b > a) | ((length == 0) & (ps >= path_lo) & (pe <= path_hi))
+        ids, a, b = ids[keep], a[keep], b[keep]
+        p0 = self.p0[ids] + a[:, None] * self.d[ids]
+        d = (b - a)[:, None] * self.d[ids]
+        w = self.w[ids]
+        partial = (a > 0) | (b < 1)
+        lo, hi = self.lo[ids].copy(), self.hi[ids].copy()
+        if np.any(partial):
+            R = self.core_radius_mm + self.corner_radius_mm
+            h = self.top_mm + self.corner_radius_mm
+            l0, h0 = _cylinder_bounds(p0[partial], w[partial], h, R)
+            l1, h1 = _cylinder_bounds(p0[partial] + d[partial], w[partial], h, R)
+            lo[partial], hi[partial] = np.minimum(l0, l1), np.maximum(h0, h1)
+        return (np.ascontiguousarray(p0), np.ascontiguousarray(d), np.ascontiguousarray(w),
+                lo, hi)
+
+
+def build_sweeps(cl: CutterLocations, tool: Tool, *,
+                 axis_step_rad: float = K.SWEEP_AXIS_STEP_RAD,
+                 cell_mm: float | None = None) -> Sweeps:
+    """Sweeps of every cutting move of ``cl``.
+
+    Parameters
+    ----------
+    cl : CutterLocations
+        The path (arcs already expanded). The move ending at point i is a
+        sweep unless it is a rapid.
+    tool : Tool
+    axis_step_rad : float [rad]
+        5-axis moves whose axis turns by more are split into pieces with the
+        axis of each piece's middle (slerp), so a piece's axis is within half
+        this of the true one.
+    cell_mm : float, optional [mm]
+        Grid cell size (default: the tool radius).
+    """
+    n = len(cl)
+    tip, axis = cl.tip, cl.axis
+    seg_len = np.zeros(n)
+    if n > 1:
+        seg_len[1:] = np.linalg.norm(np.diff(tip, axis=0), axis=1)
+    cum = np.cumsum(seg_len)
+    ends = np.flatnonzero(~cl.rapid)
+    ends = ends[ends >= 1]
+    if ends.size:
+        u0, u1 = axis[ends - 1], axis[ends]
+        ang = np.arccos(np.clip(np.sum(u0 * u1, axis=1), -1.0, 1.0))
+        pieces = np.maximum(1, np.ceil(ang / axis_step_rad - 1e-12)).astype(np.int64)
+    else:
+        ang = np.zeros(0)
+        pieces = np.zeros(0, dtype=np.int64)
+    seg = np.repeat(ends, pieces)
+    first = np.cumsum(pieces) - pieces
+    k = np.arange(seg.size) - np.repeat(first, pieces)
+    m = np.repeat(pieces, pieces)
+    t0, t1 = k / m, (k + 1) / m
+    a, b = tip[seg - 1], tip[seg]
+    p0 = a + t0[:, None] * (b - a)
+    d = (t1 - t0)[:, None] * (b - a)
+    # axis of each piece: slerp at the piece's middle
+    ua, ub = axis[seg - 1], axis[seg]
+    om = np.repeat(ang, pieces)
+    tm = 0.5 * (t0 + t1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        so = np.sin(om)
+        wa = np.where(so > 1e-12, np.sin((1 - tm) * om) / so, 1 - tm)
+        wb = np.where(so > 1e-12, np.sin(tm * om) / so, tm)
+    w = wa[:, None] * ua + wb[:, None] * ub
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    ps = cum[seg - 1] + t0 * seg_len[seg]
+    pe = cum[seg - 1] + t1 * seg_len[seg]
+    R = tool.radius_mm
+    height = tool.flute_length_mm + tool.corner_radius_mm
+    l0, h0 = _cylinder_bounds(p0, w, height, R)
+    l1, h1 = _cylinder_bounds(p0 + d, w, height, R)
+    lo, hi = np.minimum(l0, l1), np.maximum(h0, h1)
+    cell = float(cell_mm) if cell_mm is not None else R
+    if not (math.isfinite(cell) and cell > 0):
+        raise ValueError(f"cell_mm: expected a finite value > 0, got {cell_mm!r}")
+    grid = _build_grid(lo, hi, cell)
+    return Sweeps(p0=p0, d=d, w=w, lo=lo, hi=hi, path_start=ps, path_end=pe,
+                  cl_index=seg, core_radius_mm=tool.core_radius_mm,
+                  corner_radius_mm=tool.corner_radius_mm, top_mm=tool.flute_length_mm,
+                  cell_mm=cell, **grid)
+
+
+def _build_grid(lo: np.ndarray, hi: np.ndarray, cell: float) -> dict:
+    """CSR uniform grid: the cells each AABB overlaps."""
+    if lo.shape[0] == 0:
+        return dict(grid_origin=np.zeros(3), grid_shape=np.ones(3, dtype=np.int64),
+                    cell_start=np.zeros(2, dtype=np.int64),
+                    cell_items=np.zeros(0, dtype=np.int64))
+    origin = lo.min(axis=0)
+    shape = np.maximum(np.floor((hi.max(axis=0) - origin) / cell).astype(np.int64) + 1, 1)
+    i0 = np.floor((lo - origin) / cell).astype(np.int64)
+    i1 = np.minimum(np.floor((hi - origin) / cell).astype(np.int64), shape - 1)
+    span = i1 - i0 + 1
+    counts = span.prod(axis=1)
+    item = np.repeat(np.arange(lo.shape[0]), counts)
+    local = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    sy, sz = span[item, 1], span[item, 2]
+    ci = i0[item, 0] + local // (sy * sz)
+    cj = i0[item, 1] + (local // sz) % sy
+    ck = i0[item, 2] + local % sz
+    flat = (ci * shape[1] + cj) * shape[2] + ck
+    order = np.argsort(flat, kind="stable")
+    ncell = int(shape.prod())
+    cell_start = np.zeros(ncell + 1, dtype=np.int64)
+    np.add.at(cell_start, flat + 1, 1)
+    return dict(grid_origin=origin, grid_shape=shape, cell_start=np.cumsum(cell_start),
+                cell_items=item[order].astype(np.int64))

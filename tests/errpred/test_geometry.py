@@ -1,0 +1,176 @@
+"""Engagement, generation point and wear from the geometry stage, against hand results."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nc import parse_program
+from nc.path import cutter_locations
+from errpred.force import chip_thickness, tool_forces
+from errpred.engagement import expand_flutes
+from errpred.geometry import GeometryModel, Resolution
+from errpred.predict import Predictor
+from errpred.raster.meshes import Stock
+from errpred.tool import Tool
+
+from .cases import STEEL, plane_raster, plane_stock, stiff_tool
+
+D, R = 10.0, 5.0
+
+
+def side_cut(mode: str, a: float, *, flutes=2, angle_step_deg=2.0, helix=0.0):
+    """A flat end mill feeding +X through a box; material on +Y (up), -Y (down) or both."""
+    tool = Tool("flat", D, flutes=flutes, helix_deg=helix, flute_length_mm=6.0)
+    lo_y, hi_y = {"up": (R - a, 30.0), "down": (-30.0, -(R - a)), "slot": (-30.0, 30.0)}[mode]
+    stock = Stock.from_box([-20.0, lo_y, 0.001], [20.0, hi_y, 2.0])
+    prog = parse_program("G21 G90 G94\nS6000 M3\nG0 X-30 Y0 Z0\nG1 X30 F600\nM30\n")
+    res = Resolution(pixel_mm=D / 64, angle_step_rad=math.radians(angle_step_deg))
+    model = GeometryModel(tool, stock, cutter_locations(prog), res)
+    return tool, model, model.geometry(1)[0]
+
+
+def _cut_angles(model, g):
+    flank = (model.edges.segment == 2) & (model.edges.z < 2.0)
+    cut = g.cutting0[:, flank].any(axis=1)
+    return np.degrees(model.theta[cut])
+
+
+@pytest.mark.parametrize("a", [1.0, 2.5, 4.0])
+def test_side_cut_entry_exit_angles(a):
+    step = 2.0
+    expected = math.degrees(math.acos(1 - 2 * a / D))
+    _, model, g = side_cut("up", a, angle_step_deg=step)
+    ang = _cut_angles(model, g)
+    ang = np.where(ang > 270, ang - 360, ang)
+    assert abs(ang.min() - 0.0) <= step and abs(ang.max() - expected) <= step
+    _, model, g = side_cut("down", a, angle_step_deg=step)
+    ang = _cut_angles(model, g)
+    assert abs(ang.min() - (180 - expected)) <= step and abs(ang.max() - 180) <= step
+
+
+def test_slot_engages_half_a_revolution():
+    _, model, g = side_cut("slot", 0.0)
+    ang = _cut_angles(model, g)
+    ang = np.where(ang > 270, ang - 360, ang)
+    assert abs(ang.min()) <= 2.0 and abs(ang.max() - 180.0) <= 2.0
+    assert 88 <= ang.size <= 92  # contiguous: 180 deg in 2 deg steps
+
+
+def _altintas_mean(phi_st, phi_ex, N, a, f, K):
+    """Mean forces per revolution of a straight flat end mill (Altintas, Manufacturing
+    Automation, 2nd ed., 2012, section 2.3), in this project's sign (Fz' = -Fa)."""
+    def fx(p):
+        return (N * a * f / (8 * math.pi) * (K.Ktc_N_mm2 * math.cos(2 * p)
+                - K.Krc_N_mm2 * (2 * p - math.sin(2 * p)))
+                + N * a / (2 * math.pi) * (-K.Kte0_N_mm * math.sin(p) + K.Kre0_N_mm * math.cos(p)))
+
+    def fy(p):
+        return (N * a * f / (8 * math.pi) * (K.Ktc_N_mm2 * (2 * p - math.sin(2 * p))
+                + K.Krc_N_mm2 * math.cos(2 * p))
+                - N * a / (2 * math.pi) * (K.Kte0_N_mm * math.cos(p) + K.Kre0_N_mm * math.sin(p)))
+
+    def fz(p):
+        return -N * a / (2 * math.pi) * (-K.Kac_N_mm2 * f * math.cos(p) + K.Kae0_N_mm * p)
+
+    return np.array([g(phi_ex) - g(phi_st) for g in (fx, fy, fz)])
+
+
+@pytest.mark.parametrize("mode,a", [("up", 2.0), ("down", 2.0), ("slot", 0.0)])
+def test_side_cut_mean_forces_equal_closed_form(mode, a):
+    """Engagement from the geometry stage + force model = closed form, within 2%."""
+    tool, model, g = side_cut(mode, a, angle_step_deg=0.5)
+    phi, cutting = expand_flutes(model.theta, g.cutting0, model.edges, tool.flutes)
+    f_tool = g.frame @ g.feed_per_tooth_world
+    h = np.where(cutting, chip_thickness(model.edges, phi, f_tool), 0.0)
+    F = tool_forces(model.edges, STEEL, phi, h, cutting, np.zeros(len(model.edges)))
+    flank = (model.edges.segment == 2) & (model.edges.z < 2.0)
+    ap = float(model.edges.db[flank].sum())
+    assert ap == pytest.approx(2.0)
+    fz = 600.0 / (6000.0 * 2)
+    ex = math.acos(1 - 2 * a / D) if mode != "slot" else math.pi
+    lo, hi = {"up": (0.0, ex), "down": (math.pi - ex, math.pi), "slot": (0.0, math.pi)}[mode]
+    ref = _altintas_mean(lo, hi, 2, ap, fz, STEEL)
+    mean = F.mean(axis=0)
+    assert np.linalg.norm(mean - ref) <= 0.02 * np.linalg.norm(ref), (mean, ref)
+
+
+def test_flat_end_mill_wall_is_generated_where_the_flute_is_normal_to_it():
+    for mode, phi_expected, n_expected in (("up", 0.0, (0, -1, 0)), ("down", 180.0, (0, 1, 0))):
+        tool, model, g = side_cut(mode, 1.0, flutes=3)
+        assert g.status == "predicted" and g.view == "side"
+        assert math.degrees(g.gen.kappa_rad) == pytest.approx(90.0, abs=1e-6)
+        pitch = 120.0
+        d = (math.degrees(g.gen.theta_rad) - phi_expected) % pitch
+        assert min(d, pitch - d) <= 2.0
+        np.testing.assert_allclose(g.gen.normal_world, n_expected, atol=0.02)
+
+
+@pytest.mark.parametrize("slope", [15.0, 30.0, 45.0])
+def test_ball_raster_on_inclined_plane_kappa_and_normal(slope):
+    prog = parse_program(plane_raster(slope, R, passes=4))
+    pred = Predictor(Tool("ball", D, flute_length_mm=15), plane_stock(slope, 0.2), prog,
+                     STEEL, stiff_tool())
+    rows = [b for b in range(len(prog)) if prog.line[b] > 0]
+    mid_pass = [b for b in rows if 45 <= prog.line[b] <= 60]  # inside the third pass
+    out = pred.run(mid_pass)
+    n = np.array([math.sin(math.radians(slope)), 0.0, math.cos(math.radians(slope))])
+    got = [p for p in out.points if p.status == "predicted"]
+    assert len(got) >= 10
+    for p in got:
+        # the finished strip straddles the cusp line: kappa within the scallop's span
+        assert math.degrees(p.geometry.gen.kappa_rad) == pytest.approx(slope, abs=2.5)
+        assert float(p.geometry.gen.normal_world @ n) > math.cos(math.radians(2.5))
+
+
+def test_flat_floor_under_the_ball_tip_is_not_predicted():
+    prog = parse_program(plane_raster(0.0, R, passes=4))
+    pred = Predictor(Tool("ball", D, flute_length_mm=15), plane_stock(0.0, 0.2), prog,
+                     STEEL, stiff_tool())
+    out = pred.run([b for b in range(len(prog)) if 45 <= prog.line[b] <= 60])
+    statuses = {p.status for p in out.points}
+    assert statuses == {"axis-normal"}
+    assert all(p.result is not None for p in out.points)  # forces still computed
+
+
+@pytest.mark.parametrize("lead,tilt", [(15.0, 0.0), (0.0, 20.0), (10.0, -15.0)])
+def test_tilted_ball_end_mill_contact_angle_is_the_inclination(lead, tilt):
+    """5-axis: on an inclined plane the contact angle is the tool's inclination."""
+    slope = 20.0
+    s = math.radians(slope)
+    n = np.array([math.sin(s), 0.0, math.cos(s)])       # plane normal
+    f = np.array([math.cos(s), 0.0, -math.sin(s)])      # feed (along +X, down the slope)
+    b = np.cross(n, f)                                   # cross-feed
+    u = n.copy()
+    for ang, about in ((lead, b), (tilt, f)):            # method.md section 1
+        a = math.radians(ang)
+        u = (u * math.cos(a) + np.cross(about, u) * math.sin(a)
+             + about * (about @ u) * (1 - math.cos(a)))
+    prog = parse_program(plane_raster(slope, R, passes=4, axis=u))
+    pred = Predictor(Tool("ball", D, flute_length_mm=15), plane_stock(slope, 0.2), prog,
+                     STEEL, stiff_tool())
+    out = pred.run([b for b in range(len(prog)) if 45 <= prog.line[b] <= 60])
+    got = [p for p in out.points if p.status == "predicted"]
+    assert len(got) >= 10
+    incl = math.degrees(math.acos(float(u @ n)))
+    for p in got:
+        assert math.degrees(p.geometry.gen.kappa_rad) == pytest.approx(incl, abs=2.5)
+        assert float(p.geometry.gen.normal_world @ n) > math.cos(math.radians(2.5))
+
+
+def test_cutting_distance_of_a_straight_slot():
+    """Each flank micro edge rubs through half a revolution per revolution."""
+    tool = Tool("flat", D, flutes=2, helix_deg=0.0, flute_length_mm=6.0)
+    stock = Stock.from_box([-40.0, -30.0, 0.001], [40.0, 30.0, 2.0])
+    L, F, S = 30.0, 600.0, 6000.0
+    prog = parse_program(f"G21 G90 G94\nS{S:g} M3\nG0 X-15 Y0 Z0\nG1 X15 F{F:g}\nM30\n")
+    res = Resolution(pixel_mm=D / 64, angle_step_rad=math.radians(1.0))
+    pred = Predictor(tool, stock, prog, STEEL, stiff_tool(), resolution=res)
+    out = pred.run()
+    flank = (pred.edges.segment == 2) & (pred.edges.z < 2.0)
+    analytic = math.pi * R * S * L / F  # [mm]: half a turn of radius R per revolution
+    np.testing.assert_allclose(out.wear_mm[flank], analytic, rtol=math.radians(1.0) / math.pi
+                               + 5e-3)
+    assert np.all(out.wear_mm[~flank & (pred.edges.z > 2.0)] == 0.0)

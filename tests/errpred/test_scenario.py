@@ -1,0 +1,317 @@
+"""Scenario files: the bundled scenarios, their geometry, and refused files."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from errpred.scenario import (BUNDLED, ScenarioError, ShapeError, bundled_scenario,
+                              load_scenario)
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _generator():
+    """The generator script as a module (for the analytic design surface)."""
+    spec = importlib.util.spec_from_file_location(
+        "make_errpred_scenarios", ROOT / "scripts" / "make_errpred_scenarios.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="module")
+def mold():
+    s = load_scenario(bundled_scenario("mold-ball"))
+    return s, s.read_program()
+
+
+@pytest.fixture(scope="module")
+def wall():
+    s = load_scenario(bundled_scenario("wall-radius"))
+    return s, s.read_program()
+
+
+# --------------------------------------------------------------------------- bundled
+@pytest.mark.parametrize("name", sorted(BUNDLED))
+def test_bundled_scenarios_load(name):
+    s = load_scenario(BUNDLED[name])
+    assert s.name == name and s.path == BUNDLED[name].resolve()
+    assert s.stock.kind == "stl" and s.stock.path.is_file() and s.stock.design_path.is_file()
+    assert s.compliance.directions == ("x", "y")
+    for modes in s.compliance.modes.values():
+        for m in modes:
+            assert 1e3 <= m.natural_frequency_hz <= 4.5e3 and 1e6 <= m.k_N_m <= 1e8
+            assert 0.02 <= m.damping_ratio <= 0.05
+    assert {"cutting", "dynamics", "shape_error"} <= set(s.sources)
+    assert s.coefficients.Ktc_N_mm2 > 0 and s.coefficients.Kte1_N_mm2 > 0
+    assert s.resolution.pixel_mm == pytest.approx(s.tool.diameter_mm / 64)
+    stock = s.stock.load()
+    assert not stock.is_box and stock.bounds.shape == (2, 3)
+    dev = s.shape_error.radius_deviation_mm(np.radians([0.0, 90.0]), 0.0)
+    assert np.all(np.abs(dev) <= 5e-3) and s.shape_error.wear_rate_mm_per_mm > 0
+
+
+def test_mold_program_parses_with_enough_blocks(mold):
+    s, prog = mold
+    assert s.tool.kind == "ball" and s.tool.diameter_mm == 10 and s.tool.flutes == 2
+    assert len(prog) >= 20_000
+    g1 = prog.motion == 1
+    step = (prog.end - prog.start)[g1, :3]
+    lengths = np.linalg.norm(step, axis=1)[np.hypot(step[:, 0], step[:, 1]) > 0]  # no plunges
+    assert np.median(lengths) == pytest.approx(0.4, abs=0.1)
+    assert np.percentile(lengths, 99) <= 0.6 + 1e-3 and lengths.max() <= 1.6   # leads 1.5
+    rpm = prog.modal_column("spindle_rpm")[g1]
+    fz = prog.feed[g1] / (rpm * s.tool.flutes)
+    assert np.all((8000 <= rpm) & (rpm <= 12000)) and np.median(fz) == pytest.approx(0.08)
+
+
+def test_wall_program_matches_the_patent_example(wall):
+    s, prog = wall
+    t = s.tool
+    assert (t.kind, t.diameter_mm, t.corner_radius_mm, t.flutes, t.helix_deg) == \
+        ("radius", 20.0, 1.0, 2, 0.0)
+    assert 300 <= len(prog) <= 5000
+    cut = prog.motion != 0
+    assert np.all(prog.modal_column("spindle_rpm")[cut] == 2700)
+    assert np.all(prog.feed[cut] == 1300)
+    assert np.any(prog.motion == 2)                    # arcs, clockwise: climb outside
+    levels = np.unique(np.round(prog.end[cut, 2], 6))
+    assert np.allclose(np.diff(levels), 0.5)
+
+
+def test_description_slices_are_inside_the_programs(mold, wall):
+    import re
+
+    for s, prog in (mold, wall):
+        spans = [tuple(map(int, m)) for m in re.findall(r"\[(\d+), (\d+)\]", s.description)]
+        assert spans
+        for a, b in spans:
+            n = int(np.count_nonzero((prog.line >= a) & (prog.line <= b)))
+            assert 100 <= n <= 400, (s.name, a, b, n)
+
+
+def _distance_to_design(centres, z_of, R):
+    """Shortest distance from points to the surface z = f(x, y): grid, then zoom."""
+    g = np.arange(-R - 0.2, R + 0.2001, 0.1)
+    du, dv = (a.ravel() for a in np.meshgrid(g, g))
+    k = np.arange(-3, 4)
+    ku, kv = (a.ravel() for a in np.meshgrid(k, k))
+    X, Y, Z = (centres[:, i, None] for i in range(3))
+    D = du ** 2 + dv ** 2 + (z_of(X + du, Y + dv) - Z) ** 2
+    j = np.argmin(D, axis=1)
+    rows, bu, bv, step = np.arange(len(j)), du[j], dv[j], 0.1
+    for _ in range(7):
+        step /= 3.0
+        U, V = bu[:, None] + ku * step, bv[:, None] + kv * step
+        D = U ** 2 + V ** 2 + (z_of(X + U, Y + V) - Z) ** 2
+        j = np.argmin(D, axis=1)
+        bu, bv = U[rows, j], V[rows, j]
+    return np.sqrt(D[rows, j])
+
+
+def test_mold_tips_do_not_gouge_the_design(mold):
+    s, prog = mold
+    gen = _generator()
+    R = s.tool.radius_mm
+    idx = np.flatnonzero(prog.motion == 1)
+    sample = np.random.default_rng(7).choice(idx, 400, replace=False)
+    d = _distance_to_design(prog.end[sample, :3] + [0.0, 0.0, R], gen.design_z, R)
+    assert d.min() >= R - 1e-3
+    touching = np.abs(d - R) <= 1e-3                  # cutting points, not leads or plunges
+    assert touching.mean() > 0.95
+
+
+def test_mold_stock_contains_the_design(mold):
+    s, _ = mold
+    gen = _generator()
+    rng = np.random.default_rng(3)
+    xy = rng.uniform([0.5, 0.5], [59.5, 39.5], size=(300, 2))
+    for path, lo, hi in ((s.stock.path, 0.15 - 0.006, 0.15 + 0.006),
+                         (s.stock.design_path, 0.0, 0.006)):
+        mesh = trimesh.load(path, force="mesh")
+        assert mesh.is_watertight and mesh.volume > 0
+        origins = np.column_stack([xy, np.full(len(xy), 100.0)])
+        loc, ray, _ = mesh.ray.intersects_location(origins, np.tile([0.0, 0.0, -1.0], (len(xy), 1)))
+        top = np.full(len(xy), -np.inf)
+        np.maximum.at(top, ray, loc[:, 2])
+        if path == s.stock.path:                      # stock above the design everywhere
+            assert np.all(top > gen.design_z(xy[:, 0], xy[:, 1]))
+        # allowance along the surface normal: distance from the mesh top to the design
+        d = _distance_to_design(np.column_stack([xy, top]), gen.design_z, 0.5)
+        assert np.all(d >= lo) and np.all(d <= hi), (path.name, d.min(), d.max())
+    assert Path(s.stock.path).stat().st_size < 4e6
+
+
+def test_wall_stock_contains_design_and_tool_touches_without_gouging(wall):
+    s, prog = wall
+    design = s.stock.load_design()
+    stock = trimesh.load(s.stock.path, force="mesh")
+    assert design.is_watertight and stock.is_watertight
+    pts, faces = trimesh.sample.sample_surface(design, 3000, seed=5)
+    normals = design.face_normals[faces]
+    wall_pts = pts[(np.abs(normals[:, 2]) < 0.5) & (pts[:, 2] > 0.1) & (pts[:, 2] < 39.9)]
+    assert len(wall_pts) > 300 and np.all(stock.contains(wall_pts))
+    # the corner torus: its core circle stays r away from the design, and touches it
+    r, core = s.tool.corner_radius_mm, s.tool.core_radius_mm
+    cutting = np.flatnonzero(prog.motion == 1)
+    ends = prog.end[cutting[::15]]
+    t = np.radians(np.arange(0, 360, 5.0))
+    circle = (ends[:, None, :3] + np.stack([core * np.cos(t), core * np.sin(t),
+                                           np.full_like(t, r)], axis=1)).reshape(-1, 3)
+    _, dist, _ = trimesh.proximity.closest_point(design, circle)
+    per_tip = dist.reshape(len(ends), -1).min(axis=1)
+    assert per_tip.min() >= r - 1e-3
+    assert np.median(per_tip) == pytest.approx(r, abs=2e-3)
+
+
+def test_bundled_scenario_unknown_name():
+    with pytest.raises(ValueError, match="mold-ball"):
+        bundled_scenario("nope")
+
+
+# --------------------------------------------------------------------------- refused files
+VALID = """\
+name = "tiny"
+description = "a box and two lines"
+
+[stock]
+box_min_mm = [0.0, 0.0, 0.0]
+box_max_mm = [50.0, 40.0, 20.0]
+
+[tool]
+type = "ball"
+diameter_mm = 10.0
+flutes = 2
+helix_deg = 30.0
+
+[program]
+gcode = "p.nc"
+allow = ["M8"]
+
+[cutting]
+Ktc_N_mm2 = 2000.0
+Krc_N_mm2 = 800.0
+Kac_N_mm2 = 300.0
+Kte0_N_mm = 30.0
+Kre0_N_mm = 35.0
+Kae0_N_mm = 10.0
+source = "test"
+
+[dynamics]
+[[dynamics.modes]]
+direction = "x"
+frequency_hz = 2000.0
+damping_ratio = 0.03
+stiffness_N_m = 5.0e6
+
+[[dynamics.modes]]
+direction = "y"
+mass_kg = 0.03
+damping_Ns_m = 25.0
+stiffness_N_m = 6.0e6
+
+[shape_error]
+kappa_deg = [0.0, 90.0]
+radius_deviation_um = [-2.0, 2.0]
+wear_rate_um_per_m = 0.1
+"""
+
+
+def _write(tmp_path, text):
+    (tmp_path / "p.nc").write_text("G21 G90 G17\nG0 X0 Y0 Z30\nG1 X10 F1000\nM8\nG1 Y10\n")
+    (tmp_path / "s.stl").write_bytes(b"")
+    path = tmp_path / "scenario.toml"
+    path.write_text(text)
+    return path
+
+
+def test_valid_small_scenario_and_defaults(tmp_path):
+    s = load_scenario(_write(tmp_path, VALID))
+    assert s.stock.kind == "box" and s.stock.bounds == ((0, 0, 0), (50, 40, 20))
+    assert s.stock.load().is_box and s.lines is None and s.machine is None
+    assert s.allow == ("M8",) and len(s.read_program()) == 3
+    assert s.tool.rotation == "cw" and s.tool_change_tolerance_um is None
+    assert s.resolution.micro_edges == 40 and s.resolution.angle_step_rad == pytest.approx(
+        math.radians(2.0))
+    assert not s.correction.iterate
+    assert s.compliance.modes["y"][0].m_kg == 0.03
+
+
+def test_shape_error_interpolates_holds_ends_and_signs():
+    se = ShapeError("kappa", np.radians([10.0, 50.0]), np.array([-2e-3, 2e-3]), 1e-6)
+    k = np.radians([0.0, 10.0, 30.0, 50.0, 90.0])
+    assert np.allclose(se.radius_deviation_mm(k, 0.0), [-2e-3, -2e-3, 0.0, 2e-3, 2e-3])
+    # a tool smaller than nominal leaves material; wear leaves more
+    assert se.material_left_mm(0.0, 0.0) == pytest.approx(2e-3)
+    assert se.material_left_mm(0.0, 0.0, cl_mm=1000.0) == pytest.approx(3e-3)
+    assert np.all(ShapeError().radius_deviation_mm(k, 1.0) == 0)
+
+
+@pytest.mark.parametrize("old, new, key", [
+    ("flutes = 2\n", "", "tool.flutes"),                                   # missing key
+    ("helix_deg = 30.0\n", "helix_deg = 30.0\ncolour = 1\n", "tool.colour"),  # unknown key
+    ("diameter_mm = 10.0", "diameter_mm = nan", "tool.diameter_mm"),        # NaN
+    ("stiffness_N_m = 5.0e6", "stiffness_N_m = inf", "dynamics.modes[0].stiffness_N_m"),
+    ("diameter_mm = 10.0", "diameter_in = 0.4", "tool.diameter_in"),        # wrong unit
+    ('type = "ball"', 'type = "bal"', "tool.type"),                        # unknown tool type
+    ('gcode = "p.nc"', 'gcode = "missing.nc"', "program.gcode"),            # missing file
+    ("[stock]\n", '[stock]\nstl = "s.stl"\n', "stock.stl"),                # both stl and box
+    ("box_min_mm = [0.0, 0.0, 0.0]\nbox_max_mm = [50.0, 40.0, 20.0]\n", "", "stock.stl"),
+    ("box_max_mm = [50.0, 40.0, 20.0]\n", "", "stock.box_max_mm"),
+    ("diameter_mm = 10.0", "diameter_mm = -10.0", "tool.diameter_mm"),
+    ("flutes = 2", 'flutes = "two"', "tool.flutes"),
+    ("frequency_hz = 2000.0", "frequency_hz = 0.0", "dynamics.modes[0].frequency_hz"),
+    ("damping_ratio = 0.03\n", "", "dynamics.modes[0].damping_ratio"),
+    ('direction = "y"', 'direction = "x"', "dynamics.modes"),
+    ("radius_deviation_um = [-2.0, 2.0]", "radius_deviation_um = [-2.0]",
+     "shape_error.radius_deviation_um"),
+    ("kappa_deg = [0.0, 90.0]", "kappa_deg = [90.0, 0.0]", "shape_error.kappa_deg"),
+    ("Ktc_N_mm2 = 2000.0", "Ktc_N_mm2 = 2000.0\nKtc_N_m2 = 2e9", "cutting.Ktc_N_m2"),
+    ('allow = ["M8"]', 'allow = ["M8"]\nlines = [20, 10]', "program.lines"),
+    ('allow = ["M8"]', 'allow = ["M8"]\nmachine = "xyzzy"', "program.machine"),
+    ("= 0.1\n", '= 0.1\n[resolution]\npixel_mm = 0.0\n', "resolution.pixel_mm"),
+    ("= 0.1\n", '= 0.1\n[correction]\niterate = "yes"\n', "correction.iterate"),
+])
+def test_bad_files_name_file_and_key(tmp_path, old, new, key):
+    assert old in VALID
+    path = _write(tmp_path, VALID.replace(old, new, 1))
+    with pytest.raises(ScenarioError) as exc:
+        load_scenario(path)
+    msg = str(exc.value)
+    assert "scenario.toml" in msg and f"{key}:" in msg, msg
+    assert exc.value.key == key
+
+
+def test_messages_say_what_was_expected(tmp_path):
+    path = _write(tmp_path, VALID.replace("diameter_mm = 10.0", "diameter_in = 0.4"))
+    with pytest.raises(ScenarioError, match="did you mean 'tool.diameter_mm'"):
+        load_scenario(path)
+    path = _write(tmp_path, VALID.replace('gcode = "p.nc"', 'gcode = "sub/missing.nc"'))
+    with pytest.raises(ScenarioError, match=str(tmp_path / "sub" / "missing.nc")):
+        load_scenario(path)
+    path = _write(tmp_path, VALID.replace('type = "ball"', 'type = "bal"'))
+    with pytest.raises(ScenarioError, match="ball, radius, flat"):
+        load_scenario(path)
+    path = _write(tmp_path, VALID + "\n[[[")
+    with pytest.raises(ScenarioError, match="not valid TOML") as exc:
+        load_scenario(path)
+    assert exc.value.key is None
+    with pytest.raises(ScenarioError, match="not found"):
+        load_scenario(tmp_path / "absent.toml")
+
+
+def test_static_model_from_static_compliance_only(tmp_path):
+    text = VALID.split("[dynamics]")[0] + (
+        '[dynamics]\nmodel = "static"\nstatic_compliance_m_N = { x = 2.0e-7, y = 1.0e-7 }\n')
+    s = load_scenario(_write(tmp_path, text))
+    assert s.compliance.kind == "static"
+    assert s.compliance.static_compliance_m_N == pytest.approx({"x": 2e-7, "y": 1e-7})
+    with pytest.raises(ScenarioError, match="dynamics.static_compliance_m_N"):
+        load_scenario(_write(tmp_path, VALID.replace(
+            "[dynamics]\n", "[dynamics]\nstatic_compliance_m_N = { x = 2.0e-7 }\n")))

@@ -1,0 +1,118 @@
+"""Sweep membership kernels and the sweep index, against brute force."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from nc.path import CutterLocations
+from errpred._kernels import (inside_any_sweep, inside_any_sweep_clustered, sweep_distance,
+                              sweep_margin_clustered)
+from errpred.sweeps import build_sweeps
+from errpred.tool import Tool, core_distance
+
+finite = dict(allow_nan=False, allow_infinity=False)
+coord = st.floats(-6, 6, **finite)
+
+
+def brute(q, p0, d, w, c, r, top):
+    """Distance to the swept core by dense sampling along the move."""
+    s = np.linspace(0.0, 1.0, 4001)[:, None]
+    v = q[None, :] - (p0[None, :] + s * d[None, :])
+    h = v @ w
+    rho = np.linalg.norm(v - h[:, None] * w[None, :], axis=1)
+    dr = np.maximum(rho - c, 0.0)
+    dz = np.maximum(np.maximum(r - h, h - top), 0.0)
+    return float(np.hypot(dr, dz).min())
+
+
+@settings(max_examples=300)
+@given(q=st.tuples(coord, coord, coord), d=st.tuples(coord, coord, st.floats(-2, 2, **finite)),
+       tilt=st.floats(0, 1.2, **finite), az=st.floats(0, 6.3, **finite),
+       kind=st.sampled_from([(0.0, 5.0), (4.0, 1.0), (5.0, 0.0), (2.5, 2.5)]))
+def test_sweep_distance_matches_brute_force(q, d, tilt, az, kind):
+    c, r = kind
+    top = 12.0
+    q, d = np.array(q), np.array(d)
+    w = np.array([math.sin(tilt) * math.cos(az), math.sin(tilt) * math.sin(az), math.cos(tilt)])
+    p0 = np.zeros(3)
+    got = sweep_distance(q[0], q[1], q[2], p0, d, w, c, r, top)
+    ref = brute(q, p0, d, w, c, r, top)
+    # the brute force samples s on a grid: its minimum is above the true one by at
+    # most the grid's half step times |d| (the distance is 1-Lipschitz in s |d|)
+    assert ref - 0.5 * np.linalg.norm(d) / 4000 - 1e-9 <= got <= ref + 1e-7
+
+
+def test_single_tool_position_is_the_tool_solid():
+    """A zero-length sweep is the tool itself: inside iff core distance <= r."""
+    rng = np.random.default_rng(4)
+    for tool in (Tool("ball", 10), Tool("radius", 10, 1.5), Tool("flat", 10)):
+        pts = rng.uniform([-6, -6, -1], [6, 6, 8], (4000, 3))
+        w = np.array([0.0, 0.0, 1.0])
+        inside = np.array([sweep_distance(*p, np.zeros(3), np.zeros(3), w, tool.core_radius_mm,
+                                          tool.corner_radius_mm, tool.flute_length_mm)
+                           <= tool.corner_radius_mm + 1e-9 for p in pts])
+        rho = np.hypot(pts[:, 0], pts[:, 1])
+        below_top = pts[:, 2] <= tool.flute_length_mm
+        env = tool.envelope_z(rho)
+        expected = (rho <= tool.radius_mm) & (pts[:, 2] >= env) & below_top
+        ok = np.abs(core_distance(rho, pts[:, 2], tool.core_radius_mm, tool.corner_radius_mm)
+                    - tool.corner_radius_mm) > 1e-6  # away from the boundary
+        assert np.array_equal(inside[ok], expected[ok])
+
+
+def test_clustered_kernels_equal_the_plain_ones():
+    rng = np.random.default_rng(9)
+    n = 300
+    p0 = np.column_stack([rng.uniform(-10, 10, n), rng.uniform(-10, 10, n), rng.uniform(-1, 1, n)])
+    d = np.column_stack([rng.uniform(-2, 2, n), rng.uniform(-2, 2, n), rng.uniform(-.2, .2, n)])
+    w = np.tile([0.0, 0.0, 1.0], (n, 1))
+    lo = np.minimum(p0, p0 + d) - 6
+    hi = np.maximum(p0, p0 + d) + 6
+    hi[:, 2] += 12
+    pts = rng.uniform([-4, -4, -1.5], [4, 4, 1], (3000, 3))
+    cand = rng.uniform(size=3000) < 0.8
+    for c, r in ((0.0, 5.0), (4.0, 1.0), (5.0, 0.0)):
+        a = inside_any_sweep(pts, cand, p0, d, w, lo, hi, c, r, 12.0, 1e-6)
+        b = inside_any_sweep_clustered(pts, cand, p0, d, w, lo, hi, c, r, 12.0, 1e-6, 0.5)
+        assert np.array_equal(a, b) and not a[~cand].any()
+        floor = -0.2
+        m = sweep_margin_clustered(pts, cand, p0, d, w, lo, hi, c, r, 12.0, floor, 0.5)
+        sel = np.flatnonzero(cand)[:200]
+        for i in sel:
+            dmin = min(sweep_distance(*pts[i], p0[j], d[j], w[j], c, r, 12.0) - r
+                       for j in range(n))
+            assert m[i] == pytest.approx(min(max(dmin, floor), -floor), abs=1e-9)
+        # the margin's sign is the membership
+        assert np.array_equal(m[cand] <= 1e-6, a[cand])
+
+
+def test_index_query_is_a_superset_and_local():
+    rng = np.random.default_rng(2)
+    pts = np.cumsum(rng.normal(0, 0.6, (5000, 3)), axis=0)
+    axis = np.tile([0.0, 0.0, 1.0], (5000, 1))
+    cl = CutterLocations.from_arrays(pts, axis, 1000.0, 8000.0)
+    sw = build_sweeps(cl, Tool("ball", 6))
+    for _ in range(20):
+        c = pts[rng.integers(len(pts))]
+        lo, hi = c - 2.0, c + 2.0
+        got = set(sw.query(lo, hi).tolist())
+        brute_ids = set(np.flatnonzero(np.all((sw.lo <= hi) & (sw.hi >= lo), axis=1)).tolist())
+        assert got == brute_ids
+        assert len(got) < 0.2 * len(sw)
+
+
+def test_clipping_to_path_intervals():
+    tip = np.array([[0.0, 0, 0], [10.0, 0, 0], [10.0, 10.0, 0]])
+    cl = CutterLocations.from_arrays(tip, [0.0, 0.0, 1.0], 1000.0, 8000.0)
+    sw = build_sweeps(cl, Tool("ball", 6))
+    ids = np.arange(len(sw))
+    p0, d, *_ = sw.clipped(ids, 4.0, 15.0)
+    np.testing.assert_allclose(p0, [[4.0, 0, 0], [10.0, 0, 0]])
+    np.testing.assert_allclose(d, [[6.0, 0, 0], [0.0, 5.0, 0]])
+    p0, d, *_ = sw.clipped(ids, -math.inf, 4.0)
+    np.testing.assert_allclose(d, [[4.0, 0, 0]])
