@@ -25,7 +25,8 @@ except ImportError:  # pragma: no cover
 
 def _forces(phi: np.ndarray, h: np.ndarray, cutting: np.ndarray, db: np.ndarray,
             sk: np.ndarray, ck: np.ndarray, kte: np.ndarray, kre: np.ndarray,
-            kae: np.ndarray, ktc: float, krc: float, kac: float) -> np.ndarray:
+            kae: np.ndarray, ktc: float, krc: float, kac: float,
+            weight: np.ndarray) -> np.ndarray:
     """Sum of the micro-edge forces per angle sample, shape (n_ang, 3) [N].
 
     Parameters
@@ -38,6 +39,9 @@ def _forces(phi: np.ndarray, h: np.ndarray, cutting: np.ndarray, db: np.ndarray,
         Edge coefficients including wear.
     ktc, krc, kac : float [N/mm^2]
         Chip coefficients.
+    weight : ndarray, shape (n_ang, n_fl, m)
+        Fraction of each sample's rotation step spent cutting (1 inside the
+        engagement, between 0 and 1 at its boundary).
     """
     n_ang, n_fl, m = phi.shape
     out = np.zeros((n_ang, 3))
@@ -49,7 +53,7 @@ def _forces(phi: np.ndarray, h: np.ndarray, cutting: np.ndarray, db: np.ndarray,
             for j in range(m):
                 if cutting[i, k, j]:
                     hh = h[i, k, j]
-                    w = db[j]
+                    w = db[j] * weight[i, k, j]
                     dft = (kte[k, j] + ktc * hh) * w
                     dfr = (kre[k, j] + krc * hh) * w
                     dfa = (kae[k, j] + kac * hh) * w

@@ -29,7 +29,7 @@ from . import constants as K
 from ._kernels import inside_any_sweep_clustered, sweep_margin_clustered
 from .tool import MicroEdges, Tool
 
-__all__ = ["BottomTemplate", "Finished"]
+__all__ = ["BottomTemplate", "Finished", "SampleGrid", "stock_view"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,6 +57,57 @@ class Finished:
     cutting_phi: np.ndarray
     cutting_z: np.ndarray
     refined_pixels: int
+
+
+def _spread(a: np.ndarray) -> np.ndarray:
+    """Largest difference of each pixel to its 8 neighbours (inf across a silhouette)."""
+    n0, n1 = a.shape
+    pad = np.pad(a, 1, mode="edge")
+    out = np.zeros(a.shape)
+    with np.errstate(invalid="ignore"):
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                nb = pad[1 + di:1 + di + n0, 1 + dj:1 + dj + n1]
+                d = np.abs(nb - a)
+                d = np.where(np.isfinite(a) == np.isfinite(nb), np.nan_to_num(d, nan=0.0),
+                             np.inf)
+                out = np.maximum(out, d)
+    return out
+
+
+def stock_view(stock, view, depth_range) -> tuple | None:
+    """The stock's material interval in a view, with its local spreads.
+
+    ``(bottom, top, spread_bottom, spread_top)`` for a mesh stock, None for a
+    box (answered analytically).
+    """
+    if getattr(stock, "is_box", False):
+        return None
+    bottom, top = stock.interval(view, depth_range=depth_range)
+    return bottom, top, _spread(bottom), _spread(top)
+
+
+@dataclass(frozen=True, eq=False)
+class SampleGrid:
+    """Flute 0's micro-edge samples over a revolution, tool frame.
+
+    Attributes
+    ----------
+    theta : ndarray, shape (n,) [rad]
+    samples : ndarray, shape (n * m, 3) [mm]
+    ij : tuple of ndarray
+        Bottom-view pixel of each sample.
+    shape : tuple
+        (n, m).
+    rotation_step : ndarray, shape (n, m, 3) [mm]
+        Displacement of each sample over one rotation step (no feed).
+    """
+
+    theta: np.ndarray
+    samples: np.ndarray
+    ij: tuple
+    shape: tuple
+    rotation_step: np.ndarray
 
 
 class BottomTemplate:
@@ -87,21 +138,27 @@ class BottomTemplate:
         # refinement bound: how far the envelope point moves inside a pixel
         kap = np.minimum(self.kappa, K.VIEW_CORRECTION_KAPPA_RAD)
         self.reach = p / (math.sqrt(2.0) * np.cos(kap)) + K.MEMBERSHIP_EPS_MM
-        # micro-edge samples of flute 0 over a revolution
+        self.edges = edges
+        self.grid = self.sample_grid(theta)
+        self.samples, self.sample_ij = self.grid.samples, self.grid.ij
+        self.sample_shape, self.rotation_step = self.grid.shape, self.grid.rotation_step
+        sub = int(K.VIEW_ZOOM)
+        off = (np.arange(sub) + 0.5) / sub - 0.5
+        self.sub_offsets = np.stack(np.meshgrid(off, off), axis=-1).reshape(-1, 2) * p
+
+    def sample_grid(self, theta: np.ndarray) -> "SampleGrid":
+        """Micro-edge samples of flute 0 at rotation angles ``theta``."""
+        edges = self.edges
         phi = theta[:, None] - edges.psi[None, :]
         rr = edges.rho[None, :]
         pts = np.stack(np.broadcast_arrays(rr * np.sin(phi), rr * np.cos(phi),
                                            edges.z[None, :]), axis=-1)
-        self.samples = pts.reshape(-1, 3)
-        self.sample_shape = pts.shape[:2]
         step = 2 * math.pi / theta.shape[0]
         phi2 = phi + step
-        self.rotation_step = np.stack(np.broadcast_arrays(rr * np.sin(phi2), rr * np.cos(phi2),
-                                                          edges.z[None, :]), axis=-1) - pts
-        self.sample_ij = self._pixel(self.samples)
-        sub = int(K.VIEW_ZOOM)
-        off = (np.arange(sub) + 0.5) / sub - 0.5
-        self.sub_offsets = np.stack(np.meshgrid(off, off), axis=-1).reshape(-1, 2) * p
+        rot = np.stack(np.broadcast_arrays(rr * np.sin(phi2), rr * np.cos(phi2),
+                                           edges.z[None, :]), axis=-1) - pts
+        flat = pts.reshape(-1, 3)
+        return SampleGrid(theta, flat, self._pixel(flat), pts.shape[:2], rot)
 
     def _pixel(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         p, n = self.pixel_mm, self.n
@@ -118,11 +175,21 @@ class BottomTemplate:
             lo, hi = stock.bounds
             e = K.MEMBERSHIP_EPS_MM
             return np.all((world >= lo - e) & (world <= hi + e), axis=1)
-        bottom, top = interval
+        bottom, top = interval[0], interval[1]
         i, j = self._pixel(xyz_local) if ij is None else ij
         depth = xyz_local[:, 2] + self.depth_offset_mm
         e = K.MEMBERSHIP_EPS_MM
-        return (bottom[i, j] - e <= depth) & (depth <= top[i, j] + e)
+        inside = (bottom[i, j] - e <= depth) & (depth <= top[i, j] + e)
+        # steep stock surfaces change within a pixel: where the point lies
+        # within the local spread of the buffer, ask the mesh itself
+        sb, st = interval[2], interval[3]
+        with np.errstate(invalid="ignore"):
+            unsure = (np.abs(depth - top[i, j]) <= st[i, j]) | \
+                (np.abs(depth - bottom[i, j]) <= sb[i, j])
+        if unsure.any():
+            world = tip + xyz_local[unsure] @ frame
+            inside[unsure] = stock.contains(world)
+        return inside
 
     def _bound(self, m: np.ndarray, known: np.ndarray) -> np.ndarray:
         """How much ``m`` may rise from a pixel centre to its corners [mm].
@@ -146,6 +213,26 @@ class BottomTemplate:
         rigorous = self.reach.reshape(n, n)
         est = np.minimum(2.0 * slope * p / math.sqrt(2.0) + K.MEMBERSHIP_EPS_MM, rigorous)
         return np.where(unknown, rigorous, est).ravel()
+
+    def stock_margin_local(self, stock, interval, tip, frame, xyz_local: np.ndarray,
+                           ij: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """How far inside the stock points are [mm] (negative outside).
+
+        Box: distance to the nearest face plane. Mesh: the depth margin in
+        the point's pixel, ``min(top - depth, depth - bottom)`` (along the
+        view). Only the sign and the smooth variation matter: it locates
+        where the engagement's boundary crosses a rotation step.
+        """
+        if getattr(stock, "is_box", False):
+            world = tip + xyz_local @ frame
+            lo, hi = stock.bounds
+            return np.minimum((world - lo).min(axis=1), (hi - world).min(axis=1))
+        bottom, top = interval[0], interval[1]
+        i, j = self._pixel(xyz_local) if ij is None else ij
+        depth = xyz_local[:, 2] + self.depth_offset_mm
+        with np.errstate(invalid="ignore"):
+            m = np.minimum(top[i, j] - depth, depth - bottom[i, j])
+        return np.nan_to_num(m, nan=-1.0, posinf=1.0, neginf=-1.0)
 
     # --- the finished surface ----------------------------------------------
     def finished_surface(self, stock, interval, tip, frame, t1, t2) -> Finished:

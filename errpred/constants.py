@@ -13,11 +13,13 @@ import math
 #: Pixel size of the depth buffer, as a fraction of the tool diameter [-].
 PIXEL_PER_DIAMETER = 1.0 / 64.0
 #: Micro edges along the lower envelope (bottom face + corner arc) [-].
-MICRO_EDGES_ENVELOPE = 40
+MICRO_EDGES_ENVELOPE = 80
 #: Rotation step of the engagement and force computation [rad].
 ANGLE_STEP_RAD = math.radians(2.0)
-#: Chord tolerance when arcs are expanded into lines [mm].
-CHORD_TOL_MM = 1.0e-3
+#: Chord tolerance when arcs are expanded into lines [mm]. The chords cut
+#: up to this much deeper than the arc between their ends, which shifts the
+#: finished surface and the error by as much: well below the micrometre.
+CHORD_TOL_MM = 2.5e-4
 
 # --- geometry ---------------------------------------------------------------
 #: A point closer than this to a sweep's or the stock's boundary counts as
@@ -26,6 +28,16 @@ MEMBERSHIP_EPS_MM = 1.0e-6
 #: Side of the cubes into which points are binned before their membership
 #: tests, so that each bin tests only the sweeps that can reach it [mm].
 CLUSTER_CELL_MM = 0.5
+#: A tooth's engagement should span at least this many rotation steps; a
+#: shorter one (a light cut) is recomputed with a finer step ...
+ENGAGEMENT_MIN_STEPS = 16
+#: ... divided by at most this [-].
+ENGAGEMENT_MAX_REFINE = 8
+#: On the engagement's boundary each sample's cell is sub-sampled this many
+#: times in rotation ...
+ENGAGEMENT_SUBSTEPS = 8
+#: ... and this many times along the micro edge [-].
+ENGAGEMENT_SUBEDGES = 4
 #: Tool-axis change inside one sweep segment above which the segment is
 #: split so that each piece has a nearly constant axis [rad].
 SWEEP_AXIS_STEP_RAD = math.radians(1.0)

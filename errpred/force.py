@@ -151,7 +151,7 @@ def _check_inputs(edges: MicroEdges, phi: Any, h: Any, cutting: Any, cl_mm: Any
 
 
 def tool_forces(edges: MicroEdges, coeffs: CuttingCoefficients, phi: Any, h: Any,
-                cutting: Any, cl_mm: Any) -> np.ndarray:
+                cutting: Any, cl_mm: Any, weight: Any = None) -> np.ndarray:
     """Force on the tool over the sampled rotation, tool frame.
 
     Sums the micro-edge forces (:func:`local_components`,
@@ -172,6 +172,9 @@ def tool_forces(edges: MicroEdges, coeffs: CuttingCoefficients, phi: Any, h: Any
     cl_mm : ndarray, shape (m,) or (n_fl, m) [mm]
         Actual cutting distance: (m,) the same wear on every flute,
         (n_fl, m) per flute.
+    weight : ndarray, shape (n_ang, n_fl, m), optional
+        Fraction of each sample's rotation step spent cutting (default 1):
+        the engagement's boundary resolved within a step.
 
     Returns
     -------
@@ -179,30 +182,40 @@ def tool_forces(edges: MicroEdges, coeffs: CuttingCoefficients, phi: Any, h: Any
         ``(Fx', Fy', Fz')`` on the tool at each sample.
     """
     phi, h, cutting, cl = _check_inputs(edges, phi, h, cutting, cl_mm)
+    if weight is None:
+        weight = np.ones(phi.shape)
+    else:
+        weight = np.asarray(weight, dtype=float)
+        if weight.shape != phi.shape:
+            raise ValueError(f"weight: shape {weight.shape} differs from phi's {phi.shape}")
     if forces_kernel is not None:
-        return _forces_numba(edges, coeffs, phi, h, cutting, cl)
-    return _forces_numpy(edges, coeffs, phi, h, cutting, cl)
+        return _forces_numba(edges, coeffs, phi, h, cutting, cl, weight)
+    return _forces_numpy(edges, coeffs, phi, h, cutting, cl, weight)
 
 
 def _forces_numba(edges: MicroEdges, coeffs: CuttingCoefficients, phi: np.ndarray,
-                  h: np.ndarray, cutting: np.ndarray, cl: np.ndarray) -> np.ndarray:
+                  h: np.ndarray, cutting: np.ndarray, cl: np.ndarray,
+                  weight: np.ndarray) -> np.ndarray:
     """Compiled loop (``errpred._force_kernels``); ``cl`` already (n_fl, m)."""
     kte, kre, kae = (np.ascontiguousarray(k) for k in coeffs.edge(cl))
     kappa = np.asarray(edges.kappa, dtype=float)
     return forces_kernel(np.ascontiguousarray(phi), np.ascontiguousarray(h),
                          np.ascontiguousarray(cutting), np.ascontiguousarray(edges.db, dtype=float),
                          np.sin(kappa), np.cos(kappa), kte, kre, kae,
-                         coeffs.Ktc_N_mm2, coeffs.Krc_N_mm2, coeffs.Kac_N_mm2)
+                         coeffs.Ktc_N_mm2, coeffs.Krc_N_mm2, coeffs.Kac_N_mm2,
+                         np.ascontiguousarray(weight))
 
 
 def _forces_numpy(edges: MicroEdges, coeffs: CuttingCoefficients, phi: np.ndarray,
-                  h: np.ndarray, cutting: np.ndarray, cl: np.ndarray) -> np.ndarray:
+                  h: np.ndarray, cutting: np.ndarray, cl: np.ndarray,
+                  weight: np.ndarray) -> np.ndarray:
     """Vectorized sum over the cutting entries only; ``cl`` already (n_fl, m)."""
     i, k, j = np.nonzero(cutting)
     n_ang = phi.shape[0]
     kappa = np.asarray(edges.kappa, dtype=float)
     sk, ck = np.sin(kappa)[j], np.cos(kappa)[j]
-    dft, dfr, dfa = local_components(coeffs, h[i, k, j], cl[k, j], np.asarray(edges.db)[j])
+    dft, dfr, dfa = local_components(coeffs, h[i, k, j], cl[k, j],
+                                     np.asarray(edges.db)[j] * weight[i, k, j])
     p = phi[i, k, j]
     sp, cp = np.sin(p), np.cos(p)
     a = dfr * sk + dfa * ck   # as in to_tool_frame, without the (n, 3) stack

@@ -21,12 +21,12 @@ from nc.path import CutterLocations
 
 from . import constants as K
 from ._kernels import inside_any_sweep_clustered
-from .bottomview import BottomTemplate
+from .bottomview import BottomTemplate, stock_view
 from .engagement import revolution_angles
 from .frames import tool_frame
 from .probe import StockProbe
 from .raster.camera import View
-from .surface import GenerationPoint, envelope_hits, generation_point, regions
+from .surface import GenerationPoint, envelope_hits, generation_point, regions, strip_samples
 from .sweeps import Sweeps, build_sweeps
 from .tool import MicroEdges, Tool
 
@@ -93,6 +93,11 @@ class PointGeometry:
         cutting, which advance the wear).
     cutting0 : ndarray, shape (n, m), bool, or None
         Flute 0's engagement over one revolution.
+    weight0 : ndarray, shape (n, m), float32, or None
+        Share of each rotation step flute 0's micro edges spend cutting.
+    shift0 : ndarray, shape (n, m), float32, or None [rad]
+        Where within its step that share lies (centroid offset of the rotation
+        angle): boundary samples are evaluated there.
     cl_per_rev : ndarray, shape (m,), or None [mm]
         Actual cutting distance per revolution of each micro edge.
     gen : GenerationPoint or None
@@ -112,6 +117,8 @@ class PointGeometry:
     feed_per_tooth_world: np.ndarray
     cut_length_mm: float = 0.0
     cutting0: np.ndarray | None = None
+    weight0: np.ndarray | None = None
+    shift0: np.ndarray | None = None
     cl_per_rev: np.ndarray | None = None
     gen: GenerationPoint | None = None
     view: str = "bottom"
@@ -141,6 +148,7 @@ class GeometryModel:
         self.edges: MicroEdges = tool.micro_edges(resolution.micro_edges)
         self.theta = revolution_angles(resolution.angle_step_rad, tool.flutes)
         self.bottom = BottomTemplate(tool, self.edges, self.theta, resolution.pixel_mm)
+        self._grids = {1: self.bottom.grid}
         seg = np.zeros(len(cl))
         if len(cl) > 1:
             seg[1:] = np.linalg.norm(np.diff(cl.tip, axis=0), axis=1)
@@ -172,7 +180,15 @@ class GeometryModel:
         ua, ub = self.cl.axis[s - 1], self.cl.axis[s]
         u = (1 - t) * ua + t * ub
         u /= np.linalg.norm(u)
-        return tip, u, b - a, s
+        feed = b - a
+        if t >= 1.0 and s + 1 < len(self.cl) and not self.cl.rapid[s + 1] \
+                and self.cl.block[s + 1] == self.cl.block[s]:
+            # at a chord end inside a block (an arc): the tangent is the bisector
+            nxt = self.cl.tip[s + 1] - b
+            la, lb = np.linalg.norm(feed), np.linalg.norm(nxt)
+            if la > 0 and lb > 0:
+                feed = feed / la + nxt / lb
+        return tip, u, feed, s
 
     def geometry(self, block: int) -> list[PointGeometry]:
         """Prediction point(s) of one block, with their stage-1 geometry."""
@@ -199,7 +215,7 @@ class GeometryModel:
 
     # --- one point ---------------------------------------------------------
     def point(self, block: int, L: float, cut_length: float) -> PointGeometry:
-        tool, res, bt = self.tool, self.res, self.bottom
+        tool, bt = self.tool, self.bottom
         tip, u, seg, s = self._at(L)
         feed = float(self.cl.feed_mm_min[s])
         spindle = float(self.cl.spindle_rpm[s])
@@ -219,20 +235,15 @@ class GeometryModel:
         if not getattr(self.stock, "is_box", False):
             view = View.along_axis(tip, frame, bt.window_mm, bt.pixel_mm, bt.depth_offset_mm)
             drange = (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm)
-            interval = self.stock.interval(view, depth_range=drange)
+            interval = stock_view(self.stock, view, drange)
         # engagement of flute 0 over one revolution
-        cand = bt.in_stock_local(self.stock, interval, tip, frame, bt.samples, bt.sample_ij)
-        world = tip + bt.samples @ frame
-        c, r, top = tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm
-        removed = inside_any_sweep_clustered(world, cand, *t1, c, r, top,
-                                             K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
-        cutting0 = (cand & ~removed).reshape(bt.sample_shape)
-        if not cutting0.any():
+        eng = self._engagement(tip, frame, interval, t1, f_tooth)
+        if eng is None:
             return PointGeometry(status="no-cut", **base)
-        feed_step = (frame @ (f_tooth * tool.flutes)) / bt.sample_shape[0]
-        step_len = np.linalg.norm(bt.rotation_step + feed_step, axis=-1)
-        cl_rev = np.where(cutting0, step_len, 0.0).sum(axis=0)
-        base.update(cut_length_mm=float(cut_length), cutting0=cutting0, cl_per_rev=cl_rev)
+        cutting0, weight0, shift0, cl_rev = eng
+        base.update(cut_length_mm=float(cut_length), cutting0=cutting0,
+                    weight0=weight0.astype(np.float32), shift0=shift0.astype(np.float32),
+                    cl_per_rev=cl_rev)
         fin = bt.finished_surface(self.stock, interval, tip, frame, t1, t2)
         notes = []
         gen, used = None, "bottom"
@@ -255,6 +266,112 @@ class GeometryModel:
         return PointGeometry(status=status, gen=gen, view=used,
                              cutting_pixels=fin.cutting_pixels, finished_pixels=gen.pixels,
                              notes=tuple(notes), **base)
+
+    def _grid(self, factor: int):
+        """Sample grid with the rotation step divided by ``factor`` (cached)."""
+        grid = self._grids.get(factor)
+        if grid is None:
+            n = self.theta.shape[0] * factor
+            grid = self._grids[factor] = self.bottom.sample_grid(
+                np.arange(n) * (2 * math.pi / n))
+        return grid
+
+    def _engagement(self, tip, frame, interval, t1, f_tooth):
+        """Flute 0's engagement: (cutting, weight, shift, cutting distance per rev).
+
+        At the resolution's rotation step first; where a tooth's engagement
+        spans fewer than ``ENGAGEMENT_MIN_STEPS`` steps (a short pulse of
+        force, light finishing cuts), again with the step divided until it
+        does (at most ``ENGAGEMENT_MAX_REFINE`` times), inside the engaged
+        window only: the force pulse must be resolved for its dynamic
+        response.
+        """
+        tool = self.tool
+        c, r, top = tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm
+        factor, window = 1, None
+        while True:
+            grid = self._grid(factor)
+            n, m = grid.shape
+            if window is None:
+                sel = np.ones(n * m, dtype=bool)
+            else:
+                sel = np.repeat(window, m)
+            cand = np.zeros(n * m, dtype=bool)
+            ij = (grid.ij[0][sel], grid.ij[1][sel])
+            cand[sel] = self.bottom.in_stock_local(self.stock, interval, tip, frame,
+                                                   grid.samples[sel], ij)
+            world = tip + grid.samples @ frame
+            removed = inside_any_sweep_clustered(world, cand, *t1, c, r, top,
+                                                 K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
+            cutting0 = (cand & ~removed).reshape(n, m)
+            if not cutting0.any():
+                return None
+            engaged = cutting0.any(axis=1)
+            span = int(engaged.sum())  # flute 0 passes the engagement once a revolution
+            if span >= K.ENGAGEMENT_MIN_STEPS or factor >= K.ENGAGEMENT_MAX_REFINE:
+                break
+            q = 1
+            while span * q < K.ENGAGEMENT_MIN_STEPS and factor * q < K.ENGAGEMENT_MAX_REFINE:
+                q *= 2
+            # the fine window: the engaged steps and one either side
+            engaged = engaged | np.roll(engaged, 1) | np.roll(engaged, -1)
+            fine = np.arange(n * q)
+            window = engaged[np.round(fine / q).astype(int) % n]
+            factor *= q
+        weight0, shift0 = self._step_weights(grid, cutting0, interval, tip, frame, t1)
+        feed_step = (frame @ (f_tooth * tool.flutes)) / n
+        step_len = np.linalg.norm(grid.rotation_step + feed_step, axis=-1)
+        cl_rev = (weight0 * step_len).sum(axis=0)
+        return weight0 > 0, weight0, shift0, cl_rev
+
+    def _step_weights(self, grid, cutting0, interval, tip, frame, t1):
+        """Share of each sample's cell (rotation step x micro edge) that cuts, (n, m),
+        and the rotation offset of that share's centroid [rad], (n, m).
+
+        1 or 0 inside or outside the engagement. On its boundary (samples
+        with a neighbour in the other state, in rotation or along the edge)
+        each cell is sub-sampled ``ENGAGEMENT_SUBSTEPS`` times in rotation and
+        ``ENGAGEMENT_SUBEDGES`` times along the edge and tested exactly like
+        the samples (stock, then T1). The share and the centroid resolve the
+        boundary within a cell, so the force does not move in whole steps
+        when the boundary moves: the reason the prediction converges with
+        resolution.
+        """
+        bt, tool, edges = self.bottom, self.tool, self.edges
+        c0 = cutting0
+        n, m = c0.shape
+        pad = np.pad(c0, ((0, 0), (1, 1)), mode="edge")
+        diff = np.zeros_like(c0)
+        for di in (-1, 0, 1):
+            rolled = np.roll(pad, di, axis=0)
+            for dj in (-1, 0, 1):
+                diff |= rolled[:, 1 + dj:1 + dj + m] != c0
+        weight = c0.astype(float)
+        shift = np.zeros((n, m))
+        if not diff.any():
+            return weight, shift
+        i, j = np.nonzero(diff)
+        st, se = K.ENGAGEMENT_SUBSTEPS, K.ENGAGEMENT_SUBEDGES
+        step = 2 * math.pi / n
+        du = (np.arange(st) + 0.5) / st - 0.5
+        dv = (np.arange(se) + 0.5) / se - 0.5
+        # sub-sample angles and profile positions, (cells, st, se)
+        ang = grid.theta[i][:, None, None] + du[None, :, None] * step
+        sarc = edges.s[j][:, None, None] + dv[None, None, :] * edges.db[j][:, None, None]
+        rho, z, _ = tool.profile_at(np.broadcast_to(sarc, ang.shape[:1] + (st, se)))
+        phi = ang - tool.helix_lag(z)
+        local = np.stack([rho * np.sin(phi), rho * np.cos(phi), z], axis=-1).reshape(-1, 3)
+        inside = bt.in_stock_local(self.stock, interval, tip, frame, local)
+        pts = tip + local @ frame
+        removed = inside_any_sweep_clustered(pts, inside, *t1, tool.core_radius_mm,
+                                             tool.corner_radius_mm, tool.flute_length_mm,
+                                             K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
+        cut = (inside & ~removed).reshape(i.size, st, se)
+        count = cut.sum(axis=(1, 2))
+        weight[i, j] = count / (st * se)
+        ushare = (cut * du[None, :, None]).sum(axis=(1, 2))
+        shift[i, j] = np.where(count > 0, ushare / np.maximum(count, 1) * step, 0.0)
+        return weight, shift
 
     def _near_sweeps(self, tip, u, L, fz):
         """T1 and T2 near the tool, nearest first."""
@@ -279,14 +396,15 @@ class GeometryModel:
         if phi_c.size == 0:
             # nothing cuts in the bottom view (the flank): aim at the cutting edges
             i, j = np.nonzero(cutting0)
-            phi_c = self.theta[i] - self.edges.psi[j]
+            n = cutting0.shape[0]
+            phi_c = i * (2 * math.pi / n) - self.edges.psi[j]
         az = math.atan2(float(np.sin(phi_c).mean()), float(np.cos(phi_c).mean()))
         cut_edges = cutting0.any(axis=0)
         zmax = float(self.edges.z[cut_edges].max()) if cut_edges.any() else 0.0
         zcut = float(fin.cutting_z.max()) if fin.cutting_z.size else 0.0
         height = min(tool.flute_length_mm, max(zmax, zcut) + res.pixel_mm)
         side = View.side(tip, frame, az, tool.diameter_mm + 2 * res.pixel_mm,
-                         max(height, 2 * res.pixel_mm), res.pixel_mm / K.VIEW_ZOOM * 2)
+                         max(height, 2 * res.pixel_mm), res.pixel_mm / K.VIEW_ZOOM)
         probe = StockProbe(self.stock, side, (0.0, tool.diameter_mm + 2 * res.pixel_mm))
         hits = envelope_hits(tool, side, frame, tip)
         reg = regions(tool, hits, side.pixel_mm, probe, t1, t2)
@@ -305,6 +423,7 @@ def _generation(tool: Tool, xyz, phi, kappa, frame, tip) -> GenerationPoint:
     sk, ck = math.sin(kappa_m), math.cos(kappa_m)
     n_tool = np.array([-sk * math.sin(phi_m), -sk * math.cos(phi_m), ck])
     theta = (phi_m + float(tool.helix_lag(z))) % (2 * math.pi)
+    strip = strip_samples(tool, phi, kappa, xyz[:, 2], frame)
     return GenerationPoint(theta_rad=theta, phi_rad=phi_m, kappa_rad=kappa_m, point_tool=pt,
                            point_world=tip + pt @ frame, normal_world=n_tool @ frame,
-                           pixels=int(xyz.shape[0]))
+                           pixels=int(xyz.shape[0]), **strip)

@@ -56,10 +56,13 @@ class ShapeErrorModel:
         self.deviation = deviation
         self.wear_rate = float(wear_rate)
 
-    def error_mm(self, kappa: float, z: float, cl_mm: float) -> float:
-        """``E_p``: a smaller effective radius leaves material (positive)."""
-        dev = float(self.deviation(kappa, z)) if self.deviation is not None else 0.0
-        return -dev + self.wear_rate * cl_mm
+    def error_mm(self, kappa, z, cl_mm):
+        """``E_p`` [mm]: a smaller effective radius leaves material (positive).
+
+        Scalars or arrays (broadcast together).
+        """
+        dev = self.deviation(kappa, z) if self.deviation is not None else 0.0
+        return -np.asarray(dev, dtype=float) + self.wear_rate * np.asarray(cl_mm, dtype=float)
 
 
 @dataclass
@@ -103,26 +106,52 @@ class PointResult:
 
 
 def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
-               compliance: Compliance, g: PointGeometry, theta: np.ndarray,
-               cl_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+               compliance: Compliance, g: PointGeometry,
+               cl_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Force on the tool and its deflection over one revolution, world frame.
 
     Returns
     -------
+    theta : ndarray, shape (n,) [rad]
+        The point's own rotation steps (finer for light cuts).
     force_N : ndarray, shape (n, 3)
     deflection_mm : ndarray, shape (n, 3)
     """
+    n = g.cutting0.shape[0]
+    theta = np.arange(n) * (2 * math.pi / n)
     phi, cutting = expand_flutes(theta, g.cutting0, edges, tool.flutes)
+    weight = None
+    if g.weight0 is not None:
+        _, weight = expand_flutes(theta, g.weight0.astype(float), edges, tool.flutes)
+    if g.shift0 is not None:
+        _, shift = expand_flutes(theta, g.shift0.astype(float), edges, tool.flutes)
+        phi = phi + shift
     f_tool = g.frame @ g.feed_per_tooth_world
     h = np.where(cutting, chip_thickness(edges, phi, f_tool), 0.0)
-    f_tool_frame = tool_forces(edges, coeffs, phi, h, cutting, cl_mm)
+    f_tool_frame = tool_forces(edges, coeffs, phi, h, cutting, cl_mm, weight=weight)
     force = f_tool_frame @ g.frame  # rows: tool frame -> world
     basis = bending_basis(g.axis)
     dirs = compliance.directions
     comp = np.stack([force @ basis[d] for d in dirs], axis=1)
     defl = compliance.deflection(comp, g.spindle_rpm)  # (n, ndir) [mm]
     deflection = sum(defl[:, k:k + 1] * basis[d][None, :] for k, d in enumerate(dirs))
-    return force, deflection
+    return theta, force, deflection
+
+
+def _nearest_edges(edges: MicroEdges, kappa: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Micro edge nearest each (kappa, z): by contact angle, on the flank by height."""
+    dk = np.abs(edges.kappa[None, :] - kappa[:, None])
+    dz = np.abs(edges.z[None, :] - z[:, None])
+    return np.argmin(dk + 1e-3 * dz, axis=1)
+
+
+def _at_angles(series: np.ndarray, theta: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """:func:`_at_angle` for many angles, shape (k, 3)."""
+    n = theta.shape[0]
+    x = (np.asarray(angles) % (2 * math.pi)) / (2 * math.pi) * n
+    i = np.floor(x).astype(int) % n
+    t = (x - np.floor(x))[:, None]
+    return (1 - t) * series[i] + t * series[(i + 1) % n]
 
 
 def _at_angle(series: np.ndarray, theta: np.ndarray, angle: float) -> np.ndarray:
@@ -136,10 +165,13 @@ def _at_angle(series: np.ndarray, theta: np.ndarray, angle: float) -> np.ndarray
 
 def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
              compliance: Compliance, shape: ShapeErrorModel, theta: np.ndarray,
-             g: PointGeometry, wear: WearState) -> PointResult | None:
+             g: PointGeometry, wear: WearState, series: list | None = None
+             ) -> PointResult | None:
     """Stage 2 for one point; advances ``wear`` by the revolutions it cuts.
 
-    Returns None for points that do not cut (the wear does not advance).
+    Returns None for points that do not cut (the wear does not advance). If
+    ``series`` is a list, ``(force_N, deflection_mm)`` over the revolution
+    (world frame, (n, 3) each) is appended to it.
     """
     if g.cutting0 is None:
         return None
@@ -148,13 +180,24 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     cl_mid = wear.cl_mm + 0.5 * increment
     result = None
     if g.gen is not None and g.status in ("predicted", "axis-normal"):
-        force, defl = revolution(tool, edges, coeffs, compliance, g, theta, cl_mm=cl_mid)
-        d_gen = _at_angle(defl, theta, g.gen.theta_rad)
-        n = g.gen.normal_world
-        E_d = float(d_gen @ n)
-        j = int(np.argmin(np.abs(edges.kappa - g.gen.kappa_rad)
-                          + np.abs(edges.z - g.gen.point_tool[2]) * 1e-3))
-        E_p = shape.error_mm(g.gen.kappa_rad, float(g.gen.point_tool[2]), float(cl_mid[j]))
+        theta, force, defl = revolution(tool, edges, coeffs, compliance, g, cl_mm=cl_mid)
+        if series is not None:
+            series.append((theta, force, defl))
+        gen = g.gen
+        d_gen = _at_angle(defl, theta, gen.theta_rad)
+        if gen.samples_theta is not None and gen.samples_theta.size:
+            # the error averaged over the strip the surface is generated on
+            d_s = _at_angles(defl, theta, gen.samples_theta)
+            E_d = float(np.mean(np.sum(d_s * gen.samples_normal, axis=1)))
+            js = _nearest_edges(edges, gen.samples_kappa, gen.samples_z)
+            E_p = float(np.mean(shape.error_mm(gen.samples_kappa, gen.samples_z, cl_mid[js])))
+        else:
+            E_d = float(d_gen @ gen.normal_world)
+            j0 = _nearest_edges(edges, np.array([gen.kappa_rad]),
+                                np.array([gen.point_tool[2]]))[0]
+            E_p = float(shape.error_mm(gen.kappa_rad, float(gen.point_tool[2]),
+                                       float(cl_mid[j0])))
+        j = _nearest_edges(edges, np.array([gen.kappa_rad]), np.array([gen.point_tool[2]]))[0]
         result = PointResult(
             peak_force_N=float(np.linalg.norm(force, axis=1).max()),
             mean_force_N=force.mean(axis=0),

@@ -98,22 +98,27 @@ def plot_revolution(theta: np.ndarray, force_N: np.ndarray, deflection_mm: np.nd
     a2.set_ylabel("tool deflection [um]")
     a2.set_xlabel("rotation of flute 1 [deg]   (dashed: the instant the surface is generated)")
     a1.set_title((title or "Force and deflection over one revolution")
-                 + (f"\ndeflection lags force by {lag:.0f} deg at the strongest harmonic"
+                 + (f"\ndeflection trails force by {lag:.0f} deg of rotation (cross-correlation)"
                     if lag is not None else ""))
     _save(fig, path)
 
 
 def _lag_deg(force: np.ndarray, defl: np.ndarray) -> float | None:
-    F = np.fft.rfft(force, axis=0)
-    D = np.fft.rfft(defl, axis=0)
-    if F.shape[0] < 2:
+    """Rotation by which the deflection trails the force [deg].
+
+    The circular cross-correlation of the force and the deflection in the
+    plane normal to the axis (components X, Y): the shift that best aligns
+    the deflection with the force.
+    """
+    f = force[:, 0] + 1j * force[:, 1]
+    d = defl[:, 0] + 1j * defl[:, 1]
+    f = f - f.mean()
+    d = d - d.mean()
+    if not np.any(np.abs(f) > 0):
         return None
-    mag = np.abs(F[1:]).sum(axis=1)
-    m = int(np.argmax(mag)) + 1
-    k = int(np.argmax(np.abs(F[m])))
-    if abs(F[m, k]) == 0:
-        return None
-    return float(np.degrees(np.angle(F[m, k] / D[m, k])) % 360.0)
+    corr = np.fft.ifft(np.fft.fft(d) * np.conj(np.fft.fft(f)))
+    k = int(np.argmax(corr.real))
+    return 360.0 * k / f.shape[0]
 
 
 def plot_error_map(prediction: Prediction, path, title: str = "") -> None:

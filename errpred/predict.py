@@ -64,12 +64,20 @@ class Prediction:
         Actual cutting distance of each micro edge at the end [mm].
     edges_kappa_rad, edges_z_mm : ndarray, shape (m,)
         Where the micro edges are (for plots of wear along the edge).
+    theta : ndarray, shape (n,) [rad]
+        Rotation angles of one revolution.
+    series : dict
+        Program line -> ``(force_N (n, 3), deflection_mm (n, 3), theta_m,
+        theta (n,))`` over one revolution, kept for the lines asked for and
+        for the point with the largest |E| (key ``-1``, with its line last).
     """
 
     points: list[PointPrediction]
     wear_mm: np.ndarray
     edges_kappa_rad: np.ndarray
     edges_z_mm: np.ndarray
+    theta: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    series: dict[int, tuple[np.ndarray, np.ndarray, float]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
     def errors_um(self) -> np.ndarray:
@@ -152,7 +160,8 @@ class Predictor:
                 yield from res
 
     def run(self, blocks: Iterable[int] | None = None, *, workers: int = 1,
-            progress: Callable[[int], None] | None = None) -> Prediction:
+            progress: Callable[[int], None] | None = None,
+            series_lines: Iterable[int] = ()) -> Prediction:
         """Predict the error of ``blocks`` (default: every block of the program).
 
         Parameters
@@ -165,21 +174,36 @@ class Predictor:
             Processes for stage 1 (1: this process).
         progress : callable, optional
             Called with the number of blocks done after each block.
+        series_lines : iterable of int
+            Program lines whose force and deflection over a revolution are
+            kept (:attr:`Prediction.series`); the largest-|E| point's always is.
         """
         blocks = list(range(len(self.program))) if blocks is None else list(blocks)
         wear = WearState.new(self.edges)
         out: list[PointPrediction] = []
+        keep = set(int(x) for x in series_lines)
+        kept: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
+        worst = -1.0
         done = 0
         for geoms in self.geometries(blocks, workers=workers):
             for g in geoms:
+                buf: list = []
                 res = evaluate(self.tool, self.edges, self.coefficients, self.compliance,
-                               self.shape, self.theta, g, wear)
-                out.append(PointPrediction(g, res, int(self.program.line[g.block])))
+                               self.shape, self.theta, g, wear, series=buf)
+                line = int(self.program.line[g.block])
+                out.append(PointPrediction(g, res, line))
+                if buf:
+                    item = (buf[0][1], buf[0][2], g.gen.theta_rad, buf[0][0])
+                    if line in keep:
+                        kept[line] = item
+                    if g.status == "predicted" and abs(res.E_um) > worst:
+                        worst = abs(res.E_um)
+                        kept[-1] = (*item, line)
             done += 1
             if progress is not None:
                 progress(done)
         return Prediction(points=out, wear_mm=wear.cl_mm, edges_kappa_rad=self.edges.kappa,
-                          edges_z_mm=self.edges.z)
+                          edges_z_mm=self.edges.z, theta=self.theta, series=kept)
 
 
 def predict_points(predictor: Predictor, blocks=None, **kwargs) -> Prediction:

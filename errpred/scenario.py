@@ -239,12 +239,16 @@ class _Reader:
             if k not in d:
                 raise self.fail(_dot(prefix, k), "missing")
 
+    def given(self, d: dict, k: str, key: str, default: Any) -> bool:
+        """True if ``k`` is in ``d``; False if absent with a default; else 'missing'."""
+        if k not in d and default is _MISSING:
+            raise self.fail(key, "missing")
+        return k in d
+
     def number(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
                sign: str = "") -> float:
         key = _dot(prefix, k)
-        if k not in d:
-            if default is _MISSING:
-                raise self.fail(key, "missing")
+        if not self.given(d, k, key, default):
             return default
         v = d[k]
         if isinstance(v, bool) or not isinstance(v, (int, float)):
@@ -259,9 +263,7 @@ class _Reader:
     def integer(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
                 minimum: int = 1) -> int:
         key = _dot(prefix, k)
-        if k not in d:
-            if default is _MISSING:
-                raise self.fail(key, "missing")
+        if not self.given(d, k, key, default):
             return default
         v = d[k]
         if isinstance(v, bool) or not isinstance(v, int):
@@ -273,9 +275,7 @@ class _Reader:
     def string(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
                choices: tuple = ()) -> str:
         key = _dot(prefix, k)
-        if k not in d:
-            if default is _MISSING:
-                raise self.fail(key, "missing")
+        if not self.given(d, k, key, default):
             return default
         v = d[k]
         if not isinstance(v, str):
@@ -310,10 +310,11 @@ def _dot(prefix: str, k: str) -> str:
 
 
 def _kind(v: Any) -> str:
-    names = {bool: "a boolean", str: "a string", dict: "a table", list: "an array",
-             int: "an integer", float: "a number"}
-    return f"{names.get(type(v), type(v).__name__)} ({v!r})" if not isinstance(v, dict) \
-        else "a table"
+    if isinstance(v, dict):
+        return "a table"
+    names = {bool: "a boolean", str: "a string", list: "an array", int: "an integer",
+             float: "a number"}
+    return f"{names.get(type(v), type(v).__name__)} ({v!r})"
 
 
 def _suggest(k: str, allowed: tuple) -> str | None:

@@ -28,9 +28,11 @@ from .constants import CLUSTER_CELL_MM, MEMBERSHIP_EPS_MM
 from .tool import Tool
 
 __all__ = ["EnvelopeHits", "Region", "GenerationPoint", "envelope_hits", "regions",
-           "generation_point"]
+           "generation_point", "strip_samples"]
 
 _PARALLEL_TOL = 1e-9
+#: Finished pixels kept per point for averaging the error over the strip.
+MAX_STRIP_SAMPLES = 256
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,6 +158,11 @@ class GenerationPoint:
         envelope's centre of curvature).
     pixels : int
         Finished pixels it was computed from.
+    samples_theta, samples_kappa, samples_z : ndarray, shape (k,)
+        Rotation [rad], contact angle [rad] and height [mm] of (up to
+        ``MAX_STRIP_SAMPLES``, evenly chosen) finished pixels: the strip the
+        surface is generated over, for averaging the error across it.
+    samples_normal : ndarray, shape (k, 3)
     """
 
     theta_rad: float
@@ -165,6 +172,24 @@ class GenerationPoint:
     point_world: np.ndarray
     normal_world: np.ndarray
     pixels: int
+    samples_theta: np.ndarray | None = None
+    samples_kappa: np.ndarray | None = None
+    samples_z: np.ndarray | None = None
+    samples_normal: np.ndarray | None = None
+
+
+def strip_samples(tool: Tool, phi: np.ndarray, kappa: np.ndarray, z: np.ndarray,
+                  frame: np.ndarray) -> dict:
+    """Per-pixel rotation, contact angle, height and world normal of a strip."""
+    k = phi.shape[0]
+    if k > MAX_STRIP_SAMPLES:
+        pick = np.linspace(0, k - 1, MAX_STRIP_SAMPLES).round().astype(int)
+        phi, kappa, z = phi[pick], kappa[pick], z[pick]
+    sk, ck = np.sin(kappa), np.cos(kappa)
+    n_tool = np.column_stack([-sk * np.sin(phi), -sk * np.cos(phi), ck])
+    theta = (phi + tool.helix_lag(z)) % (2 * math.pi)
+    return dict(samples_theta=theta, samples_kappa=kappa, samples_z=z,
+                samples_normal=n_tool @ frame)
 
 
 def generation_point(tool: Tool, region: Region, frame: np.ndarray,
@@ -186,6 +211,8 @@ def generation_point(tool: Tool, region: Region, frame: np.ndarray,
     sk, ck = math.sin(kappa_m), math.cos(kappa_m)
     n_tool = np.array([-sk * math.sin(phi_m), -sk * math.cos(phi_m), ck])
     theta = (phi_m + float(tool.helix_lag(z))) % (2 * math.pi)
+    strip = strip_samples(tool, phi, region.hits.kappa[sel], region.hits.tool_xyz[sel, 2],
+                          frame)
     return GenerationPoint(theta_rad=theta, phi_rad=phi_m, kappa_rad=kappa_m,
                            point_tool=pt, point_world=tip + pt @ frame,
-                           normal_world=n_tool @ frame, pixels=k)
+                           normal_world=n_tool @ frame, pixels=k, **strip)

@@ -82,6 +82,9 @@ class MicroEdges:
         Length of the helical edge itself (chip width and helix lag).
     segment : ndarray, shape (m,), int
         0 bottom face, 1 corner arc, 2 flank.
+    s : ndarray, shape (m,) [mm]
+        Arc length of the micro edge's midpoint along the profile
+        (:meth:`Tool.profile_at`).
     """
 
     rho: np.ndarray
@@ -91,6 +94,7 @@ class MicroEdges:
     db: np.ndarray
     ds: np.ndarray
     segment: np.ndarray
+    s: np.ndarray
 
     def __len__(self) -> int:
         return int(self.rho.shape[0])
@@ -232,6 +236,28 @@ class Tool:
         r = self.corner_radius_mm
         return self.core_radius_mm + r * np.sin(kappa), r * (1.0 - np.cos(kappa))
 
+    def profile_at(self, s_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(rho, z, kappa)`` at arc length ``s_mm`` along the cutting profile.
+
+        Arc length runs from the axis along the bottom face (``R - r``), the
+        corner arc (``r pi / 2``) and up the flank.
+        """
+        s = np.asarray(s_mm, dtype=float)
+        c, r = self.core_radius_mm, self.corner_radius_mm
+        corner = r * math.pi / 2
+        rho = np.where(s <= c, np.maximum(s, 0.0), self.radius_mm)
+        z = np.where(s <= c + corner, 0.0, r + (s - c - corner))
+        kappa = np.where(s <= c, 0.0, math.pi / 2)
+        on = (s > c) & (s <= c + corner)
+        if r > 0 and np.any(on):
+            k = (s[on] - c) / r if s.ndim else (float(s) - c) / r
+            rr, zz = self.profile_point(k)
+            if s.ndim:
+                rho[on], z[on], kappa[on] = rr, zz, k
+            else:
+                rho, z, kappa = rr, zz, np.asarray(k)
+        return rho, z, kappa
+
     def helix_lag(self, z: np.ndarray) -> np.ndarray:
         """Helix lag ``psi = z tan(helix) / R`` at height ``z`` [rad]."""
         return np.asarray(z, dtype=float) * self.tan_helix / self.radius_mm
@@ -301,8 +327,9 @@ class Tool:
         # helical edge length: profile length and the lag's arc, combined
         dpsi = np.gradient(psi) if psi.size > 1 else np.zeros_like(psi)
         ds = np.sqrt(db_a ** 2 + (rho_a * dpsi) ** 2)
+        s_mid = np.cumsum(db_a) - 0.5 * db_a
         return MicroEdges(rho=rho_a, z=z_a, kappa=np.concatenate(kap), psi=psi, db=db_a,
-                          ds=ds, segment=np.concatenate(seg))
+                          ds=ds, segment=np.concatenate(seg), s=s_mid)
 
 
 def core_distance(rho: np.ndarray, z: np.ndarray, core_radius: float,

@@ -5,28 +5,19 @@ file of both scenarios (deterministic: same bytes on every run);
 ``--check`` regenerates into a temporary folder and fails if the committed
 files differ.
 
-mold-ball
-    A D10 ball end mill finishing a free-form core in P20-class mold steel.
-    The design surface (:func:`design_z`, analytic, smooth) is a core on a
-    60 x 40 mm plate: an elliptic boss 16 mm high whose flanks reach ~60 deg,
-    with a saddle on top and a gently waving base (slopes 0 to 60 deg,
-    smallest concave radius 5.9 mm > the ball radius, so the ball touches the
-    design at one point everywhere). The stock is the design offset by 0.15 mm
-    (the envelope of a 0.15 mm ball rolled over it). Tool tips come from an
-    exact drop-cutter (:func:`drop_ball`: the highest ball centre over a disc
-    of samples, refined by four zoomed 9 x 9 searches; height error < 1e-6 mm)
-    and are checked against a different method (:func:`check_no_gouge`, the
-    3-D distance from the ball centre to the surface). Operation 1 contours
-    (waterline, climb = clockwise around the core) from Z 14.5 down to Z 2.0
-    in 0.25 mm steps; operation 2 rasters along +X at constant Y (pick feed
-    0.35 mm) where the surface is shallower than 40 deg or outside the contour
-    Z range, with G0 links over the steep parts. Chord tolerance of the G1
-    chains: 4 um (max block 0.6 mm).
-wall-radius
-    The worked example of JP5804367 (para. 0097-0104): a radius end mill D20
-    r1, 2 flutes (inserts, helix 0), 2700 min^-1, 1300 mm/min, Z pitch 0.5 mm,
-    radial allowance 0.2 mm, waterline down cut, dry, in S55C, around a
-    drafted (3 deg) rounded-rectangle boss 40 mm high; lines and G2 arcs.
+mold-ball: a D10 ball end mill finishing a free-form core in P20-class steel.
+The design (:func:`design_z`, analytic) is an elliptic core 16 mm high on a
+60 x 40 mm plate, flanks up to 60 deg, a saddle on top; smallest concave
+radius 5.9 mm > the ball radius, so the ball touches it at one point. The
+stock is the design offset by 0.15 mm. Tips come from an exact drop-cutter
+(:func:`drop_ball`, height error < 1e-6 mm), checked by a different method
+(:func:`check_no_gouge`, 3-D distance from the ball centre). Contours (climb)
+Z 14.5..2.0 every 0.25 mm, then raster along +X (pick 0.35 mm) where the
+slope is under 40 deg; chord tolerance 4 um, blocks up to 0.6 mm.
+
+wall-radius: JP5804367's example (para. 0097-0104), radius end mill D20 r1,
+helix 0, 2700 min^-1, 1300 mm/min, Z pitch 0.5, radial allowance 0.2, down
+cut, dry, S55C, around a 3-deg drafted rounded-rectangle boss; lines and G2.
 """
 
 from __future__ import annotations
@@ -379,7 +370,7 @@ def boss_solid(extra):
     hx, hy = FOOT[0] / 2, FOOT[1] / 2
     scale = np.minimum(hx / np.maximum(np.abs(rel[:, 0]), 1e-12), hy / np.maximum(np.abs(rel[:, 1]), 1e-12))
     outer = np.vstack([rel * scale[:, None], [[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]]])
-    ang = lambda p: np.mod(np.arctan2(p[:, 1], p[:, 0]), 2 * np.pi)  # noqa: E731
+    ang = lambda p: np.mod(np.arctan2(p[:, 1], p[:, 0]), 2 * np.pi)
     outer = outer[np.argsort(ang(outer), kind="stable")]
     outer = np.column_stack([np.round(outer + WC, 9), np.zeros(len(outer))])
     ai, ao = np.append(ang(rel), 2 * np.pi), np.append(ang(outer[:, :2] - WC), 2 * np.pi)

@@ -33,7 +33,7 @@ FZ = 0.1         # feed per tooth [mm]
 
 def subset(e: MicroEdges, keep: np.ndarray) -> MicroEdges:
     return MicroEdges(rho=e.rho[keep], z=e.z[keep], kappa=e.kappa[keep], psi=e.psi[keep],
-                      db=e.db[keep], ds=e.ds[keep], segment=e.segment[keep])
+                      db=e.db[keep], ds=e.ds[keep], segment=e.segment[keep], s=e.s[keep])
 
 
 def angles(edges: MicroEdges, n_fl: int, n_ang: int) -> np.ndarray:
@@ -347,11 +347,19 @@ def test_tool_forces_is_sum_of_building_blocks_and_backends_agree():
     assert got.shape == (phi.shape[0], 3)
     assert np.allclose(got, ref, rtol=1e-12, atol=1e-9)
     clb = np.broadcast_to(cl, phi.shape[1:])
-    assert np.allclose(force._forces_numpy(e, COEF, phi, h, cutting, clb), ref,
+    ones = np.ones(phi.shape)
+    assert np.allclose(force._forces_numpy(e, COEF, phi, h, cutting, clb, ones), ref,
                        rtol=1e-12, atol=1e-9)
     if force.forces_kernel is not None:
-        assert np.allclose(force._forces_numba(e, COEF, phi, h, cutting, clb), ref,
+        assert np.allclose(force._forces_numba(e, COEF, phi, h, cutting, clb, ones), ref,
                            rtol=1e-12, atol=1e-9)
+    # a weight scales each micro edge's contribution (its share of the step)
+    w = np.random.default_rng(5).uniform(0, 1, phi.shape)
+    ref_w = np.sum(np.where(cutting[..., None], per * w[..., None], 0.0), axis=(1, 2))
+    assert np.allclose(tool_forces(e, COEF, phi, h, cutting, cl, weight=w), ref_w,
+                       rtol=1e-12, atol=1e-9)
+    assert np.allclose(force._forces_numpy(e, COEF, phi, h, cutting, clb, w), ref_w,
+                       rtol=1e-12, atol=1e-9)
 
 
 def test_non_cutting_contributes_exactly_zero():

@@ -10,8 +10,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from errpred.scenario import (BUNDLED, ScenarioError, ShapeError, bundled_scenario,
-                              load_scenario)
+from errpred.scenario import (
+    BUNDLED,
+    ScenarioError,
+    ShapeError,
+    bundled_scenario,
+    load_scenario,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -237,8 +242,11 @@ def test_valid_small_scenario_and_defaults(tmp_path):
     assert s.stock.load().is_box and s.lines is None and s.machine is None
     assert s.allow == ("M8",) and len(s.read_program()) == 3
     assert s.tool.rotation == "cw" and s.tool_change_tolerance_um is None
-    assert s.resolution.micro_edges == 40 and s.resolution.angle_step_rad == pytest.approx(
-        math.radians(2.0))
+    from errpred import constants as EK
+
+    assert s.resolution.micro_edges == EK.MICRO_EDGES_ENVELOPE
+    assert s.resolution.angle_step_rad == pytest.approx(EK.ANGLE_STEP_RAD)
+    assert s.resolution.chord_tol_mm == pytest.approx(EK.CHORD_TOL_MM)
     assert not s.correction.iterate
     assert s.compliance.modes["y"][0].m_kg == 0.03
 

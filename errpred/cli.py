@@ -1,0 +1,180 @@
+"""Command line: ``python -m errpred predict|compensate SCENARIO``.
+
+Units at this edge: errors in um, forces in N, angles in degrees.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+from nc.atomic import atomic_write
+
+__all__ = ["main"]
+
+
+def _progress(total: int, label: str, quiet: bool):
+    """A rich progress bar; returns (context manager, callback)."""
+    from contextlib import nullcontext
+
+    if quiet or total < 50:
+        return nullcontext(), None
+    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                               TimeElapsedColumn, TimeRemainingColumn)
+
+    prog = Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TextColumn("blocks"),
+                    TimeElapsedColumn(), TimeRemainingColumn(), transient=False,
+                    console=_console(sys.stderr))
+    task = prog.add_task(label, total=total)
+
+    def cb(done: int) -> None:
+        prog.update(task, completed=done)
+
+    return prog, cb
+
+
+def _console(file=None):
+    from rich.console import Console
+
+    return Console(file=file, width=None if (file or sys.stdout).isatty() else 110)
+
+
+def _print_summary(rep: dict, elapsed: float, blocks: int) -> None:
+    from rich.table import Table
+
+    s = rep["summary"]
+    t = Table(title=f"{rep['scenario']}: predicted machining error", show_header=False,
+              box=None)
+    t.add_column(style="bold")
+    t.add_column()
+    t.add_row("blocks", f"{s['blocks']:,} ({blocks / max(elapsed, 1e-9):,.0f} blocks/s)")
+    t.add_row("points by status", ", ".join(f"{k} {v:,}" for k, v in
+                                            sorted(s["status_counts"].items())))
+    if "max_abs_error_um" in s:
+        at = s["max_error_at"]
+        t.add_row("largest |error|", f"{s['max_abs_error_um']:.2f} um at line {at['line']} "
+                  f"({', '.join(f'{v:.3f}' for v in at['point_mm'])} mm)")
+        t.add_row("mean error", f"{s['mean_error_um']:+.2f} um (mean |E| "
+                  f"{s['mean_abs_error_um']:.2f} um; + = material left)")
+        t.add_row("range", f"{s['max_overcut_um']:+.2f} .. {s['max_undercut_um']:+.2f} um")
+    if "against_design" in s:
+        t.add_row("against design", f"largest |deviation| {s['against_design']['max_abs_um']:.2f}"
+                  " um")
+    w = s["wear"]
+    t.add_row("actual cutting distance", f"up to {w['max_cutting_distance_mm'] / 1e3:.2f} m "
+              "on one micro edge")
+    if "tool_change" in s:
+        t.add_row("tool change", s["tool_change"]["advice"])
+    _console().print(t)
+
+
+def _scenario(path: str):
+    from .pipeline import load
+
+    return load(path)
+
+
+def _cmd_predict(args) -> int:
+    from .pipeline import blocks_in_scope, build_predictor, design_deviation_um, write_outputs
+
+    scenario = _scenario(args.scenario)
+    if args.lines:
+        scenario = _with_lines(scenario, args.lines)
+    pred = build_predictor(scenario)
+    blocks = blocks_in_scope(scenario, pred.program)
+    ctx, cb = _progress(len(blocks), "predicting", args.quiet)
+    t0 = time.perf_counter()
+    with ctx:
+        prediction = pred.run(blocks, workers=args.workers, progress=cb,
+                              series_lines=[args.revolution_line] if args.revolution_line else ())
+    elapsed = time.perf_counter() - t0
+    design = design_deviation_um(scenario, prediction) if not args.no_design else None
+    rep = write_outputs(scenario, prediction, args.output, args.plots, design)
+    if not args.quiet:
+        _print_summary(rep, elapsed, len(blocks))
+        if args.output:
+            print(f"report: {args.output}")
+        for p in rep.get("plots", []):
+            print(f"plot: {p}")
+    return 0
+
+
+def _with_lines(scenario, lines):
+    import dataclasses
+
+    lo, hi = lines
+    if not (0 < lo <= hi):
+        raise ValueError(f"--lines: expected 0 < FIRST <= LAST, got {lo} {hi}")
+    return dataclasses.replace(scenario, lines=(lo, hi))
+
+
+def _cmd_compensate(args) -> int:
+    from .pipeline import compensate_scenario
+
+    scenario = _scenario(args.scenario)
+    if args.lines:
+        scenario = _with_lines(scenario, args.lines)
+    t0 = time.perf_counter()
+    res = compensate_scenario(scenario, iterate=True if args.iterate else None,
+                              workers=args.workers)
+    with atomic_write(args.output) as fh:
+        fh.write(res.text)
+    if not args.quiet:
+        print(f"wrote {args.output}: {res.iterations} pass(es) in "
+              f"{time.perf_counter() - t0:.1f} s")
+        for k, (err, chg) in enumerate(zip(res.max_error_um, res.largest_change_mm,
+                                           strict=False)):
+            print(f"  pass {k + 1}: largest |error| {err:.2f} um -> largest point move "
+                  f"{chg * 1e3:.2f} um")
+        print(f"  re-predicted on the corrected program: largest |error| "
+              f"{res.max_error_um[-1]:.2f} um (from {res.max_error_um[0]:.2f} um)")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="python -m errpred", description=(
+        "Predict the machining error of end milling along an NC program, and correct it."))
+    sub = ap.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("predict", help="predict the error along the scenario's program")
+    p.add_argument("scenario", help="scenario file (TOML)")
+    p.add_argument("-o", "--output", help="report (JSON)")
+    p.add_argument("--plots", metavar="DIR", help="write plots (PNG) into DIR")
+    p.add_argument("--workers", type=int, default=1, help="processes for the geometry stage")
+    p.add_argument("--lines", type=int, nargs=2, metavar=("FIRST", "LAST"),
+                   help="predict only the blocks on these program lines")
+    p.add_argument("--revolution-line", type=int, metavar="LINE",
+                   help="plot force and deflection over a revolution at this line "
+                        "(default: where |E| is largest)")
+    p.add_argument("--no-design", action="store_true",
+                   help="skip the comparison with the design surface")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=_cmd_predict)
+    p = sub.add_parser("compensate", help="write the program corrected against its error")
+    p.add_argument("scenario")
+    p.add_argument("-o", "--output", required=True, help="corrected program")
+    p.add_argument("--iterate", action="store_true",
+                   help="predict-correct until the largest change is below the tolerance")
+    p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--lines", type=int, nargs=2, metavar=("FIRST", "LAST"))
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=_cmd_compensate)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status (2 for bad input)."""
+    args = build_parser().parse_args(argv)
+    if getattr(args, "workers", 1) < 1:
+        print("error: --workers must be >= 1", file=sys.stderr)
+        return 2
+    try:
+        return args.func(args)
+    except (ValueError, FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0

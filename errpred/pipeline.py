@@ -1,0 +1,160 @@
+"""The steps of the command line, as a Python API: scenario in, results out.
+
+>>> from errpred.pipeline import load, predict, write_outputs
+>>> s = load("errpred/scenarios/mold-ball/scenario.toml")     # doctest: +SKIP
+>>> pred = predict(s, workers=2)                                # doctest: +SKIP
+>>> rep = write_outputs(s, pred, "report.json", "plots/")       # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from nc.program import Program
+
+from .correct import Compensation, compensate
+from .geometry import Resolution
+from .physics import ShapeErrorModel
+from .predict import Prediction, Predictor
+from .report import report, write_report
+from .scenario import Scenario, load_scenario
+
+__all__ = ["load", "build_predictor", "blocks_in_scope", "predict", "scenario_report",
+           "write_outputs", "compensate_scenario", "design_deviation_um"]
+
+
+def load(path: str | os.PathLike) -> Scenario:
+    """Read and check a scenario file (:func:`errpred.scenario.load_scenario`)."""
+    return load_scenario(path)
+
+
+def _machine(scenario: Scenario):
+    if scenario.machine is None:
+        return None
+    from nc.kinematics import get_machine, load_machine
+
+    m = scenario.machine
+    machine = load_machine(m) if isinstance(m, Path) or str(m).endswith(".toml") else \
+        get_machine(str(m))
+    return machine.with_tool_length(scenario.tool.overhang_mm)
+
+
+def build_predictor(scenario: Scenario, program: Program | None = None,
+                    resolution: Resolution | None = None, stock=None) -> Predictor:
+    """A :class:`Predictor` for the scenario (or another program, e.g. corrected)."""
+    prog = program if program is not None else scenario.read_program()
+    res = resolution or Resolution(**dataclasses.asdict(scenario.resolution))
+    se = scenario.shape_error
+    shape = ShapeErrorModel(deviation=se.radius_deviation_mm, wear_rate=se.wear_rate_mm_per_mm)
+    return Predictor(scenario.tool, stock if stock is not None else scenario.stock.load(), prog,
+                     scenario.coefficients, scenario.compliance, shape_error=shape,
+                     resolution=res, machine=_machine(scenario))
+
+
+def blocks_in_scope(scenario: Scenario, program: Program) -> list[int]:
+    """Block indices to predict: all, or those on the scenario's line range."""
+    if scenario.lines is None:
+        return list(range(len(program)))
+    lo, hi = scenario.lines
+    return [int(b) for b in np.flatnonzero((program.line >= lo) & (program.line <= hi))]
+
+
+def predict(scenario: Scenario, *, program: Program | None = None, workers: int = 1,
+            progress: Callable[[int], None] | None = None, resolution: Resolution | None = None,
+            series_lines=(), stock=None) -> Prediction:
+    """Predict the error along the scenario's program (or ``program``)."""
+    pred = build_predictor(scenario, program, resolution, stock)
+    blocks = blocks_in_scope(scenario, pred.program)
+    return pred.run(blocks, workers=workers, progress=progress, series_lines=series_lines)
+
+
+def design_deviation_um(scenario: Scenario, prediction: Prediction) -> dict[int, float]:
+    """Predicted surface against the design: point index -> deviation [um].
+
+    The machined surface at a generation point lies ``E`` outward of the
+    program's nominal surface; against the design it is that plus the
+    nominal surface's own distance outward of the design mesh (positive:
+    material left). Empty when the scenario has no design surface.
+    """
+    if scenario.stock.design_path is None:
+        return {}
+    mesh = scenario.stock.load_design()
+    idx = [i for i, p in enumerate(prediction.points)
+           if p.result is not None and p.status == "predicted"]
+    if not idx:
+        return {}
+    import trimesh
+
+    pts = np.array([prediction.points[i].geometry.gen.point_world for i in idx])
+    inside = trimesh.proximity.ProximityQuery(mesh).signed_distance(pts)  # + inside
+    return {i: float((-sd * 1e3) + prediction.points[i].result.E_um)
+            for i, sd in zip(idx, inside, strict=True)}
+
+
+def scenario_report(scenario: Scenario, prediction: Prediction,
+                    design: dict[int, float] | None = None) -> dict[str, Any]:
+    """The JSON report of a prediction, with the scenario's metadata."""
+    t = scenario.tool
+    meta = {
+        "scenario": scenario.name,
+        "scenario_file": str(scenario.path),
+        "program": str(scenario.program_path),
+        "tool": {"type": t.kind, "diameter_mm": t.diameter_mm,
+                 "corner_radius_mm": t.corner_radius_mm, "flutes": t.flutes,
+                 "helix_deg": t.helix_deg, "rotation": t.rotation},
+        "resolution": {"pixel_mm": scenario.resolution.pixel_mm,
+                       "micro_edges": scenario.resolution.micro_edges,
+                       "angle_step_deg": float(np.degrees(scenario.resolution.angle_step_rad)),
+                       "chord_tol_mm": scenario.resolution.chord_tol_mm},
+        "sign": "E > 0: material left (undercut); E < 0: overcut",
+        "sources": scenario.sources,
+    }
+    rep = report(prediction, meta, scenario.tool_change_tolerance_um)
+    if design:
+        for i, v in design.items():
+            rep["points"][i]["E_design_um"] = round(v, 4)
+        vals = np.array(list(design.values()))
+        rep["summary"]["against_design"] = {
+            "max_abs_um": round(float(np.abs(vals).max()), 4),
+            "mean_um": round(float(vals.mean()), 4)}
+    return rep
+
+
+def write_outputs(scenario: Scenario, prediction: Prediction, report_path=None,
+                  plots_dir=None, design: dict[int, float] | None = None) -> dict[str, Any]:
+    """Write the report (JSON) and the plots (PNG); returns the report."""
+    rep = scenario_report(scenario, prediction, design)
+    if report_path is not None:
+        write_report(report_path, rep)
+    if plots_dir is not None:
+        from .plots import write_all
+
+        rev = None
+        if prediction.series:
+            key = next((k for k in prediction.series if k != -1), -1)
+            item = prediction.series[key]
+            line = key if key != -1 else item[4]
+            rev = (line, item[3], item[0], item[1], item[2])
+        rep["plots"] = write_all(prediction, plots_dir, revolution=rev, name=scenario.name)
+    return rep
+
+
+def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, workers: int = 1,
+                        progress: Callable[[int], None] | None = None) -> Compensation:
+    """Correct the scenario's program (one pass, or iterated per the scenario)."""
+    stock = scenario.stock.load()
+    program = scenario.read_program()
+    opts = scenario.correction
+    it = opts.iterate if iterate is None else iterate
+
+    def run(prog: Program) -> Prediction:
+        return predict(scenario, program=prog, workers=workers, progress=progress, stock=stock)
+
+    return compensate(program, run, iterate=it, tolerance_mm=opts.tolerance_um * 1e-3,
+                      max_iterations=opts.max_iterations)
