@@ -221,6 +221,44 @@ def inside_any_sweep_parallel(points, candidates, p0, d, w, lo, hi, c, r, top, e
 
 
 @njit(cache=True)
+def _reaching(points, idx, m, p0, d, w, lo, hi, c, r, top, reach):
+    """Sweeps that may come within ``reach`` of the bounding sphere of points idx[:m]."""
+    n = p0.shape[0]
+    cx = cy = cz = 0.0
+    for t in range(m):
+        i = idx[t]
+        cx += points[i, 0]
+        cy += points[i, 1]
+        cz += points[i, 2]
+    cx /= m
+    cy /= m
+    cz /= m
+    rad = 0.0
+    for t in range(m):
+        i = idx[t]
+        dx, dy, dz = points[i, 0] - cx, points[i, 1] - cy, points[i, 2] - cz
+        v = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if v > rad:
+            rad = v
+    out = np.empty(n, dtype=np.int64)
+    k = 0
+    for j in range(n):
+        if (cx + rad + reach < lo[j, 0] or cx - rad - reach > hi[j, 0]
+                or cy + rad + reach < lo[j, 1] or cy - rad - reach > hi[j, 1]
+                or cz + rad + reach < lo[j, 2] or cz - rad - reach > hi[j, 2]):
+            continue
+        ax = cx - (p0[j, 0] + r * w[j, 0])
+        ay = cy - (p0[j, 1] + r * w[j, 1])
+        az = cz - (p0[j, 2] + r * w[j, 2])
+        lb = _dist_half_strip(ax, ay, az, d[j, 0], d[j, 1], d[j, 2], w[j, 0], w[j, 1],
+                              w[j, 2], top - r) - c
+        if lb <= r + reach + rad:
+            out[k] = j
+            k += 1
+    return out[:k]
+
+
+@njit(cache=True)
 def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, eps, cell):
     """:func:`inside_any_sweep`, pruning sweeps per cluster of nearby points.
 
@@ -252,8 +290,10 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
             m += 1
     if m == 0:
         return out
+    # sweeps that can reach any of the points at all (in the given order)
+    near = _reaching(points, idx, m, p0, d, w, lo, hi, c, r, top, eps)
     order = np.argsort(keys[:m])
-    short = np.empty(n, dtype=np.int64)
+    short = np.empty(max(near.shape[0], 1), dtype=np.int64)
     s = 0
     while s < m:
         e = s
@@ -280,7 +320,8 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
                 rad = v
         # sweeps that can reach the bin
         ns = 0
-        for j in range(n):
+        for jn in range(near.shape[0]):
+            j = near[jn]
             if (cx + rad < lo[j, 0] or cx - rad > hi[j, 0] or cy + rad < lo[j, 1]
                     or cy - rad > hi[j, 1] or cz + rad < lo[j, 2] or cz - rad > hi[j, 2]):
                 continue
@@ -317,7 +358,6 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
     :func:`inside_any_sweep_clustered`.
     """
     k = points.shape[0]
-    n = p0.shape[0]
     out = np.full(k, floor)
     if k == 0:
         return out
@@ -335,8 +375,9 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
             m += 1
     if m == 0:
         return out
+    near = _reaching(points, idx, m, p0, d, w, lo, hi, c, r, top, -floor)
     order = np.argsort(keys[:m])
-    short = np.empty(max(n, 1), dtype=np.int64)
+    short = np.empty(max(near.shape[0], 1), dtype=np.int64)
     s = 0
     while s < m:
         e = s
@@ -363,7 +404,8 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
         # a sweep matters if it may come within r - floor of a point of the bin
         reach = r - floor + rad
         ns = 0
-        for j in range(n):
+        for jn in range(near.shape[0]):
+            j = near[jn]
             if (cx + rad - floor < lo[j, 0] or cx - rad + floor > hi[j, 0]
                     or cy + rad - floor < lo[j, 1] or cy - rad + floor > hi[j, 1]
                     or cz + rad - floor < lo[j, 2] or cz - rad + floor > hi[j, 2]):

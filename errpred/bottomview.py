@@ -29,7 +29,7 @@ from . import constants as K
 from ._kernels import inside_any_sweep_clustered, sweep_margin_clustered
 from .tool import MicroEdges, Tool
 
-__all__ = ["BottomTemplate", "Finished", "SampleGrid", "stock_view"]
+__all__ = ["BottomTemplate", "Finished", "SampleGrid", "StockView", "stock_view"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,32 +59,45 @@ class Finished:
     refined_pixels: int
 
 
-def _spread(a: np.ndarray) -> np.ndarray:
-    """Largest difference of each pixel to its 8 neighbours (inf across a silhouette)."""
-    n0, n1 = a.shape
-    pad = np.pad(a, 1, mode="edge")
-    out = np.zeros(a.shape)
-    with np.errstate(invalid="ignore"):
-        for di in (-1, 0, 1):
-            for dj in (-1, 0, 1):
-                nb = pad[1 + di:1 + di + n0, 1 + dj:1 + dj + n1]
-                d = np.abs(nb - a)
-                d = np.where(np.isfinite(a) == np.isfinite(nb), np.nan_to_num(d, nan=0.0),
-                             np.inf)
-                out = np.maximum(out, d)
-    return out
+def _cells_smooth(a: np.ndarray, limit: float) -> np.ndarray:
+    """For each 2 x 2 cell of pixel centres: may ``a`` be interpolated there?
 
-
-def stock_view(stock, view, depth_range) -> tuple | None:
-    """The stock's material interval in a view, with its local spreads.
-
-    ``(bottom, top, spread_bottom, spread_top)`` for a mesh stock, None for a
-    box (answered analytically).
+    True where the four values are all finite and span at most ``limit``, or
+    are all the same infinity (no surface there).
     """
+    c = np.stack([a[:-1, :-1], a[1:, :-1], a[:-1, 1:], a[1:, 1:]])
+    fin = np.isfinite(c)
+    big = np.where(fin, c, -np.inf).max(axis=0)
+    small = np.where(fin, c, np.inf).min(axis=0)
+    with np.errstate(invalid="ignore"):
+        span = big - small  # -inf or nan where no finite value: fails the test below
+    same_inf = (~fin).all(axis=0) & (c == c[0]).all(axis=0)
+    return (fin.all(axis=0) & (span <= limit)) | same_inf
+
+
+@dataclass(frozen=True, eq=False)
+class StockView:
+    """The stock's material interval in a view, and where it interpolates.
+
+    ``bottom``, ``top``: (n, n) depths of the first entry and exit per pixel
+    centre; ``smooth_bottom``, ``smooth_top``: (n-1, n-1) cells where the
+    surface is gentle enough to interpolate bilinearly between centres.
+    Elsewhere (steep walls, silhouettes) points are decided by the mesh.
+    """
+
+    bottom: np.ndarray
+    top: np.ndarray
+    smooth_bottom: np.ndarray
+    smooth_top: np.ndarray
+
+
+def stock_view(stock, view, depth_range) -> StockView | None:
+    """The stock's material interval in a view; None for a box (analytic)."""
     if getattr(stock, "is_box", False):
         return None
     bottom, top = stock.interval(view, depth_range=depth_range)
-    return bottom, top, _spread(bottom), _spread(top)
+    limit = view.pixel_mm * math.sqrt(2.0) * math.tan(K.STOCK_INTERPOLATION_SLOPE_RAD)
+    return StockView(bottom, top, _cells_smooth(bottom, limit), _cells_smooth(top, limit))
 
 
 @dataclass(frozen=True, eq=False)
@@ -167,25 +180,41 @@ class BottomTemplate:
         return np.clip(i, 0, n - 1), np.clip(j, 0, n - 1)
 
     # --- stock membership ----------------------------------------------------
-    def in_stock_local(self, stock, interval, tip, frame, xyz_local: np.ndarray,
-                       ij: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
-        """Stock material at tool-frame points (box: analytic; mesh: the view buffer)."""
+    def in_stock_local(self, stock, interval: StockView | None, tip, frame,
+                       xyz_local: np.ndarray, ij=None) -> np.ndarray:
+        """Stock material at tool-frame points.
+
+        Box: analytic. Mesh: the bottom view's interval interpolated
+        bilinearly between pixel centres where the surface is gentle; where
+        it is steep or at a silhouette, the mesh decides (exact, slower).
+        """
         if getattr(stock, "is_box", False):
             world = tip + xyz_local @ frame
             lo, hi = stock.bounds
             e = K.MEMBERSHIP_EPS_MM
             return np.all((world >= lo - e) & (world <= hi + e), axis=1)
-        bottom, top = interval[0], interval[1]
-        i, j = self._pixel(xyz_local) if ij is None else ij
+        p, n = self.pixel_mm, self.n
+        fx = (xyz_local[:, 0] + 0.5 * n * p) / p - 0.5
+        fy = (xyz_local[:, 1] + 0.5 * n * p) / p - 0.5
+        j0 = np.clip(np.floor(fx).astype(np.int64), 0, n - 2)
+        i0 = np.clip(np.floor(fy).astype(np.int64), 0, n - 2)
+        tx = np.clip(fx - j0, 0.0, 1.0)
+        ty = np.clip(fy - i0, 0.0, 1.0)
         depth = xyz_local[:, 2] + self.depth_offset_mm
         e = K.MEMBERSHIP_EPS_MM
-        inside = (bottom[i, j] - e <= depth) & (depth <= top[i, j] + e)
-        # steep stock surfaces change within a pixel: where the point lies
-        # within the local spread of the buffer, ask the mesh itself
-        sb, st = interval[2], interval[3]
-        with np.errstate(invalid="ignore"):
-            unsure = (np.abs(depth - top[i, j]) <= st[i, j]) | \
-                (np.abs(depth - bottom[i, j]) <= sb[i, j])
+
+        def interp(a):
+            v00, v01 = a[i0, j0], a[i0, j0 + 1]
+            v10, v11 = a[i0 + 1, j0], a[i0 + 1, j0 + 1]
+            with np.errstate(invalid="ignore"):
+                out = ((1 - ty) * ((1 - tx) * v00 + tx * v01)
+                       + ty * ((1 - tx) * v10 + tx * v11))
+            return np.where(np.isnan(out), v00, out)  # all-same infinities
+
+        top = interp(interval.top)
+        bottom = interp(interval.bottom)
+        inside = (bottom - e <= depth) & (depth <= top + e)
+        unsure = ~(interval.smooth_top[i0, j0] & interval.smooth_bottom[i0, j0])
         if unsure.any():
             world = tip + xyz_local[unsure] @ frame
             inside[unsure] = stock.contains(world)
@@ -213,26 +242,6 @@ class BottomTemplate:
         rigorous = self.reach.reshape(n, n)
         est = np.minimum(2.0 * slope * p / math.sqrt(2.0) + K.MEMBERSHIP_EPS_MM, rigorous)
         return np.where(unknown, rigorous, est).ravel()
-
-    def stock_margin_local(self, stock, interval, tip, frame, xyz_local: np.ndarray,
-                           ij: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
-        """How far inside the stock points are [mm] (negative outside).
-
-        Box: distance to the nearest face plane. Mesh: the depth margin in
-        the point's pixel, ``min(top - depth, depth - bottom)`` (along the
-        view). Only the sign and the smooth variation matter: it locates
-        where the engagement's boundary crosses a rotation step.
-        """
-        if getattr(stock, "is_box", False):
-            world = tip + xyz_local @ frame
-            lo, hi = stock.bounds
-            return np.minimum((world - lo).min(axis=1), (hi - world).min(axis=1))
-        bottom, top = interval[0], interval[1]
-        i, j = self._pixel(xyz_local) if ij is None else ij
-        depth = xyz_local[:, 2] + self.depth_offset_mm
-        with np.errstate(invalid="ignore"):
-            m = np.minimum(top[i, j] - depth, depth - bottom[i, j])
-        return np.nan_to_num(m, nan=-1.0, posinf=1.0, neginf=-1.0)
 
     # --- the finished surface ----------------------------------------------
     def finished_surface(self, stock, interval, tip, frame, t1, t2) -> Finished:

@@ -27,7 +27,7 @@ CHORD_TOL_MM = 2.5e-4
 MEMBERSHIP_EPS_MM = 1.0e-6
 #: Side of the cubes into which points are binned before their membership
 #: tests, so that each bin tests only the sweeps that can reach it [mm].
-CLUSTER_CELL_MM = 0.5
+CLUSTER_CELL_MM = 0.2
 #: A tooth's engagement should span at least this many rotation steps; a
 #: shorter one (a light cut) is recomputed with a finer step ...
 ENGAGEMENT_MIN_STEPS = 16
@@ -38,6 +38,10 @@ ENGAGEMENT_MAX_REFINE = 8
 ENGAGEMENT_SUBSTEPS = 8
 #: ... and this many times along the micro edge [-].
 ENGAGEMENT_SUBEDGES = 4
+#: The stock's surface seen in a view is interpolated between pixel centres
+#: where it is tilted less than this from the view plane; steeper surfaces
+#: (walls) are decided by the mesh itself [rad].
+STOCK_INTERPOLATION_SLOPE_RAD = math.radians(60.0)
 #: Tool-axis change inside one sweep segment above which the segment is
 #: split so that each piece has a nearly constant axis [rad].
 SWEEP_AXIS_STEP_RAD = math.radians(1.0)

@@ -229,15 +229,18 @@ class GeometryModel:
         fz = feed / (spindle * tool.flutes)
         f_tooth = fz * feed_dir
         base["feed_per_tooth_world"] = f_tooth
-        t1, t2 = self._near_sweeps(tip, u, L, fz)
         # the stock's material in the bottom view
         interval = None
         if not getattr(self.stock, "is_box", False):
             view = View.along_axis(tip, frame, bt.window_mm, bt.pixel_mm, bt.depth_offset_mm)
             drange = (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm)
             interval = stock_view(self.stock, view, drange)
+        z_top = self._stock_top(tip, frame, interval)
+        if z_top < -tool.radius_mm:
+            return PointGeometry(status="no-cut", **base)
+        t1, t2 = self._near_sweeps(tip, u, L, fz, z_top)
         # engagement of flute 0 over one revolution
-        eng = self._engagement(tip, frame, interval, t1, f_tooth)
+        eng = self._engagement(tip, frame, interval, t1, f_tooth, z_top)
         if eng is None:
             return PointGeometry(status="no-cut", **base)
         cutting0, weight0, shift0, cl_rev = eng
@@ -276,7 +279,19 @@ class GeometryModel:
                 np.arange(n) * (2 * math.pi / n))
         return grid
 
-    def _engagement(self, tip, frame, interval, t1, f_tooth):
+    def _stock_top(self, tip, frame, interval) -> float:
+        """Height above the tip of the highest stock under the tool [mm]."""
+        if interval is None:
+            lo, hi = self.stock.bounds
+            corners = np.array([[x, y, zz] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                                for zz in (lo[2], hi[2])])
+            return float(((corners - tip) @ frame[2]).max())
+        fin = interval.top[np.isfinite(interval.top)]
+        if np.isposinf(interval.top).any() and not np.isinf(interval.bottom).all():
+            return math.inf  # material without a top in view: everything counts
+        return (float(fin.max()) - self.bottom.depth_offset_mm) if fin.size else -math.inf
+
+    def _engagement(self, tip, frame, interval, t1, f_tooth, z_top):
         """Flute 0's engagement: (cutting, weight, shift, cutting distance per rev).
 
         At the resolution's rotation step first; where a tooth's engagement
@@ -288,22 +303,28 @@ class GeometryModel:
         """
         tool = self.tool
         c, r, top = tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm
+        # micro edges above the highest stock under the tool cannot cut
+        edge_ok = self.edges.z <= z_top + self.res.pixel_mm
         factor, window = 1, None
         while True:
             grid = self._grid(factor)
             n, m = grid.shape
             if window is None:
-                sel = np.ones(n * m, dtype=bool)
+                sel = np.tile(edge_ok, n)
             else:
-                sel = np.repeat(window, m)
-            cand = np.zeros(n * m, dtype=bool)
-            ij = (grid.ij[0][sel], grid.ij[1][sel])
-            cand[sel] = self.bottom.in_stock_local(self.stock, interval, tip, frame,
-                                                   grid.samples[sel], ij)
-            world = tip + grid.samples @ frame
-            removed = inside_any_sweep_clustered(world, cand, *t1, c, r, top,
-                                                 K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
-            cutting0 = (cand & ~removed).reshape(n, m)
+                sel = np.repeat(window, m) & np.tile(edge_ok, n)
+            idx = np.flatnonzero(sel)
+            local = grid.samples[idx]
+            cand = self.bottom.in_stock_local(self.stock, interval, tip, frame, local,
+                                              (grid.ij[0][idx], grid.ij[1][idx]))
+            idx, local = idx[cand], local[cand]
+            world = tip + local @ frame
+            removed = inside_any_sweep_clustered(world, np.ones(idx.size, dtype=np.bool_),
+                                                 *t1, c, r, top, K.MEMBERSHIP_EPS_MM,
+                                                 K.CLUSTER_CELL_MM)
+            cutting0 = np.zeros(n * m, dtype=bool)
+            cutting0[idx[~removed]] = True
+            cutting0 = cutting0.reshape(n, m)
             if not cutting0.any():
                 return None
             engaged = cutting0.any(axis=1)
@@ -320,8 +341,11 @@ class GeometryModel:
             factor *= q
         weight0, shift0 = self._step_weights(grid, cutting0, interval, tip, frame, t1)
         feed_step = (frame @ (f_tooth * tool.flutes)) / n
-        step_len = np.linalg.norm(grid.rotation_step + feed_step, axis=-1)
-        cl_rev = (weight0 * step_len).sum(axis=0)
+        i, j = np.nonzero(weight0)
+        step_len = np.linalg.norm(grid.rotation_step[i, j] + feed_step, axis=-1)
+        cl_rev = np.bincount(j, weights=weight0[i, j] * step_len, minlength=m)
+        if not (weight0 > 0).any():
+            return None  # only slivers thinner than the sub-samples: nothing measurable
         return weight0 > 0, weight0, shift0, cl_rev
 
     def _step_weights(self, grid, cutting0, interval, tip, frame, t1):
@@ -373,11 +397,12 @@ class GeometryModel:
         shift[i, j] = np.where(count > 0, ushare / np.maximum(count, 1) * step, 0.0)
         return weight, shift
 
-    def _near_sweeps(self, tip, u, L, fz):
-        """T1 and T2 near the tool, nearest first."""
+    def _near_sweeps(self, tip, u, L, fz, z_top=math.inf):
+        """T1 and T2 near the tool's part below the stock top, nearest first."""
         tool = self.tool
         R = tool.radius_mm
-        height = tool.flute_length_mm + tool.corner_radius_mm
+        height = min(tool.flute_length_mm + tool.corner_radius_mm,
+                     max(z_top, 0.0) + 2 * self.res.pixel_mm + tool.corner_radius_mm)
         top = tip + height * u
         ext = R * np.sqrt(np.clip(1 - u * u, 0, None)) + 2 * self.res.pixel_mm
         lo, hi = np.minimum(tip, top) - ext, np.maximum(tip, top) + ext
@@ -398,6 +423,8 @@ class GeometryModel:
             i, j = np.nonzero(cutting0)
             n = cutting0.shape[0]
             phi_c = i * (2 * math.pi / n) - self.edges.psi[j]
+        if phi_c.size == 0:
+            return None
         az = math.atan2(float(np.sin(phi_c).mean()), float(np.cos(phi_c).mean()))
         cut_edges = cutting0.any(axis=0)
         zmax = float(self.edges.z[cut_edges].max()) if cut_edges.any() else 0.0

@@ -119,12 +119,15 @@ def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     """
     n = g.cutting0.shape[0]
     theta = np.arange(n) * (2 * math.pi / n)
-    phi, cutting = expand_flutes(theta, g.cutting0, edges, tool.flutes)
+    cols = np.flatnonzero(g.cutting0.any(axis=0))  # only the micro edges that cut
+    edges = edges.take(cols)
+    cl_mm = np.asarray(cl_mm)[..., cols]
+    phi, cutting = expand_flutes(theta, g.cutting0[:, cols], edges, tool.flutes)
     weight = None
     if g.weight0 is not None:
-        _, weight = expand_flutes(theta, g.weight0.astype(float), edges, tool.flutes)
+        _, weight = expand_flutes(theta, g.weight0[:, cols].astype(float), edges, tool.flutes)
     if g.shift0 is not None:
-        _, shift = expand_flutes(theta, g.shift0.astype(float), edges, tool.flutes)
+        _, shift = expand_flutes(theta, g.shift0[:, cols].astype(float), edges, tool.flutes)
         phi = phi + shift
     f_tool = g.frame @ g.feed_per_tooth_world
     h = np.where(cutting, chip_thickness(edges, phi, f_tool), 0.0)

@@ -99,6 +99,11 @@ class MicroEdges:
     def __len__(self) -> int:
         return int(self.rho.shape[0])
 
+    def take(self, index) -> "MicroEdges":
+        """The micro edges selected by ``index`` (mask or integer array)."""
+        return MicroEdges(self.rho[index], self.z[index], self.kappa[index], self.psi[index],
+                          self.db[index], self.ds[index], self.segment[index], self.s[index])
+
     def normals(self, phi: np.ndarray) -> np.ndarray:
         """Outward envelope normals at angles ``phi``, shape phi.shape + (m, 3).
 
