@@ -47,6 +47,9 @@ STOCK_INTERPOLATION_SLOPE_RAD = math.radians(60.0)
 SWEEP_AXIS_STEP_RAD = math.radians(1.0)
 
 # --- prediction -------------------------------------------------------------
+#: Extra stock thickness along the normal with which the error's sensitivity
+#: to the correction is evaluated (a finite difference) [mm].
+SENSITIVITY_STEP_MM = 2.0e-3
 #: Below this angle between tool axis and surface normal the cutting speed
 #: at the generation point is too small for the force model (flat floors cut
 #: by the ball's tip); no prediction is made there [rad].

@@ -10,7 +10,8 @@ prediction point (at fraction ``t`` along it) moves by
 ``((1 - t) M_start + t M_end) . n = -E``: the per-point fit is the local
 version of this, and leaves alternating residuals where the error steps
 from block to block (which iterating cannot remove, they are its fixed
-point). A small Tikhonov term fixes the one free combination. Arcs: their
+point). A small smoothness term (on differences of neighbouring moves) fixes the
+free combination and keeps block-to-block noise from zigzagging the path. Arcs: their
 ends move like any point, and the centre is refitted through the corrected
 start, end and middle.
 
@@ -35,6 +36,9 @@ from nc.rewrite import rewrite_coordinates
 
 from .predict import Prediction
 
+#: Sensitivities beyond this are not trusted for the correction's size [-].
+MAX_GAIN = 0.5
+
 __all__ = ["BlockError", "block_errors", "correction_moves", "corrected_program",
            "Compensation", "compensate"]
 
@@ -50,11 +54,22 @@ class BlockError:
     normal : ndarray, shape (3,)
     fraction : float
         Where along the block it was predicted (0 start, 1 end).
+    gain : float
+        ``dE/dx`` (:attr:`errpred.physics.PointResult.gain`): cutting deeper
+        by ``x`` raises the error by ``gain x``, so removing ``E`` takes a
+        move of ``E / (1 - gain)``.
     """
 
     E_mm: float
     normal: np.ndarray
     fraction: float
+    gain: float = 0.0
+
+    @property
+    def move_mm(self) -> float:
+        """Normal move that cancels the error, first order in the gain [mm]."""
+        g = min(max(self.gain, -MAX_GAIN), MAX_GAIN)
+        return self.E_mm / (1.0 - g)
 
 
 def block_errors(program: Program, prediction: Prediction,
@@ -80,21 +95,33 @@ def block_errors(program: Program, prediction: Prediction,
         if reference is not None:
             disp = ((1 - t) * (a - ref_start[b, :3]) + t * (e - ref_end[b, :3]))
             E += float(disp @ n)
-        out[b] = BlockError(E, n, t)
+        out[b] = BlockError(E, n, t, p.result.gain)
     return out
 
 
 def _direction(errors: list[BlockError]) -> np.ndarray:
-    v = sum(-be.E_mm * be.normal for be in errors)
+    """Direction of a point's move: the seeds' ``-(E_i n_i + E_j n_j)``, up to sign.
+
+    Weighted by ``|E|`` so that it does not turn over when the two errors
+    have opposite signs (as residuals do when iterating): the chain fit
+    chooses the sign and size. Falls back to the mean normal.
+    """
+    v = sum(abs(be.E_mm) * be.normal for be in errors)
     norm = float(np.linalg.norm(v))
-    if norm == 0.0:
-        # errors cancel: move along the first normal; the fit decides how far
-        return errors[0].normal.copy()
+    if norm < 1e-12:
+        v = sum(be.normal for be in errors)
+        norm = float(np.linalg.norm(v))
+        if norm < 1e-12:
+            return errors[0].normal.copy()
     return v / norm
 
 
 #: Tikhonov weight of the chain fit, relative to the equations (unit normals).
 _RIDGE = 1e-6
+#: Weight of the chain fit's smoothness term (differences of neighbouring
+#: moves), relative to the equations. Uniform errors are unaffected; errors
+#: alternating from block to block (numerical noise) are not chased.
+_SMOOTH = 0.05
 
 
 def correction_moves(program: Program, errors: dict[int, BlockError]) -> dict[int, np.ndarray]:
@@ -125,7 +152,7 @@ def correction_moves(program: Program, errors: dict[int, BlockError]) -> dict[in
             be = errors[b]
             A[k, k] = (1 - be.fraction) * float(dirs[k] @ be.normal)
             A[k, k + 1] = be.fraction * float(dirs[k + 1] @ be.normal)
-            rhs[k] = -be.E_mm
+            rhs[k] = -be.move_mm
         s = _banded_lstsq(A, rhs)
         for p in range(K + 1):
             block = chain[0] - 1 + p
@@ -148,6 +175,12 @@ def _banded_lstsq(A: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     off[:k] += A[idx, idx] * A[idx, idx + 1]
     scale = max(float(diag.max()), 1e-300)
     diag += _RIDGE * scale
+    # smoothness: penalize differences of neighbouring moves, so a chain of
+    # blocks is not zigzagged to chase block-to-block noise in the prediction
+    lam = _SMOOTH * scale
+    diag[:-1] += lam
+    diag[1:] += lam
+    off -= lam
     b = np.zeros(n)
     b[:k] += A[idx, idx] * rhs
     b[1:k + 1] += A[idx, idx + 1] * rhs
@@ -205,7 +238,7 @@ def corrected_program(program: Program, errors: dict[int, BlockError], *,
         mid[a1] = centre[a1] + r * math.cos(ang0 + sweep / 2)
         mid[a2] = centre[a2] + r * math.sin(ang0 + sweep / 2)
         if b in errors:
-            mid += -errors[b].E_mm * errors[b].normal
+            mid += -errors[b].move_mm * errors[b].normal
         else:
             mid += 0.5 * (moves.get(b - 1, np.zeros(3)) + moves.get(b, np.zeros(3)))
         if abs(sweep) >= 2 * math.pi - 1e-9:
@@ -230,8 +263,10 @@ class Compensation:
     largest_change_mm : list of float
         Largest coordinate change of each pass.
     max_error_um : list of float
-        Largest |error| against the original surface before each pass, and
-        after the last (re-predicted), so ``len = iterations + 1``.
+        Largest |error| against the original surface before each pass and
+        after the last (re-predicted); when iterating, one more entry: that
+        of the program returned (the best pass, since iterating wanders once
+        the prediction's own numerical noise is reached).
     """
 
     text: str
@@ -262,26 +297,33 @@ def compensate(program: Program, predict: Callable[[Program], Prediction], *,
     """
     if not (math.isfinite(tolerance_mm) and tolerance_mm > 0):
         raise ValueError(f"tolerance_mm: expected a finite value > 0, got {tolerance_mm!r}")
+    if not (isinstance(max_iterations, int) and max_iterations >= 1):
+        raise ValueError(f"max_iterations: expected an integer >= 1, got {max_iterations!r}")
     current = program
     text = "\n".join(program.lines) + program.newline
     out = Compensation(text=text, iterations=0)
     passes = max_iterations if iterate else 1
-    for _ in range(passes):
+    best_err, best_text = math.inf, text
+    for k in range(passes + 1):
         pred = predict(current)
         errs = block_errors(current, pred, reference=program)
         out.predictions.append(pred)
-        out.max_error_um.append(max((abs(e.E_mm) * 1e3 for e in errs.values()), default=0.0))
+        err = max((abs(e.E_mm) * 1e3 for e in errs.values()), default=0.0)
+        out.max_error_um.append(err)
+        if k > 0 and err < best_err:
+            best_err, best_text = err, text
+        if k == passes or (k > 0 and out.largest_change_mm[-1] < tolerance_mm):
+            break
+        if k > 1 and err > out.max_error_um[-2] and err > best_err:
+            break  # the prediction's own noise is reached: further passes only wander
         # corrections accumulate: errors are measured against the original surface
         text, largest = corrected_program(current, errs, min_decimals=min_decimals)
-        out.text = text
         out.iterations += 1
         out.largest_change_mm.append(largest)
         current = parse_program(text, file=program.file, allow=program.allowed,
                                 block_delete=program.block_delete)
-        if largest < tolerance_mm:
-            break
-    final = predict(current)
-    out.predictions.append(final)
-    errs = block_errors(current, final, reference=program)
-    out.max_error_um.append(max((abs(e.E_mm) * 1e3 for e in errs.values()), default=0.0))
+    # keep the pass that came out best (iterating wanders at the noise floor)
+    out.text = best_text
+    if iterate:
+        out.max_error_um.append(best_err)
     return out

@@ -12,6 +12,7 @@ the wear that links them is stage 2 (:mod:`errpred.physics`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -95,6 +96,10 @@ class PointGeometry:
         Flute 0's engagement over one revolution.
     weight0 : ndarray, shape (n, m), float32, or None
         Share of each rotation step flute 0's micro edges spend cutting.
+    sensitivity : tuple or None
+        ``(delta_mm, cutting0, weight0, shift0)``: the engagement with the
+        stock ``delta_mm`` thicker along the surface normal (the tool cutting
+        that much deeper), for the error's sensitivity to a correction.
     shift0 : ndarray, shape (n, m), float32, or None [rad]
         Where within its step that share lies (centroid offset of the rotation
         angle): boundary samples are evaluated there.
@@ -119,12 +124,27 @@ class PointGeometry:
     cutting0: np.ndarray | None = None
     weight0: np.ndarray | None = None
     shift0: np.ndarray | None = None
+    sensitivity: tuple | None = None
     cl_per_rev: np.ndarray | None = None
     gen: GenerationPoint | None = None
     view: str = "bottom"
     cutting_pixels: int = 0
     finished_pixels: int = 0
     notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def cuts(self) -> bool:
+        """Whether the point removes material (known after stage 1)."""
+        return self.status not in ("rapid", "no-cut", "spindle-stopped")
+
+    def light(self) -> "PointGeometry":
+        """This point without the per-revolution arrays (kept in results)."""
+        gen = self.gen
+        if gen is not None and gen.samples_theta is not None:
+            gen = dataclasses.replace(gen, samples_theta=None, samples_kappa=None,
+                                      samples_z=None, samples_normal=None)
+        return dataclasses.replace(self, cutting0=None, weight0=None, shift0=None,
+                                   sensitivity=None, cl_per_rev=None, gen=gen)
 
 
 class GeometryModel:
@@ -266,6 +286,17 @@ class GeometryModel:
         status = "predicted"
         if rho_m < tool.radius_mm * math.sin(K.MIN_AXIS_NORMAL_ANGLE_RAD):
             status = "axis-normal"
+        sens = None
+        if status == "predicted":
+            # the same cut with the stock a little thicker along the normal:
+            # how the error grows when the correction moves the tool deeper
+            delta = K.SENSITIVITY_STEP_MM
+            deeper = self._engagement(tip, frame, interval, t1, f_tooth, z_top + delta,
+                                      stock_shift=delta * (frame @ gen.normal_world))
+            if deeper is not None:
+                sens = (delta, deeper[0], deeper[1].astype(np.float32),
+                        deeper[2].astype(np.float32))
+        base["sensitivity"] = sens
         return PointGeometry(status=status, gen=gen, view=used,
                              cutting_pixels=fin.cutting_pixels, finished_pixels=gen.pixels,
                              notes=tuple(notes), **base)
@@ -291,7 +322,7 @@ class GeometryModel:
             return math.inf  # material without a top in view: everything counts
         return (float(fin.max()) - self.bottom.depth_offset_mm) if fin.size else -math.inf
 
-    def _engagement(self, tip, frame, interval, t1, f_tooth, z_top):
+    def _engagement(self, tip, frame, interval, t1, f_tooth, z_top, stock_shift=None):
         """Flute 0's engagement: (cutting, weight, shift, cutting distance per rev).
 
         At the resolution's rotation step first; where a tooth's engagement
@@ -299,10 +330,12 @@ class GeometryModel:
         force, light finishing cuts), again with the step divided until it
         does (at most ``ENGAGEMENT_MAX_REFINE`` times), inside the engaged
         window only: the force pulse must be resolved for its dynamic
-        response.
+        response. ``stock_shift`` (tool frame, [mm]) displaces the stock, as if
+        the tool cut that much deeper (for the correction's sensitivity).
         """
         tool = self.tool
         c, r, top = tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm
+        shift_vec = np.zeros(3) if stock_shift is None else np.asarray(stock_shift, float)
         # micro edges above the highest stock under the tool cannot cut
         edge_ok = self.edges.z <= z_top + self.res.pixel_mm
         factor, window = 1, None
@@ -315,8 +348,8 @@ class GeometryModel:
                 sel = np.repeat(window, m) & np.tile(edge_ok, n)
             idx = np.flatnonzero(sel)
             local = grid.samples[idx]
-            cand = self.bottom.in_stock_local(self.stock, interval, tip, frame, local,
-                                              (grid.ij[0][idx], grid.ij[1][idx]))
+            cand = self.bottom.in_stock_local(self.stock, interval, tip, frame,
+                                              local - shift_vec)
             idx, local = idx[cand], local[cand]
             world = tip + local @ frame
             removed = inside_any_sweep_clustered(world, np.ones(idx.size, dtype=np.bool_),
@@ -339,7 +372,8 @@ class GeometryModel:
             fine = np.arange(n * q)
             window = engaged[np.round(fine / q).astype(int) % n]
             factor *= q
-        weight0, shift0 = self._step_weights(grid, cutting0, interval, tip, frame, t1)
+        weight0, shift0 = self._step_weights(grid, cutting0, interval, tip, frame, t1,
+                                             shift_vec)
         feed_step = (frame @ (f_tooth * tool.flutes)) / n
         i, j = np.nonzero(weight0)
         step_len = np.linalg.norm(grid.rotation_step[i, j] + feed_step, axis=-1)
@@ -348,7 +382,7 @@ class GeometryModel:
             return None  # only slivers thinner than the sub-samples: nothing measurable
         return weight0 > 0, weight0, shift0, cl_rev
 
-    def _step_weights(self, grid, cutting0, interval, tip, frame, t1):
+    def _step_weights(self, grid, cutting0, interval, tip, frame, t1, stock_shift):
         """Share of each sample's cell (rotation step x micro edge) that cuts, (n, m),
         and the rotation offset of that share's centroid [rad], (n, m).
 
@@ -385,7 +419,7 @@ class GeometryModel:
         rho, z, _ = tool.profile_at(np.broadcast_to(sarc, ang.shape[:1] + (st, se)))
         phi = ang - tool.helix_lag(z)
         local = np.stack([rho * np.sin(phi), rho * np.cos(phi), z], axis=-1).reshape(-1, 3)
-        inside = bt.in_stock_local(self.stock, interval, tip, frame, local)
+        inside = bt.in_stock_local(self.stock, interval, tip, frame, local - stock_shift)
         pts = tip + local @ frame
         removed = inside_any_sweep_clustered(pts, inside, *t1, tool.core_radius_mm,
                                              tool.corner_radius_mm, tool.flute_length_mm,
@@ -425,17 +459,24 @@ class GeometryModel:
             phi_c = i * (2 * math.pi / n) - self.edges.psi[j]
         if phi_c.size == 0:
             return None
-        az = math.atan2(float(np.sin(phi_c).mean()), float(np.cos(phi_c).mean()))
+        mean = math.atan2(float(np.sin(phi_c).mean()), float(np.cos(phi_c).mean()))
+        rel = np.angle(np.exp(1j * (phi_c - mean)))
         cut_edges = cutting0.any(axis=0)
         zmax = float(self.edges.z[cut_edges].max()) if cut_edges.any() else 0.0
         zcut = float(fin.cutting_z.max()) if fin.cutting_z.size else 0.0
         height = min(tool.flute_length_mm, max(zmax, zcut) + res.pixel_mm)
-        side = View.side(tip, frame, az, tool.diameter_mm + 2 * res.pixel_mm,
-                         max(height, 2 * res.pixel_mm), res.pixel_mm / K.VIEW_ZOOM)
-        probe = StockProbe(self.stock, side, (0.0, tool.diameter_mm + 2 * res.pixel_mm))
-        hits = envelope_hits(tool, side, frame, tip)
-        reg = regions(tool, hits, side.pixel_mm, probe, t1, t2)
-        return generation_point(tool, reg, frame, tip)
+        # toward the middle of the cutting region; failing that (a slot: the
+        # finished walls are at its two ends), toward either end
+        for az in (mean, mean + float(rel.max()), mean + float(rel.min())):
+            side = View.side(tip, frame, az, tool.diameter_mm + 2 * res.pixel_mm,
+                             max(height, 2 * res.pixel_mm), res.pixel_mm / K.VIEW_ZOOM)
+            probe = StockProbe(self.stock, side, (0.0, tool.diameter_mm + 2 * res.pixel_mm))
+            hits = envelope_hits(tool, side, frame, tip)
+            reg = regions(tool, hits, side.pixel_mm, probe, t1, t2)
+            gen = generation_point(tool, reg, frame, tip)
+            if gen is not None:
+                return gen
+        return None
 
 
 def _generation(tool: Tool, xyz, phi, kappa, frame, tip) -> GenerationPoint:

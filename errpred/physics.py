@@ -15,6 +15,7 @@ vertical tool); ``z`` is the tool axis.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -93,6 +94,9 @@ class PointResult:
     cl_max_mm, cl_gen_mm : float
         Largest actual cutting distance of any micro edge, and that of the
         micro edge generating the surface, at this point (wear so far).
+    gain : float
+        ``dE/dx``: how much the error grows per unit the tool cuts deeper
+        along the normal (from the stock-thickened engagement); 0 if unknown.
     """
 
     peak_force_N: float
@@ -103,6 +107,7 @@ class PointResult:
     E_um: float
     cl_max_mm: float
     cl_gen_mm: float
+    gain: float = 0.0
 
 
 def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
@@ -141,6 +146,14 @@ def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     return theta, force, deflection
 
 
+def _strip_error(gen, defl: np.ndarray, theta: np.ndarray) -> float:
+    """Deflection along the normal, averaged over the generation strip [mm]."""
+    if gen.samples_theta is None or not gen.samples_theta.size:
+        return float(_at_angle(defl, theta, gen.theta_rad) @ gen.normal_world)
+    d_s = _at_angles(defl, theta, gen.samples_theta)
+    return float(np.mean(np.sum(d_s * gen.samples_normal, axis=1)))
+
+
 def _nearest_edges(edges: MicroEdges, kappa: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Micro edge nearest each (kappa, z): by contact angle, on the flank by height."""
     dk = np.abs(edges.kappa[None, :] - kappa[:, None])
@@ -172,40 +185,48 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
              ) -> PointResult | None:
     """Stage 2 for one point; advances ``wear`` by the revolutions it cuts.
 
-    Returns None for points that do not cut (the wear does not advance). If
-    ``series`` is a list, ``(force_N, deflection_mm)`` over the revolution
-    (world frame, (n, 3) each) is appended to it.
+    Returns None for points that do not cut (the wear does not advance).
+    Points that cut but have no generation point (or none to trust) get
+    their forces and wear, and NaN errors. If ``series`` is a list,
+    ``(theta, force_N, deflection_mm)`` over the revolution (world frame) is
+    appended to it for points with an error.
     """
     if g.cutting0 is None:
         return None
     revs = g.spindle_rpm * g.cut_length_mm / g.feed_mm_min if g.feed_mm_min > 0 else 0.0
     increment = g.cl_per_rev * revs
     cl_mid = wear.cl_mm + 0.5 * increment
-    result = None
-    if g.gen is not None and g.status in ("predicted", "axis-normal"):
-        theta, force, defl = revolution(tool, edges, coeffs, compliance, g, cl_mm=cl_mid)
+    theta, force, defl = revolution(tool, edges, coeffs, compliance, g, cl_mm=cl_mid)
+    gen = g.gen
+    nan = math.nan
+    E_d = E_p = nan
+    d_gen = np.full(3, nan)
+    gain = 0.0
+    j = int(np.argmax(cl_mid)) if cl_mid.size else 0
+    if gen is not None and g.status in ("predicted", "axis-normal"):
         if series is not None:
             series.append((theta, force, defl))
-        gen = g.gen
         d_gen = _at_angle(defl, theta, gen.theta_rad)
+        E_d = _strip_error(gen, defl, theta)
         if gen.samples_theta is not None and gen.samples_theta.size:
-            # the error averaged over the strip the surface is generated on
-            d_s = _at_angles(defl, theta, gen.samples_theta)
-            E_d = float(np.mean(np.sum(d_s * gen.samples_normal, axis=1)))
             js = _nearest_edges(edges, gen.samples_kappa, gen.samples_z)
             E_p = float(np.mean(shape.error_mm(gen.samples_kappa, gen.samples_z, cl_mid[js])))
         else:
-            E_d = float(d_gen @ gen.normal_world)
             j0 = _nearest_edges(edges, np.array([gen.kappa_rad]),
                                 np.array([gen.point_tool[2]]))[0]
             E_p = float(shape.error_mm(gen.kappa_rad, float(gen.point_tool[2]),
                                        float(cl_mid[j0])))
         j = _nearest_edges(edges, np.array([gen.kappa_rad]), np.array([gen.point_tool[2]]))[0]
-        result = PointResult(
-            peak_force_N=float(np.linalg.norm(force, axis=1).max()),
-            mean_force_N=force.mean(axis=0),
-            deflection_um=d_gen * 1e3,
-            E_d_um=E_d * 1e3, E_p_um=E_p * 1e3, E_um=(E_d + E_p) * 1e3,
-            cl_max_mm=float(cl_mid.max()), cl_gen_mm=float(cl_mid[j]))
+        if g.sensitivity is not None:
+            delta, c_b, w_b, s_b = g.sensitivity
+            g_b = dataclasses.replace(g, cutting0=c_b, weight0=w_b, shift0=s_b)
+            th_b, _, defl_b = revolution(tool, edges, coeffs, compliance, g_b, cl_mm=cl_mid)
+            gain = (_strip_error(gen, defl_b, th_b) - E_d) / delta
+    result = PointResult(
+        peak_force_N=float(np.linalg.norm(force, axis=1).max()),
+        mean_force_N=force.mean(axis=0),
+        deflection_um=d_gen * 1e3,
+        E_d_um=E_d * 1e3, E_p_um=E_p * 1e3, E_um=(E_d + E_p) * 1e3,
+        cl_max_mm=float(cl_mid.max()), cl_gen_mm=float(cl_mid[j]), gain=gain)
     wear.cl_mm = wear.cl_mm + increment
     return result

@@ -8,7 +8,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -49,7 +48,7 @@ def build_predictor(scenario: Scenario, program: Program | None = None,
                     resolution: Resolution | None = None, stock=None) -> Predictor:
     """A :class:`Predictor` for the scenario (or another program, e.g. corrected)."""
     prog = program if program is not None else scenario.read_program()
-    res = resolution or Resolution(**dataclasses.asdict(scenario.resolution))
+    res = resolution or scenario.resolution
     se = scenario.shape_error
     shape = ShapeErrorModel(deviation=se.radius_deviation_mm, wear_rate=se.wear_rate_mm_per_mm)
     return Predictor(scenario.tool, stock if stock is not None else scenario.stock.load(), prog,

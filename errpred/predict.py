@@ -191,7 +191,7 @@ class Predictor:
                 res = evaluate(self.tool, self.edges, self.coefficients, self.compliance,
                                self.shape, self.theta, g, wear, series=buf)
                 line = int(self.program.line[g.block])
-                out.append(PointPrediction(g, res, line))
+                out.append(PointPrediction(g.light(), res, line))
                 if buf:
                     item = (buf[0][1], buf[0][2], g.gen.theta_rad, buf[0][0])
                     if line in keep:

@@ -25,8 +25,8 @@ def _r(v: float, nd: int = 4) -> float | None:
     return None if v is None or not math.isfinite(v) else round(float(v), nd)
 
 
-def _vec(v, nd: int = 6) -> list[float]:
-    return [round(float(x), nd) for x in v]
+def _vec(v, nd: int = 6) -> list[float | None]:
+    return [round(float(x), nd) if math.isfinite(float(x)) else None for x in v]
 
 
 def point_record(p) -> dict[str, Any]:
@@ -36,7 +36,7 @@ def point_record(p) -> dict[str, Any]:
         "line": p.line,
         "block": g.block,
         "status": g.status,
-        "cuts": g.cutting0 is not None,
+        "cuts": g.cuts,
         "reason": STATUS.get(g.status, g.status),
         "point_mm": _vec(g.tip, 5),
         "axis": _vec(g.axis),
@@ -50,7 +50,11 @@ def point_record(p) -> dict[str, Any]:
             "generation_point_mm": _vec(g.gen.point_world, 5),
             "finished_pixels": g.finished_pixels,
         })
-    if p.result is not None:
+    if p.result is not None and not math.isfinite(p.result.E_um):
+        r = p.result
+        rec.update({"peak_force_N": _r(r.peak_force_N, 3), "mean_force_N": _vec(r.mean_force_N, 3),
+                    "cutting_distance_mm": {"max_edge": _r(r.cl_max_mm, 3)}})
+    elif p.result is not None:
         r = p.result
         rec.update({
             "peak_force_N": _r(r.peak_force_N, 3),

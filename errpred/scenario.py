@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from . import constants as K
+from .geometry import Resolution
 from .tool import TOOL_KINDS, Holder, Tool
 
 __all__ = ["ScenarioError", "StockSpec", "ShapeError", "Resolution", "CorrectionOptions",
@@ -161,16 +162,6 @@ class ShapeError:
     def material_left_mm(self, kappa_rad: Any, z_mm: Any, cl_mm: Any = 0.0) -> np.ndarray:
         """``E_p = -deviation + wear loss`` [mm] (positive = undercut, material left)."""
         return self.wear_loss_mm(cl_mm) - self.radius_deviation_mm(kappa_rad, z_mm)
-
-
-@dataclass(frozen=True)
-class Resolution:
-    """Discretization settings (defaults from :mod:`errpred.constants`)."""
-
-    pixel_mm: float
-    micro_edges: int = K.MICRO_EDGES_ENVELOPE
-    angle_step_rad: float = K.ANGLE_STEP_RAD
-    chord_tol_mm: float = K.CHORD_TOL_MM
 
 
 @dataclass(frozen=True)

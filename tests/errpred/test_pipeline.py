@@ -1,0 +1,131 @@
+"""The whole prediction: convergence, compensation, wear, tool change, report."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from nc import parse_program
+from errpred.coefficients import CuttingCoefficients
+from errpred.correct import block_errors, compensate
+from errpred.geometry import Resolution
+from errpred.pipeline import load, predict
+from errpred.plots import _lag_deg
+from errpred.predict import Predictor
+from errpred.raster.meshes import Stock
+from errpred.report import summary, tool_change
+from errpred.scenario import bundled_scenario
+from errpred.tool import Tool
+
+from .cases import STEEL, plane_raster, plane_stock, stiff_tool
+
+#: Representative slices of the bundled scenarios (see their descriptions).
+SLICES = [("mold-ball", 19118, 19140), ("mold-ball", 6165, 6185), ("wall-radius", 374, 397)]
+
+
+@pytest.mark.parametrize("name,lo,hi", SLICES, ids=[f"{n}-{a}" for n, a, _ in SLICES])
+def test_default_resolution_converges(name, lo, hi):
+    """method.md section 9: the default is within 0.5 um of a 4x finer setting."""
+    s = dataclasses.replace(load(bundled_scenario(name)), lines=(lo, hi))
+    base = s.resolution
+    stock = s.stock.load()
+    a = {p.line: p for p in predict(s, stock=stock).points}
+    b = {p.line: p for p in predict(s, resolution=base.finer(4), stock=stock).points}
+    both = [ln for ln, p in a.items() if p.status == "predicted" and b[ln].status == "predicted"]
+    assert len(both) >= 10
+    diff = max(abs(a[ln].result.E_um - b[ln].result.E_um) for ln in both)
+    assert diff <= 0.5, diff
+
+
+def _plane_case():
+    slope = 25.0
+    prog = parse_program(plane_raster(slope, 5.0, passes=6, length=12.0))
+    tool = Tool("ball", 10.0, flute_length_mm=15)
+    stock = plane_stock(slope, 0.2)
+    soft = stiff_tool(k_N_m=1.2e6)  # errors of ~10 um, as an overhung tool leaves
+
+    def run(p):
+        return Predictor(tool, stock, p, STEEL, soft).run()
+
+    return prog, run
+
+
+def test_compensation_one_pass_and_iterated():
+    prog, run = _plane_case()
+    one = compensate(prog, run, iterate=False)
+    assert one.max_error_um[0] > 8.0  # a case with something to correct
+    assert one.max_error_um[-1] <= 0.10 * one.max_error_um[0], one.max_error_um
+    it = compensate(prog, run, iterate=True, tolerance_mm=5e-5, max_iterations=6)
+    assert it.max_error_um[-1] <= 0.03 * it.max_error_um[0], it.max_error_um
+    # the corrected program is the original with numbers changed, line for line
+    strip = str.maketrans("", "", "0123456789.-+ ")
+    old, new = "\n".join(prog.lines).splitlines(), it.text.splitlines()
+    assert len(old) == len(new)
+    assert all(a.translate(strip) == b.translate(strip) or len(b) > len(a)
+               for a, b in zip(old, new, strict=True))
+
+
+def test_corrected_program_moves_points_against_the_error():
+    prog, run = _plane_case()
+    pred = run(prog)
+    errs = block_errors(prog, pred)
+    res = compensate(prog, run, iterate=False)
+    new = parse_program(res.text)
+    for b, e in errs.items():
+        if e.E_mm > 1e-3 and b + 1 in errs:
+            move = new.end[b, :3] - prog.end[b, :3]
+            assert float(move @ e.normal) < 0  # material left: the tool goes deeper
+
+
+def test_edge_forces_grow_linearly_with_cutting_distance():
+    """Wear: a slot cut again and again; the revolution-mean force rises in a line."""
+    tool = Tool("flat", 10.0, flutes=2, helix_deg=0.0, flute_length_mm=6.0)
+    stock = Stock.from_box([-400.0, -30.0, 0.001], [400.0, 30.0, 2.0])
+    coeffs = dataclasses.replace(STEEL, Kte1_N_mm2=2e-3, Kre1_N_mm2=3e-3, Kae1_N_mm2=1e-3)
+    lines = ["G21 G90 G94", "S6000 M3", "G0 X-300 Y0 Z0", "G1 X-299 F600"]
+    lines += [f"G1 X{-299 + 20 * k}" for k in range(1, 13)] + ["M30"]
+    prog = parse_program("\n".join(lines) + "\n")
+    res = Resolution(pixel_mm=10 / 64, angle_step_rad=math.radians(2.0))
+    out = Predictor(tool, stock, prog, coeffs, stiff_tool(), resolution=res).run()
+    pts = [p for p in out.points if p.result is not None and p.line >= 6]
+    cl = np.array([p.result.cl_max_mm for p in pts])
+    fx = np.array([p.result.mean_force_N[1] for p in pts])  # feed-normal component
+    assert np.all(np.diff(cl) > 0)
+    slope, icpt = np.polyfit(cl, fx, 1)
+    assert abs(slope) > 0
+    assert np.abs(fx - (slope * cl + icpt)).max() <= 1e-6 * np.abs(fx).max()
+    # without wear growth the same cut gives the same force every block
+    flat = Predictor(tool, stock, prog, STEEL, stiff_tool(), resolution=res).run()
+    f0 = np.array([p.result.mean_force_N[1] for p in flat.points
+                   if p.result is not None and p.line >= 6])
+    assert np.ptp(f0) <= 1e-9 * np.abs(f0).max()
+
+
+def test_tool_change_suggestion_is_the_first_block_over_tolerance():
+    prog, run = _plane_case()
+    pred = run(prog)
+    E = [abs(p.result.E_um) for p in pred.predicted()]
+    tol = float(np.percentile(E, 50))
+    tc = tool_change(pred, tol)
+    first = next(p for p in pred.predicted() if abs(p.result.E_um) > tol)
+    assert tc["line"] == first.line and tc["E_um"] == pytest.approx(first.result.E_um, abs=1e-3)
+    assert tool_change(pred, 1e6)["line"] is None
+    s = summary(pred, tol)
+    assert s["max_abs_error_um"] == pytest.approx(max(E), abs=1e-3)
+
+
+def test_lag_of_a_delayed_response():
+    n = 360
+    th = np.arange(n) * 2 * math.pi / n
+    force = np.stack([np.exp(-((th - 1.0) / 0.1) ** 2), np.zeros(n), np.zeros(n)], axis=1)
+    defl = np.roll(force, 25, axis=0) * 1e-3
+    assert _lag_deg(force, defl) == pytest.approx(25.0)
+
+
+def test_unknown_coefficients_fail_before_anything_runs():
+    with pytest.raises(ValueError, match="Ktc_N_mm2"):
+        CuttingCoefficients(Ktc_N_mm2=float("nan"), Krc_N_mm2=1, Kac_N_mm2=1, Kte0_N_mm=1,
+                            Kre0_N_mm=1, Kae0_N_mm=1)
