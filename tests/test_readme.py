@@ -28,5 +28,5 @@ def test_ci_runs_the_readme_test_command_verbatim():
 
 def test_main_command_names_bundled_files_that_exist():
     main_cmd = _commands()[0]
-    for path in re.findall(r"\S+\.csv", main_cmd):
+    for path in re.findall(r"\S+\.(?:csv|toml)", main_cmd):
         assert os.path.exists(os.path.join(ROOT, path)), path
