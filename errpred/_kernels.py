@@ -221,41 +221,110 @@ def inside_any_sweep_parallel(points, candidates, p0, d, w, lo, hi, c, r, top, e
 
 
 @njit(cache=True)
-def _reaching(points, idx, m, p0, d, w, lo, hi, c, r, top, reach):
-    """Sweeps that may come within ``reach`` of the bounding sphere of points idx[:m]."""
-    n = p0.shape[0]
+def _sphere(points, idx, order, s, e):
+    """Centre and radius of the bounding sphere of points idx[order[s:e]]."""
     cx = cy = cz = 0.0
-    for t in range(m):
-        i = idx[t]
+    for t in range(s, e):
+        i = idx[order[t]]
         cx += points[i, 0]
         cy += points[i, 1]
         cz += points[i, 2]
-    cx /= m
-    cy /= m
-    cz /= m
+    cnt = e - s
+    cx /= cnt
+    cy /= cnt
+    cz /= cnt
     rad = 0.0
-    for t in range(m):
-        i = idx[t]
+    for t in range(s, e):
+        i = idx[order[t]]
         dx, dy, dz = points[i, 0] - cx, points[i, 1] - cy, points[i, 2] - cz
         v = math.sqrt(dx * dx + dy * dy + dz * dz)
         if v > rad:
             rad = v
-    out = np.empty(n, dtype=np.int64)
-    k = 0
+    return cx, cy, cz, rad
+
+
+@njit(cache=True)
+def _may_reach(j, cx, cy, cz, reach, p0, d, w, lo, hi, c, r, top):
+    """Can sweep j come within ``reach`` of the point (cx, cy, cz)?
+
+    Axis-aligned bounds first, then a lower bound of the distance: the swept
+    core lies within ``c`` of the swept axis strip (exact for ball end mills).
+    """
+    if (cx + reach < lo[j, 0] or cx - reach > hi[j, 0] or cy + reach < lo[j, 1]
+            or cy - reach > hi[j, 1] or cz + reach < lo[j, 2] or cz - reach > hi[j, 2]):
+        return False
+    ax = cx - (p0[j, 0] + r * w[j, 0])
+    ay = cy - (p0[j, 1] + r * w[j, 1])
+    az = cz - (p0[j, 2] + r * w[j, 2])
+    lb = _dist_half_strip(ax, ay, az, d[j, 0], d[j, 1], d[j, 2], w[j, 0], w[j, 1], w[j, 2],
+                          top - r) - c
+    return lb <= r + reach
+
+
+@njit(cache=True)
+def _bins(points, candidates, cell):
+    """Candidate points binned into cubes: (idx, order, keys, count)."""
+    k = points.shape[0]
+    idx = np.empty(k, dtype=np.int64)
+    keys = np.empty(k, dtype=np.int64)
+    m = 0
+    big = 1 << 20
+    for i in range(k):
+        if candidates[i]:
+            ix = int(math.floor(points[i, 0] / cell)) + big
+            iy = int(math.floor(points[i, 1] / cell)) + big
+            iz = int(math.floor(points[i, 2] / cell)) + big
+            keys[m] = (ix * (2 * big) + iy) * (2 * big) + iz
+            idx[m] = i
+            m += 1
+    order = np.argsort(keys[:m])
+    return idx, order, keys, m
+
+
+@njit(cache=True)
+def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach):
+    """Per bin: (start, end, sweeps that may reach it), as flat arrays.
+
+    Sweeps that cannot come within ``reach`` of any point are dropped first
+    (one bounding sphere for all points), then per bin (its own sphere).
+    """
+    n = p0.shape[0]
+    cx, cy, cz, rad = _sphere(points, idx, order, 0, m)
+    near = np.empty(n, dtype=np.int64)
+    nn = 0
     for j in range(n):
-        if (cx + rad + reach < lo[j, 0] or cx - rad - reach > hi[j, 0]
-                or cy + rad + reach < lo[j, 1] or cy - rad - reach > hi[j, 1]
-                or cz + rad + reach < lo[j, 2] or cz - rad - reach > hi[j, 2]):
-            continue
-        ax = cx - (p0[j, 0] + r * w[j, 0])
-        ay = cy - (p0[j, 1] + r * w[j, 1])
-        az = cz - (p0[j, 2] + r * w[j, 2])
-        lb = _dist_half_strip(ax, ay, az, d[j, 0], d[j, 1], d[j, 2], w[j, 0], w[j, 1],
-                              w[j, 2], top - r) - c
-        if lb <= r + reach + rad:
-            out[k] = j
-            k += 1
-    return out[:k]
+        if _may_reach(j, cx, cy, cz, reach + rad, p0, d, w, lo, hi, c, r, top):
+            near[nn] = j
+            nn += 1
+    starts = np.empty(m + 1, dtype=np.int64)
+    lists = np.empty(0, dtype=np.int64)
+    offsets = np.zeros(m + 1, dtype=np.int64)
+    nb = 0
+    s = 0
+    total = 0
+    buf = np.empty(max(nn, 1) * 8, dtype=np.int64)
+    while s < m:
+        e = s
+        key = keys[order[s]]
+        while e < m and keys[order[e]] == key:
+            e += 1
+        bx, by, bz, brad = _sphere(points, idx, order, s, e)
+        for q in range(nn):
+            j = near[q]
+            if _may_reach(j, bx, by, bz, reach + brad, p0, d, w, lo, hi, c, r, top):
+                if total == buf.shape[0]:
+                    bigger = np.empty(2 * total, dtype=np.int64)
+                    bigger[:total] = buf
+                    buf = bigger
+                buf[total] = j
+                total += 1
+        starts[nb] = s
+        offsets[nb + 1] = total
+        nb += 1
+        s = e
+    starts[nb] = m
+    lists = buf[:total]
+    return starts[:nb + 1], offsets[:nb + 1], lists, nb
 
 
 @njit(cache=True)
@@ -270,79 +339,24 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
     reach the points (finishing: the neighbouring passes).
     """
     k = points.shape[0]
-    n = p0.shape[0]
     out = np.zeros(k, dtype=np.bool_)
-    if k == 0 or n == 0:
+    if k == 0 or p0.shape[0] == 0:
         return out
-    lim = r + eps
-    # bin the candidate points
-    idx = np.empty(k, dtype=np.int64)
-    keys = np.empty(k, dtype=np.int64)
-    m = 0
-    big = 1 << 20
-    for i in range(k):
-        if candidates[i]:
-            ix = int(math.floor(points[i, 0] / cell)) + big
-            iy = int(math.floor(points[i, 1] / cell)) + big
-            iz = int(math.floor(points[i, 2] / cell)) + big
-            keys[m] = (ix * (2 * big) + iy) * (2 * big) + iz
-            idx[m] = i
-            m += 1
+    idx, order, keys, m = _bins(points, candidates, cell)
     if m == 0:
         return out
-    # sweeps that can reach any of the points at all (in the given order)
-    near = _reaching(points, idx, m, p0, d, w, lo, hi, c, r, top, eps)
-    order = np.argsort(keys[:m])
-    short = np.empty(max(near.shape[0], 1), dtype=np.int64)
-    s = 0
-    while s < m:
-        e = s
-        key = keys[order[s]]
-        while e < m and keys[order[e]] == key:
-            e += 1
-        # bounding sphere of the bin's points
-        cx = cy = cz = 0.0
-        for t in range(s, e):
-            i = idx[order[t]]
-            cx += points[i, 0]
-            cy += points[i, 1]
-            cz += points[i, 2]
-        cnt = e - s
-        cx /= cnt
-        cy /= cnt
-        cz /= cnt
-        rad = 0.0
-        for t in range(s, e):
-            i = idx[order[t]]
-            dx, dy, dz = points[i, 0] - cx, points[i, 1] - cy, points[i, 2] - cz
-            v = math.sqrt(dx * dx + dy * dy + dz * dz)
-            if v > rad:
-                rad = v
-        # sweeps that can reach the bin
-        ns = 0
-        for jn in range(near.shape[0]):
-            j = near[jn]
-            if (cx + rad < lo[j, 0] or cx - rad > hi[j, 0] or cy + rad < lo[j, 1]
-                    or cy - rad > hi[j, 1] or cz + rad < lo[j, 2] or cz - rad > hi[j, 2]):
-                continue
-            # the swept core lies within c of the swept axis strip: a cheap bound
-            ax = cx - (p0[j, 0] + r * w[j, 0])
-            ay = cy - (p0[j, 1] + r * w[j, 1])
-            az = cz - (p0[j, 2] + r * w[j, 2])
-            lb = _dist_half_strip(ax, ay, az, d[j, 0], d[j, 1], d[j, 2], w[j, 0], w[j, 1],
-                                  w[j, 2], top - r) - c
-            if lb <= lim + rad:
-                short[ns] = j
-                ns += 1
-        for t in range(s, e):
+    lim = r + eps
+    starts, offsets, lists, nb = _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi,
+                                             c, r, top, eps)
+    for b in range(nb):
+        for t in range(starts[b], starts[b + 1]):
             i = idx[order[t]]
             x, y, z = points[i, 0], points[i, 1], points[i, 2]
-            for q in range(ns):
-                j = short[q]
+            for q in range(offsets[b], offsets[b + 1]):
+                j = lists[q]
                 if sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) <= lim:
                     out[i] = True
                     break
-        s = e
     return out
 
 
@@ -361,69 +375,18 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
     out = np.full(k, floor)
     if k == 0:
         return out
-    idx = np.empty(k, dtype=np.int64)
-    keys = np.empty(k, dtype=np.int64)
-    m = 0
-    big = 1 << 20
-    for i in range(k):
-        if candidates[i]:
-            ix = int(math.floor(points[i, 0] / cell)) + big
-            iy = int(math.floor(points[i, 1] / cell)) + big
-            iz = int(math.floor(points[i, 2] / cell)) + big
-            keys[m] = (ix * (2 * big) + iy) * (2 * big) + iz
-            idx[m] = i
-            m += 1
+    idx, order, keys, m = _bins(points, candidates, cell)
     if m == 0:
         return out
-    near = _reaching(points, idx, m, p0, d, w, lo, hi, c, r, top, -floor)
-    order = np.argsort(keys[:m])
-    short = np.empty(max(near.shape[0], 1), dtype=np.int64)
-    s = 0
-    while s < m:
-        e = s
-        key = keys[order[s]]
-        while e < m and keys[order[e]] == key:
-            e += 1
-        cx = cy = cz = 0.0
-        for t in range(s, e):
-            i = idx[order[t]]
-            cx += points[i, 0]
-            cy += points[i, 1]
-            cz += points[i, 2]
-        cnt = e - s
-        cx /= cnt
-        cy /= cnt
-        cz /= cnt
-        rad = 0.0
-        for t in range(s, e):
-            i = idx[order[t]]
-            dx, dy, dz = points[i, 0] - cx, points[i, 1] - cy, points[i, 2] - cz
-            v = math.sqrt(dx * dx + dy * dy + dz * dz)
-            if v > rad:
-                rad = v
-        # a sweep matters if it may come within r - floor of a point of the bin
-        reach = r - floor + rad
-        ns = 0
-        for jn in range(near.shape[0]):
-            j = near[jn]
-            if (cx + rad - floor < lo[j, 0] or cx - rad + floor > hi[j, 0]
-                    or cy + rad - floor < lo[j, 1] or cy - rad + floor > hi[j, 1]
-                    or cz + rad - floor < lo[j, 2] or cz - rad + floor > hi[j, 2]):
-                continue
-            ax = cx - (p0[j, 0] + r * w[j, 0])
-            ay = cy - (p0[j, 1] + r * w[j, 1])
-            az = cz - (p0[j, 2] + r * w[j, 2])
-            lb = _dist_half_strip(ax, ay, az, d[j, 0], d[j, 1], d[j, 2], w[j, 0], w[j, 1],
-                                  w[j, 2], top - r) - c
-            if lb <= reach:
-                short[ns] = j
-                ns += 1
-        for t in range(s, e):
+    starts, offsets, lists, nb = _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi,
+                                             c, r, top, -floor)
+    for b in range(nb):
+        for t in range(starts[b], starts[b + 1]):
             i = idx[order[t]]
             x, y, z = points[i, 0], points[i, 1], points[i, 2]
             best = 1e300
-            for q in range(ns):
-                j = short[q]
+            for q in range(offsets[b], offsets[b + 1]):
+                j = lists[q]
                 v = sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) - r
                 if v < best:
                     best = v
@@ -434,5 +397,4 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
             elif best > -floor:
                 best = -floor
             out[i] = best
-        s = e
     return out

@@ -47,6 +47,9 @@ STOCK_INTERPOLATION_SLOPE_RAD = math.radians(60.0)
 SWEEP_AXIS_STEP_RAD = math.radians(1.0)
 
 # --- prediction -------------------------------------------------------------
+#: Blocks longer than this get a prediction point in each of equal parts
+#: no longer than it (method.md section 3: long blocks, several points) [mm].
+POINT_SPACING_MM = 5.0
 #: Extra stock thickness along the normal with which the error's sensitivity
 #: to the correction is evaluated (a finite difference) [mm].
 SENSITIVITY_STEP_MM = 2.0e-3

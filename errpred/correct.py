@@ -39,7 +39,7 @@ from .predict import Prediction
 #: Sensitivities beyond this are not trusted for the correction's size [-].
 MAX_GAIN = 0.5
 
-__all__ = ["BlockError", "block_errors", "correction_moves", "corrected_program",
+__all__ = ["BlockError", "block_errors", "largest_error_um", "correction_moves", "corrected_program",
            "Compensation", "compensate"]
 
 
@@ -73,14 +73,16 @@ class BlockError:
 
 
 def block_errors(program: Program, prediction: Prediction,
-                 reference: Program | None = None) -> dict[int, BlockError]:
-    """Per-block error against ``reference`` (default: the program itself).
+                 reference: Program | None = None) -> dict[int, list[BlockError]]:
+    """Per-block errors against ``reference`` (default: the program itself).
+
+    A list per block, one entry per prediction point, ordered along it.
 
     With a reference (the original of a corrected program), the error is the
     predicted one plus the normal component of how far the program's path
     moved from the reference's at the prediction point.
     """
-    out: dict[int, BlockError] = {}
+    out: dict[int, list[BlockError]] = {}
     start, end = program.start, program.end
     if reference is not None:
         ref_start, ref_end = reference.start, reference.end
@@ -95,8 +97,15 @@ def block_errors(program: Program, prediction: Prediction,
         if reference is not None:
             disp = ((1 - t) * (a - ref_start[b, :3]) + t * (e - ref_end[b, :3]))
             E += float(disp @ n)
-        out[b] = BlockError(E, n, t, p.result.gain)
+        out.setdefault(b, []).append(BlockError(E, n, t, p.result.gain))
+    for v in out.values():
+        v.sort(key=lambda be: be.fraction)
     return out
+
+
+def largest_error_um(errors: dict[int, list[BlockError]]) -> float:
+    """Largest |E| over all points [um]."""
+    return max((abs(be.E_mm) * 1e3 for v in errors.values() for be in v), default=0.0)
 
 
 def _direction(errors: list[BlockError]) -> np.ndarray:
@@ -124,7 +133,8 @@ _RIDGE = 1e-6
 _SMOOTH = 0.05
 
 
-def correction_moves(program: Program, errors: dict[int, BlockError]) -> dict[int, np.ndarray]:
+def correction_moves(program: Program, errors: dict[int, list[BlockError]]
+                     ) -> dict[int, np.ndarray]:
     """The displacement of each block's end point [mm], (3,) each.
 
     Chains are runs of consecutive predicted blocks, each starting where the
@@ -141,19 +151,24 @@ def correction_moves(program: Program, errors: dict[int, BlockError]) -> dict[in
             chains.append([b])
     for chain in chains:
         K = len(chain)
-        # point p (0..K) is the end of block chain[0] - 1 + p
+        # point p (0..K) is the end of block chain[0] - 1 + p; its direction
+        # comes from the prediction points next to it on either side
         dirs = []
         for p in range(K + 1):
-            adj = [errors[chain[k]] for k in (p - 1, p) if 0 <= k < K]
+            adj = []
+            if p - 1 >= 0:
+                adj.append(errors[chain[p - 1]][-1])
+            if p < K:
+                adj.append(errors[chain[p]][0])
             dirs.append(_direction(adj))
-        A = np.zeros((K, K + 1))
-        rhs = np.zeros(K)
-        for k, b in enumerate(chain):
-            be = errors[b]
-            A[k, k] = (1 - be.fraction) * float(dirs[k] @ be.normal)
-            A[k, k + 1] = be.fraction * float(dirs[k + 1] @ be.normal)
-            rhs[k] = -be.move_mm
-        s = _banded_lstsq(A, rhs)
+        rows = [(k, be) for k, b in enumerate(chain) for be in errors[b]]
+        A = np.zeros((len(rows), K + 1))
+        rhs = np.zeros(len(rows))
+        for q, (k, be) in enumerate(rows):
+            A[q, k] = (1 - be.fraction) * float(dirs[k] @ be.normal)
+            A[q, k + 1] = be.fraction * float(dirs[k + 1] @ be.normal)
+            rhs[q] = -be.move_mm
+        s = _banded_lstsq(A, rhs, [k for k, _ in rows])
         for p in range(K + 1):
             block = chain[0] - 1 + p
             if block >= 0:
@@ -161,18 +176,27 @@ def correction_moves(program: Program, errors: dict[int, BlockError]) -> dict[in
     return moves
 
 
-def _banded_lstsq(A: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Ridge least squares of a bidiagonal system (normal equations, tridiagonal)."""
+def _banded_lstsq(A: np.ndarray, rhs: np.ndarray, cols: list[int]) -> np.ndarray:
+    """Ridge least squares of a system whose row q touches columns cols[q], +1.
+
+    The normal equations are tridiagonal; with the smoothness term (on
+    differences of neighbouring unknowns) and a small ridge they are solved
+    banded.
+    """
     from scipy.linalg import solveh_banded
 
     n = A.shape[1]
     diag = np.zeros(n)
     off = np.zeros(n - 1)
-    k = A.shape[0]
-    idx = np.arange(k)
-    diag[:k] += A[idx, idx] ** 2
-    diag[1:k + 1] += A[idx, idx + 1] ** 2
-    off[:k] += A[idx, idx] * A[idx, idx + 1]
+    c = np.asarray(cols, dtype=int)
+    q = np.arange(A.shape[0])
+    a0, a1 = A[q, c], A[q, c + 1]
+    np.add.at(diag, c, a0 ** 2)
+    np.add.at(diag, c + 1, a1 ** 2)
+    np.add.at(off, c, a0 * a1)
+    b = np.zeros(n)
+    np.add.at(b, c, a0 * rhs)
+    np.add.at(b, c + 1, a1 * rhs)
     scale = max(float(diag.max()), 1e-300)
     diag += _RIDGE * scale
     # smoothness: penalize differences of neighbouring moves, so a chain of
@@ -181,9 +205,6 @@ def _banded_lstsq(A: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     diag[:-1] += lam
     diag[1:] += lam
     off -= lam
-    b = np.zeros(n)
-    b[:k] += A[idx, idx] * rhs
-    b[1:k + 1] += A[idx, idx + 1] * rhs
     ab = np.zeros((2, n))
     ab[0, 1:] = off
     ab[1] = diag
@@ -207,7 +228,7 @@ def _circle_centre(p1, p2, p3, a1: int, a2: int) -> np.ndarray | None:
     return c
 
 
-def corrected_program(program: Program, errors: dict[int, BlockError], *,
+def corrected_program(program: Program, errors: dict[int, list[BlockError]], *,
                       min_decimals: int | None = None) -> tuple[str, float]:
     """Program text with the corrections applied, and the largest move [mm].
 
@@ -238,7 +259,8 @@ def corrected_program(program: Program, errors: dict[int, BlockError], *,
         mid[a1] = centre[a1] + r * math.cos(ang0 + sweep / 2)
         mid[a2] = centre[a2] + r * math.sin(ang0 + sweep / 2)
         if b in errors:
-            mid += -errors[b].move_mm * errors[b].normal
+            near = min(errors[b], key=lambda be: abs(be.fraction - 0.5))
+            mid += -near.move_mm * near.normal
         else:
             mid += 0.5 * (moves.get(b - 1, np.zeros(3)) + moves.get(b, np.zeros(3)))
         if abs(sweep) >= 2 * math.pi - 1e-9:
@@ -308,7 +330,7 @@ def compensate(program: Program, predict: Callable[[Program], Prediction], *,
         pred = predict(current)
         errs = block_errors(current, pred, reference=program)
         out.predictions.append(pred)
-        err = max((abs(e.E_mm) * 1e3 for e in errs.values()), default=0.0)
+        err = largest_error_um(errs)
         out.max_error_um.append(err)
         if k > 0 and err < best_err:
             best_err, best_text = err, text

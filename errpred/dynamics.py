@@ -19,16 +19,16 @@ Only :meth:`Compliance.from_uff`, :meth:`Compliance.from_csv` and
 
 from __future__ import annotations
 
-import contextlib
 import math
 import numbers
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from nc.atomic import atomic_path
 
 __all__ = ["DIRECTIONS", "Compliance", "FRFDataError", "Mode"]
 
@@ -493,19 +493,9 @@ class Compliance:
                 abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz",
                 ordinate_spec_data_type=8, ordinate_axis_units_lab="m",
                 orddenom_spec_data_type=13, orddenom_axis_units_lab="N", data=g, x=f))
-        path = os.fspath(path)
-        fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp",
-                                   dir=os.path.dirname(os.path.abspath(path)))
-        os.close(fd)
-        try:
+        with atomic_path(path) as tmp:
             # pyuff writes by file name; 'add' to the fresh empty file
             pyuff.UFF(tmp).write_sets(sets, mode="add")
-            os.chmod(tmp, 0o644)
-            os.replace(tmp, path)
-        except BaseException:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(tmp)
-            raise
 
 
 # ---------------------------------------------------------------------- file readers

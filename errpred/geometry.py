@@ -224,6 +224,11 @@ class GeometryModel:
         start = self.path[i0 - 1] if i0 > 0 else 0.0
         end = self.path[i1]
         length = end - start
+        pts = max(1, math.ceil(length / K.POINT_SPACING_MM - 1e-9))
+        if pts > 1:
+            # a long block: a point in the middle of each of its equal parts
+            return [self.point(block, start + (k + 0.5) / pts * length, length / pts)
+                    for k in range(pts)]
         # the midpoint first; the quarters if the midpoint does not cut
         last = None
         for frac in (0.5, 0.25, 0.75):

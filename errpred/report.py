@@ -71,6 +71,19 @@ def point_record(p) -> dict[str, Any]:
     return rec
 
 
+def _numbered(records: list[dict]) -> list[dict]:
+    """Number the points of blocks that have several (long blocks)."""
+    count: dict[int, int] = {}
+    for r in records:
+        count[r["block"]] = count.get(r["block"], 0) + 1
+    seen: dict[int, int] = {}
+    for r in records:
+        if count[r["block"]] > 1:
+            r["point"] = seen.get(r["block"], 0)
+            seen[r["block"]] = r["point"] + 1
+    return records
+
+
 def tool_change(prediction: Prediction, tolerance_um: float | None) -> dict | None:
     """The first predicted point whose |E| (with wear) exceeds the tolerance."""
     if tolerance_um is None:
@@ -124,7 +137,7 @@ def report(prediction: Prediction, meta: dict[str, Any] | None = None,
     return {
         **(meta or {}),
         "summary": summary(prediction, tool_change_um),
-        "points": [point_record(p) for p in prediction.points],
+        "points": _numbered([point_record(p) for p in prediction.points]),
         "wear_per_micro_edge": {
             "kappa_deg": _vec(np.degrees(prediction.edges_kappa_rad), 3),
             "z_mm": _vec(prediction.edges_z_mm, 4),
