@@ -1,8 +1,7 @@
 """Cutting force coefficients, and their identification from measured forces.
 
-The force model (``docs/method.md`` §4, contract in
-``docs/errpred-contracts.md``) is, per micro edge and rotation step, while
-the edge cuts::
+The force model (``docs/method.md`` §4, ``errpred/force.py``) is, per micro
+edge and rotation step, while the edge cuts::
 
     dFt = (Kte0 + Kte1 cl + Ktc h) db
     dFr = (Kre0 + Kre1 cl + Krc h) db

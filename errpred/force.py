@@ -1,6 +1,6 @@
 """Cutting force of an end mill over one revolution (``docs/method.md`` §4).
 
-Conventions (``docs/errpred-contracts.md``): tool frame with the origin at the
+Conventions (``docs/method.md`` §1, ``errpred/frames.py``): tool frame with the origin at the
 tip, ``z'`` up the tool axis, feed along ``x'``; a flute's angle ``phi`` is
 measured from ``+y'`` toward ``+x'`` (clockwise seen from the spindle), an edge
 point at ``phi`` sits at ``(rho sin phi, rho cos phi, z)`` and moves along
