@@ -26,10 +26,13 @@ def side_cut(mode: str, a: float, *, flutes=2, angle_step_deg=2.0, helix=0.0):
     tool = Tool("flat", D, flutes=flutes, helix_deg=helix, flute_length_mm=6.0)
     lo_y, hi_y = {"up": (R - a, 30.0), "down": (-30.0, -(R - a)), "slot": (-30.0, 30.0)}[mode]
     stock = Stock.from_box([-20.0, lo_y, 0.001], [20.0, hi_y, 2.0])
-    prog = parse_program("G21 G90 G94\nS6000 M3\nG0 X-30 Y0 Z0\nG1 X30 F600\nM30\n")
+    # the block of interest is the short middle one (one prediction point, at X0)
+    prog = parse_program("G21 G90 G94\nS6000 M3\nG0 X-30 Y0 Z0\nG1 X-2 F600\nG1 X2\n"
+                         "G1 X30\nM30\n")
     res = Resolution(pixel_mm=D / 64, angle_step_rad=math.radians(angle_step_deg))
     model = GeometryModel(tool, stock, cutter_locations(prog), res)
-    return tool, model, model.geometry(1)[0]
+    (g,) = model.geometry(2)
+    return tool, model, g
 
 
 def _cut_angles(model, g):
