@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 __all__ = ["inside_any_sweep", "sweep_distance", "GOLDEN_ITERATIONS"]
 
@@ -186,27 +186,6 @@ def inside_any_sweep(points, candidates, p0, d, w, lo, hi, c, r, top, eps):
     out = np.zeros(k, dtype=np.bool_)
     lim = r + eps
     for i in range(k):
-        if not candidates[i]:
-            continue
-        x, y, z = points[i, 0], points[i, 1], points[i, 2]
-        for j in range(n):
-            if (x < lo[j, 0] or x > hi[j, 0] or y < lo[j, 1] or y > hi[j, 1]
-                    or z < lo[j, 2] or z > hi[j, 2]):
-                continue
-            if sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) <= lim:
-                out[i] = True
-                break
-    return out
-
-
-@njit(cache=True, parallel=True)
-def inside_any_sweep_parallel(points, candidates, p0, d, w, lo, hi, c, r, top, eps):
-    """:func:`inside_any_sweep` over threads (for large point sets)."""
-    k = points.shape[0]
-    n = p0.shape[0]
-    out = np.zeros(k, dtype=np.bool_)
-    lim = r + eps
-    for i in prange(k):
         if not candidates[i]:
             continue
         x, y, z = points[i, 0], points[i, 1], points[i, 2]

@@ -227,6 +227,14 @@ def _cell_range(glo, cell, dims, qlo, qhi, out):
 
 
 @njit(**_JIT)
+def _apart(tri_lo, tri_hi, t, qlo, qhi):
+    """Triangle t's bounds and the query box do not overlap."""
+    return (tri_lo[t, 0] > qhi[0] or tri_hi[t, 0] < qlo[0]
+            or tri_lo[t, 1] > qhi[1] or tri_hi[t, 1] < qlo[1]
+            or tri_lo[t, 2] > qhi[2] or tri_hi[t, 2] < qlo[2])
+
+
+@njit(**_JIT)
 def grid_query(glo, cell, dims, offsets, items, tri_cl, tri_lo, tri_hi, big, qlo, qhi):
     """Ids of the triangles whose bounding boxes overlap the box [qlo, qhi].
 
@@ -259,17 +267,13 @@ def grid_query(glo, cell, dims, offsets, items, tri_cl, tri_lo, tri_hi, big, qlo
                         continue
                     if max(tri_cl[t, 2], r[0, 2]) != iz:
                         continue
-                    if (tri_lo[t, 0] > qhi[0] or tri_hi[t, 0] < qlo[0]
-                            or tri_lo[t, 1] > qhi[1] or tri_hi[t, 1] < qlo[1]
-                            or tri_lo[t, 2] > qhi[2] or tri_hi[t, 2] < qlo[2]):
+                    if _apart(tri_lo, tri_hi, t, qlo, qhi):
                         continue
                     out[n] = t
                     n += 1
     for k in range(big.shape[0]):
         t = big[k]
-        if (tri_lo[t, 0] > qhi[0] or tri_hi[t, 0] < qlo[0]
-                or tri_lo[t, 1] > qhi[1] or tri_hi[t, 1] < qlo[1]
-                or tri_lo[t, 2] > qhi[2] or tri_hi[t, 2] < qlo[2]):
+        if _apart(tri_lo, tri_hi, t, qlo, qhi):
             continue
         out[n] = t
         n += 1
