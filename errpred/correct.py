@@ -5,7 +5,8 @@ there). With errors ``E`` along normals ``n`` (positive: material left),
 block ``k`` needs a displacement of ``-E_k`` along ``n_k``. The point moves
 by ``M = s d``, ``d`` along ``-(E_i n_i + E_j n_j)`` (the seeds' direction).
 The seeds fit each point's ``s`` to its two blocks alone; here the ``s`` of
-a whole chain of connected blocks are fitted together, so that each block's
+a whole chain of connected blocks are fitted together (arcs excepted: their
+own error is taken up by refitting their centre), so that each block's
 prediction point (at fraction ``t`` along it) moves by
 ``((1 - t) M_start + t M_end) . n = -E``: the per-point fit is the local
 version of this, and leaves alternating residuals where the error steps
@@ -83,24 +84,51 @@ def block_errors(program: Program, prediction: Prediction,
     moved from the reference's at the prediction point.
     """
     out: dict[int, list[BlockError]] = {}
-    start, end = program.start, program.end
-    if reference is not None:
-        ref_start, ref_end = reference.start, reference.end
     for p in prediction.predicted():
         b = p.block
         g = p.geometry
         n = g.gen.normal_world
-        a, e = start[b, :3], end[b, :3]
-        length = float(np.linalg.norm(e - a))
-        t = float(np.clip(np.dot(g.tip - a, e - a) / length ** 2, 0, 1)) if length > 0 else 1.0
+        t = _fraction_on_block(program, b, g.tip)
         E = p.result.E_um * 1e-3
         if reference is not None:
-            disp = ((1 - t) * (a - ref_start[b, :3]) + t * (e - ref_end[b, :3]))
+            disp = _point_on_block(program, b, t) - _point_on_block(reference, b, t)
             E += float(disp @ n)
         out.setdefault(b, []).append(BlockError(E, n, t, p.result.gain))
     for v in out.values():
         v.sort(key=lambda be: be.fraction)
     return out
+
+
+def _fraction_on_block(program: Program, b: int, tip: np.ndarray) -> float:
+    """Where along block b (0 start, 1 end) a point lies: by chord, or by angle on arcs."""
+    a, e = program.start[b, :3], program.end[b, :3]
+    k = int(program.arc_index[b])
+    if k >= 0:
+        a1, a2, _ = PLANE_AXES[int(program.arc_plane[k])]
+        c = program.arc_centre[k]
+        ang0 = math.atan2(a[a2] - c[a2], a[a1] - c[a1])
+        ang = math.atan2(tip[a2] - c[a2], tip[a1] - c[a1])
+        sweep = float(program.arc_sweep[k])
+        d = (ang - ang0) % (2 * math.pi) if sweep > 0 else -((ang0 - ang) % (2 * math.pi))
+        return float(np.clip(d / sweep, 0.0, 1.0)) if sweep != 0 else 0.5
+    length = float(np.linalg.norm(e - a))
+    return float(np.clip(np.dot(tip - a, e - a) / length ** 2, 0, 1)) if length > 0 else 1.0
+
+
+def _point_on_block(program: Program, b: int, t: float) -> np.ndarray:
+    """The point at fraction t along block b [mm], on the arc for arcs."""
+    a, e = program.start[b, :3], program.end[b, :3]
+    p = a + t * (e - a)
+    k = int(program.arc_index[b])
+    if k >= 0:
+        a1, a2, _ = PLANE_AXES[int(program.arc_plane[k])]
+        c = program.arc_centre[k]
+        r0, r1 = program.arc_radius[k]
+        ang = math.atan2(a[a2] - c[a2], a[a1] - c[a1]) + t * float(program.arc_sweep[k])
+        r = r0 + t * (r1 - r0)
+        p[a1] = c[a1] + r * math.cos(ang)
+        p[a2] = c[a2] + r * math.sin(ang)
+    return p
 
 
 def largest_error_um(errors: dict[int, list[BlockError]]) -> float:
@@ -130,7 +158,7 @@ _RIDGE = 1e-6
 #: Weight of the chain fit's smoothness term (differences of neighbouring
 #: moves), relative to the equations. Uniform errors are unaffected; errors
 #: alternating from block to block (numerical noise) are not chased.
-_SMOOTH = 0.05
+_SMOOTH = 0.005
 
 
 def correction_moves(program: Program, errors: dict[int, list[BlockError]]
@@ -161,7 +189,14 @@ def correction_moves(program: Program, errors: dict[int, list[BlockError]]
             if p < K:
                 adj.append(errors[chain[p]][0])
             dirs.append(_direction(adj))
-        rows = [(k, be) for k, b in enumerate(chain) for be in errors[b]]
+        # an arc's own error is corrected by refitting its centre through its
+        # moved middle (corrected_program), so it adds no equation here: its
+        # ends follow the neighbouring blocks (a full circle keeps its centre
+        # and so keeps its equation)
+        rows = [(k, be) for k, b in enumerate(chain) for be in errors[b]
+                if not _refit_arc(program, b)]
+        if not rows:
+            continue
         A = np.zeros((len(rows), K + 1))
         rhs = np.zeros(len(rows))
         for q, (k, be) in enumerate(rows):
@@ -174,6 +209,12 @@ def correction_moves(program: Program, errors: dict[int, list[BlockError]]
             if block >= 0:
                 moves[block] = s[p] * dirs[p]
     return moves
+
+
+def _refit_arc(program: Program, block: int) -> bool:
+    """Is the block an arc whose centre is refitted (not a full circle)?"""
+    k = int(program.arc_index[block])
+    return k >= 0 and abs(float(program.arc_sweep[k])) < 2 * math.pi - 1e-9
 
 
 def _banded_lstsq(A: np.ndarray, rhs: np.ndarray, cols: list[int]) -> np.ndarray:

@@ -56,12 +56,16 @@ class Resolution:
         Micro edges on the lower envelope (flank edges get the same spacing).
     angle_step_rad : float [rad]
     chord_tol_mm : float [mm]
+    point_spacing_mm : float [mm]
+        Blocks longer than this get several prediction points
+        (``errpred.constants.POINT_SPACING_MM``: one per block).
     """
 
     pixel_mm: float
     micro_edges: int = K.MICRO_EDGES_ENVELOPE
     angle_step_rad: float = K.ANGLE_STEP_RAD
     chord_tol_mm: float = K.CHORD_TOL_MM
+    point_spacing_mm: float = K.POINT_SPACING_MM
 
     @classmethod
     def default(cls, tool: Tool) -> "Resolution":
@@ -70,7 +74,8 @@ class Resolution:
     def finer(self, factor: float) -> "Resolution":
         """Every discretization refined by ``factor``."""
         return Resolution(self.pixel_mm / factor, int(round(self.micro_edges * factor)),
-                          self.angle_step_rad / factor, self.chord_tol_mm / factor)
+                          self.angle_step_rad / factor, self.chord_tol_mm / factor,
+                          self.point_spacing_mm)
 
 
 @dataclass(frozen=True, eq=False)
@@ -224,7 +229,8 @@ class GeometryModel:
         start = self.path[i0 - 1] if i0 > 0 else 0.0
         end = self.path[i1]
         length = end - start
-        pts = max(1, math.ceil(length / K.POINT_SPACING_MM - 1e-9))
+        spacing = self.res.point_spacing_mm
+        pts = max(1, math.ceil(length / spacing - 1e-9)) if math.isfinite(spacing) else 1
         if pts > 1:
             # a long block: a point in the middle of each of its equal parts
             return [self.point(block, start + (k + 0.5) / pts * length, length / pts)

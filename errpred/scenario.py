@@ -545,13 +545,16 @@ def _shape_error(r: _Reader, d: dict) -> ShapeError:
 
 def _resolution(r: _Reader, d: dict, tool: Tool) -> Resolution:
     p = "resolution"
-    r.keys(d, p, (), ("pixel_mm", "micro_edges", "angle_step_deg", "chord_tol_mm"))
+    r.keys(d, p, (), ("pixel_mm", "micro_edges", "angle_step_deg", "chord_tol_mm",
+                      "point_spacing_mm"))
     return Resolution(
         r.number(d, "pixel_mm", p, default=tool.diameter_mm * K.PIXEL_PER_DIAMETER, sign=">0"),
         r.integer(d, "micro_edges", p, default=K.MICRO_EDGES_ENVELOPE, minimum=2),
         math.radians(r.number(d, "angle_step_deg", p,
                               default=math.degrees(K.ANGLE_STEP_RAD), sign=">0")),
-        r.number(d, "chord_tol_mm", p, default=K.CHORD_TOL_MM, sign=">0"))
+        r.number(d, "chord_tol_mm", p, default=K.CHORD_TOL_MM, sign=">0"),
+        r.number(d, "point_spacing_mm", p, default=K.POINT_SPACING_MM, sign=">0")
+        if "point_spacing_mm" in d else K.POINT_SPACING_MM)
 
 
 def _correction(r: _Reader, d: dict) -> CorrectionOptions:

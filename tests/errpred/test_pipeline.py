@@ -128,8 +128,10 @@ def test_long_blocks_get_several_points_and_are_corrected_along_their_length():
     tool = Tool("ball", 10.0, flute_length_mm=15)
     stock = plane_stock(slope, 0.2)
 
+    res = dataclasses.replace(Resolution.default(tool), point_spacing_mm=5.0)
+
     def run(p):
-        return Predictor(tool, stock, p, STEEL, stiff_tool(k_N_m=1.2e6)).run()
+        return Predictor(tool, stock, p, STEEL, stiff_tool(k_N_m=1.2e6), resolution=res).run()
 
     pred = run(prog)
     long_block = [b for b in range(len(prog)) if prog.line[b] == 9][0]  # pass 2, one G1
