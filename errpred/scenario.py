@@ -37,7 +37,7 @@ from .geometry import Resolution
 from .tool import TOOL_KINDS, Holder, Tool
 
 __all__ = ["ScenarioError", "StockSpec", "ShapeError", "Resolution", "CorrectionOptions",
-           "Scenario", "load_scenario", "BUNDLED", "bundled_scenario"]
+           "Scenario", "TableReader", "load_scenario", "BUNDLED", "bundled_scenario"]
 
 _HERE = Path(__file__).resolve().parent / "scenarios"
 #: Bundled scenarios: name -> path of their ``scenario.toml``.
@@ -194,6 +194,9 @@ class Scenario:
     tool_change_tolerance_um: float | None
     sources: dict[str, str]
     description: str = ""
+    #: Tables of the sections named in ``load_scenario(extra_sections=...)``,
+    #: unchecked: the package that asked for them reads them.
+    extra: dict = field(default_factory=dict)
 
     def read_program(self):
         """The NC program (``nc.read_program`` with the scenario's allow list)."""
@@ -203,8 +206,12 @@ class Scenario:
 
 
 # --------------------------------------------------------------------------- reading
-class _Reader:
-    """Typed access to one TOML file's tables; every error names file and key."""
+class TableReader:
+    """Typed access to one TOML file's tables; every error names file and key.
+
+    Public so that packages whose scenarios extend this format (``orient``)
+    read their own sections with the same checks and messages.
+    """
 
     def __init__(self, path: str | os.PathLike) -> None:
         self.file = os.fspath(path)
@@ -318,7 +325,7 @@ def _suggest(k: str, allowed: tuple) -> str | None:
 
 
 # --------------------------------------------------------------------------- sections
-def _stock(r: _Reader, d: dict) -> StockSpec:
+def _stock(r: TableReader, d: dict) -> StockSpec:
     r.keys(d, "stock", (), ("stl", "box_min_mm", "box_max_mm", "design_stl"))
     design = r.path(d, "design_stl", "stock") if "design_stl" in d else None
     box = [k for k in ("box_min_mm", "box_max_mm") if k in d]
@@ -340,7 +347,7 @@ def _stock(r: _Reader, d: dict) -> StockSpec:
     return StockSpec("box", bounds=(tuple(lo), tuple(hi)), design_path=design)
 
 
-def _tool(r: _Reader, d: dict) -> Tool:
+def _tool(r: TableReader, d: dict) -> Tool:
     p = "tool"
     r.keys(d, p, ("type", "diameter_mm", "flutes", "helix_deg"),
            ("corner_radius_mm", "flute_length_mm", "overhang_mm", "rotation",
@@ -382,7 +389,7 @@ def _tool(r: _Reader, d: dict) -> Tool:
         raise r.fail("tool", str(exc)) from None
 
 
-def _program(r: _Reader, d: dict) -> tuple:
+def _program(r: TableReader, d: dict) -> tuple:
     p = "program"
     r.keys(d, p, ("gcode",), ("allow", "lines", "machine"))
     gcode = r.path(d, "gcode", p)
@@ -419,7 +426,7 @@ def _program(r: _Reader, d: dict) -> tuple:
     return gcode, tuple(allow), lines, machine
 
 
-def _cutting(r: _Reader, d: dict):
+def _cutting(r: TableReader, d: dict):
     from .coefficients import CHIP_AND_EDGE_NAMES, WEAR_NAMES, CuttingCoefficients
 
     p = "cutting"
@@ -431,7 +438,7 @@ def _cutting(r: _Reader, d: dict):
     return CuttingCoefficients(**vals, source=src), src
 
 
-def _dynamics(r: _Reader, d: dict):
+def _dynamics(r: TableReader, d: dict):
     from .dynamics import Compliance, Mode
 
     p = "dynamics"
@@ -482,13 +489,13 @@ def _dynamics(r: _Reader, d: dict):
                      str(exc)) from None
 
 
-def _need_xy(r: _Reader, dirs: tuple, key: str) -> None:
+def _need_xy(r: TableReader, dirs: tuple, key: str) -> None:
     if not {"x", "y"} <= set(dirs):
         raise r.fail(key, f"needs directions x and y (the tool's two bending directions), "
                           f"got {', '.join(dirs) or 'none'}")
 
 
-def _modes(r: _Reader, v: Any, Mode) -> dict:
+def _modes(r: TableReader, v: Any, Mode) -> dict:
     if not isinstance(v, list) or not v:
         raise r.fail("dynamics.modes", f"expected [[dynamics.modes]] tables, got {_kind(v)}")
     out: dict[str, list] = {}
@@ -513,7 +520,7 @@ def _modes(r: _Reader, v: Any, Mode) -> dict:
     return out
 
 
-def _shape_error(r: _Reader, d: dict) -> ShapeError:
+def _shape_error(r: TableReader, d: dict) -> ShapeError:
     p = "shape_error"
     r.keys(d, p, (), ("kappa_deg", "z_mm", "radius_deviation_um", "wear_rate_um_per_m",
                       "source"))
@@ -543,7 +550,7 @@ def _shape_error(r: _Reader, d: dict) -> ShapeError:
                       np.asarray(dev) * 1e-3, wear, src)
 
 
-def _resolution(r: _Reader, d: dict, tool: Tool) -> Resolution:
+def _resolution(r: TableReader, d: dict, tool: Tool) -> Resolution:
     p = "resolution"
     r.keys(d, p, (), ("pixel_mm", "micro_edges", "angle_step_deg", "chord_tol_mm",
                       "point_spacing_mm"))
@@ -557,7 +564,7 @@ def _resolution(r: _Reader, d: dict, tool: Tool) -> Resolution:
         if "point_spacing_mm" in d else K.POINT_SPACING_MM)
 
 
-def _correction(r: _Reader, d: dict) -> CorrectionOptions:
+def _correction(r: TableReader, d: dict) -> CorrectionOptions:
     p = "correction"
     r.keys(d, p, (), ("iterate", "tolerance_um", "max_iterations"))
     it = d.get("iterate", False)
@@ -572,13 +579,17 @@ _TOP_REQUIRED = ("name", "stock", "tool", "program", "cutting", "dynamics")
 _TOP_OPTIONAL = ("description", "shape_error", "resolution", "correction", "tool_change")
 
 
-def load_scenario(path: str | os.PathLike) -> Scenario:
+def load_scenario(path: str | os.PathLike, *, extra_sections: tuple[str, ...] = ()
+                  ) -> Scenario:
     """Read and check a scenario file.
 
     Parameters
     ----------
     path : path-like
         The scenario TOML; relative paths inside it are relative to its folder.
+    extra_sections : tuple of str
+        Further top-level tables allowed in the file (a format that extends
+        this one); they are returned unchecked in :attr:`Scenario.extra`.
 
     Returns
     -------
@@ -589,7 +600,7 @@ def load_scenario(path: str | os.PathLike) -> Scenario:
     ScenarioError
         The first problem found, naming the file and the dotted key.
     """
-    r = _Reader(path)
+    r = TableReader(path)
     try:
         with open(r.file, "rb") as fh:
             doc = tomllib.load(fh)
@@ -597,7 +608,8 @@ def load_scenario(path: str | os.PathLike) -> Scenario:
         raise r.fail(None, f"scenario file not found: {Path(r.file).resolve()}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise r.fail(None, f"not valid TOML: {exc}") from None
-    r.keys(doc, "", _TOP_REQUIRED, _TOP_OPTIONAL)
+    r.keys(doc, "", _TOP_REQUIRED, _TOP_OPTIONAL + tuple(extra_sections))
+    extra = {k: r.table(doc[k], k) for k in extra_sections if k in doc}
     sec = {k: r.table(doc[k], k) for k in _TOP_REQUIRED[1:] + _TOP_OPTIONAL[1:] if k in doc}
     name = r.string(doc, "name", "")
     if not name.strip():
@@ -620,4 +632,4 @@ def load_scenario(path: str | os.PathLike) -> Scenario:
         allow=allow, lines=lines, machine=machine, coefficients=coeffs, compliance=compliance,
         shape_error=shape, resolution=_resolution(r, sec.get("resolution", {}), tool),
         correction=_correction(r, sec.get("correction", {})), tool_change_tolerance_um=tol,
-        sources=sources, description=description)
+        sources=sources, description=description, extra=extra)

@@ -16,6 +16,7 @@ import tomllib
 from .constants import SINGULAR_CONE_RAD
 from .errors import KinematicsError
 from .gcode import ALLOWABLE_EXAMPLES, read_program
+from .linuxcnc import Rs274Error
 from .summary import blocks_as_json, summarize
 
 __all__ = ["main"]
@@ -189,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, KinematicsError, FileNotFoundError, IsADirectoryError,
+    except (ValueError, KinematicsError, Rs274Error, FileNotFoundError, IsADirectoryError,
             PermissionError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -127,8 +127,9 @@ def run_rs274(path: str | os.PathLike, *, tool_lengths_mm: Mapping[int, float] |
         tbl = os.path.join(tmp, "tool.tbl")
         write_tool_table(tbl, tool_lengths_mm or {1: 0.0})
         out = os.path.join(tmp, "canon.txt")
+        # rs274 runs in the temporary folder: the program's path must not be relative
         args = [exe, "-t", tbl, "-g"] + (["-b"] if block_delete else []) + [
-            os.fspath(path), out]
+            os.path.abspath(path), out]
         proc = subprocess.run(args, capture_output=True, text=True, timeout=timeout_s,
                               stdin=subprocess.DEVNULL, cwd=tmp)
         text = open(out, encoding="utf-8", errors="replace").read() if os.path.exists(out) else ""

@@ -165,6 +165,10 @@ class _Lines:
         self.out.append(text)
 
 
+#: Comment text must not open or close a comment: parentheses become brackets.
+_COMMENT_SAFE = str.maketrans({"(": "[", ")": "]", ";": ","})
+
+
 def _num(v: float, decimals: int) -> str:
     s = f"{v:.{decimals}f}"
     return s[1:] if s[0] == "-" and not s.strip("-0.") else s
@@ -225,7 +229,8 @@ def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptio
     if fanuc and o.program_number is not None:
         L.add(f"O{o.program_number:04d}", numbered=False)
     if o.header:
-        L.add(f"(PROGRAM: {o.source or 'cutter locations'} - {len(tip)} points)", numbered=False)
+        name = (o.source or "cutter locations").translate(_COMMENT_SAFE)
+        L.add(f"(PROGRAM: {name} - {len(tip)} points)", numbered=False)
         L.add(f"(MACHINE: {machine.name}, ROTARY {names[0]}/{names[1]}, "
               f"DIALECT {o.dialect.upper()})", numbered=False)
         L.add(f"(TOOL: T{o.tool} H{o.tool}, UNITS: MM, FEED: MM/MIN)", numbered=False)

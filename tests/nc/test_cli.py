@@ -115,3 +115,16 @@ def test_module_runs_as_a_program(tmp_path, lcnc_agrees):
     prog = read_program(out)
     assert np.isfinite(prog.end).all()
     lcnc_agrees(out)
+
+
+def test_check_takes_relative_paths_and_reports_refusals(tmp_path, capsys, rs274,
+                                                         monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["post", BLADE, "--machine", "xyzbc-trt", "-o", "blade.ngc"]) == 0
+    capsys.readouterr()
+    assert main(["check", "blade.ngc"]) == 0
+    assert "rs274 agrees" in capsys.readouterr().out
+    (tmp_path / "bad.ngc").write_text("G1 X1 F100\nG2 X2 Y0\nM2\n")
+    assert main(["check", "bad.ngc"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "Traceback" not in err

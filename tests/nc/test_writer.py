@@ -218,3 +218,17 @@ def test_noisy_axis_near_singularity_is_refused_not_written(tmp_path):
     prog = read_program(out)
     c = np.degrees(prog.end[1:-1, 5])
     assert np.ptp(c) == 0.0  # C held, never spun
+
+
+@pytest.mark.parametrize("dialect", DIALECTS)
+def test_source_name_cannot_break_the_header_comment(dialect, tmp_path):
+    cl = CutterLocations.from_arrays([[0.0, 0.0, 5.0], [10.0, 0.0, 5.0]], [0.0, 0.0, 1.0],
+                                     600.0, 1000.0)
+    path = tmp_path / "p.nc"
+    write_program(path, cl, get_machine("xyzac-trt"),
+                  PostOptions(dialect=dialect, source="wall (lead 15 deg); pass 1"))
+    header = next(line for line in path.read_text().splitlines()
+                  if line.startswith("(PROGRAM:"))
+    assert header.count("(") == 1 and header.count(")") == 1 and ";" not in header
+    assert "[lead 15 deg], pass 1" in header
+    assert len(read_program(path)) > 0     # the reader takes the whole program
