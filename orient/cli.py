@@ -1,0 +1,183 @@
+"""Command line: ``python -m orient plan [SCENARIO] -o OUT.nc`` and ``python -m orient lobes``.
+
+Units at the command line: mm, degrees, rev/min. Bad input ends in one line
+naming the file and the key, exit status 2, and nothing written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+from errpred.scenario import ScenarioError
+
+__all__ = ["main", "build_parser"]
+
+
+def _console():
+    from rich.console import Console
+
+    return Console(file=sys.stderr, width=None if sys.stderr.isatty() else 110)
+
+
+def _scenario(path: str | None):
+    from .scenario import bundled_scenario, load_plan_scenario
+
+    return load_plan_scenario(path if path else bundled_scenario())
+
+
+def _cmd_plan(args) -> int:
+    from nc.kinematics import get_machine
+    from nc.path import cutter_locations
+    from nc.writer import PostOptions, write_program
+
+    from .plan import plan
+    from .plots import plot_margin_along_path, plot_margin_grid
+    from .report import write_plan_report
+
+    scn = _scenario(args.scenario)
+    out = os.path.abspath(args.output)
+    for p in [out] + ([os.path.abspath(args.report)] if args.report else []):
+        if not os.path.isdir(os.path.dirname(p)):
+            raise FileNotFoundError(f"{p}: directory {os.path.dirname(p)} does not exist")
+    machine = get_machine(args.machine) if args.machine else None
+    con = _console()
+    t0 = time.perf_counter()
+    state = {}
+    with con.status("planning") as status:
+        def progress(stage, done, total):
+            if done == total or done % 50 == 0:
+                status.update(f"{stage}: {done}/{total} cutter locations")
+            state["n"] = total
+        res = plan(scn, machine=machine, spindle_rpm=args.spindle_rpm, progress=progress)
+    opts = PostOptions(dialect=args.dialect or scn.options.dialect, spindle_rpm=res.spindle_rpm,
+                       source=f"orient plan of {scn.name}")
+    post = write_program(out, res.cl, res.machine, opts)
+    # round trip: the written program read back through nc's reader and kinematics
+    from nc import read_program
+
+    back = cutter_locations(read_program(out), res.machine)
+    err = _round_trip_error(post, back)
+    rep_path = args.report or os.path.splitext(out)[0] + "-plan.json"
+    rep = write_plan_report(rep_path, res, scenario=str(scn.path), program=out)
+    rep_s = rep["summary"]
+    if args.plots:
+        os.makedirs(args.plots, exist_ok=True)
+        d = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(res.cl.tip, axis=0),
+                                                          axis=1))])
+        cutting = np.zeros(len(res.cl), bool)
+        cutting[res.touching_index] = True
+        plot_margin_along_path(d, res.cam_margin, res.margin,
+                               os.path.join(args.plots, "margin_along_path.png"),
+                               cutting=cutting, title=f"{scn.name}: stability margin along "
+                                                      f"the path")
+        r = int(np.argmin(res.cam_margin[res.touching_index]))
+        i = int(res.touching_index[r])
+        plot_margin_grid(res.grid_lead_rad, res.grid_tilt_rad, res.grid_margin[r],
+                         res.grid_feasible[r], os.path.join(args.plots, "margin_grid.png"),
+                         chosen=(res.lead_rad[i], res.tilt_rad[i]),
+                         cam=(res.cam_lead_rad[i], res.cam_tilt_rad[i]),
+                         title=f"{scn.name}: margin over lead/tilt at point {i} "
+                               f"(block {int(res.cl.block[i])})")
+    print(f"planned {rep_s['cutting_points']} cutting points of {rep_s['points']} in "
+          f"{time.perf_counter() - t0:.1f} s at {res.spindle_rpm:g} rev/min")
+    print(f"margin min {rep_s['cam_margin_min']} -> {rep_s['margin_min']}, median "
+          f"{rep_s['cam_margin_median']} -> {rep_s['margin_median']}; points below 1: "
+          f"{rep_s['points_below_1_before']} -> {rep_s['points_below_1_after']}")
+    for c in res.sdm_checks:
+        print(f"  point {c['point']}: zero-order {c['zoa_margin']:.3f}, time-periodic "
+              f"{c['sdm_margin']:.3f} ({c['kind']})")
+    print(f"collisions of the planned postures: {rep_s['planned_collisions']}; round trip "
+          f"through {res.machine.name}: {err[0]:.2g} mm, {math.degrees(err[1]):.2g} deg")
+    print(f"wrote {out} ({len(post.text.splitlines())} lines) and {rep_path}")
+    return 0
+
+
+def _round_trip_error(post, back) -> tuple[float, float]:
+    """Largest tip [mm] and axis [rad] difference between written and read-back points."""
+    tip, axis = post.tip, post.axis
+    n = min(len(tip), len(back))
+    # the reader adds no points; the writer's approach/retract points come first/last
+    best = (math.inf, math.inf)
+    for off in range(0, max(1, len(back) - len(tip) + 1)):
+        a = back.tip[off:off + n]
+        if len(a) != n:
+            break
+        e_t = float(np.max(np.linalg.norm(a - tip[:n], axis=1)))
+        c = np.clip(np.sum(back.axis[off:off + n] * axis[:n], axis=1), -1, 1)
+        e_a = float(np.max(np.arccos(c)))
+        if e_t < best[0]:
+            best = (e_t, e_a)
+    return best
+
+
+def _cmd_lobes(args) -> int:
+    from .plots_lobes import plot_lobes
+    from .pointwise import point_lobes, point_setup
+
+    scn = _scenario(args.scenario)
+    setup = point_setup(scn, args.point)
+    rpm = None
+    if args.rpm:
+        lo, hi = args.rpm
+        if not (0 < lo < hi and math.isfinite(hi)):
+            raise ValueError(f"--rpm: expected 0 < LOW < HIGH, got {lo:g} {hi:g}")
+        rpm = np.linspace(lo, hi, args.speeds)
+    methods = ("zoa", "sdm") if args.method == "both" else (args.method,)
+    t0 = time.perf_counter()
+    lobes, op = point_lobes(scn, setup, methods, rpm)
+    plot_lobes(lobes, op, args.plot)
+    for lb in lobes:
+        r, m = lb.minimum
+        print(f"{lb.method}: lowest limit {lb.depth_mm * m:.4g} mm (margin {m:.3g}) at "
+              f"{r:.0f} rev/min")
+    print(f"point {setup.index}: operating point {op[0]:g} rev/min, depth {op[1]:g} mm; "
+          f"{len(lobes[0].rpm)} speeds in {time.perf_counter() - t0:.1f} s; wrote {args.plot}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m orient", description=(
+        "Chatter-aware lead/tilt planning for 5-axis ball-end milling."))
+    sub = p.add_subparsers(dest="cmd", required=True)
+    a = sub.add_parser("plan", help="plan lead/tilt along the CAM program, write the 5-axis "
+                                    "NC program and a JSON report")
+    a.add_argument("scenario", nargs="?", help="planning scenario TOML (default: the bundled "
+                                               "thin-wall)")
+    a.add_argument("-o", "--output", required=True, help="NC program to write")
+    a.add_argument("--machine", help="named machine (default: the scenario's program.machine)")
+    a.add_argument("--dialect", help="linuxcnc, fanuc-g43.4 or fanuc-g43.5 (default: the "
+                                     "scenario's)")
+    a.add_argument("--spindle-rpm", type=float, help="plan at this speed [rev/min]")
+    a.add_argument("--report", help="JSON report (default: OUT-plan.json)")
+    a.add_argument("--plots", help="folder for the PNG plots")
+    a.set_defaults(func=_cmd_plan)
+    b = sub.add_parser("lobes", help="stability lobes at one cutter location")
+    b.add_argument("scenario", nargs="?", help="planning scenario TOML (default: bundled)")
+    b.add_argument("--plot", required=True, help="PNG file")
+    b.add_argument("--point", type=int, help="cutter location index (default: the first "
+                                             "cutting point)")
+    b.add_argument("--method", choices=("zoa", "sdm", "both"), default="both")
+    b.add_argument("--rpm", type=float, nargs=2, metavar=("LOW", "HIGH"),
+                   help="speed range [rev/min]")
+    b.add_argument("--speeds", type=int, default=200, help="number of speeds")
+    b.set_defaults(func=_cmd_lobes)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status (2 for bad input)."""
+    from nc.errors import KinematicsError
+
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (ScenarioError, ValueError, KinematicsError, FileNotFoundError,
+            IsADirectoryError, PermissionError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2

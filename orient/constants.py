@@ -1,0 +1,92 @@
+"""Defaults and tolerances of the ``orient`` package, in one place.
+
+Resolution defaults are the ones shown to converge by the tests named next to
+them (``docs/method.md`` §9).
+"""
+
+from __future__ import annotations
+
+import math
+
+# --- units ------------------------------------------------------------------
+#: Chip coefficients [N/mm^2] times chip widths [mm] give N/mm; this turns
+#: them into the N/m of the stability analysis.
+N_PER_M_PER_N_PER_MM = 1000.0
+
+# --- geometry ---------------------------------------------------------------
+#: Vectors shorter than this (relative, for directions) are refused as
+#: having no direction [-].
+DIRECTION_MIN_NORM = 1.0e-12
+#: A tool axis must make at least this cosine with the surface normal (the
+#: tool axis points away from the workpiece) [-].
+AXIS_NORMAL_MIN_COS = 1.0e-6
+
+# --- engagement and process gain (orient.engagement, orient.gain) -----------
+#: The band of the cutting profile that can reach the stock (below the stock
+#: top, positive chip thickness, away from the previous pass) is probed at
+#: this many points for those necessary conditions ...
+GAIN_BAND_PROBES = 10
+#: ... and its ends located by this many bisections.
+GAIN_BAND_BISECTIONS = 4
+#: Along the cutting profile, the band that can reach the stock is scanned
+#: at this many points for changes of the cutting intervals' structure
+#: (kinks of the integrand along the profile) ...
+GAIN_SCAN_POINTS = 6
+#: ... each change located by this many bisections ...
+GAIN_BISECTIONS = 4
+#: ... and each smooth piece between changes integrated with this many
+#: Gauss-Legendre micro edges. At these defaults P is within 2 % of P with
+#: 4x as many points and micro edges
+#: (``tests/orient/test_gain.py::test_default_resolution_converges``).
+GAIN_PIECE_EDGES = 4
+#: Micro edges on the lower envelope of :func:`orient.gain.default_edges`
+#: (fixed micro edges for sampled engagements).
+GAIN_MICRO_EDGES_ENVELOPE = 80
+#: Rotation samples per revolution of the sampled engagement and of the
+#: time-varying directional matrix H(t) (made a multiple of the flutes).
+GAIN_ANGLES_PER_REV = 180
+#: Along a micro edge's circle, the material test is sampled at most this
+#: far apart before its sign changes are refined to roots [rad] ...
+GAIN_ROOT_STEP_RAD = math.radians(10.0)
+#: ... and at least this many times on each arc where the closed-form
+#: conditions hold (narrow cutting intervals near the band's ends).
+GAIN_MIN_ARC_SAMPLES = 6
+#: The roots (entry and exit angles) are refined to this [rad] (an angle
+#: error e changes P by about e relative to the engaged angle) ...
+GAIN_ROOT_TOL_RAD = 1.0e-6
+#: ... with at most this many iterations [-].
+GAIN_ROOT_MAX_ITER = 60
+#: A micro edge cuts only where its chip thickness exceeds this fraction of
+#: the feed per tooth (a bottom face edge with the feed normal to the axis
+#: has h = 0 up to round-off and does not cut) [-].
+CHIP_EPS = 1.0e-12
+#: A point this close to the previous pass's swept volume counts as removed
+#: [mm] (as ``errpred.constants.MEMBERSHIP_EPS_MM``).
+MEMBERSHIP_EPS_MM = 1.0e-6
+
+# --- planning (orient/plan.py, orient/scenario.py) ------------------------------
+#: Default half-range of the lead and tilt search around the surface normal [deg].
+LEAD_TILT_RANGE_DEG = 40.0
+#: Default lead and tilt steps of the search grid [-] (15 x 15 postures).
+GRID_STEPS = 15
+#: Below this inclination between tool axis and surface normal the ball cuts
+#: with its tip, where the cutting speed is zero (method.md §7) [deg].
+MIN_INCLINATION_DEG = 5.0
+#: Largest inclination considered [deg].
+MAX_INCLINATION_DEG = 60.0
+#: Largest change of the tool axis per mm of path, so that the rotary axes
+#: are not whipped [deg/mm].
+MAX_RATE_DEG_PER_MM = 2.0
+#: Margin above which postures count as equally good; the planner then
+#: prefers the posture nearest the CAM's [-].
+MARGIN_TARGET = 1.5
+#: Clearance kept between shank/holder and the workpiece [mm].
+CLEARANCE_MM = 1.0
+#: Least distance of the flute part above the ball from the design surface [mm].
+GOUGE_TOL_MM = 0.005
+#: Spindle speeds tried when the spindle speed is chosen from the lobes [-].
+SPINDLE_STEPS = 120
+#: Default damping ratio of a thin wall's modes (monolithic steel, clamped) [-].
+WALL_DAMPING_RATIO = 0.01
+#: Modes of the thin wall's finite-element model used [-].
+WALL_MODES = 6

@@ -1,0 +1,444 @@
+"""Engagement of an end mill in a local finishing cut: the fast path for planning.
+
+A :class:`LocalCut` describes the material around one cutter contact point
+in the local frame ``(f, b, n)`` (:mod:`orient.geometry`), contact at the
+origin:
+
+* the finished surface through the contact, ``n . x = 0`` or the quadric
+  ``n . x = -(kf (f . x)^2 + kb (b . x)^2) / 2`` (positive curvature =
+  convex); the tool touches it at the contact;
+* the stock top, the surface offset by ``depth_mm`` along ``n`` (locally the
+  quadric with curvatures ``k / (1 + k depth)``): material is below it;
+* the previous pass removed the tool solid swept along its own line, the
+  current pass's line translated by ``previous_side * pick_mm * b`` with the
+  same tool axis. The swept solid is errpred's (``errpred/_kernels.py``:
+  points within the corner radius of the swept core, up to the flute
+  length): for a ball end mill a cylinder of radius ``R`` around the line of
+  the previous ball centres, plus the flank swept above it;
+* the previous tooth: a micro edge cuts only where its chip thickness
+  ``h = f_tooth . n_edge`` is positive (``errpred.force.chip_thickness``),
+  i.e. outside the envelope's position one tooth earlier.
+
+The tool touches the finished surface at the contact: the envelope point
+whose outward normal is ``-n`` is the origin, so the tip is
+``r (n - u) + (R - r) n_perp / |n_perp|`` (``n_perp`` the part of ``n``
+normal to ``u``); for a ball ``tip = R n - R u`` (ball centre ``R n``). With
+``u`` along ``n`` a flat or radius end mill sits with its tip on the contact.
+
+A micro edge (``errpred.tool.Tool.micro_edges``) of flute ``k`` at rotation
+sample ``i`` cuts when its midpoint lies in the material and ``h > 0``.
+:func:`engagement` samples that on a rotation grid (any tool), and
+:func:`from_errpred` wraps errpred's own engagement (the rasterizer's) in
+the same :class:`SampledEngagement`, so that either source feeds
+:func:`orient.gain.gain_from_engagement`. :func:`cutting_intervals` gives
+the exact entry/exit angles of each micro edge (``orient/_kernels.py``),
+from which :func:`orient.gain.process_gain` integrates the gain.
+
+Limits of the local model: the previous pass is the current line shifted
+along ``b`` with the same axis (on a curved surface its true position also
+drops by ``k pick^2 / 2`` and turns, which is ignored); the current pass's
+earlier motion only enters through ``h > 0`` (errpred's exact sweeps also
+keep a sliver ``-fz/2 < (p - c).f <= 0`` of a ball where material is left
+but ``h`` is clamped to 0: :func:`from_errpred` drops it by default). For a
+flat or radius end mill the contact point jumps from the tip to the rim as
+soon as ``u`` leaves ``n`` (the bottom face touches the surface only when
+they are parallel).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from errpred._kernels import inside_any_sweep
+from errpred.engagement import edge_points_tool, expand_flutes, revolution_angles
+from errpred.force import chip_thickness
+from errpred.frames import tool_frame
+from errpred.tool import MicroEdges, Tool
+
+from . import _kernels as KN
+from .constants import (
+    AXIS_NORMAL_MIN_COS,
+    CHIP_EPS,
+    GAIN_ANGLES_PER_REV,
+    GAIN_BAND_BISECTIONS,
+    GAIN_BAND_PROBES,
+    GAIN_MIN_ARC_SAMPLES,
+    GAIN_ROOT_MAX_ITER,
+    GAIN_ROOT_STEP_RAD,
+    GAIN_ROOT_TOL_RAD,
+    MEMBERSHIP_EPS_MM,
+)
+from .geometry import local_frame
+
+__all__ = [
+    "LocalCut",
+    "Placement",
+    "SampledEngagement",
+    "cutting_intervals",
+    "engagement",
+    "from_errpred",
+    "geometry_vector",
+    "kernel_settings",
+    "place",
+]
+
+
+def _number(name: str, v: Any) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name}: expected a number, got {v!r}")
+    if not math.isfinite(v):
+        raise ValueError(f"{name}: expected a finite value, got {v!r}")
+    return float(v)
+
+
+@dataclass(frozen=True)
+class LocalCut:
+    """A finishing cut at one cutter location, in the local frame (f, b, n).
+
+    Attributes
+    ----------
+    depth_mm : float [mm]
+        Stock above the finished surface along ``n`` (>= 0; 0 cuts nothing).
+    pick_mm : float [mm]
+        Step-over along ``b`` between adjacent passes (>= 0).
+    previous_side : int
+        +1 if the previous pass lies at ``+pick b``, -1 at ``-pick b``, 0 for
+        a single groove or first pass (nothing removed beside the tool).
+    fz_mm : float [mm]
+        Feed per tooth (> 0).
+    curvature_f_1_mm, curvature_b_1_mm : float [1/mm]
+        Normal curvatures of the finished surface along ``f`` and ``b``;
+        0 flat, positive convex. ``1 + curvature depth`` must stay > 0.
+    """
+
+    depth_mm: float
+    pick_mm: float
+    previous_side: int
+    fz_mm: float
+    curvature_f_1_mm: float = 0.0
+    curvature_b_1_mm: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("depth_mm", "pick_mm", "fz_mm", "curvature_f_1_mm", "curvature_b_1_mm"):
+            object.__setattr__(self, name, _number(f"cut.{name}", getattr(self, name)))
+        if self.depth_mm < 0:
+            raise ValueError(f"cut.depth_mm: expected a value >= 0, got {self.depth_mm!r}")
+        if self.pick_mm < 0:
+            raise ValueError(f"cut.pick_mm: expected a value >= 0, got {self.pick_mm!r}")
+        if not self.fz_mm > 0:
+            raise ValueError(f"cut.fz_mm: expected a value > 0, got {self.fz_mm!r}")
+        side = self.previous_side
+        if isinstance(side, bool) or side not in (-1, 0, 1):
+            raise ValueError(f"cut.previous_side: expected -1, 0 or +1, got {side!r}")
+        object.__setattr__(self, "previous_side", int(side))
+        for name in ("curvature_f_1_mm", "curvature_b_1_mm"):
+            k = getattr(self, name)
+            if not 1.0 + k * self.depth_mm > 0:
+                raise ValueError(f"cut.{name}: {k!r} 1/mm with depth {self.depth_mm:g} mm "
+                                 f"folds the stock top (1 + k depth <= 0)")
+
+    def row(self) -> np.ndarray:
+        """``[depth, pick, side, fz, kf, kb]`` as the kernels take it, shape (6,)."""
+        return np.array([self.depth_mm, self.pick_mm, float(self.previous_side), self.fz_mm,
+                         self.curvature_f_1_mm, self.curvature_b_1_mm])
+
+    def check_tool(self, tool: Tool) -> None:
+        """Refuse a concave surface tighter than the tool's corner (it would gouge)."""
+        r = tool.corner_radius_mm
+        for name in ("curvature_f_1_mm", "curvature_b_1_mm"):
+            k = getattr(self, name)
+            if k < 0 and r > 0 and -k * r >= 1.0:
+                raise ValueError(f"cut.{name}: concave curvature {k:g} 1/mm is tighter than "
+                                 f"the tool's corner radius {r:g} mm (the tool would gouge)")
+
+
+@dataclass(frozen=True, eq=False)
+class Placement:
+    """The tool at a cutter contact point (contact at the origin).
+
+    Attributes
+    ----------
+    axis : ndarray, shape (3,) [-]
+        Unit tool axis ``u``.
+    f, b, n : ndarray, shape (3,) [-]
+        Local frame (:func:`orient.geometry.local_frame`).
+    frame : ndarray, shape (3, 3) [-]
+        Tool frame rows ``x', y', z'`` (``errpred.frames.tool_frame``,
+        mirrored for a counter-clockwise spindle).
+    tip : ndarray, shape (3,) [mm]
+        Tool tip relative to the contact point.
+    """
+
+    axis: np.ndarray
+    f: np.ndarray
+    b: np.ndarray
+    n: np.ndarray
+    frame: np.ndarray
+    tip: np.ndarray
+
+
+def place(tool: Tool, posture_axis: Any, normal: Any, feed_dir: Any) -> Placement:
+    """Tool frame and tip of a posture at a contact point (module docstring).
+
+    Parameters
+    ----------
+    tool : Tool
+    posture_axis : array_like, shape (3,) [-]
+        Tool axis (normalized here); must point away from the workpiece
+        (``u . n > 0``).
+    normal, feed_dir : array_like, shape (3,) [-]
+        Outward surface normal and feed direction.
+
+    Returns
+    -------
+    Placement
+    """
+    u = np.asarray(posture_axis, dtype=float)
+    if u.shape != (3,) or not np.all(np.isfinite(u)) or not np.linalg.norm(u) > 0:
+        raise ValueError(f"posture_axis: expected a finite non-zero 3-vector, got {u!r}")
+    if np.asarray(normal).shape != (3,) or np.asarray(feed_dir).shape != (3,):
+        raise ValueError("normal, feed_dir: expected 3-vectors")
+    u = u / np.linalg.norm(u)
+    f, b, n = local_frame(normal, feed_dir)
+    un = float(u @ n)
+    if not un >= AXIS_NORMAL_MIN_COS:
+        raise ValueError(f"posture_axis: the tool axis must point away from the workpiece "
+                         f"(u . n > 0), got u . n = {un:.3g}")
+    frame = tool_frame(u, f, tool.rotation_sign)
+    r, c0 = tool.corner_radius_mm, tool.core_radius_mm
+    n_perp = n - un * u
+    norm = float(np.linalg.norm(n_perp))
+    tip = r * (n - u) + (c0 / norm * n_perp if norm > 1e-12 else 0.0)
+    return Placement(axis=u, f=f, b=b, n=n, frame=frame, tip=np.asarray(tip, dtype=float))
+
+
+def _pass_half_length(tool: Tool, pick: float) -> float:
+    """Half length of the finite sweep that stands for the infinite previous pass [mm]."""
+    return 4.0 * tool.radius_mm + 2.0 * tool.flute_length_mm + pick
+
+
+def geometry_vector(tool: Tool, posture_axis: Any, normal: Any, feed_dir: Any,
+                    cut: LocalCut) -> np.ndarray:
+    """The kernels' per-posture vector (``orient._kernels.posture_geometry``).
+
+    Built from the vectors as given (the batch kernel normalizes them itself:
+    the same rounding in both paths); validate them with :func:`place` first.
+    """
+    geo = np.empty(KN.GEO_SIZE)
+    ok = KN.posture_geometry(np.asarray(posture_axis, dtype=float),
+                             np.asarray(normal, dtype=float), np.asarray(feed_dir, dtype=float),
+                             cut.depth_mm, cut.pick_mm,
+                             float(cut.previous_side), cut.curvature_f_1_mm,
+                             cut.curvature_b_1_mm, float(tool.rotation_sign),
+                             tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm,
+                             geo)
+    if not ok:
+        raise ValueError("posture_axis: no tool frame (the axis is along the feed)")
+    return geo
+
+
+@dataclass(frozen=True, eq=False)
+class SampledEngagement:
+    """Engagement sampled over one revolution, every flute (any chip-thickness source).
+
+    Attributes
+    ----------
+    theta : ndarray, shape (n_ang,) [rad]
+        Rotation angles of flute 0 (a multiple of the flutes, equal steps).
+    phi : ndarray, shape (n_ang, n_fl, m) [rad]
+        Angular position of each micro edge (``errpred.engagement.expand_flutes``).
+    cutting : ndarray of bool, shape (n_ang, n_fl, m)
+    h : ndarray, shape (n_ang, n_fl, m) [mm]
+        Uncut chip thickness (``errpred.force.chip_thickness``).
+    weight : ndarray, shape (n_ang, n_fl, m) or None [-]
+        Share of each sample's rotation step spent cutting (errpred's
+        boundary refinement); None = 1 where cutting.
+    frame : ndarray, shape (3, 3) [-]
+        Tool frame rows.
+    normal : ndarray, shape (3,) [-]
+        Outward surface normal at the contact (for the up/down-cut degree).
+    f_tooth_world : ndarray, shape (3,) [mm]
+        Feed per tooth vector.
+    """
+
+    theta: np.ndarray
+    phi: np.ndarray
+    cutting: np.ndarray
+    h: np.ndarray
+    weight: np.ndarray | None
+    frame: np.ndarray
+    normal: np.ndarray
+    f_tooth_world: np.ndarray
+
+
+def _in_material(tool: Tool, pl: Placement, cut: LocalCut, pts: np.ndarray) -> np.ndarray:
+    """Below the stock top and outside the previous pass, points (k, 3) [mm] -> (k,) bool."""
+    kf = cut.curvature_f_1_mm / (1.0 + cut.curvature_f_1_mm * cut.depth_mm)
+    kb = cut.curvature_b_1_mm / (1.0 + cut.curvature_b_1_mm * cut.depth_mm)
+    top = cut.depth_mm - 0.5 * (kf * (pts @ pl.f) ** 2 + kb * (pts @ pl.b) ** 2)
+    inside = pts @ pl.n < top
+    if cut.previous_side != 0 and inside.any():
+        half = _pass_half_length(tool, cut.pick_mm)
+        p0 = (pl.tip + cut.previous_side * cut.pick_mm * pl.b - half * pl.f)[None, :]
+        d = (2.0 * half * pl.f)[None, :]
+        big = np.full((1, 3), 1e300)
+        removed = inside_any_sweep(np.ascontiguousarray(pts), inside, p0, d,
+                                   pl.axis[None, :].copy(), -big, big, tool.core_radius_mm,
+                                   tool.corner_radius_mm, tool.flute_length_mm,
+                                   MEMBERSHIP_EPS_MM)
+        inside &= ~removed
+    return inside
+
+
+def engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: Any, feed_dir: Any,
+               cut: LocalCut, n_angles: int = GAIN_ANGLES_PER_REV) -> SampledEngagement:
+    """Which micro edges cut, sampled over one revolution (module docstring).
+
+    Parameters
+    ----------
+    tool : Tool
+    edges : MicroEdges
+        ``m`` micro edges of one flute (``tool.micro_edges(...)``).
+    posture_axis, normal, feed_dir : array_like, shape (3,) [-]
+        Tool axis, outward surface normal and feed direction at the contact.
+    cut : LocalCut
+    n_angles : int
+        Rotation samples per revolution (rounded up to a multiple of the
+        flutes, and even: ``errpred.engagement.revolution_angles``).
+
+    Returns
+    -------
+    SampledEngagement
+        ``phi``, ``cutting``, ``h`` of shape (n_ang, n_fl, m).
+    """
+    if not isinstance(cut, LocalCut):
+        raise ValueError(f"cut: expected a LocalCut, got {type(cut).__name__}")
+    if not (isinstance(n_angles, (int, np.integer)) and n_angles >= 4):
+        raise ValueError(f"n_angles: expected an integer >= 4, got {n_angles!r}")
+    cut.check_tool(tool)
+    pl = place(tool, posture_axis, normal, feed_dir)
+    theta = revolution_angles(2 * math.pi / n_angles, tool.flutes)
+    pts = edge_points_tool(edges, theta)                     # (n, m, 3) tool frame
+    n, m, _ = pts.shape
+    world = pl.tip + pts.reshape(-1, 3) @ pl.frame
+    material = _in_material(tool, pl, cut, world).reshape(n, m)
+    f_tool = pl.frame @ (cut.fz_mm * pl.f)
+    h0 = chip_thickness(edges, theta[:, None] - edges.psi[None, :], f_tool)
+    cutting0 = material & (h0 > CHIP_EPS * cut.fz_mm)
+    phi, cutting = expand_flutes(theta, cutting0, edges, tool.flutes)
+    h = chip_thickness(edges, phi, f_tool)
+    return SampledEngagement(theta=theta, phi=phi, cutting=cutting, h=h, weight=None,
+                             frame=pl.frame, normal=pl.n, f_tooth_world=cut.fz_mm * pl.f)
+
+
+def from_errpred(eng: Any, tool: Tool, edges: MicroEdges, normal: Any, frame: Any = None,
+                 f_tooth_world: Any = None, positive_chip_only: bool = True
+                 ) -> SampledEngagement:
+    """Wrap errpred's engagement (rasterizer and sweeps) as a :class:`SampledEngagement`.
+
+    Parameters
+    ----------
+    eng : errpred.engagement.Engagement or errpred.geometry.PointGeometry
+        Anything with ``cutting0`` (n, m) for flute 0; ``theta`` (default:
+        ``n`` equal steps from 0) and ``weight0`` (fractional boundary
+        samples) are used when present.
+    tool : Tool
+    edges : MicroEdges
+        The micro edges ``eng`` was computed with.
+    normal : array_like, shape (3,) [-]
+        Outward surface normal at the contact (for the up/down-cut degree).
+    frame : array_like, shape (3, 3), optional [-]
+        Tool frame rows; default ``eng.frame``.
+    f_tooth_world : array_like, shape (3,), optional [mm]
+        Feed per tooth; default ``eng.feed_per_tooth_world``.
+    positive_chip_only : bool
+        Keep only the samples with a positive chip thickness (the fast
+        model's rule). errpred's sweeps leave a sliver, ``-fz/2 < (p - c).f
+        <= 0`` for a ball, where material is present but ``h`` is clamped
+        to 0: its edges rub without a chip.
+
+    Returns
+    -------
+    SampledEngagement
+    """
+    cutting0 = np.asarray(getattr(eng, "cutting0", None))
+    if cutting0.ndim != 2 or cutting0.shape[1] != len(edges):
+        raise ValueError(f"eng.cutting0: expected shape (n, {len(edges)}), got "
+                         f"{cutting0.shape}")
+    n = cutting0.shape[0]
+    theta = getattr(eng, "theta", None)
+    theta = np.arange(n) * (2 * math.pi / n) if theta is None else np.asarray(theta, float)
+    frame = np.asarray(eng.frame if frame is None else frame, dtype=float)
+    f_tooth = np.asarray(eng.feed_per_tooth_world if f_tooth_world is None else f_tooth_world,
+                         dtype=float)
+    if frame.shape != (3, 3) or f_tooth.shape != (3,):
+        raise ValueError("frame, f_tooth_world: expected shapes (3, 3) and (3,)")
+    nrm = np.asarray(normal, dtype=float)
+    if nrm.shape != (3,) or not np.all(np.isfinite(nrm)) or not np.linalg.norm(nrm) > 0:
+        raise ValueError(f"normal: expected a finite non-zero 3-vector, got {nrm!r}")
+    phi, cutting = expand_flutes(theta, cutting0.astype(bool), edges, tool.flutes)
+    weight = getattr(eng, "weight0", None)
+    if weight is not None:
+        weight = expand_flutes(theta, np.asarray(weight, dtype=float), edges, tool.flutes)[1]
+    h = chip_thickness(edges, phi, frame @ f_tooth)
+    if positive_chip_only:
+        cutting = cutting & (h > CHIP_EPS * float(np.linalg.norm(f_tooth)))
+    return SampledEngagement(theta=theta, phi=phi, cutting=cutting, h=h, weight=weight,
+                             frame=frame, normal=nrm / np.linalg.norm(nrm),
+                             f_tooth_world=f_tooth)
+
+
+def cutting_intervals(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: Any,
+                      feed_dir: Any, cut: LocalCut,
+                      root_step_rad: float = GAIN_ROOT_STEP_RAD) -> list[np.ndarray]:
+    """Exact entry and exit angles of each micro edge of flute 0.
+
+    Parameters
+    ----------
+    tool, edges, posture_axis, normal, feed_dir, cut
+        As in :func:`engagement`.
+    root_step_rad : float [rad]
+        Sampling step of the non-circular material conditions before their
+        roots are refined (``orient/_kernels.py``).
+
+    Returns
+    -------
+    list of ndarray, each shape (k_j, 2) [rad]
+        Per micro edge, the intervals ``[phi_in, phi_out]`` of its angular
+        position ``phi`` (``phi_out > phi_in``; not wrapped into one turn)
+        during which it cuts.
+    """
+    if not isinstance(cut, LocalCut):
+        raise ValueError(f"cut: expected a LocalCut, got {type(cut).__name__}")
+    if not (math.isfinite(root_step_rad) and 0 < root_step_rad <= math.pi):
+        raise ValueError(f"root_step_rad: expected 0 < step <= pi, got {root_step_rad!r}")
+    cut.check_tool(tool)
+    place(tool, posture_axis, normal, feed_dir)            # validates the vectors
+    geo = geometry_vector(tool, posture_axis, normal, feed_dir, cut)
+    set_par = kernel_settings(root_step_rad)
+    counts, iv, _kinds = KN.edge_intervals(geo, *_edge_arrays(edges)[:3], tool.core_radius_mm,
+                                           tool.corner_radius_mm, tool.flute_length_mm, set_par)
+    return [iv[j, :counts[j]].copy() for j in range(len(edges))]
+
+
+def kernel_settings(root_step_rad: float = GAIN_ROOT_STEP_RAD) -> np.ndarray:
+    """The kernels' ``set_par``, shape (8,).
+
+    Chip eps, membership eps [mm], root step [rad], root tolerance [rad],
+    iterations, band probes, band bisections, least samples per arc (passed
+    as values, not read as numba globals: a changed constant would not
+    invalidate numba's on-disk cache).
+    """
+    return np.array([CHIP_EPS, MEMBERSHIP_EPS_MM, float(root_step_rad), GAIN_ROOT_TOL_RAD,
+                     float(GAIN_ROOT_MAX_ITER), float(GAIN_BAND_PROBES),
+                     float(GAIN_BAND_BISECTIONS), float(GAIN_MIN_ARC_SAMPLES)])
+
+
+def _edge_arrays(edges: MicroEdges) -> tuple[np.ndarray, ...]:
+    """rho, z, kappa, psi, db as contiguous float arrays."""
+    return tuple(np.ascontiguousarray(getattr(edges, k), dtype=float)
+                 for k in ("rho", "z", "kappa", "psi", "db"))

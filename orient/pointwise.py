@@ -1,0 +1,112 @@
+"""Analysis at one cutter location of a planning scenario: its cut, its dynamics, its lobes.
+
+The planner works on whole paths; a person checking one point wants its
+stability lobes (both methods) with the operating point, for the CAM posture
+or the planned one. :func:`point_setup` gathers what that needs from the
+scenario alone (no planning run); :func:`point_lobes` draws on it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nc.kinematics import get_machine
+from nc.path import cutter_locations
+
+from .contacts import Contacts, ball_contacts
+from .dynamics import ModalSystem
+from .engagement import LocalCut
+from .gain import ProcessGain, process_gain
+from .geometry import local_frame
+from .scenario import PlanScenario
+from .stability import Lobes, stability_lobes
+from .workpiece import WorkpieceModel
+
+__all__ = ["PointSetup", "point_setup", "point_lobes", "LOBE_SPEEDS"]
+
+#: Spindle speeds of a lobe diagram [-].
+LOBE_SPEEDS = 200
+#: Default speed range of a lobe diagram, as factors of the programmed speed [-].
+LOBE_RANGE = (0.5, 1.6)
+
+
+@dataclass(frozen=True, eq=False)
+class PointSetup:
+    """One cutter location: its contact, local cut, dynamics and spindle speed."""
+
+    index: int
+    contacts: Contacts
+    cut: LocalCut
+    system: ModalSystem
+    spindle_rpm: float
+    axis: np.ndarray
+
+
+def _machine(scn: PlanScenario):
+    m = scn.base.machine
+    if m is None:
+        raise ValueError(f"{scn.path}: program.machine is missing")
+    if isinstance(m, str):
+        return get_machine(m)
+    from nc.machines import load_machine
+
+    return load_machine(m)
+
+
+def point_setup(scn: PlanScenario, point: int | None = None, axis=None) -> PointSetup:
+    """Set up the analysis at cutter location ``point`` of the CAM path.
+
+    Parameters
+    ----------
+    scn : PlanScenario
+    point : int, optional
+        Index into the CAM path's cutter locations; default the first point
+        where the ball touches the design.
+    axis : array_like, shape (3,), optional
+        Tool axis to analyse (default: the CAM's at that point).
+    """
+    cam = cutter_locations(scn.base.read_program(), _machine(scn))
+    contacts = ball_contacts(cam, scn.base.tool.radius_mm, scn.base.stock.load_design())
+    idx = np.flatnonzero(contacts.touching)
+    if len(idx) == 0:
+        raise ValueError(f"{scn.base.program_path}: the ball never touches the design")
+    if point is None:
+        point = int(idx[0])
+    if not (0 <= point < len(cam)) or not contacts.touching[point]:
+        raise ValueError(f"point: {point} is not a cutter location where the ball touches "
+                         f"the design (the first such point is {int(idx[0])}, the last "
+                         f"{int(idx[-1])})")
+    rpm = float(cam.spindle_rpm[point])
+    opt = scn.options
+    _, b, _ = local_frame(contacts.normal[point], contacts.feed[point])
+    side = float(b @ opt.cut.machined_side)
+    cut = LocalCut(opt.cut.depth_mm * opt.safety_factor, opt.cut.pick_mm * opt.safety_factor,
+                   0 if abs(side) < 1e-6 else int(np.sign(side)),
+                   float(cam.feed_mm_min[point] / (rpm * scn.base.tool.flutes)))
+    u = cam.axis[point] if axis is None else np.asarray(axis, dtype=float)
+    wp = WorkpieceModel(scn.workpiece, contacts.point[point][None])
+    system = wp.system_at(ModalSystem.tool(scn.base.compliance), contacts.point[point])
+    return PointSetup(point, contacts, cut, system.with_tool_axis(u), rpm, u)
+
+
+def point_gain(scn: PlanScenario, setup: PointSetup) -> ProcessGain:
+    """Process gain (with H over a tooth period) of the set-up point."""
+    i = setup.index
+    return process_gain(scn.base.tool, scn.base.coefficients, setup.axis,
+                        setup.contacts.normal[i], setup.contacts.feed[i], setup.cut,
+                        spindle_rpm=setup.spindle_rpm)
+
+
+def point_lobes(scn: PlanScenario, setup: PointSetup, methods=("zoa", "sdm"),
+                rpm=None) -> tuple[list[Lobes], tuple[float, float]]:
+    """Stability lobes at the set-up point, and the operating point (rpm, depth mm)."""
+    g = point_gain(scn, setup)
+    if rpm is None:
+        rpm = np.linspace(LOBE_RANGE[0] * setup.spindle_rpm, LOBE_RANGE[1] * setup.spindle_rpm,
+                          LOBE_SPEEDS)
+    depth = setup.cut.depth_mm
+    out = [stability_lobes(g.H, setup.system, scn.base.tool.flutes, rpm, method=m,
+                           depth_mm=depth) for m in methods]
+    return out, (setup.spindle_rpm, depth)

@@ -1,0 +1,98 @@
+"""The workpiece's modes at each cutting point, from a planning scenario's ``[workpiece]``.
+
+* rigid: no modes;
+* ``[[workpiece.modes]]``: the same modes (with their directions) everywhere;
+* ``[workpiece.thin_wall]``: a finite-element model of the wall in its
+  in-process shape (:mod:`orient.workpiece_fem`). Finishing goes top-down, so
+  when the tool cuts at height ``h`` the wall above ``h`` has its finished
+  thickness and the wall below still carries the stock. The model is solved
+  at a few cut levels (:data:`WALL_LEVELS`) spread over the heights the path
+  cuts at; each point takes the level nearest its own height, and the
+  equivalent single-DOF modes at the contact point itself along the wall
+  normal (:meth:`orient.workpiece_fem.WallModes.modes_at`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .dynamics import ModalSystem
+from .scenario import WorkpieceSpec
+
+__all__ = ["WALL_LEVELS", "WorkpieceModel"]
+
+#: In-process cut levels at which the thin wall's modes are solved [-].
+WALL_LEVELS = 3
+#: A contact point this far outside the wall's material is taken at the
+#: nearest material point (the contact lies on the finished face) [mm].
+WALL_POINT_TOL_MM = 2.0
+
+
+class WorkpieceModel:
+    """Workpiece modes along a path.
+
+    Parameters
+    ----------
+    spec : WorkpieceSpec
+    heights_mm : ndarray, shape (n,) [mm], optional
+        Contact points' heights (workpiece Z) where the thin wall's levels
+        are spread; needed for ``thin_wall``.
+    """
+
+    def __init__(self, spec: WorkpieceSpec, points_mm: np.ndarray | None = None) -> None:
+        self.spec = spec
+        self.levels: list = []
+        self.level_z: np.ndarray = np.zeros(0)
+        if spec.kind == "thin_wall":
+            self._build_wall(np.asarray(points_mm, dtype=float).reshape(-1, 3))
+
+    @property
+    def rigid(self) -> bool:
+        return self.spec.kind == "rigid"
+
+    def _build_wall(self, points: np.ndarray) -> None:
+        from .workpiece_fem import Material, ThinWall, wall_modes
+
+        w = self.spec.thin_wall
+        wall = ThinWall(w["length_mm"], w["height_mm"], w["stock_thickness_mm"],
+                        Material(w["young_GPa"], w["density_kg_m3"], w["poisson"]),
+                        damping_ratio=w["damping_ratio"], origin_mm=tuple(w["origin_mm"]),
+                        along=tuple(w["along"]), normal=tuple(w["normal"]),
+                        finish_side="front")
+        self.wall = wall
+        h = wall.to_local(points)[:, 2] if len(points) else np.array([w["height_mm"]])
+        h = np.clip(h, 0.0, w["height_mm"])
+        lo, hi = float(h.min()), float(h.max())
+        z = np.linspace(hi, lo, WALL_LEVELS) if hi > lo else np.array([hi])
+        self.level_z = z
+        for cut_z in z:
+            shape = (wall.in_process(float(cut_z), w["thickness_mm"])
+                     if w["stock_thickness_mm"] > w["thickness_mm"] and cut_z < w["height_mm"]
+                     else wall)
+            self.levels.append(wall_modes(shape, n_modes=w["modes"], elements=w["element_mm"]))
+
+    def modes_at(self, point_mm: np.ndarray) -> list:
+        """``[(Mode, direction)]`` of the workpiece at a contact point (empty: rigid)."""
+        if self.spec.kind == "rigid":
+            return []
+        if self.spec.kind == "modes":
+            return list(self.spec.modes)
+        p = np.asarray(point_mm, dtype=float)
+        h = float(self.wall.to_local(p)[2])
+        k = int(np.argmin(np.abs(self.level_z - h)))
+        # along the wall normal: the flexible direction (a thin wall's modes move the
+        # cutting point along it to within a few degrees); one direction keeps the
+        # stability analysis at tool (2) + wall (1) directions
+        return self.levels[k].modes_at(p, direction=np.asarray(self.wall.normal),
+                                       tol_mm=WALL_POINT_TOL_MM)
+
+    def system_at(self, tool: ModalSystem, point_mm: np.ndarray) -> ModalSystem:
+        """Tool modes plus the workpiece's modes at ``point_mm``."""
+        modes = self.modes_at(point_mm)
+        if not modes:
+            return tool
+        return ModalSystem.combine(tool, ModalSystem.from_modes(modes, source="workpiece"))
+
+    def first_frequencies_hz(self) -> list[float]:
+        """First natural frequency of each solved level [Hz] (thin wall only)."""
+        return [float(m.frequencies_hz[0]) for m in self.levels]
