@@ -16,7 +16,7 @@ import numpy as np
 
 from errpred.scenario import ScenarioError
 
-__all__ = ["main", "build_parser"]
+__all__ = ["build_parser", "main"]
 
 
 def _console():
@@ -104,7 +104,7 @@ def _round_trip_error(post, back) -> tuple[float, float]:
     n = min(len(tip), len(back))
     # the reader adds no points; the writer's approach/retract points come first/last
     best = (math.inf, math.inf)
-    for off in range(0, max(1, len(back) - len(tip) + 1)):
+    for off in range(max(1, len(back) - len(tip) + 1)):
         a = back.tip[off:off + n]
         if len(a) != n:
             break

@@ -114,7 +114,7 @@ def _local_cuts(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: Cut
                 spindle_rpm: float) -> list[LocalCut]:
     opt = scn.options
     cut = opt.cut
-    f, b, n = local_frame(contacts.normal[idx], contacts.feed[idx])
+    _, b, _ = local_frame(contacts.normal[idx], contacts.feed[idx])
     side = np.sign(b @ cut.machined_side)
     side[np.abs(b @ cut.machined_side) < 1e-6] = 0.0
     fz = cam.feed_mm_min[idx] / (spindle_rpm * scn.base.tool.flutes)

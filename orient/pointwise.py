@@ -24,7 +24,7 @@ from .scenario import PlanScenario
 from .stability import Lobes, stability_lobes
 from .workpiece import WorkpieceModel
 
-__all__ = ["PointSetup", "point_setup", "point_lobes", "LOBE_SPEEDS"]
+__all__ = ["LOBE_SPEEDS", "PointSetup", "point_lobes", "point_setup"]
 
 #: Spindle speeds of a lobe diagram [-].
 LOBE_SPEEDS = 200

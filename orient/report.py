@@ -12,7 +12,7 @@ from nc.atomic import atomic_write
 
 from .plan import PlanResult
 
-__all__ = ["plan_report", "write_plan_report", "summary"]
+__all__ = ["plan_report", "summary", "write_plan_report"]
 
 
 def _f(x: float, nd: int = 4):
@@ -28,7 +28,7 @@ def summary(res: PlanResult) -> dict:
     worst = int(idx[np.argmin(m)])
     worst_cam = int(idx[np.argmin(mc)])
     return {
-        "points": int(len(res.cl)), "cutting_points": int(len(idx)),
+        "points": len(res.cl), "cutting_points": len(idx),
         "spindle_rpm": res.spindle_rpm,
         "machine": getattr(res.machine, "name", str(res.machine)),
         "margin_min": _f(m.min()), "margin_median": _f(np.median(m)),

@@ -9,7 +9,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from orient.geometry import Posture, inclination, lead_tilt_of, local_frame, posture_axis
+from orient.geometry import (
+    Posture,
+    inclination,
+    lead_tilt_of,
+    local_frame,
+    posture_axis,
+)
 
 finite = st.floats(-1.0, 1.0, allow_nan=False)
 vectors = st.tuples(finite, finite, finite).map(np.array).filter(

@@ -1,0 +1,111 @@
+"""``python -m orient``: plan and lobes on a light copy of the thin-wall scenario; bad
+scenarios end in one line naming file and key, and nothing is written."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from orient.cli import main
+from orient.scenario import ScenarioError, bundled_scenario, load_plan_scenario
+
+ROOT = Path(__file__).resolve().parents[2]
+LIGHT = {
+    "grid = [15, 15]": "grid = [5, 5]",
+    "[orient]\n": "[orient]\nverify_sdm = false\n",
+}
+WALL_TABLE_START = "[workpiece]"
+MODES = """[workpiece]
+source = "one wall mode along the normal (test)"
+
+[[workpiece.modes]]
+direction = [0.0, 1.0, 0.0]
+frequency_hz = 3500.0
+damping_ratio = 0.01
+stiffness_N_m = 6.0e6
+"""
+
+
+def _copy(tmp_path: Path, edits: dict | None = None, workpiece: str | None = MODES) -> Path:
+    src = bundled_scenario("thin-wall").parent
+    dst = tmp_path / "scn"
+    shutil.copytree(src, dst)
+    text = (dst / "scenario.toml").read_text()
+    for a, b in {**LIGHT, **(edits or {})}.items():
+        assert a in text, a
+        text = text.replace(a, b)
+    if workpiece is not None:
+        text = text[:text.index(WALL_TABLE_START)] + workpiece
+    (dst / "scenario.toml").write_text(text)
+    return dst / "scenario.toml"
+
+
+def test_plan_writes_program_report_and_plots(tmp_path, capsys, lcnc_agrees):
+    scn = _copy(tmp_path)
+    out = tmp_path / "out" / "planned.ngc"
+    out.parent.mkdir()
+    assert main(["plan", str(scn), "-o", str(out), "--plots", str(tmp_path / "plots")]) == 0
+    text = capsys.readouterr().out
+    assert "round trip through xyzac-trt" in text and "collisions of the planned postures: 0" \
+        in text
+    rep = json.loads((tmp_path / "out" / "planned-plan.json").read_text())
+    s = rep["summary"]
+    assert s["cutting_points"] == sum(p["cutting"] for p in rep["points"]) > 1000
+    assert s["margin_min"] >= s["cam_margin_min"]
+    pt = next(p for p in rep["points"] if p["cutting"])
+    assert {"lead_deg", "tilt_deg", "margin", "cam_margin", "reason", "normal"} <= set(pt)
+    assert abs(math.sqrt(sum(a * a for a in pt["axis"])) - 1) < 1e-6
+    for png in ("margin_along_path.png", "margin_grid.png"):
+        assert (tmp_path / "plots" / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    lcnc_agrees(out)
+
+
+def test_lobes_plot(tmp_path, capsys):
+    scn = _copy(tmp_path)
+    png = tmp_path / "lobes.png"
+    assert main(["lobes", str(scn), "--plot", str(png), "--speeds", "24",
+                 "--rpm", "6000", "12000"]) == 0
+    text = capsys.readouterr().out
+    assert "zoa: lowest limit" in text and "sdm: lowest limit" in text
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("edit, key", [
+    ({"depth_mm = 0.2": "depth_mm = nan"}, "orient.cut.depth_mm"),
+    ({"depth_mm = 0.2": "depth_m = 0.2"}, "orient.cut.depth_m"),
+    ({'type = "ball"': 'type = "radius"\ncorner_radius_mm = 1.0'}, "tool.type"),
+    ({'design_stl = "design.stl"': 'design_stl = "nowhere.stl"'}, "stock.design_stl"),
+    ({"grid = [5, 5]": "grid = [5, 0]"}, "orient.grid"),
+    ({"max_rate_deg_per_mm = 2.0": "max_rate_deg_per_mm = -2.0"},
+     "orient.max_rate_deg_per_mm"),
+])
+def test_bad_scenarios_name_file_and_key_and_write_nothing(tmp_path, capsys, edit, key):
+    scn = _copy(tmp_path, edit)
+    with pytest.raises(ScenarioError) as err:
+        load_plan_scenario(scn)
+    assert str(scn) in str(err.value) and key in str(err.value)
+    out = tmp_path / "o.ngc"
+    assert main(["plan", str(scn), "-o", str(out)]) == 2
+    msg = capsys.readouterr().err
+    assert msg.startswith("error: ") and key in msg and len(msg.strip().splitlines()) == 1
+    assert not out.exists() and not (tmp_path / "o-plan.json").exists()
+
+
+def test_thin_wall_keys_are_checked(tmp_path):
+    scn = _copy(tmp_path, workpiece=None, edits={"normal = [0.0, 1.0, 0.0]":
+                                                 "normal = [1.0, 1.0, 0.0]"})
+    with pytest.raises(ScenarioError, match="workpiece.thin_wall.normal"):
+        load_plan_scenario(scn)
+
+
+def test_module_runs_as_a_program(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "orient", "plan", "-o",
+                           str(tmp_path / "x" / "p.ngc")], capture_output=True, text=True,
+                          cwd=ROOT)
+    assert proc.returncode == 2 and "does not exist" in proc.stderr
