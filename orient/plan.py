@@ -24,6 +24,10 @@ For each cutter location of the CAM program where the ball touches the design:
    the points with the lowest zero-order margin, where the average can be
    wrong for intermittent ball-end cuts.
 
+With ``[orient.spindle]`` the spindle speed is first chosen from the lobes
+(zero-order, at a sample of the cutter locations, each at its best posture)
+and the feed scaled to keep the feed per tooth.
+
 Points where the ball does not touch the design (air moves inside a pass)
 take the posture of the nearest touching point of their pass; rapid moves
 break the smoothness limit (the rotary axes move during the rapid).
@@ -59,6 +63,8 @@ SDM_CHECK_POINTS = 6
 #: Score preference for the CAM posture among equally good ones, per radian
 #: of axis change [-/rad] (small against any margin difference).
 CAM_PREFERENCE_PER_RAD = 1.0e-3
+#: Cutter locations (spread along the path) on which a spindle speed is chosen [-].
+SPEED_SAMPLE_POINTS = 24
 #: Rounds of "choose, check interference, drop colliding postures" [-].
 MAX_INTERFERENCE_ROUNDS = 12
 
@@ -122,25 +128,33 @@ def _local_cuts(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: Cut
                      int(s), float(z)) for s, z in zip(side, fz)]
 
 
-def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
-             idx: np.ndarray, axes: np.ndarray, ok: np.ndarray, cuts: list, rpm: float,
-             progress=None) -> tuple[np.ndarray, np.ndarray]:
-    """ZOA margin and cut sense of candidate axes (t, s, 3) where ``ok``; inf elsewhere."""
+def _gains(scn, contacts: Contacts, idx: np.ndarray, axes: np.ndarray, ok: np.ndarray,
+           cuts: list) -> tuple[np.ndarray, np.ndarray]:
+    """Process gain P (t, s, 3, 3) [N/m] and cut sense (t, s) where ``ok`` (0 elsewhere)."""
     t, s, _ = axes.shape
     tool = scn.base.tool
-    margin = np.full((t, s), np.inf)
     sense = np.zeros((t, s))
+    P = np.zeros((t, s, 3, 3))
     pi, ps = np.nonzero(ok)
     if len(pi) == 0:
-        return margin, sense
+        return P, sense
     cut_arr = np.empty(len(pi), dtype=object)
     cut_arr[:] = [cuts[i] for i in pi]
     gains = process_gain_batch(tool, scn.base.coefficients, axes[pi, ps],
                                contacts.normal[idx][pi], contacts.feed[idx][pi], cut_arr,
                                parallel=True)
     sense[pi, ps] = gains.cut_sense
-    P = np.zeros((t, s, 3, 3))
     P[pi, ps] = gains.P
+    return P, sense
+
+
+def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
+             idx: np.ndarray, axes: np.ndarray, ok: np.ndarray, P: np.ndarray, rpm: float,
+             progress=None) -> np.ndarray:
+    """ZOA margin (t, s) of candidate axes (t, s, 3) at ``rpm`` where ``ok``; inf elsewhere."""
+    t, s, _ = axes.shape
+    tool = scn.base.tool
+    margin = np.full((t, s), np.inf)
     for i in range(t):
         sel = np.flatnonzero(ok[i])
         if len(sel) == 0:
@@ -151,7 +165,33 @@ def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
                                           mode_directions=dirs)
         if progress is not None:
             progress(i + 1, t)
-    return margin, sense
+    return margin
+
+
+def _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm0: float) -> float:
+    """Spindle speed from the lobes: the speed of ``[orient.spindle]``'s range whose
+    worst sampled cutter location has the best reachable (capped) margin; ties go to
+    the speed nearest the programmed one."""
+    sp = scn.options.spindle
+    speeds = np.linspace(*sp.range_rpm, sp.steps)
+    rows = np.unique(np.linspace(0, len(idx) - 1, min(SPEED_SAMPLE_POINTS, len(idx)))
+                     .astype(int))
+    target = scn.options.margin_target
+    score = np.full(len(speeds), np.inf)
+    for r in rows:
+        sel = np.flatnonzero(ok[r])
+        if len(sel) == 0:
+            continue
+        system = wp.system_at(tool_sys, contacts.point[idx[r]])
+        dirs = system.directions_for_axes(axes[r, sel])
+        k = len(sel)
+        m = zoa_margin_batch(np.tile(P[r, sel], (len(speeds), 1, 1)), system,
+                             np.repeat(speeds, k), scn.base.tool.flutes,
+                             mode_directions=np.tile(dirs, (len(speeds), 1, 1)))
+        best = np.minimum(m.reshape(len(speeds), k), target).max(axis=1)
+        score = np.minimum(score, best)
+    top = np.flatnonzero(score >= score.max() - 1e-9)
+    return float(speeds[top[np.argmin(np.abs(speeds[top] - rpm0))]])
 
 
 def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
@@ -221,9 +261,17 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     tool_sys = ModalSystem.tool(scn.base.compliance)
     wp = WorkpieceModel(scn.workpiece, contacts.point[idx])
     t2 = time.perf_counter()
-    margin, sense = _margins(scn, tool_sys, wp, contacts, idx, axes, ok, cuts, rpm,
-                             None if progress is None else
-                             (lambda d, n: progress("margins", d, n)))
+    P, sense = _gains(scn, contacts, idx, axes, ok, cuts)
+    rpm_program = rpm
+    if opt.spindle is not None and spindle_rpm is None:
+        rpm = _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm)
+    margin = _margins(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm,
+                      None if progress is None else (lambda d, n: progress("margins", d, n)))
+    if rpm != rpm_program:        # the CAM's posture at the CAM's speed, for the report
+        cam_col = np.zeros_like(ok)
+        cam_col[:, -1] = True
+        margin[:, -1] = _margins(scn, tool_sys, wp, contacts, idx, axes, cam_col, P,
+                                 rpm_program)[:, -1]
     ok[:, -1] = cam_ok
     t3 = time.perf_counter()
     # --- choose: smooth, then interference, repeated -------------------------
@@ -273,8 +321,9 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     cam_feasible = np.ones(n_all, bool)
     cam_feasible[idx] = cam_ok
     new_tip, new_axis = _place_all(cam, contacts, idx, u_new, R)
-    planned = CutterLocations(new_tip, new_axis, cam.feed_mm_min, np.full(n_all, rpm),
-                              cam.block, cam.rapid)
+    # a changed spindle speed keeps the feed per tooth: the feed scales with it
+    planned = CutterLocations(new_tip, new_axis, cam.feed_mm_min * (rpm / rpm_program),
+                              np.full(n_all, rpm), cam.block, cam.rapid)
     final = checker.check(planned.tip[feed_pts], planned.axis[feed_pts])
     reasons = _reasons(cam, contacts, idx, choice, S1, ok, margin, sense, lead, tilt,
                        cam_lead, cam_tilt, opt.margin_target, cam_ok)
@@ -288,7 +337,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
         cut_sense=cs, cam_cut_sense=csc, cam_feasible=cam_feasible, reason=tuple(reasons),
         spindle_rpm=rpm, machine=machine, grid_lead_rad=lead_g, grid_tilt_rad=tilt_g,
         sdm_checks=checks,
-        stats={"points": n_all, "touching": len(idx), "postures": int(len(idx) * S1),
+        stats={"program_spindle_rpm": rpm_program, "points": n_all, "touching": len(idx), "postures": int(len(idx) * S1),
                "interference_dropped": dropped,
                "planned_collisions": int(np.sum(final.collides | final.gouges)),
                "wall_first_frequencies_hz": wp.first_frequencies_hz() if wp.levels else [],

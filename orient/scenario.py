@@ -5,7 +5,7 @@ program, cutting coefficients, tool dynamics; ``docs/scenario-format.md``)
 with two more tables:
 
 ``[orient]`` -- the search: lead and tilt ranges and grid, inclination
-limits, the smoothness limit, the margin aimed at, the method, interference
+limits, the smoothness limit, the margin aimed at, interference
 clearances, the machine dialect of the written program; ``[orient.cut]`` the
 local cut of the finishing passes (depth, pick feed, on which side the
 previous pass lies); ``[orient.spindle]`` optionally a spindle speed chosen
@@ -102,7 +102,6 @@ class OrientOptions:
     max_inclination_rad: float = math.radians(K.MAX_INCLINATION_DEG)
     max_rate_rad_per_mm: float = math.radians(K.MAX_RATE_DEG_PER_MM)
     margin_target: float = K.MARGIN_TARGET
-    method: str = "zoa"
     verify_sdm: bool = True
     clearance_mm: float = K.CLEARANCE_MM
     gouge_tol_mm: float = K.GOUGE_TOL_MM
@@ -188,7 +187,7 @@ def _spindle(r: TableReader, d: dict) -> SpindleChoice:
 def _options(r: TableReader, d: dict) -> OrientOptions:
     p = "orient"
     r.keys(d, p, (), ("lead_deg", "tilt_deg", "grid", "min_inclination_deg",
-                      "max_inclination_deg", "max_rate_deg_per_mm", "margin_target", "method",
+                      "max_inclination_deg", "max_rate_deg_per_mm", "margin_target",
                       "verify_sdm", "clearance_mm", "gouge_tol_mm", "safety_factor", "dialect",
                       "cut", "spindle"))
     grid = (K.GRID_STEPS, K.GRID_STEPS)
@@ -211,9 +210,10 @@ def _options(r: TableReader, d: dict) -> OrientOptions:
     from nc.writer import DIALECTS
 
     safety = r.number(d, "safety_factor", p, default=1.0, sign=">0")
-    if safety > 1:
-        raise r.fail("orient.safety_factor", f"expected 0 < factor <= 1 (it scales depth and "
-                                             f"pick feed down), got {safety:g}")
+    # a posture stable for the heavier cut keeps a margin against uneven allowance
+    if safety < 1:
+        raise r.fail("orient.safety_factor", f"expected a factor >= 1 (the planner plans for "
+                                             f"depth and pick feed times it), got {safety:g}")
     return OrientOptions(
         lead_range_rad=_range(r, d, "lead_deg", p, K.LEAD_TILT_RANGE_DEG),
         tilt_range_rad=_range(r, d, "tilt_deg", p, K.LEAD_TILT_RANGE_DEG),
@@ -222,7 +222,6 @@ def _options(r: TableReader, d: dict) -> OrientOptions:
         max_rate_rad_per_mm=math.radians(r.number(d, "max_rate_deg_per_mm", p,
                                                   default=K.MAX_RATE_DEG_PER_MM, sign=">0")),
         margin_target=r.number(d, "margin_target", p, default=K.MARGIN_TARGET, sign=">0"),
-        method=r.string(d, "method", p, default="zoa", choices=("zoa", "sdm")),
         verify_sdm=verify,
         clearance_mm=r.number(d, "clearance_mm", p, default=K.CLEARANCE_MM, sign=">=0"),
         gouge_tol_mm=r.number(d, "gouge_tol_mm", p, default=K.GOUGE_TOL_MM, sign=">=0"),

@@ -76,8 +76,7 @@ def write_stl(path: str, tris: np.ndarray, title: str) -> None:
     with open(path, "wb") as fh:
         fh.write(title.encode("ascii")[:80].ljust(80, b" "))
         fh.write(struct.pack("<I", len(tris)))
-        for nn, t in zip(n, tris):
-            fh.write(struct.pack("<12fH", *nn, *t.ravel(), 0))
+        fh.writelines(struct.pack("<12fH", *nn, *t.ravel(), 0) for nn, t in zip(n, tris))
 
 
 def cam_cutter_locations():

@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from orient.cli import main
@@ -109,3 +110,38 @@ def test_module_runs_as_a_program(tmp_path):
                            str(tmp_path / "x" / "p.ngc")], capture_output=True, text=True,
                           cwd=ROOT)
     assert proc.returncode == 2 and "does not exist" in proc.stderr
+
+
+def test_spindle_speed_chosen_from_the_lobes(tmp_path):
+    from orient.plan import plan
+
+    scn = load_plan_scenario(_copy(tmp_path, {
+        "[orient.cut]": "[orient.spindle]\nrange_rpm = [6000.0, 12000.0]\nsteps = 7\n\n"
+                        "[orient.cut]"}))
+    fixed = plan(scn, spindle_rpm=9000.0)
+    res = plan(scn)
+    speeds = np.linspace(6000.0, 12000.0, 7)
+    assert np.min(np.abs(speeds - res.spindle_rpm)) < 1e-9
+    feed = ~res.cl.rapid
+    np.testing.assert_allclose(res.cl.feed_mm_min[feed],
+                               res.cam.feed_mm_min[feed] * res.spindle_rpm / 9000.0)
+    idx = res.touching_index
+    print("chosen", res.spindle_rpm, "min margin", res.margin[idx].min(), "at 9000:",
+          fixed.margin[idx].min())
+    assert res.margin[idx].min() >= 0.95 * fixed.margin[idx].min()
+    assert np.allclose(res.cam_margin[idx], fixed.cam_margin[idx])   # CAM at CAM's speed
+
+
+def test_safety_factor_plans_for_a_heavier_cut(tmp_path):
+    from orient.pointwise import point_gain, point_setup
+
+    base = load_plan_scenario(_copy(tmp_path / "a"))
+    heavy = load_plan_scenario(_copy(tmp_path / "b", {"[orient]\n":
+                                                       "[orient]\nsafety_factor = 1.5\n"}))
+    g0 = point_gain(base, point_setup(base))
+    g1 = point_gain(heavy, point_setup(heavy))
+    assert point_setup(heavy).cut.depth_mm == pytest.approx(1.5 * 0.2)
+    assert np.linalg.norm(g1.P) > 1.2 * np.linalg.norm(g0.P)
+    bad = _copy(tmp_path / "c", {"[orient]\n": "[orient]\nsafety_factor = 0.5\n"})
+    with pytest.raises(ScenarioError, match="orient.safety_factor"):
+        load_plan_scenario(bad)
