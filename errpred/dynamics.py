@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from nc.atomic import atomic_path
+from nc.checks import real_number as _real
 
 __all__ = ["DIRECTIONS", "Compliance", "FRFDataError", "Mode"]
 
@@ -50,17 +51,6 @@ class FRFDataError(ValueError):
                   if v is not None]
         super().__init__(f"{', '.join(where)}: {message}" if where else message)
         self.path, self.record, self.line, self.column = path, record, line, column
-
-
-def _real(name: str, value: Any, bound: str = "") -> float:
-    """``value`` as a finite float; ``bound`` '>0' or '>=0' adds a sign check."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a real number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or (bound == ">0" and v <= 0) or (bound == ">=0" and v < 0):
-        limit = {">0": " > 0", ">=0": " >= 0"}.get(bound, "")
-        raise ValueError(f"{name}: expected a finite value{limit}, got {value!r}")
-    return v
 
 
 @dataclass(frozen=True)

@@ -70,6 +70,8 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
+from nc.checks import real_number as _real
+
 __all__ = [
     "DEFAULT_HOP_SAMPLES",
     "DEFAULT_PHASE_THRESHOLD_RAD",
@@ -99,17 +101,6 @@ MIN_WINDOW_SAMPLES = 16
 #: to the largest power of the window (avoids log(0) on synthetic silence).
 _LOG_FLOOR_REL = 1e-30
 _CAUSES = ("tool", "workpiece")
-
-
-def _real(name: str, value: Any, bound: str = "") -> float:
-    """``value`` as a finite float; ``bound`` '>0' or '>=0' adds a sign check."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a real number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or (bound == ">0" and v <= 0) or (bound == ">=0" and v < 0):
-        limit = {">0": " > 0", ">=0": " >= 0"}.get(bound, "")
-        raise ValueError(f"{name}: expected a finite value{limit}, got {value!r}")
-    return v
 
 
 def _int(name: str, value: Any, minimum: int) -> int:

@@ -43,6 +43,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from nc.atomic import atomic_write
+from nc.checks import real_number as _real
 
 __all__ = [
     "FILE_FORMAT",
@@ -76,16 +77,6 @@ DEFAULT_ANGLE_RAD = math.radians(10.0)
 
 class PostureMemoryError(ValueError):
     """A posture-memory file that cannot be read; the message names file, entry, key."""
-
-
-def _real(name: str, value: Any, bound: str = "") -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a real number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or (bound == ">0" and v <= 0) or (bound == ">=0" and v < 0):
-        limit = {">0": " > 0", ">=0": " >= 0"}.get(bound, "")
-        raise ValueError(f"{name}: expected a finite value{limit}, got {value!r}")
-    return v
 
 
 def _unit(name: str, value: Any) -> np.ndarray:

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from nc.checks import real_number as _real
 from orient.fem import q2hex
 
 __all__ = [
@@ -52,17 +53,6 @@ FINISH_SIDES = ("both", "front", "back")
 _MERGE_MM = 1e-6
 #: Largest |cosine| between the frame directions accepted as orthogonal.
 _ORTHO_TOL = 1e-6
-
-
-def _real(name: str, value: Any, bound: str = "") -> float:
-    """``value`` as a finite float; ``bound`` in '', '>0', '>=0'."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a real number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or (bound == ">0" and v <= 0) or (bound == ">=0" and v < 0):
-        limit = {">0": " > 0", ">=0": " >= 0"}.get(bound, "")
-        raise ValueError(f"{name}: expected a finite value{limit}, got {value!r}")
-    return v
 
 
 def _vec3(name: str, value: Any, unit: bool = False) -> np.ndarray:

@@ -50,7 +50,7 @@ from numba import njit
 from scipy.optimize import brentq
 
 from orient.dynamics import ModalSystem
-from orient.stability.zoa import zoa_critical
+from orient.stability.zoa import _positive, _teeth, zoa_critical
 
 __all__ = [
     "KIND_ANGLE_TOL",
@@ -201,20 +201,6 @@ def _steps(steps: Any, k: int, system: ModalSystem, tau: float) -> int:
     return int(steps)
 
 
-def _positive(name: str, value: Any) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a real number, got {value!r}")
-    v = float(value)
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name}: expected a finite value > 0, got {value!r}")
-    return v
-
-
-def _teeth(value: Any) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) \
-            or int(value) < 1:
-        raise ValueError(f"teeth: expected an integer >= 1, got {value!r}")
-    return int(value)
 
 
 class _Fdm:

@@ -25,13 +25,12 @@ The *margin* is the smallest positive ``s`` on the boundary: > 1 stable.
 
 from __future__ import annotations
 
-import math
-import numbers
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from nc.checks import real_number, whole_number
 from orient.dynamics import ModalSystem
 from orient.stability import _kernels as _k
 
@@ -83,19 +82,11 @@ def _matrix3(name: str, value: Any) -> np.ndarray:
 
 
 def _positive(name: str, value: Any) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a real number, got {value!r}")
-    v = float(value)
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name}: expected a finite value > 0, got {value!r}")
-    return v
+    return real_number(name, value, ">0")
 
 
 def _teeth(value: Any) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) \
-            or int(value) < 1:
-        raise ValueError(f"teeth: expected an integer >= 1, got {value!r}")
-    return int(value)
+    return whole_number("teeth", value, 1)
 
 
 def _system(value: Any) -> ModalSystem:
