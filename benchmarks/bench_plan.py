@@ -25,7 +25,11 @@ time-periodic method, time reported. Prints:
    all 200 is extrapolated (labelled so); ``--sdm-speeds 200`` runs them all;
 4. the peak resident memory of the process (``resource`` maxrss).
 
-The machine may be shared: the load average at the start is printed.
+The machine may be shared: the load average at the start is printed. The
+time-periodic margins spend their time in LAPACK's eigenvalues of the
+monodromy matrix (scipy, OpenBLAS threads): on a loaded machine a multi-
+threaded OpenBLAS can be several times slower than one thread; compare with
+``OPENBLAS_NUM_THREADS=1``.
 
 Usage: python benchmarks/bench_plan.py [--points N] [--sdm-speeds N] [--repeats N]
 """
@@ -290,7 +294,7 @@ def main(argv=None) -> int:
     ap.add_argument("--sample", type=int, default=150,
                     help="cutter locations of the batch-path split")
     ap.add_argument("--speeds", type=int, default=200)
-    ap.add_argument("--sdm-speeds", type=int, default=20,
+    ap.add_argument("--sdm-speeds", type=int, default=10,
                     help="speeds of the grid computed by the time-periodic method "
                          "(evenly spread; the rest extrapolated)")
     ap.add_argument("--skip-rigid", action="store_true")
@@ -298,8 +302,10 @@ def main(argv=None) -> int:
     import numba
 
     t_start = time.perf_counter()
-    print(f"{os.cpu_count()} CPUs, numba threads {numba.get_num_threads()}; load average at "
-          f"start {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    blas = os.environ.get("OPENBLAS_NUM_THREADS", "unset (one per CPU)")
+    print(f"{os.cpu_count()} CPUs, numba threads {numba.get_num_threads()}, "
+          f"OPENBLAS_NUM_THREADS {blas}; load average at start "
+          f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
     scn = load_plan_scenario(bundled_scenario("thin-wall"))
     t0 = time.perf_counter()
     setup = point_setup(scn)
