@@ -186,6 +186,7 @@ def batch_split(scn, sample: int) -> None:
     tot = t_gain + t_zoa + t_sys
     print(f"  margin per posture in the batch  : {1e6 * tot / n:7.1f} us/posture "
           f"({n / tot:,.0f} postures/s)")
+    print(f"  peak RSS so far {_peak_mb():.0f} MB")
 
 
 # ---------------------------------------------------------------- 2. long path
