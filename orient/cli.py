@@ -48,12 +48,10 @@ def _cmd_plan(args) -> int:
     machine = get_machine(args.machine) if args.machine else None
     con = _console()
     t0 = time.perf_counter()
-    state = {}
     with con.status("planning") as status:
         def progress(stage, done, total):
             if done == total or done % 50 == 0:
                 status.update(f"{stage}: {done}/{total} cutter locations")
-            state["n"] = total
         res = plan(scn, machine=machine, spindle_rpm=args.spindle_rpm, progress=progress)
     opts = PostOptions(dialect=args.dialect or scn.options.dialect, spindle_rpm=res.spindle_rpm,
                        source=f"orient plan of {scn.name}")

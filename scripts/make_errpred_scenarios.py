@@ -640,17 +640,25 @@ def build(out):
     return summary
 
 
+def check_built(build_fn, out_root: str) -> int:
+    """Rebuild into a temporary folder and compare with ``out_root``; print, return 0/1.
+
+    Shared by the scenario scripts (``make_orient_scenarios.py`` imports it).
+    """
+    with tempfile.TemporaryDirectory() as tmp:
+        build_fn(tmp)
+        bad = [os.path.join(n, f) for n in sorted(os.listdir(tmp))
+               for f in sorted(os.listdir(os.path.join(tmp, n)))
+               if not filecmp.cmp(os.path.join(tmp, n, f), os.path.join(out_root, n, f),
+                                  shallow=False)]
+    print("differ: " + ", ".join(bad) if bad else "bundled scenarios are up to date")
+    return 1 if bad else 0
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if argv == ["--check"]:
-        with tempfile.TemporaryDirectory() as tmp:
-            build(tmp)
-            bad = [os.path.join(n, f) for n in sorted(os.listdir(tmp))
-                   for f in sorted(os.listdir(os.path.join(tmp, n)))
-                   if not filecmp.cmp(os.path.join(tmp, n, f), os.path.join(OUT, n, f),
-                                      shallow=False)]
-        print("differ: " + ", ".join(bad) if bad else "bundled scenarios are up to date")
-        return 1 if bad else 0
+        return check_built(build, OUT)
     if argv:
         print(__doc__.split("\n\n")[1])
         return 2

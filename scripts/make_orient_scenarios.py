@@ -18,12 +18,10 @@ short carbide ball end mill.
 
 from __future__ import annotations
 
-import filecmp
 import math
 import os
 import struct
 import sys
-import tempfile
 
 import numpy as np
 
@@ -131,14 +129,10 @@ def build(out_root: str) -> dict:
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if argv == ["--check"]:
-        with tempfile.TemporaryDirectory() as tmp:
-            build(tmp)
-            bad = [os.path.join(n, f) for n in sorted(os.listdir(tmp))
-                   for f in sorted(os.listdir(os.path.join(tmp, n)))
-                   if not filecmp.cmp(os.path.join(tmp, n, f), os.path.join(OUT, n, f),
-                                      shallow=False)]
-        print("differ: " + ", ".join(bad) if bad else "bundled scenarios are up to date")
-        return 1 if bad else 0
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        from make_errpred_scenarios import check_built
+
+        return check_built(build, OUT)
     if argv:
         print(__doc__.split("\n\n")[1])
         return 2
