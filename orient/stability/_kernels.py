@@ -43,11 +43,19 @@ ROOT_SEPARATION = 1e-6
 
 @njit(cache=True, inline="always")
 def _wrap(a):
-    """Angle wrapped into (-pi, pi]."""
-    a = (a + math.pi) % _TWO_PI
-    if a == 0.0:
-        a = _TWO_PI
-    return a - math.pi
+    """Angle difference ``a`` in (-2 pi, 2 pi) (two angles of (-pi, pi]) wrapped into
+    (-pi, pi], by one shift instead of a floating modulo."""
+    if a > math.pi:
+        return a - _TWO_PI
+    if a <= -math.pi:
+        return a + _TWO_PI
+    return a
+
+
+@njit(cache=True, inline="always")
+def _l1(z):
+    """``|Re z| + |Im z|``: a norm within sqrt(2) of ``abs(z)``, without the hypot."""
+    return abs(z.real) + abs(z.imag)
 
 
 @njit(cache=True, inline="always")
@@ -217,7 +225,7 @@ def _newton3(a2, a1, a0, z, scale):
             return False, z
         step = _cdiv(f, df)
         z = z - step
-        if abs(step) <= NEWTON_TOL * scale:
+        if _l1(step) <= NEWTON_TOL * scale:
             return True, z
     return False, z
 
@@ -257,15 +265,15 @@ def _eigs_grid(q, omega, gw, lam):
         if ng == 3 and j > 1:
             a2, a1, a0 = _cubic_coeffs(q, gw[j, 0], gw[j, 1], gw[j, 2])
             h = min((omega[j] - omega[j - 1]) / (omega[j - 1] - omega[j - 2]), 1.0)
-            scale = abs(lam[j - 1, 0]) + abs(lam[j - 1, 1]) + abs(lam[j - 1, 2]) + 1e-300
+            scale = _l1(lam[j - 1, 0]) + _l1(lam[j - 1, 1]) + _l1(lam[j - 1, 2]) + 1e-300
             ok0, z0 = _newton3(a2, a1, a0, lam[j - 1, 0] + h * (lam[j - 1, 0] - lam[j - 2, 0]),
                                scale)
             ok1, z1 = _newton3(a2, a1, a0, lam[j - 1, 1] + h * (lam[j - 1, 1] - lam[j - 2, 1]),
                                scale)
             z2 = -a2 - z0 - z1                         # Vieta: the sum of the roots
             f2 = ((z2 + a2) * z2 + a1) * z2 + a0
-            ok2 = abs(f2) <= NEWTON_TOL * scale * (abs(z2 - z0) * abs(z2 - z1) + 1e-300)
-            if ok0 and ok1 and ok2 and min(abs(z0 - z1), abs(z0 - z2), abs(z1 - z2)) \
+            ok2 = _l1(f2) <= NEWTON_TOL * scale * (_l1(z2 - z0) * _l1(z2 - z1) + 1e-300)
+            if ok0 and ok1 and ok2 and min(_l1(z0 - z1), _l1(z0 - z2), _l1(z1 - z2)) \
                     > ROOT_SEPARATION * scale:
                 lam[j, 0] = z0
                 lam[j, 1] = z1
