@@ -67,6 +67,10 @@ ZOA_GLOBAL_RANGE = (0.2, 3.0)
 ZOA_GLOBAL_POINTS = 32
 #: Damping ratios below this are taken as this for the grid's width [-].
 ZOA_MIN_ZETA = 1e-3
+#: Where the bands of several modes overlap, a point closer than this fraction
+#: of the finest step any band asks for there to the previous kept point is
+#: dropped (the union of the bands would otherwise be denser than any band) [-].
+ZOA_THIN_FRACTION = 0.75
 #: Mode directions with |d_a . d_b| above this share a group (add their receptances) [-].
 GROUP_PARALLEL_TOL = 1.0 - 1e-9
 
@@ -160,26 +164,50 @@ def _setup(system: ModalSystem, omega: np.ndarray):
             np.ascontiguousarray(system.m_kg), np.ascontiguousarray(system.c_Ns_m))
 
 
+def _required_step(w: np.ndarray, wn: np.ndarray, near: np.ndarray,
+                   global_ratio: float) -> np.ndarray:
+    """Finest grid step [rad/s] any band asks for at each frequency of ``w``."""
+    h = w * (global_ratio - 1.0)
+    for wm, hw in zip(wn, near, strict=True):
+        rel = np.abs(w / wm - 1.0)
+        h = np.where(rel <= ZOA_BAND_HALF_WIDTH,
+                     np.minimum(h, wm * 2.0 * ZOA_BAND_HALF_WIDTH / (ZOA_BAND_POINTS - 1)), h)
+        h = np.where(rel <= hw, np.minimum(h, wm * 2.0 * hw / (ZOA_NEAR_POINTS - 1)), h)
+    return h
+
+
 def zoa_frequency_grid(system: ModalSystem) -> np.ndarray:
     """Default chatter-frequency grid [rad/s], sorted, built from the modes.
 
     Per mode: ``ZOA_NEAR_POINTS`` points over ``wn (1 +- ZOA_NEAR_HALF_WIDTH zeta)``
     and ``ZOA_BAND_POINTS`` over ``wn (1 +- ZOA_BAND_HALF_WIDTH)``; plus
     ``ZOA_GLOBAL_POINTS`` log-spaced points over ``ZOA_GLOBAL_RANGE`` times the
-    lowest and highest natural frequency.
+    lowest and highest natural frequency. Where bands overlap, the union is
+    thinned so that no step is below ``ZOA_THIN_FRACTION`` of the finest step
+    a band asks for there (each band's own spacing is kept).
     """
     system = _system(system)
     wn = system.natural_frequency_rad_s
     zeta = np.maximum(system.damping_ratio, ZOA_MIN_ZETA)
-    parts = [np.geomspace(ZOA_GLOBAL_RANGE[0] * wn.min(), ZOA_GLOBAL_RANGE[1] * wn.max(),
-                          ZOA_GLOBAL_POINTS)]
+    lo, hi = ZOA_GLOBAL_RANGE[0] * wn.min(), ZOA_GLOBAL_RANGE[1] * wn.max()
+    parts = [np.geomspace(lo, hi, ZOA_GLOBAL_POINTS)]
+    near = np.minimum(ZOA_NEAR_HALF_WIDTH * zeta, 0.9)
     u_near = np.linspace(-1.0, 1.0, ZOA_NEAR_POINTS)
     u_band = np.linspace(-1.0, 1.0, ZOA_BAND_POINTS)
-    for w, z in zip(wn, zeta, strict=True):
-        parts.append(w * (1.0 + min(ZOA_NEAR_HALF_WIDTH * z, 0.9) * u_near))
+    for w, hw in zip(wn, near, strict=True):
+        parts.append(w * (1.0 + hw * u_near))
         parts.append(w * (1.0 + ZOA_BAND_HALF_WIDTH * u_band))
     grid = np.unique(np.concatenate(parts))
-    return grid[grid > 0]
+    grid = grid[grid > 0]
+    ratio = (hi / lo) ** (1.0 / (ZOA_GLOBAL_POINTS - 1))
+    min_step = ZOA_THIN_FRACTION * _required_step(grid, wn, near, ratio)
+    keep = np.zeros(grid.size, dtype=bool)
+    last = -np.inf
+    for i, w in enumerate(grid):                 # greedy, in order; ends always kept
+        if w - last >= min_step[i] or i == grid.size - 1:
+            keep[i] = True
+            last = w
+    return grid[keep]
 
 
 # ---------------------------------------------------------------------- API
