@@ -442,11 +442,11 @@ def _cut_rows(cut: Any, shape: tuple[int, ...]) -> np.ndarray:
     if isinstance(cut, LocalCut):
         rows = cut.row()
     elif isinstance(cut, np.ndarray) and cut.dtype == object:
-        rows = np.array([c.row() if isinstance(c, LocalCut) else _bad_cut(c)
-                         for c in cut.ravel()]).reshape(cut.shape + (6,))
+        rows = _rows_of(cut.ravel()).reshape(cut.shape + (6,))
     elif isinstance(cut, Sequence):
-        rows = np.array([c.row() if isinstance(c, LocalCut) else _bad_cut(c) for c in cut])
-        rows = rows.reshape(len(cut), 6)
+        flat = np.empty(len(cut), dtype=object)
+        flat[:] = list(cut)
+        rows = _rows_of(flat).reshape(len(cut), 6)
     else:
         raise ValueError(f"cut: expected a LocalCut or a sequence of them, got "
                          f"{type(cut).__name__}")
@@ -455,6 +455,18 @@ def _cut_rows(cut: Any, shape: tuple[int, ...]) -> np.ndarray:
     except ValueError:
         raise ValueError(f"cut: {rows.shape[:-1]} cuts do not broadcast with the postures' "
                          f"shape {shape}") from None
+
+
+def _rows_of(flat: np.ndarray) -> np.ndarray:
+    """(n, 6) rows of a 1-D object array of cuts; each distinct object is converted
+    once (a planner passes the same cut for every posture at a cutter location)."""
+    if flat.size == 0:
+        return np.zeros((0, 6))
+    ids = np.fromiter(map(id, flat), dtype=np.int64, count=flat.size)
+    _, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
+    uniq = np.array([flat[i].row() if isinstance(flat[i], LocalCut) else _bad_cut(flat[i])
+                     for i in first]).reshape(-1, 6)
+    return uniq[inverse.reshape(-1)]
 
 
 def _bad_cut(c: Any) -> np.ndarray:

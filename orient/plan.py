@@ -138,10 +138,10 @@ def _gains(scn, contacts: Contacts, idx: np.ndarray, axes: np.ndarray, ok: np.nd
     pi, ps = np.nonzero(ok)
     if len(pi) == 0:
         return P, sense
-    cut_arr = np.empty(len(pi), dtype=object)
-    cut_arr[:] = [cuts[i] for i in pi]
+    per_point = np.empty(len(cuts), dtype=object)
+    per_point[:] = cuts
     gains = process_gain_batch(tool, scn.base.coefficients, axes[pi, ps],
-                               contacts.normal[idx][pi], contacts.feed[idx][pi], cut_arr,
+                               contacts.normal[idx][pi], contacts.feed[idx][pi], per_point[pi],
                                parallel=True)
     sense[pi, ps] = gains.cut_sense
     P[pi, ps] = gains.P

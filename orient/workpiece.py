@@ -14,6 +14,9 @@
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from .dynamics import ModalSystem
@@ -65,11 +68,15 @@ class WorkpieceModel:
         lo, hi = float(h.min()), float(h.max())
         z = np.linspace(hi, lo, WALL_LEVELS) if hi > lo else np.array([hi])
         self.level_z = z
-        for cut_z in z:
-            shape = (wall.in_process(float(cut_z), w["thickness_mm"])
-                     if w["stock_thickness_mm"] > w["thickness_mm"] and cut_z < w["height_mm"]
-                     else wall)
-            self.levels.append(wall_modes(shape, n_modes=w["modes"], elements=w["element_mm"]))
+        shapes = [wall.in_process(float(cut_z), w["thickness_mm"])
+                  if w["stock_thickness_mm"] > w["thickness_mm"] and cut_z < w["height_mm"]
+                  else wall for cut_z in z]
+        # the levels are independent and their time is in SuperLU and ARPACK, which
+        # release the GIL: threads solve them side by side
+        with ThreadPoolExecutor(max_workers=min(len(shapes), os.cpu_count() or 1)) as pool:
+            self.levels = list(pool.map(
+                lambda shape: wall_modes(shape, n_modes=w["modes"], elements=w["element_mm"]),
+                shapes))
 
     def modes_at(self, point_mm: np.ndarray) -> list:
         """``[(Mode, direction)]`` of the workpiece at a contact point (empty: rigid)."""

@@ -25,6 +25,7 @@ The *margin* is the smallest positive ``s`` on the boundary: > 1 stable.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -70,7 +71,7 @@ ZOA_MIN_ZETA = 1e-3
 #: Where the bands of several modes overlap, a point closer than this fraction
 #: of the finest step any band asks for there to the previous kept point is
 #: dropped (the union of the bands would otherwise be denser than any band) [-].
-ZOA_THIN_FRACTION = 0.75
+ZOA_THIN_FRACTION = 0.5
 #: Mode directions with |d_a . d_b| above this share a group (add their receptances) [-].
 GROUP_PARALLEL_TOL = 1.0 - 1e-9
 
@@ -187,8 +188,16 @@ def zoa_frequency_grid(system: ModalSystem) -> np.ndarray:
     a band asks for there (each band's own spacing is kept).
     """
     system = _system(system)
-    wn = system.natural_frequency_rad_s
-    zeta = np.maximum(system.damping_ratio, ZOA_MIN_ZETA)
+    return _grid(tuple(system.natural_frequency_rad_s.tolist()),
+                 tuple(system.damping_ratio.tolist()))
+
+
+@functools.lru_cache(maxsize=256)
+def _grid(wn_t: tuple, zeta_t: tuple) -> np.ndarray:
+    """:func:`zoa_frequency_grid` of given natural frequencies and damping ratios,
+    cached (a planner asks for the same modes at many points); read-only."""
+    wn = np.array(wn_t)
+    zeta = np.maximum(np.array(zeta_t), ZOA_MIN_ZETA)
     lo, hi = ZOA_GLOBAL_RANGE[0] * wn.min(), ZOA_GLOBAL_RANGE[1] * wn.max()
     parts = [np.geomspace(lo, hi, ZOA_GLOBAL_POINTS)]
     near = np.minimum(ZOA_NEAR_HALF_WIDTH * zeta, 0.9)
@@ -207,7 +216,9 @@ def zoa_frequency_grid(system: ModalSystem) -> np.ndarray:
         if w - last >= min_step[i] or i == grid.size - 1:
             keep[i] = True
             last = w
-    return grid[keep]
+    grid = grid[keep]
+    grid.flags.writeable = False
+    return grid
 
 
 # ---------------------------------------------------------------------- API

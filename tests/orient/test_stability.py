@@ -50,6 +50,7 @@ from orient.stability import (
     sdm_margin,
     stability_lobes,
     zoa_critical,
+    zoa_frequency_grid,
     zoa_lobes,
     zoa_margin,
     zoa_margin_batch,
@@ -286,6 +287,35 @@ def test_batch_matches_single_calls_and_tool_axes():
                         for i in range(12)])
     assert np.allclose(out2, single2, rtol=1e-9)
     assert not np.allclose(out2, out)
+
+
+def test_default_grid_converged_with_close_and_far_modes():
+    """The default ZOA grid (thinned where the bands of close modes overlap) gives the
+    margins of a 4x denser grid: a tool pair and five wall-like modes along one
+    normal, three of them within 5 % of each other (as at a thin-wall point)."""
+    tool = ModalSystem.from_modes([(Mode.from_frequency(3600, 0.03, 1.6e7), (1, 0, 0)),
+                                   (Mode.from_frequency(3700, 0.03, 1.7e7), (0, 1, 0))],
+                                  source="tool")
+    wall = ModalSystem.from_modes(
+        [(Mode.from_frequency(f, 0.01, k), (0, 0.6, 0.8))
+         for f, k in ((3540, 7.2e6), (5290, 6.5e6), (9870, 2.0e7), (18180, 1.1e8),
+                      (20700, 2.6e8))])
+    sys = ModalSystem.combine(tool, wall)
+    grid = zoa_frequency_grid(sys)
+    wn = sys.natural_frequency_rad_s
+    assert grid.size < 41 * wn.size + 32          # thinned where bands overlap
+    fine = np.unique(np.concatenate([grid] + [grid[:-1] + f * np.diff(grid)
+                                            for f in (0.25, 0.5, 0.75)]))
+    rng = np.random.default_rng(11)
+    p0 = _p_asym()
+    rots = [minimal_rotation(v / np.linalg.norm(v))
+            for v in rng.normal([0, 0, 3], 1.0, size=(60, 3))]
+    p = np.array([r @ p0 @ r.T for r in rots]) * rng.uniform(0.2, 5.0, size=(60, 1, 1))
+    rpm = rng.uniform(4000, 16000, size=60)
+    m = zoa_margin_batch(p, sys, rpm, 2)
+    m_fine = zoa_margin_batch(p, sys, rpm, 2, omega_rad_s=fine)
+    assert np.all(np.isfinite(m))
+    np.testing.assert_allclose(m, m_fine, rtol=1e-6)
 
 
 # ---------------------------------------------------------------------- time-periodic
