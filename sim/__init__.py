@@ -1,0 +1,19 @@
+"""The simulated machine: time-domain cutting with regeneration (``docs/method.md`` §8)."""
+
+from .cutting import (
+    CuttingModel,
+    MillingRun,
+    growth_rate,
+    prepare_cut,
+    simulate,
+    stability_boundary,
+)
+
+__all__ = [
+    "CuttingModel",
+    "MillingRun",
+    "growth_rate",
+    "prepare_cut",
+    "simulate",
+    "stability_boundary",
+]

@@ -1,0 +1,84 @@
+"""Numba kernel of the time-domain regenerative milling model (sim/cutting.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["integrate"]
+
+
+@njit(cache=True, nogil=True)
+def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d, dirs, scale,
+              mk, mc, mm, tool_mode, linear, surface, state, force, disp, acc_tool, chip_mean,
+              contact_loss):
+    """March the cut ``n_steps`` rotation steps.
+
+    Step ``n`` sits at rotation sample ``i = (start + n) mod spr``; its cutting entries
+    are ``ptr[i]:ptr[i+1]``: surface position ``pos`` (index into ``surface``'s
+    rows; the flutes share positions), micro edge ``edge``, static chip ``h0``
+    [mm], chip direction ``nrm`` (3) [mm per m of relative displacement],
+    force at zero chip ``f0`` (3) [N] and per mm of chip ``f1`` (3) [N/mm],
+    world frame. ``surface`` (spr, m) [mm]: offset along the chip direction of
+    the surface the previous flute left, relative to its nominal place.
+    The modes (``phi_d``, ``gam_d``: the exact step map of
+    ``m eta'' + c eta' + k eta = u`` for ``u`` held over the step) are driven
+    by ``u = d . F`` (``dirs`` (nm, 3)). ``scale`` (n_steps,) multiplies the
+    chip widths. Fills ``force`` (n, 3) [N], ``disp`` (n, 3) [m] (relative
+    displacement at the step's start), ``chip_mean`` (n,) [mm] (mean chip of the
+    edges in contact), ``contact_loss`` (n,) (entries whose chip fell to 0).
+    ``acc_tool`` (n, 3) [m/s^2]: acceleration of the tool (modes with
+    ``tool_mode``; ``mk, mc, mm`` their stiffness, damping, mass) at the step's
+    start. ``linear``: every engaged edge cuts, whatever its chip (the
+    linearized model, no leaving the cut). ``state`` (nm, 2) carries (eta, eta')
+    in and out.
+    """
+    nm = dirs.shape[0]
+    q = np.zeros(3)
+    F = np.zeros(3)
+    for n in range(n_steps):
+        i = (start + n) % spr
+        q[0] = 0.0
+        q[1] = 0.0
+        q[2] = 0.0
+        for k in range(nm):
+            for a in range(3):
+                q[a] += dirs[k, a] * state[k, 0]
+        F[0] = 0.0
+        F[1] = 0.0
+        F[2] = 0.0
+        s = scale[n]
+        hsum = 0.0
+        cnt = 0
+        lost = 0
+        for e in range(ptr[i], ptr[i + 1]):
+            p = pos[e]
+            j = edge[e]
+            qn = nrm[e, 0] * q[0] + nrm[e, 1] * q[1] + nrm[e, 2] * q[2]
+            h = h0[e] + qn - surface[p, j]
+            if h > 0.0 or linear:
+                surface[p, j] = qn
+                for a in range(3):
+                    F[a] += s * (f0[e, a] + h * f1[e, a])
+                hsum += h
+                cnt += 1
+            else:
+                surface[p, j] -= h0[e]        # not cut: the next flute meets it
+                lost += 1
+        for a in range(3):
+            force[n, a] = F[a]
+            disp[n, a] = q[a]
+        chip_mean[n] = hsum / cnt if cnt > 0 else 0.0
+        contact_loss[n] = lost
+        for a in range(3):
+            acc_tool[n, a] = 0.0
+        for k in range(nm):
+            u = dirs[k, 0] * F[0] + dirs[k, 1] * F[1] + dirs[k, 2] * F[2]
+            if tool_mode[k]:
+                acc = (u - mc[k] * state[k, 1] - mk[k] * state[k, 0]) / mm[k]
+                for a in range(3):
+                    acc_tool[n, a] += dirs[k, a] * acc
+            x0 = phi_d[k, 0, 0] * state[k, 0] + phi_d[k, 0, 1] * state[k, 1] + gam_d[k, 0] * u
+            x1 = phi_d[k, 1, 0] * state[k, 0] + phi_d[k, 1, 1] * state[k, 1] + gam_d[k, 1] * u
+            state[k, 0] = x0
+            state[k, 1] = x1

@@ -1,0 +1,407 @@
+"""Time-domain milling with regeneration (``docs/method.md`` §8).
+
+The force model is errpred's micro-edge model, the engagement orient's
+(:func:`orient.engagement.engagement`: which micro edges of which flute are in
+the material at each rotation sample of a finishing cut, and their static
+chip ``h0``), the dynamics orient's :class:`~orient.dynamics.ModalSystem`
+(tool modes turned with the axis, workpiece modes along their directions;
+``q`` is the relative displacement, tool minus workpiece, in the workpiece
+frame [m]).
+
+At each step, each micro edge that the static engagement puts in the
+material has the chip
+
+    ``h = h0 + n . q(t) - S``
+
+with ``n`` its outward envelope normal (the chip direction) and ``S`` the
+offset, along ``n``, of the surface the previous flute left at the same
+place (relative to its nominal position): regeneration from the surface,
+not from a fixed delay. If ``h > 0`` the edge cuts, its force is
+``s (F0 + h F1)`` (errpred: edge and chip terms, chip widths scaled by
+``s``) and it leaves ``S = n . q(t)``; otherwise it leaves the material as
+it was (``S -= h0``: the next flute meets a thicker chip) -- the tool jumping
+out of the cut is the model's nonlinearity. For small vibrations this is the
+linear model that orient's stability analysis uses
+(``F = s H(t) (q(t) - q(t - tau))``), which the tests check.
+
+Each mode ``m eta'' + c eta' + k eta = d . F`` is advanced exactly for the
+force held over the step (its 2x2 matrix exponential), so the step only has
+to sample the force finely: ``STEPS_PER_MODE_PERIOD`` steps per period of the
+highest mode at least, and at least ``MIN_STEPS_PER_REV`` per revolution.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from errpred.force import CuttingCoefficients, local_components, to_tool_frame
+from errpred.tool import MicroEdges, Tool
+from nc.checks import real_number
+from orient.dynamics import ModalSystem
+from orient.engagement import LocalCut, engagement
+
+from . import _kernels as _k
+from .constants import (
+    BOUNDARY_RTOL,
+    GROWTH_LINEAR_FRACTION,
+    GROWTH_MIN_POINTS,
+    GROWTH_SKIP_REVOLUTIONS,
+    MAX_STEPS_PER_REV,
+    MICRO_EDGES_ENVELOPE,
+    MIN_STEPS_PER_REV,
+    RAMP_REVOLUTIONS,
+    STEPS_PER_MODE_PERIOD,
+)
+
+__all__ = [
+    "CuttingModel",
+    "MillingRun",
+    "growth_rate",
+    "prepare_cut",
+    "simulate",
+    "stability_boundary",
+]
+
+_MM_PER_M = 1e3
+
+
+@dataclass(frozen=True, eq=False)
+class CuttingModel:
+    """Everything a run needs, prepared once per cut and posture.
+
+    Attributes
+    ----------
+    spindle_rpm : float [rev/min]
+    flutes : int
+    steps_per_rev : int
+        Rotation steps per revolution (a multiple of the flutes).
+    dt_s : float [s]
+        Step.
+    system : ModalSystem
+        The dynamics, tool modes carried to the posture's axis.
+    normal : ndarray, shape (3,) [-]
+        Outward surface normal at the contact (workpiece frame).
+    fz_mm : float [mm]
+        Feed per tooth.
+    table : tuple of ndarray
+        The engagement table of the kernel (``ptr, pos, edge, h0, nrm, f0, f1``).
+    n_edges : int
+        Micro edges per flute.
+    step_map : tuple of ndarray
+        ``(phi_d (nm, 2, 2), gam_d (nm, 2))``: the modes' exact step map.
+    """
+
+    spindle_rpm: float
+    flutes: int
+    steps_per_rev: int
+    dt_s: float
+    system: ModalSystem
+    normal: np.ndarray
+    fz_mm: float
+    table: tuple
+    n_edges: int
+    step_map: tuple
+
+    @property
+    def steps_per_tooth(self) -> int:
+        return self.steps_per_rev // self.flutes
+
+    @property
+    def tooth_period_s(self) -> float:
+        return 60.0 / (self.spindle_rpm * self.flutes)
+
+
+@dataclass(frozen=True, eq=False)
+class MillingRun:
+    """A simulated run.
+
+    Attributes
+    ----------
+    time_s : ndarray, shape (n,) [s]
+    force_N : ndarray, shape (n, 3) [N]
+        Force on the tool, workpiece frame.
+    displacement_m : ndarray, shape (n, 3) [m]
+        Relative displacement, tool minus workpiece, workpiece frame.
+    tool_acceleration_m_s2 : ndarray, shape (n, 3) [m/s^2]
+        Acceleration of the tool alone (its modes), workpiece frame: what
+        sensors on the spindle see.
+    modal_state : ndarray, shape (n_teeth, nm, 2)
+        ``(eta, eta')`` once per tooth period (the Poincare section) [m, m/s].
+    chip_mean_mm : ndarray, shape (n,) [mm]
+        Mean chip of the edges in contact at each step.
+    contact_loss : ndarray, shape (n,) [-]
+        Engaged micro edges whose chip fell to zero (the tool left the cut).
+    surface_offset_mm : ndarray, shape (n_teeth,) [mm]
+        Relative displacement along the surface normal once per tooth, at the
+        phase where the lowest engaged edge generates the surface: the
+        generated surface's deviation (positive: the tool stood off, material
+        left), chatter marks show as its variation.
+    scale : float [-]
+        Chip-width scale of the run.
+    """
+
+    time_s: np.ndarray
+    force_N: np.ndarray
+    displacement_m: np.ndarray
+    tool_acceleration_m_s2: np.ndarray
+    modal_state: np.ndarray
+    chip_mean_mm: np.ndarray
+    contact_loss: np.ndarray
+    surface_offset_mm: np.ndarray
+    scale: float
+
+
+def _steps_per_rev(system: ModalSystem, spindle_rpm: float, flutes: int,
+                   steps_per_rev: int | None) -> int:
+    if steps_per_rev is None:
+        f_rev = spindle_rpm / 60.0
+        f_max = float(system.natural_frequency_rad_s.max()) / (2.0 * math.pi)
+        n = max(MIN_STEPS_PER_REV, math.ceil(STEPS_PER_MODE_PERIOD * f_max / f_rev))
+    else:
+        if isinstance(steps_per_rev, bool) or not isinstance(steps_per_rev, (int, np.integer)) \
+                or steps_per_rev < 4 * flutes:
+            raise ValueError(f"steps_per_rev: expected an integer >= {4 * flutes}, "
+                             f"got {steps_per_rev!r}")
+        n = int(steps_per_rev)
+    n = flutes * math.ceil(n / flutes)
+    if n > MAX_STEPS_PER_REV:
+        raise ValueError(f"steps_per_rev: {n} steps per revolution are needed for the highest "
+                         f"mode at {spindle_rpm:g} rev/min, more than MAX_STEPS_PER_REV="
+                         f"{MAX_STEPS_PER_REV}; drop modes far above the tooth frequency")
+    return n
+
+
+def _step_map(system: ModalSystem, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    nm = system.n_modes
+    phi = np.empty((nm, 2, 2))
+    gam = np.empty((nm, 2))
+    for k in range(nm):
+        m, c, kk = system.m_kg[k], system.c_Ns_m[k], system.k_N_m[k]
+        a = np.array([[0.0, 1.0], [-kk / m, -c / m]])
+        # Van Loan: expm([[A, B], [0, 0]] dt) = [[Phi, Gamma B], [0, I]]
+        big = np.zeros((3, 3))
+        big[:2, :2] = a
+        big[1, 2] = 1.0 / m
+        e = scipy.linalg.expm(big * dt)
+        phi[k] = e[:2, :2]
+        gam[k] = e[:2, 2]
+    return phi, gam
+
+
+def prepare_cut(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, normal: Any,
+                feed_dir: Any, cut: LocalCut, system: ModalSystem, spindle_rpm: float, *,
+                edges: MicroEdges | None = None, steps_per_rev: int | None = None,
+                cutting_distance_mm: float = 0.0) -> CuttingModel:
+    """The engagement table and the modes' step map of one cut.
+
+    Parameters
+    ----------
+    tool : errpred.tool.Tool
+    coeffs : errpred.force.CuttingCoefficients
+    posture_axis, normal, feed_dir : array_like, shape (3,) [-]
+        Tool axis, outward surface normal and feed direction at the contact
+        (workpiece frame).
+    cut : orient.engagement.LocalCut
+        Depth, pick feed, previous pass, feed per tooth.
+    system : orient.dynamics.ModalSystem
+        Relative dynamics; its tool modes are carried to ``posture_axis``.
+    spindle_rpm : float [rev/min]
+    edges : MicroEdges, optional
+        Micro edges of one flute (default ``MICRO_EDGES_ENVELOPE`` on the envelope).
+    steps_per_rev : int, optional
+        Rotation steps per revolution (default from the highest mode).
+    cutting_distance_mm : float [mm]
+        The tool's cutting distance so far (errpred's wear term of the edge force).
+
+    Returns
+    -------
+    CuttingModel
+    """
+    rpm = real_number("spindle_rpm", spindle_rpm, ">0")
+    cl = real_number("cutting_distance_mm", cutting_distance_mm, ">=0")
+    if not isinstance(system, ModalSystem):
+        raise ValueError(f"system: expected an orient.dynamics.ModalSystem, got "
+                         f"{type(system).__name__}")
+    u = np.asarray(posture_axis, dtype=float)
+    system = system.with_tool_axis(u)
+    if edges is None:
+        edges = tool.micro_edges(MICRO_EDGES_ENVELOPE)
+    spr = _steps_per_rev(system, rpm, tool.flutes, steps_per_rev)
+    eng = engagement(tool, edges, u, normal, feed_dir, cut, n_angles=spr)
+    spr = eng.theta.size                       # rounded to the flutes and even
+    spt = spr // tool.flutes
+    i, f, j = np.nonzero(eng.cutting)          # (angle sample, flute, edge), i sorted
+    phi = eng.phi[i, f, j]
+    kappa = edges.kappa[j]
+    db = edges.db[j]
+    zero = to_tool_frame(*local_components(coeffs, 0.0, cl, db), phi, kappa)
+    one = to_tool_frame(*local_components(coeffs, 1.0, cl, db), phi, kappa)
+    frame = eng.frame
+    f0 = zero @ frame
+    f1 = (one - zero) @ frame
+    nrm = edges.take(j).normals(phi) @ frame * _MM_PER_M
+    ptr = np.searchsorted(i, np.arange(spr + 1)).astype(np.int64)
+    pos = ((i + f * spt) % spr).astype(np.int64)
+    table = (ptr, pos, j.astype(np.int64), np.ascontiguousarray(eng.h[i, f, j]),
+             np.ascontiguousarray(nrm), np.ascontiguousarray(f0), np.ascontiguousarray(f1))
+    dt = 60.0 / (rpm * spr)
+    return CuttingModel(spindle_rpm=rpm, flutes=tool.flutes, steps_per_rev=spr, dt_s=dt,
+                        system=system, normal=np.asarray(eng.normal, dtype=float),
+                        fz_mm=cut.fz_mm, table=table, n_edges=len(edges),
+                        step_map=_step_map(system, dt))
+
+
+def _generating_phase(model: CuttingModel) -> int:
+    """Rotation sample (within a tooth) where an engaged edge's chip direction is most
+    nearly the surface normal: where the surface is generated."""
+    ptr, _pos, _e, _h0, nrm, _f0, _f1 = model.table
+    if ptr[-1] == 0:
+        return 0
+    sample = np.repeat(np.arange(model.steps_per_rev), np.diff(ptr))
+    best = np.full(model.steps_per_rev, -np.inf)
+    np.maximum.at(best, sample, nrm @ model.normal)
+    return int(np.argmax(best)) % model.steps_per_tooth
+
+
+def simulate(model: CuttingModel, revolutions: float, *, scale: float = 1.0,
+             ramp_revolutions: float = RAMP_REVOLUTIONS, linear: bool = False) -> MillingRun:
+    """Run the cut for a number of revolutions from rest.
+
+    Parameters
+    ----------
+    model : CuttingModel
+    revolutions : float [-]
+        Duration in spindle revolutions, > 0.
+    scale : float [-]
+        Chip-width scale (1: the cut as given; the stability margin is the
+        scale at which the cut starts to chatter).
+    ramp_revolutions : float [-]
+        The scale rises linearly from 0 over this many revolutions.
+    linear : bool
+        Keep every engaged edge cutting even where its chip falls below zero:
+        the linearized model of the stability analysis. Default False: the
+        tool leaves the cut where the chip vanishes.
+
+    Returns
+    -------
+    MillingRun
+    """
+    rev = real_number("revolutions", revolutions, ">0")
+    s = real_number("scale", scale, ">=0")
+    ramp = real_number("ramp_revolutions", ramp_revolutions, ">=0")
+    spr, spt = model.steps_per_rev, model.steps_per_tooth
+    n_teeth = max(1, math.ceil(rev * model.flutes))
+    n = n_teeth * spt
+    t = np.arange(n) * model.dt_s
+    sc = np.full(n, s)
+    if ramp > 0:
+        sc *= np.minimum(np.arange(n) / (ramp * spr), 1.0)
+    nm = model.system.n_modes
+    state = np.zeros((nm, 2))
+    surface = np.zeros((spr, model.n_edges))
+    force = np.empty((n, 3))
+    disp = np.empty((n, 3))
+    chip = np.empty(n)
+    lost = np.empty(n, dtype=np.int64)
+    poincare = np.empty((n_teeth, nm, 2))
+    dirs = np.ascontiguousarray(model.system.direction)
+    phi_d, gam_d = model.step_map
+    acc = np.empty((n, 3))
+    sysm = model.system
+    tool_mode = np.asarray(sysm.source == "tool")
+    for k in range(n_teeth):                  # one kernel call per tooth: the Poincare state
+        sl = slice(k * spt, (k + 1) * spt)
+        _k.integrate((k * spt) % spr, spt, spr, *model.table, phi_d, gam_d, dirs, sc[sl],
+                     sysm.k_N_m, sysm.c_Ns_m, sysm.m_kg, tool_mode, bool(linear), surface,
+                     state, force[sl],
+                     disp[sl], acc[sl], chip[sl], lost[sl])
+        poincare[k] = state
+    g = _generating_phase(model)
+    surf = disp[g::spt][:n_teeth] @ model.normal * _MM_PER_M
+    return MillingRun(time_s=t, force_N=force, displacement_m=disp, tool_acceleration_m_s2=acc,
+                      modal_state=poincare,
+                      chip_mean_mm=chip, contact_loss=lost, surface_offset_mm=surf, scale=s)
+
+
+def growth_rate(run: MillingRun, model: CuttingModel) -> float:
+    """Growth of the deviation from the periodic (forced) motion per tooth period.
+
+    The Poincare states (once per tooth) of a stable cut converge to a fixed
+    point; their successive differences shrink by the critical Floquet
+    multiplier per tooth. Returns the slope of ``log |difference|`` per tooth
+    from ``GROWTH_SKIP_REVOLUTIONS`` after the ramp until the displacement
+    (once per tooth) departs from its settled value by ``GROWTH_LINEAR_FRACTION``
+    of the feed per tooth (where the tool starts to leave the cut and growth
+    saturates): < 0 stable, > 0 chatter [1/tooth].
+    """
+    x = run.modal_state.reshape(run.modal_state.shape[0], -1)
+    w = np.sqrt(np.maximum(model.system.k_N_m, 1e-300))       # energy-like weights
+    wm = np.sqrt(np.maximum(model.system.m_kg, 1e-300))
+    wts = np.stack([w, wm], axis=1).reshape(-1)
+    d = np.linalg.norm(np.diff(x, axis=0) * wts, axis=1)       # (n,) per tooth
+    n = d.size
+    ramp_end = int(math.ceil(RAMP_REVOLUTIONS * model.flutes))
+    first = ramp_end + int(math.ceil(GROWTH_SKIP_REVOLUTIONS * model.flutes))
+    # deviation of the Poincare samples of the displacement from their settled value
+    amp = run.displacement_m[::model.steps_per_tooth][1:n + 1] * _MM_PER_M
+    ref = np.median(amp[min(first, n - 1):], axis=0) if n else np.zeros(3)
+    dev = np.linalg.norm(amp - ref, axis=1)
+    over = np.flatnonzero(dev > GROWTH_LINEAR_FRACTION * model.fz_mm)
+    over = over[over >= first]
+    last = int(over[0]) if over.size else n
+    if last - first < GROWTH_MIN_POINTS:        # left the linear range early: grew in the ramp
+        first = max(1, last - max(GROWTH_MIN_POINTS, ramp_end))
+    k = np.arange(first, last)
+    k = k[d[k] > 0]
+    if k.size < GROWTH_MIN_POINTS:
+        raise ValueError("growth_rate: too few tooth periods to fit a growth rate; simulate "
+                         "more revolutions")
+    return float(np.polyfit(k, np.log(d[k]), 1)[0])
+
+
+def stability_boundary(model: CuttingModel, lo: float, hi: float, *, revolutions: float = 60.0,
+                       rtol: float = BOUNDARY_RTOL, linear: bool = False) -> float:
+    """Chip-width scale where the simulated growth rate crosses zero (bisection).
+
+    Parameters
+    ----------
+    model : CuttingModel
+    lo, hi : float [-]
+        A bracket: the cut is stable at ``lo`` and chatters at ``hi``
+        (checked; a ValueError names the end that is not).
+    revolutions : float [-]
+        Length of each run.
+    rtol : float [-]
+        Relative width of the final bracket.
+    linear : bool
+        As in :func:`simulate`.
+
+    Returns
+    -------
+    float
+        The boundary scale (the bracket's midpoint) [-].
+    """
+    lo = real_number("lo", lo, ">0")
+    hi = real_number("hi", hi, ">0")
+    if hi <= lo:
+        raise ValueError(f"hi: expected a scale above lo={lo:g}, got {hi:g}")
+
+    def rate(s: float) -> float:
+        return growth_rate(simulate(model, revolutions, scale=s, linear=linear), model)
+
+    if rate(lo) >= 0:
+        raise ValueError(f"lo: the cut already chatters at scale {lo:g}")
+    if rate(hi) <= 0:
+        raise ValueError(f"hi: the cut is still stable at scale {hi:g}")
+    while hi - lo > rtol * hi:
+        mid = math.sqrt(lo * hi)
+        if rate(mid) < 0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)

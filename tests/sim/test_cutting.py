@@ -1,0 +1,177 @@
+"""Time-domain milling (sim.cutting) against orient's stability analysis and closed forms.
+
+Benchmarks: a straight-fluted flat end mill, half-immersion down-milling, on
+the symmetric 2-DOF tool of Ding et al. (IJMTM 50 (2010) 502-509: 922 Hz,
+zeta 0.011, k = 1.34e6 N/m in x and y), with errpred's micro-edge force
+model; the reference is orient's full discretization (Floquet) of the same
+linearized model, whose own benchmarks are in tests/orient/test_stability.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from errpred.dynamics import Mode
+from errpred.force import CuttingCoefficients
+from errpred.tool import Tool
+from orient.dynamics import ModalSystem
+from orient.engagement import LocalCut
+from orient.gain import process_gain
+from orient.stability import sdm_margin
+from sim.cutting import growth_rate, prepare_cut, simulate, stability_boundary
+
+COEF = CuttingCoefficients(Ktc_N_mm2=2000.0, Krc_N_mm2=700.0, Kac_N_mm2=300.0,
+                           Kte0_N_mm=20.0, Kre0_N_mm=25.0, Kae0_N_mm=5.0)
+Z, X, Y = np.eye(3)[2], np.eye(3)[0], np.eye(3)[1]
+DEPTH = 1.0
+FLAT = Tool("flat", 10.0, flutes=2, helix_deg=0.0, flute_length_mm=6.0)
+EDGES = FLAT.micro_edges(40, flank_height_mm=DEPTH)
+HALF_DOWN = LocalCut(DEPTH, 5.0, 1, 0.05)       # ae = 5 mm of D = 10, down-milling
+
+
+def _tool_2dof() -> ModalSystem:
+    m = Mode.from_frequency(922.0, 0.011, 1.34e6)
+    return ModalSystem.from_modes([(m, (1, 0, 0)), (m, (0, 1, 0))], source="tool")
+
+
+def _fdm_margin(rpm: float, steps: int | None = None) -> float:
+    g = process_gain(FLAT, COEF, Z, Z, X, HALF_DOWN, spindle_rpm=rpm, edges=EDGES,
+                     n_angles=360)
+    return sdm_margin(g.H, _tool_2dof(), rpm, 2, steps=steps).margin
+
+
+@pytest.mark.parametrize("rpm", [9000.0, 12000.0])
+def test_boundary_agrees_with_time_periodic_analysis(rpm):
+    """The simulated boundary (nonlinear model, default step) lies within 10 % of the
+    full-discretization margin at two speeds (one near a lobe bottom)."""
+    ref = _fdm_margin(rpm)
+    model = prepare_cut(FLAT, COEF, Z, Z, X, HALF_DOWN, _tool_2dof(), rpm, edges=EDGES)
+    b = stability_boundary(model, 0.5 * ref, 2.0 * ref)
+    assert abs(b / ref - 1.0) < 0.10
+
+
+def test_boundary_converges_to_the_analysis_under_refinement():
+    """Halving the step twice moves the boundary toward the analysis (first order)."""
+    rpm = 9000.0
+    ref = _fdm_margin(rpm, steps=80)
+    err = []
+    for spr in (360, 1440):
+        model = prepare_cut(FLAT, COEF, Z, Z, X, HALF_DOWN, _tool_2dof(), rpm, edges=EDGES,
+                            steps_per_rev=spr)
+        err.append(abs(stability_boundary(model, 0.5 * ref, 2.0 * ref, revolutions=80) / ref
+                       - 1.0))
+    assert err[1] < 0.5 * err[0]
+    assert err[1] < 0.03
+
+
+def test_stable_cut_settles_to_the_static_force_and_deflection():
+    """Well below the boundary the force becomes tooth-periodic, its mean equals
+    the static micro-edge force (sum of F0 + h0 F1 over the engaged edges), and
+    the mean deflection is G(0) times the mean force (compliance 1/k per axis)."""
+    rpm = 9000.0
+    model = prepare_cut(FLAT, COEF, Z, Z, X, HALF_DOWN, _tool_2dof(), rpm, edges=EDGES)
+    run = simulate(model, 80, scale=0.3 * _fdm_margin(rpm))
+    spt, spr = model.steps_per_tooth, model.steps_per_rev
+    last = slice(-spr, None)
+    ptr, _pos, _e, h0, _n, f0, f1 = model.table
+    static = np.zeros((spr, 3))
+    for i in range(spr):
+        static[i] = (f0[ptr[i]:ptr[i + 1]] + h0[ptr[i]:ptr[i + 1], None]
+                     * f1[ptr[i]:ptr[i + 1]]).sum(axis=0)
+    mean_static = 0.3 * _fdm_margin(rpm) * static.mean(axis=0)
+    np.testing.assert_allclose(run.force_N[last].mean(axis=0), mean_static,
+                               atol=2e-3 * np.abs(mean_static).max())
+    np.testing.assert_allclose(run.force_N[-spt:], run.force_N[-2 * spt:-spt],
+                               atol=1e-3 * np.abs(run.force_N[-spt:]).max())
+    defl = run.displacement_m[last].mean(axis=0)
+    np.testing.assert_allclose(defl[:2], mean_static[:2] / 1.34e6, rtol=0.02)
+    assert growth_rate(run, model) < 0
+
+
+def test_chatter_grows_then_the_tool_leaves_the_cut():
+    """Above the boundary the linear model keeps growing; the nonlinear one saturates
+    once the chip vanishes somewhere (contact loss): over 300 revolutions its
+    vibration stays within a few times what it reached after 60, while the
+    linear model's grows more than tenfold every 20 revolutions."""
+    rpm = 9000.0
+    ref = _fdm_margin(rpm)
+    model = prepare_cut(FLAT, COEF, Z, Z, X, HALF_DOWN, _tool_2dof(), rpm, edges=EDGES)
+    spr = model.steps_per_rev
+
+    def per_rev(run):                      # peak-to-peak per revolution [m]
+        a = run.displacement_m[:, :2].reshape(-1, spr, 2)
+        return np.ptp(a, axis=1).max(axis=1)
+
+    def spread(run, revs):                 # once-per-tooth samples: 0 for a forced motion
+        p = run.displacement_m[::model.steps_per_tooth, :2][-revs * model.flutes:]
+        return np.ptp(p, axis=0).max()
+
+    lin = per_rev(simulate(model, 80, scale=2.0 * ref, linear=True))
+    non_run = simulate(model, 300, scale=2.0 * ref)
+    non = per_rev(non_run)
+    assert lin[-1] > 10 * lin[-21]
+    assert non[60:].max() < 3 * non[20:60].max()
+    stable = simulate(model, 300, scale=0.5 * ref)
+    assert spread(non_run, 100) > 1000 * spread(stable, 100)      # it does chatter
+    assert non_run.contact_loss[-spr:].sum() > 0
+
+
+def test_exact_step_map_matches_free_vibration():
+    """With no cut (zero scale) an initial modal state rings down as the closed-form
+    damped oscillation: the step map is the exact solution."""
+    rpm = 9000.0
+    model = prepare_cut(FLAT, COEF, Z, Z, X, HALF_DOWN, _tool_2dof(), rpm, edges=EDGES)
+    phi, _gam = model.step_map
+    wn, zeta = 2 * math.pi * 922.0, 0.011
+    wd = wn * math.sqrt(1 - zeta**2)
+    n = 500
+    x = np.array([1e-6, 0.0])
+    for _ in range(n):
+        x = phi[0] @ x
+    t = n * model.dt_s
+    exact = 1e-6 * math.exp(-zeta * wn * t) * (math.cos(wd * t)
+                                                + zeta * wn / wd * math.sin(wd * t))
+    assert x[0] == pytest.approx(exact, rel=1e-9, abs=1e-18)
+
+
+def test_bad_input_is_refused_by_name():
+    model = prepare_cut(FLAT, COEF, Z, Z, X, HALF_DOWN, _tool_2dof(), 9000.0, edges=EDGES)
+    with pytest.raises(ValueError, match="scale"):
+        simulate(model, 10, scale=float("nan"))
+    with pytest.raises(ValueError, match="revolutions"):
+        simulate(model, 0)
+    with pytest.raises(ValueError, match="spindle_rpm"):
+        prepare_cut(FLAT, COEF, Z, Z, X, HALF_DOWN, _tool_2dof(), -1.0)
+    with pytest.raises(ValueError, match="steps_per_rev"):
+        prepare_cut(FLAT, COEF, Z, Z, X, HALF_DOWN, _tool_2dof(), 9000.0, steps_per_rev=3)
+    with pytest.raises(ValueError, match="MAX_STEPS_PER_REV"):
+        stiff = ModalSystem.from_modes([(Mode.from_frequency(5e5, 0.01, 1e9), (1, 0, 0))])
+        prepare_cut(FLAT, COEF, Z, Z, X, HALF_DOWN, stiff, 9000.0)
+    with pytest.raises(ValueError, match="hi"):
+        stability_boundary(model, 0.01, 0.02)
+
+
+def test_ball_end_mill_on_the_thin_wall_matches_the_analysis_when_linear():
+    """The bundled thin-wall point (D10 ball, CAM posture, two tool modes and the
+    wall's modes at the contact): the linearized simulation's boundary lies within
+    10 % of the full discretization; the full model's lies above it, because edges
+    with a thin chip (near the previous pass and the tip) leave the cut at small
+    amplitudes, which limits the growth (the analysis is linear)."""
+    from orient.pointwise import point_setup
+    from orient.scenario import bundled_scenario, load_plan_scenario
+
+    scn = load_plan_scenario(bundled_scenario("thin-wall"))
+    s = point_setup(scn)
+    tool, coef = scn.base.tool, scn.base.coefficients
+    i = s.index
+    u, n, f = s.axis, s.contacts.normal[i], s.contacts.feed[i]
+    g = process_gain(tool, coef, u, n, f, s.cut, spindle_rpm=s.spindle_rpm, n_angles=360)
+    ref = sdm_margin(g.H, s.system.with_tool_axis(u), s.spindle_rpm, tool.flutes).margin
+    model = prepare_cut(tool, coef, u, n, f, s.cut, s.system, s.spindle_rpm)
+    lin = stability_boundary(model, 0.5 * ref, 2.0 * ref, linear=True)
+    assert abs(lin / ref - 1.0) < 0.10
+    full = stability_boundary(model, 0.5 * ref, 3.0 * ref)
+    assert full > lin
