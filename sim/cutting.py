@@ -225,7 +225,7 @@ def prepare_cut(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, norm
     rpm = real_number("spindle_rpm", spindle_rpm, ">0")
     cl = real_number("cutting_distance_mm", cutting_distance_mm, ">=0")
     if not isinstance(system, ModalSystem):
-        raise ValueError(f"system: expected an orient.dynamics.ModalSystem, got "
+        raise TypeError(f"system: expected an orient.dynamics.ModalSystem, got "
                          f"{type(system).__name__}")
     u = np.asarray(posture_axis, dtype=float)
     system = system.with_tool_axis(u)
@@ -345,8 +345,8 @@ def growth_rate(run: MillingRun, model: CuttingModel) -> float:
     wts = np.stack([w, wm], axis=1).reshape(-1)
     d = np.linalg.norm(np.diff(x, axis=0) * wts, axis=1)       # (n,) per tooth
     n = d.size
-    ramp_end = int(math.ceil(RAMP_REVOLUTIONS * model.flutes))
-    first = ramp_end + int(math.ceil(GROWTH_SKIP_REVOLUTIONS * model.flutes))
+    ramp_end = math.ceil(RAMP_REVOLUTIONS * model.flutes)
+    first = ramp_end + math.ceil(GROWTH_SKIP_REVOLUTIONS * model.flutes)
     # deviation of the Poincare samples of the displacement from their settled value
     amp = run.displacement_m[::model.steps_per_tooth][1:n + 1] * _MM_PER_M
     ref = np.median(amp[min(first, n - 1):], axis=0) if n else np.zeros(3)
