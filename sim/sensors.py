@@ -1,0 +1,198 @@
+"""Two accelerometers near the spindle nose (``docs/method.md`` §7-8).
+
+The simulated tool's acceleration (its modes only: the sensors sit on the
+spindle, they do not touch the workpiece) is turned into what a data
+acquisition card delivers:
+
+1. *location*: the spindle nose moves ``location_factor`` times as much as the
+   tool tip in the tool's bending modes (a mode shape ratio);
+2. *frame*: workpiece frame to the machine's X and Y (``rotation``);
+3. *sensor and conditioning*: the accelerometer's mounted resonance (second
+   order, unit gain at low frequency) and an analog anti-alias low-pass
+   (Butterworth) at ``antialias_fraction`` of the sample rate, integrated
+   exactly for an input linear between the simulation's steps (first-order
+   hold, so no frequency warping whatever the step);
+4. *noise*: white, ``noise_rms_m_s2`` per channel (seeded generator);
+5. *sampling and ADC*: linear interpolation to the sample instants, then a
+   ``bits``-bit converter over ``+- range_m_s2``: counts, clipped.
+
+Units: m/s^2 in, counts and m/s^2 out, Hz, s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import signal
+
+from nc.checks import real_number
+
+__all__ = ["Accelerometers", "SensorSignals", "sample_accelerometers"]
+
+
+@dataclass(frozen=True)
+class Accelerometers:
+    """The sensor pair and its acquisition chain.
+
+    Parameters
+    ----------
+    sample_rate_hz : float [Hz]
+        ADC rate.
+    location_factor : float [-]
+        Spindle-nose motion per tool-tip motion in the bending modes.
+    resonance_hz : float [Hz]
+        Mounted resonance of the accelerometers.
+    resonance_damping : float [-]
+        Its damping ratio.
+    antialias_fraction : float [-]
+        Anti-alias corner as a fraction of the sample rate (< 0.5).
+    antialias_order : int
+        Butterworth order.
+    noise_rms_m_s2 : float [m/s^2]
+        White noise per channel (sensor, cable, converter).
+    range_m_s2 : float [m/s^2]
+        Full scale: +- this.
+    bits : int
+        Converter resolution.
+    """
+
+    sample_rate_hz: float = 25_600.0
+    location_factor: float = 0.3
+    resonance_hz: float = 28_000.0
+    resonance_damping: float = 0.05
+    antialias_fraction: float = 0.4
+    antialias_order: int = 8
+    noise_rms_m_s2: float = 0.5
+    range_m_s2: float = 500.0
+    bits: int = 16
+
+    def __post_init__(self) -> None:
+        real_number("sample_rate_hz", self.sample_rate_hz, ">0")
+        real_number("location_factor", self.location_factor, ">0")
+        real_number("resonance_hz", self.resonance_hz, ">0")
+        real_number("resonance_damping", self.resonance_damping, ">0")
+        a = real_number("antialias_fraction", self.antialias_fraction, ">0")
+        if a >= 0.5:
+            raise ValueError(f"antialias_fraction: expected < 0.5, got {a!r}")
+        if not isinstance(self.antialias_order, int) or self.antialias_order < 1:
+            raise ValueError(f"antialias_order: expected an integer >= 1, got "
+                             f"{self.antialias_order!r}")
+        real_number("noise_rms_m_s2", self.noise_rms_m_s2, ">=0")
+        real_number("range_m_s2", self.range_m_s2, ">0")
+        if not isinstance(self.bits, int) or not 8 <= self.bits <= 24:
+            raise ValueError(f"bits: expected an integer in 8..24, got {self.bits!r}")
+
+    @property
+    def lsb_m_s2(self) -> float:
+        """One count [m/s^2]."""
+        return 2.0 * self.range_m_s2 / 2 ** self.bits
+
+    def to_m_s2(self, counts: Any) -> np.ndarray:
+        """Counts back to m/s^2 (what a reader of the stream does)."""
+        return np.asarray(counts, dtype=float) * self.lsb_m_s2
+
+
+@dataclass(frozen=True, eq=False)
+class SensorSignals:
+    """Sampled accelerometer signals.
+
+    Attributes
+    ----------
+    time_s : ndarray, shape (k,) [s]
+    counts : ndarray of int32, shape (k, 2)
+        Converter output, X and Y.
+    acceleration_m_s2 : ndarray, shape (k, 2) [m/s^2]
+        The same in m/s^2 (counts times one LSB).
+    clipped : int
+        Samples that hit the converter's range.
+    """
+
+    time_s: np.ndarray
+    counts: np.ndarray
+    acceleration_m_s2: np.ndarray
+    clipped: int
+
+
+def _sections(sensors: Accelerometers) -> list[tuple[float, float]]:
+    """The analog chain as unit-gain second-order low-pass sections ``(w [rad/s], zeta)``
+    (a first-order one as ``(w, inf)``): the Butterworth's pole pairs and the resonance."""
+    fc = 2 * math.pi * sensors.antialias_fraction * sensors.sample_rate_hz
+    _z, poles, _k = signal.butter(sensors.antialias_order, fc, analog=True, output="zpk")
+    out = [(sensors.resonance_hz * 2 * math.pi, sensors.resonance_damping)]
+    for p in poles:
+        if p.imag > 1e-9 * abs(p):
+            out.append((abs(p), -p.real / abs(p)))
+        elif abs(p.imag) <= 1e-9 * abs(p):
+            out.append((abs(p), math.inf))
+    return out
+
+
+def _filter_exact(x: np.ndarray, dt: float, w: float, zeta: float) -> np.ndarray:
+    """One section, integrated exactly for ``x`` linear between samples (first-order hold)."""
+    if math.isinf(zeta):                       # w / (s + w)
+        A, B, C, D = np.array([[-w]]), np.array([[w]]), np.array([[1.0]]), np.array([[0.0]])
+    else:                                      # w^2 / (s^2 + 2 zeta w s + w^2)
+        A = np.array([[0.0, 1.0], [-w * w, -2 * zeta * w]])
+        B, C, D = np.array([[0.0], [w * w]]), np.array([[1.0, 0.0]]), np.array([[0.0]])
+    Ad, Bd, Cd, Dd, _ = signal.cont2discrete((A, B, C, D), dt, method="foh")
+    b, a = signal.ss2tf(Ad, Bd, Cd, Dd)
+    return signal.lfilter(b[0], a, x)
+
+
+def sample_accelerometers(time_s: Any, tool_acceleration_m_s2: Any, sensors: Accelerometers,
+                          *, rotation: Any = None, rng: np.random.Generator | None = None,
+                          seed: int = 0) -> SensorSignals:
+    """ADC samples of the two accelerometers for a simulated tool acceleration.
+
+    Parameters
+    ----------
+    time_s : array_like, shape (n,) [s]
+        Equally spaced simulation instants.
+    tool_acceleration_m_s2 : array_like, shape (n, 3) [m/s^2]
+        Tool acceleration in the workpiece frame (:class:`sim.cutting.MillingRun`).
+    sensors : Accelerometers
+    rotation : array_like, shape (3, 3), optional
+        Workpiece frame to machine frame (rows: machine X, Y, Z in workpiece
+        coordinates); default identity.
+    rng : numpy.random.Generator, optional
+        Noise source; default ``numpy.random.default_rng(seed)``.
+    seed : int
+        Seed of the default generator.
+
+    Returns
+    -------
+    SensorSignals
+    """
+    t = np.asarray(time_s, dtype=float).reshape(-1)
+    acc = np.asarray(tool_acceleration_m_s2, dtype=float)
+    if acc.shape != (t.size, 3):
+        raise ValueError(f"tool_acceleration_m_s2: expected shape ({t.size}, 3), got {acc.shape}")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(acc))):
+        raise ValueError("time_s, tool_acceleration_m_s2: expected finite values")
+    if t.size < 2 or np.any(np.diff(t) <= 0):
+        raise ValueError("time_s: expected >= 2 increasing instants")
+    dt = float(t[1] - t[0])
+    if not np.allclose(np.diff(t), dt, rtol=1e-6, atol=0.0):
+        raise ValueError("time_s: expected equally spaced instants")
+    R = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
+    if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-9):
+        raise ValueError("rotation: expected a (3, 3) rotation matrix")
+    x = sensors.location_factor * (acc @ R.T)[:, :2]
+    for w, zeta in _sections(sensors):
+        x = np.stack([_filter_exact(x[:, c], dt, w, zeta) for c in range(2)], axis=1)
+    fs = sensors.sample_rate_hz
+    ts = np.arange(t[0], t[-1], 1.0 / fs)
+    y = np.stack([np.interp(ts, t, x[:, c]) for c in range(2)], axis=1)
+    gen = rng if rng is not None else np.random.default_rng(seed)
+    if sensors.noise_rms_m_s2 > 0:
+        y = y + gen.normal(0.0, sensors.noise_rms_m_s2, size=y.shape)
+    lsb = sensors.lsb_m_s2
+    lo, hi = -(2 ** (sensors.bits - 1)), 2 ** (sensors.bits - 1) - 1
+    raw = np.rint(y / lsb)
+    clipped = int(np.sum((raw < lo) | (raw > hi)))
+    counts = np.clip(raw, lo, hi).astype(np.int32)
+    return SensorSignals(time_s=ts, counts=counts, acceleration_m_s2=counts * lsb,
+                         clipped=clipped)
