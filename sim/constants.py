@@ -29,3 +29,17 @@ GROWTH_MIN_POINTS = 6
 GROWTH_LINEAR_FRACTION = 0.3
 #: Relative tolerance of the bisection on the chip-width scale [-].
 BOUNDARY_RTOL = 0.01
+
+# --- chatter detection on the simulated machine (orient.detect settings) -----
+#: Threshold on the chatter component's vector amplitude [m/s^2]: well above
+#: the noise of a bin (2 sigma sqrt(1.5 / N) = 0.16 m/s^2 for 3 m/s^2 rms noise
+#: and N = 2048) and below a starting chatter's first windows.
+DETECTOR_THRESHOLD_M_S2 = 5.0
+#: Window and hop [samples] at the accelerometers' rate: 2048 at 25.6 kHz is
+#: 80 ms (12.5 Hz bins), a verdict every 10 ms.
+DETECTOR_WINDOW_SAMPLES = 2048
+DETECTOR_HOP_SAMPLES = 256
+#: Harmonics excluded: the simulated tools have no runout, so only the
+#: tooth-passing multiples are forced lines (period-doubling chatter at odd
+#: multiples of half the tooth frequency stays visible).
+DETECTOR_HARMONIC_BASE = "tooth"

@@ -142,7 +142,7 @@ class MillingRun:
         generated surface's deviation (positive: the tool stood off, material
         left), chatter marks show as its variation.
     scale : float [-]
-        Chip-width scale of the run.
+        Chip-width scale of the run (nan when it was a function of time).
     """
 
     time_s: np.ndarray
@@ -268,7 +268,7 @@ def _generating_phase(model: CuttingModel) -> int:
     return int(np.argmax(best)) % model.steps_per_tooth
 
 
-def simulate(model: CuttingModel, revolutions: float, *, scale: float = 1.0,
+def simulate(model: CuttingModel, revolutions: float, *, scale: Any = 1.0,
              ramp_revolutions: float = RAMP_REVOLUTIONS, linear: bool = False) -> MillingRun:
     """Run the cut for a number of revolutions from rest.
 
@@ -277,9 +277,10 @@ def simulate(model: CuttingModel, revolutions: float, *, scale: float = 1.0,
     model : CuttingModel
     revolutions : float [-]
         Duration in spindle revolutions, > 0.
-    scale : float [-]
+    scale : float or callable [-]
         Chip-width scale (1: the cut as given; the stability margin is the
-        scale at which the cut starts to chatter).
+        scale at which the cut starts to chatter), or a function of the time
+        array [s] returning it per step (a change of depth during the run).
     ramp_revolutions : float [-]
         The scale rises linearly from 0 over this many revolutions.
     linear : bool
@@ -292,13 +293,21 @@ def simulate(model: CuttingModel, revolutions: float, *, scale: float = 1.0,
     MillingRun
     """
     rev = real_number("revolutions", revolutions, ">0")
-    s = real_number("scale", scale, ">=0")
+    if callable(scale):
+        s = math.nan
+    else:
+        s = real_number("scale", scale, ">=0")
     ramp = real_number("ramp_revolutions", ramp_revolutions, ">=0")
     spr, spt = model.steps_per_rev, model.steps_per_tooth
     n_teeth = max(1, math.ceil(rev * model.flutes))
     n = n_teeth * spt
     t = np.arange(n) * model.dt_s
-    sc = np.full(n, s)
+    if callable(scale):
+        sc = np.asarray(scale(t), dtype=float).reshape(-1)
+        if sc.shape != (n,) or not np.all(np.isfinite(sc)) or np.any(sc < 0):
+            raise ValueError("scale: the function must return one finite value >= 0 per step")
+    else:
+        sc = np.full(n, s)
     if ramp > 0:
         sc *= np.minimum(np.arange(n) / (ramp * spr), 1.0)
     nm = model.system.n_modes

@@ -29,8 +29,16 @@ import numpy as np
 from scipy import signal
 
 from nc.checks import real_number
+from orient.detect import DetectorSettings
 
-__all__ = ["Accelerometers", "SensorSignals", "sample_accelerometers"]
+from .constants import (
+    DETECTOR_HARMONIC_BASE,
+    DETECTOR_HOP_SAMPLES,
+    DETECTOR_THRESHOLD_M_S2,
+    DETECTOR_WINDOW_SAMPLES,
+)
+
+__all__ = ["Accelerometers", "SensorSignals", "detector_settings", "sample_accelerometers"]
 
 
 @dataclass(frozen=True)
@@ -196,3 +204,18 @@ def sample_accelerometers(time_s: Any, tool_acceleration_m_s2: Any, sensors: Acc
     counts = np.clip(raw, lo, hi).astype(np.int32)
     return SensorSignals(time_s=ts, counts=counts, acceleration_m_s2=counts * lsb,
                          clipped=clipped)
+
+
+def detector_settings(sensors: Accelerometers, **overrides: Any) -> DetectorSettings:
+    """orient's chatter-detector settings for these accelerometers (``sim.constants``).
+
+    Parameters
+    ----------
+    sensors : Accelerometers
+    **overrides
+        Fields of :class:`orient.detect.DetectorSettings` to change.
+    """
+    kw = {"threshold": DETECTOR_THRESHOLD_M_S2, "window_samples": DETECTOR_WINDOW_SAMPLES,
+          "hop_samples": DETECTOR_HOP_SAMPLES, "harmonic_base": DETECTOR_HARMONIC_BASE}
+    kw.update(overrides)
+    return DetectorSettings(sensors.sample_rate_hz, **kw)
