@@ -57,7 +57,7 @@ from orient.contacts import ball_contacts
 from orient.dynamics import ModalSystem
 from orient.gain import process_gain_batch
 from orient.geometry import inclination, posture_axis
-from orient.plan import _local_cuts, _reachable, candidate_grid, plan
+from orient.plan import _reachable, candidate_grid, local_cuts, plan
 from orient.pointwise import point_lobes, point_setup
 from orient.scenario import bundled_scenario, load_plan_scenario
 from orient.stability import zoa_frequency_grid, zoa_margin, zoa_margin_batch
@@ -144,7 +144,7 @@ def batch_split(scn, sample: int) -> None:
     ok &= _reachable(machine, contacts.centre[idx][:, None, :] - R * axes, axes)
     ok[:, -1] = True
     rpm = float(np.max(cam.spindle_rpm))
-    cuts = _local_cuts(scn, contacts, idx, cam, rpm)
+    cuts = local_cuts(scn, contacts, idx, cam, rpm)
     tool_sys = ModalSystem.tool(base.compliance)
     t0 = time.perf_counter()
     wp = WorkpieceModel(scn.workpiece, contacts.point[touching])

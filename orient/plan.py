@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -55,7 +56,7 @@ from .smoothing import best_smooth_path
 from .stability import sdm_margin, zoa_margin_batch
 from .workpiece import WorkpieceModel
 
-__all__ = ["SDM_CHECK_POINTS", "PlanResult", "candidate_grid", "plan"]
+__all__ = ["SDM_CHECK_POINTS", "PlanResult", "candidate_grid", "local_cuts", "plan", "stock_mesh"]
 
 #: Points (those with the lowest planned zero-order margin) at which the
 #: time-periodic margin of the planned posture is computed [-].
@@ -116,8 +117,10 @@ def _reachable(machine, tips: np.ndarray, axes: np.ndarray) -> np.ndarray:
     return ok.reshape(tips.shape[:-1])
 
 
-def _local_cuts(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: CutterLocations,
-                spindle_rpm: float) -> list[LocalCut]:
+def local_cuts(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: CutterLocations,
+               spindle_rpm: float) -> list[LocalCut]:
+    """The local cut (depth and pick feed times the safety factor, side of the previous
+    pass, feed per tooth at ``spindle_rpm`` [rev/min]) at cutter locations ``idx``."""
     opt = scn.options
     cut = opt.cut
     _, b, _ = local_frame(contacts.normal[idx], contacts.feed[idx])
@@ -257,7 +260,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     cam_ok = ok[:, -1].copy()
     ok[:, -1] = True            # the CAM posture is always evaluated (for the report)
     t1 = time.perf_counter()
-    cuts = _local_cuts(scn, contacts, idx, cam, rpm)
+    cuts = local_cuts(scn, contacts, idx, cam, rpm)
     tool_sys = ModalSystem.tool(scn.base.compliance)
     wp = WorkpieceModel(scn.workpiece, contacts.point[idx])
     t2 = time.perf_counter()
@@ -275,7 +278,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     ok[:, -1] = cam_ok
     t3 = time.perf_counter()
     # --- choose: smooth, then interference, repeated -------------------------
-    checker = InterferenceChecker(_stock_mesh(scn, design), ToolAssembly.from_tool(
+    checker = InterferenceChecker(stock_mesh(scn, design), ToolAssembly.from_tool(
         tool, clearance_mm=opt.clearance_mm), design_mesh=design,
         gouge_tol_mm=opt.gouge_tol_mm)
     cam_interf = checker.check(cam.tip[idx], cam.axis[idx])
@@ -348,7 +351,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
         grid_feasible=ok[:, :nlg].reshape(-1, nl, nt), touching_index=idx)
 
 
-def _stock_mesh(scn: PlanScenario, design):
+def stock_mesh(scn: PlanScenario, design: Any) -> Any:
     """The stock as a mesh (shank and holder must clear the material still standing)."""
     import trimesh
 

@@ -1,6 +1,7 @@
 """The simulated machine: time-domain cutting with regeneration (``docs/method.md`` §8)."""
 
 from .cutting import (
+    Cutter,
     CuttingModel,
     MillingRun,
     growth_rate,
@@ -10,6 +11,7 @@ from .cutting import (
 )
 
 __all__ = [
+    "Cutter",
     "CuttingModel",
     "MillingRun",
     "growth_rate",

@@ -43,3 +43,34 @@ DETECTOR_HOP_SAMPLES = 256
 #: tooth-passing multiples are forced lines (period-doubling chatter at odd
 #: multiples of half the tooth frequency stays visible).
 DETECTOR_HARMONIC_BASE = "tooth"
+
+# --- the simulated NC (sim/machine.py) ----------------------------------------
+#: Servo (interpolation) rate [Hz].
+SERVO_HZ = 1000.0
+#: Rapid traverse rate [mm/min].
+RAPID_MM_MIN = 10_000.0
+#: An orientation command is checked at the current and this many following
+#: cutter locations (axis limits, interference) [-].
+LOOKAHEAD_POINTS = 10
+#: Cutting models kept (cutter location x posture) [-].
+MODEL_CACHE = 64
+
+# --- the Modbus server (sim/server.py) ------------------------------------------
+#: Default TCP port (502 needs root).
+DEFAULT_PORT = 5020
+#: Simulated time per machine step of the server loop [s].
+TICK_S = 0.005
+#: Default watchdog [ms]: silence of the controller's heartbeat after which the
+#: orientation offset returns to the program's posture.
+DEFAULT_WATCHDOG_MS = 1000
+
+# --- the controller side (sim/controller.py) -----------------------------------
+#: Registers per Modbus read (the protocol's limit).
+MAX_READ_REGISTERS = 125
+#: Poll period of the controller [s] (wall clock).
+CONTROLLER_POLL_S = 0.01
+#: The detector-driven rule's posture step [deg] (the patent's trial step).
+CONTROLLER_STEP_DEG = 10.0
+#: After a command, the controller waits this many spindle revolutions (a fresh
+#: detector window) before it acts again [rev].
+CONTROLLER_HOLDOFF_REV = 15.0

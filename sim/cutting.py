@@ -59,7 +59,9 @@ from .constants import (
 )
 
 __all__ = [
+    "Cutter",
     "CuttingModel",
+    "with_system",
     "MillingRun",
     "growth_rate",
     "prepare_cut",
@@ -256,6 +258,16 @@ def prepare_cut(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, norm
                         step_map=_step_map(system, dt))
 
 
+def with_system(model: CuttingModel, system: ModalSystem, posture_axis: Any) -> CuttingModel:
+    """The same engagement with other dynamics (e.g. the wall's modes at the next
+    cutter location); the tool modes are carried to ``posture_axis``."""
+    system = system.with_tool_axis(np.asarray(posture_axis, dtype=float))
+    return CuttingModel(spindle_rpm=model.spindle_rpm, flutes=model.flutes,
+                        steps_per_rev=model.steps_per_rev, dt_s=model.dt_s, system=system,
+                        normal=model.normal, fz_mm=model.fz_mm, table=model.table,
+                        n_edges=model.n_edges, step_map=_step_map(system, model.dt_s))
+
+
 def _generating_phase(model: CuttingModel) -> int:
     """Rotation sample (within a tooth) where an engaged edge's chip direction is most
     nearly the surface normal: where the surface is generated."""
@@ -414,3 +426,80 @@ def stability_boundary(model: CuttingModel, lo: float, hi: float, *, revolutions
         else:
             hi = mid
     return 0.5 * (lo + hi)
+
+
+class Cutter:
+    """A cut that goes on across changes of the cutting model (the NC moving on).
+
+    Keeps the modal state, the surface memory and the rotation sample between
+    calls of :meth:`advance`, so a run can be cut into servo ticks and the
+    model swapped when the cutter location or the posture changes (same
+    ``steps_per_rev`` and micro edges; when the number of modes changes, the
+    state of the modes kept by index is carried and new ones start at rest).
+
+    Parameters
+    ----------
+    steps_per_rev : int
+        Rotation steps per revolution of every model used.
+    n_edges : int
+        Micro edges per flute of every model used.
+    """
+
+    def __init__(self, steps_per_rev: int, n_edges: int) -> None:
+        self.steps_per_rev = int(steps_per_rev)
+        self.n_edges = int(n_edges)
+        self.surface = np.zeros((self.steps_per_rev, self.n_edges))
+        self.state = np.zeros((0, 2))
+        self.step = 0
+        self.time_s = 0.0
+
+    def advance(self, model: CuttingModel, n_steps: int, scale: float = 1.0, *,
+                linear: bool = False) -> MillingRun:
+        """Cut ``n_steps`` steps with ``model`` (its table, modes and step) from where
+        the last call stopped; returns that stretch (``modal_state`` empty,
+        ``surface_offset_mm`` at the generating phase of each tooth within it)."""
+        if model.steps_per_rev != self.steps_per_rev or model.n_edges != self.n_edges:
+            raise ValueError(f"model: expected {self.steps_per_rev} steps per revolution and "
+                             f"{self.n_edges} micro edges, got {model.steps_per_rev} and "
+                             f"{model.n_edges}")
+        n = int(n_steps)
+        s = real_number("scale", scale, ">=0")
+        nm = model.system.n_modes
+        if self.state.shape[0] != nm:
+            st = np.zeros((nm, 2))
+            k = min(nm, self.state.shape[0])
+            st[:k] = self.state[:k]
+            self.state = st
+        force = np.empty((n, 3))
+        disp = np.empty((n, 3))
+        acc = np.empty((n, 3))
+        chip = np.empty(n)
+        lost = np.empty(n, dtype=np.int64)
+        sysm = model.system
+        phi_d, gam_d = model.step_map
+        _k.integrate(self.step % self.steps_per_rev, n, self.steps_per_rev, *model.table, phi_d,
+                     gam_d, np.ascontiguousarray(sysm.direction), np.full(n, s), sysm.k_N_m,
+                     sysm.c_Ns_m, sysm.m_kg, np.asarray(sysm.source == "tool"), bool(linear),
+                     self.surface, self.state, force, disp, acc, chip, lost)
+        t = self.time_s + np.arange(n) * model.dt_s
+        g = _generating_phase(model)
+        spt = model.steps_per_tooth
+        first = (g - self.step) % spt
+        surf = disp[first::spt] @ model.normal * _MM_PER_M
+        self.step += n
+        self.time_s += n * model.dt_s
+        return MillingRun(time_s=t, force_N=force, displacement_m=disp,
+                          tool_acceleration_m_s2=acc, modal_state=np.zeros((0, nm, 2)),
+                          chip_mean_mm=chip, contact_loss=lost, surface_offset_mm=surf, scale=s)
+
+    def idle(self, dt_s: float, n_steps: int, system: ModalSystem) -> MillingRun:
+        """Advance without cutting (the modes ring down; no force), ``dt_s`` [s] per step."""
+        spr = self.steps_per_rev
+        empty = (np.zeros(spr + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
+                 np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)),
+                 np.zeros((0, 3)))
+        model = CuttingModel(spindle_rpm=60.0 / (dt_s * spr), flutes=1, steps_per_rev=spr,
+                             dt_s=dt_s, system=system, normal=np.array([0.0, 0.0, 1.0]),
+                             fz_mm=0.0, table=empty, n_edges=self.n_edges,
+                             step_map=_step_map(system, dt_s))
+        return self.advance(model, n_steps, 0.0)

@@ -38,7 +38,8 @@ from .constants import (
     DETECTOR_WINDOW_SAMPLES,
 )
 
-__all__ = ["Accelerometers", "SensorSignals", "detector_settings", "sample_accelerometers"]
+__all__ = ["AccelerometerStream", "Accelerometers", "SensorSignals", "detector_settings",
+           "sample_accelerometers"]
 
 
 @dataclass(frozen=True)
@@ -138,8 +139,8 @@ def _sections(sensors: Accelerometers) -> list[tuple[float, float]]:
     return out
 
 
-def _filter_exact(x: np.ndarray, dt: float, w: float, zeta: float) -> np.ndarray:
-    """One section, integrated exactly for ``x`` linear between samples (first-order hold)."""
+def _section_tf(dt: float, w: float, zeta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Discrete transfer function of one section, exact for a first-order-hold input."""
     if math.isinf(zeta):                       # w / (s + w)
         A, B, C, D = np.array([[-w]]), np.array([[w]]), np.array([[1.0]]), np.array([[0.0]])
     else:                                      # w^2 / (s^2 + 2 zeta w s + w^2)
@@ -147,7 +148,13 @@ def _filter_exact(x: np.ndarray, dt: float, w: float, zeta: float) -> np.ndarray
         B, C, D = np.array([[0.0], [w * w]]), np.array([[1.0, 0.0]]), np.array([[0.0]])
     Ad, Bd, Cd, Dd, _ = signal.cont2discrete((A, B, C, D), dt, method="foh")
     b, a = signal.ss2tf(Ad, Bd, Cd, Dd)
-    return signal.lfilter(b[0], a, x)
+    return b[0], a
+
+
+def _filter_exact(x: np.ndarray, dt: float, w: float, zeta: float) -> np.ndarray:
+    """One section, integrated exactly for ``x`` linear between samples (first-order hold)."""
+    b, a = _section_tf(dt, w, zeta)
+    return signal.lfilter(b, a, x)
 
 
 def sample_accelerometers(time_s: Any, tool_acceleration_m_s2: Any, sensors: Accelerometers,
@@ -204,6 +211,71 @@ def sample_accelerometers(time_s: Any, tool_acceleration_m_s2: Any, sensors: Acc
     counts = np.clip(raw, lo, hi).astype(np.int32)
     return SensorSignals(time_s=ts, counts=counts, acceleration_m_s2=counts * lsb,
                          clipped=clipped)
+
+
+class AccelerometerStream:
+    """:func:`sample_accelerometers` chunk by chunk (a running machine).
+
+    The filters' states, the noise generator and the converter's clock carry
+    over between chunks, so cutting a run into chunks gives the same samples
+    as one call (up to the interpolation at chunk joints, which uses the last
+    sample of the previous chunk).
+
+    Parameters
+    ----------
+    sensors : Accelerometers
+    dt_s : float [s]
+        Simulation step of the chunks.
+    rotation : array_like, shape (3, 3), optional
+        Workpiece frame to machine frame.
+    seed : int
+        Noise seed.
+    """
+
+    def __init__(self, sensors: Accelerometers, dt_s: float, *, rotation: Any = None,
+                 seed: int = 0) -> None:
+        self.sensors = sensors
+        self.dt_s = real_number("dt_s", dt_s, ">0")
+        self.rotation = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
+        self._tf = [_section_tf(self.dt_s, w, z) for w, z in _sections(sensors)]
+        self._zi = [np.zeros((max(len(a), len(b)) - 1, 2)) for b, a in self._tf]
+        self._rng = np.random.default_rng(seed)
+        self._t_last: float | None = None
+        self._y_last = np.zeros(2)
+        self._next_sample = 0.0
+        self.samples = 0
+
+    def push(self, time_s: np.ndarray, tool_acceleration_m_s2: np.ndarray) -> SensorSignals:
+        """New converter samples for a chunk of the simulation (equally spaced times)."""
+        t = np.asarray(time_s, dtype=float).reshape(-1)
+        acc = np.asarray(tool_acceleration_m_s2, dtype=float).reshape(-1, 3)
+        s = self.sensors
+        x = s.location_factor * (acc @ self.rotation.T)[:, :2]
+        for k, (b, a) in enumerate(self._tf):
+            x, self._zi[k] = signal.lfilter(b, a, x, axis=0, zi=self._zi[k])
+        if self._t_last is not None:
+            t = np.concatenate([[self._t_last], t])
+            x = np.concatenate([self._y_last[None], x])
+        if t.size == 0:
+            return SensorSignals(np.zeros(0), np.zeros((0, 2), np.int32), np.zeros((0, 2)), 0)
+        step = 1.0 / s.sample_rate_hz
+        ts = self._next_sample + step * np.arange(
+            max(0, math.floor((t[-1] - self._next_sample) / step + 1e-9) + 1))
+        ts = ts[ts <= t[-1]]
+        y = np.stack([np.interp(ts, t, x[:, c]) for c in range(2)], axis=1)
+        if s.noise_rms_m_s2 > 0:
+            y = y + self._rng.normal(0.0, s.noise_rms_m_s2, size=y.shape)
+        self._t_last, self._y_last = float(t[-1]), x[-1].copy()
+        if ts.size:
+            self._next_sample = float(ts[-1]) + step
+        self.samples += ts.size
+        lsb = s.lsb_m_s2
+        lo, hi = -(2 ** (s.bits - 1)), 2 ** (s.bits - 1) - 1
+        raw = np.rint(y / lsb)
+        clipped = int(np.sum((raw < lo) | (raw > hi)))
+        counts = np.clip(raw, lo, hi).astype(np.int32)
+        return SensorSignals(time_s=ts, counts=counts, acceleration_m_s2=counts * lsb,
+                             clipped=clipped)
 
 
 def detector_settings(sensors: Accelerometers, **overrides: Any) -> DetectorSettings:

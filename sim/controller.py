@@ -1,0 +1,302 @@
+"""The controller side: a Modbus client that watches for chatter and re-orients the tool.
+
+It talks to the NC only through the register map (:mod:`sim.registers`), as
+it would to a real controller: it reads the accelerometer ring, feeds orient's
+chatter detector, asks one of orient's strategies (the detector-driven rule of
+the patent) for a new posture at the current cutter location, and writes the
+orientation offset command; it beats the heartbeat so that the NC's watchdog
+stays quiet. It knows the program and the part (a CAM-aware controller): the
+surface normal and feed direction at each cutter location give the rules'
+posture geometry (inclination, up/down-cut degree); it does no cutting
+simulation.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from pymodbus.client import ModbusTcpClient
+
+from nc.kinematics import get_machine
+from nc.path import cutter_locations
+from orient.contacts import ball_contacts
+from orient.detect import ChatterDetector, Detection
+from orient.gain import process_gain_batch
+from orient.geometry import inclination, lead_tilt_of, posture_axis
+from orient.plan import local_cuts
+from orient.scenario import PlanScenario
+from orient.strategies import DetectorRule
+from orient.strategy_types import PostureState
+
+from .constants import (
+    CONTROLLER_HOLDOFF_REV,
+    CONTROLLER_POLL_S,
+    CONTROLLER_STEP_DEG,
+    MAX_READ_REGISTERS,
+)
+from .registers import (
+    CAUSE,
+    HOLDING,
+    INPUT,
+    REGISTERS,
+    RING_SAMPLES,
+    RING_START,
+    by_name,
+    decode,
+    encode,
+)
+from .sensors import Accelerometers, detector_settings
+
+__all__ = ["Controller", "NCClient", "ProgramGeometry"]
+
+_INPUT_STATE = [r for r in REGISTERS if r.table == INPUT]
+_STATE_COUNT = max(r.address + r.words for r in _INPUT_STATE)
+
+
+class NCClient:
+    """Typed access to the simulated NC's register map over Modbus TCP."""
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 5020, *, timeout_s: float = 2.0,
+                 device_id: int = 1) -> None:
+        self.client = ModbusTcpClient(host, port=port, timeout=timeout_s)
+        self.device_id = device_id
+        self.sequence: int | None = None
+        self.missed = 0
+
+    def connect(self) -> bool:
+        return bool(self.client.connect())
+
+    def close(self) -> None:
+        self.client.close()
+
+    def _read(self, fc: int, address: int, count: int) -> list[int]:
+        out: list[int] = []
+        while count > 0:
+            k = min(count, MAX_READ_REGISTERS)
+            rr = (self.client.read_input_registers if fc == 4 else
+                  self.client.read_holding_registers)(address, count=k,
+                                                       device_id=self.device_id)
+            if rr.isError():
+                raise ConnectionError(f"Modbus read of {k} registers at {address} failed: {rr}")
+            out.extend(rr.registers)
+            address += k
+            count -= k
+        return out
+
+    def state(self) -> dict[str, float]:
+        """All input registers of the state, decoded."""
+        words = self._read(4, 0, _STATE_COUNT)
+        return {r.name: decode(r, words[r.address:r.address + r.words]) for r in _INPUT_STATE}
+
+    def write(self, **values: float) -> None:
+        """Write holding registers by name (engineering units)."""
+        for name, v in values.items():
+            reg = by_name(name)
+            if reg.table != HOLDING:
+                raise KeyError(f"{name} is not a holding register")
+            rr = self.client.write_register(reg.address, encode(reg, v)[0],
+                                            device_id=self.device_id)
+            if rr.isError():
+                raise ConnectionError(f"Modbus write of {name}={v} refused: {rr}")
+
+    def new_samples(self) -> np.ndarray:
+        """Accelerometer samples (k, 2) [counts] written since the last call (the first call
+        returns none); counts the samples lost to the ring's wrap in :attr:`missed`."""
+        reg = by_name("accel_sequence")
+        seq = int(decode(reg, self._read(4, reg.address, 2)))
+        if self.sequence is None:
+            self.sequence = seq
+            return np.zeros((0, 2), dtype=np.int16)
+        new = (seq - self.sequence) % 2 ** 32
+        if new > RING_SAMPLES:
+            self.missed += new - RING_SAMPLES
+            new = RING_SAMPLES
+        start = (seq - new) % RING_SAMPLES
+        first = min(new, RING_SAMPLES - start)
+        words = self._read(4, RING_START + 2 * start, 2 * first)
+        if new > first:
+            words += self._read(4, RING_START, 2 * (new - first))
+        self.sequence = seq
+        return np.array(words, dtype=np.uint16).view(np.int16).reshape(-1, 2)
+
+
+class ProgramGeometry:
+    """What the controller knows of the part: per cutter location the surface normal,
+    feed direction, the CAM's lead and tilt, and the local cut (for the up/down-cut
+    degree of a posture); it implements orient's ``PostureModel`` for one location."""
+
+    def __init__(self, scn: PlanScenario) -> None:
+        base = scn.base
+        m = base.machine
+        machine = get_machine(m) if isinstance(m, str) else m
+        self.scn = scn
+        self.cam = cutter_locations(base.read_program(), machine)
+        self.contacts = ball_contacts(self.cam, base.tool.radius_mm, base.stock.load_design())
+        self.touch = np.flatnonzero(self.contacts.touching)
+        rpm = float(np.nanmax(self.cam.spindle_rpm))
+        self.cuts = dict(zip(self.touch.tolist(),
+                             local_cuts(scn, self.contacts, self.touch, self.cam, rpm),
+                             strict=True))
+        lead, tilt = lead_tilt_of(self.cam.axis, self.contacts.normal, self.contacts.feed)
+        self.cam_lead, self.cam_tilt = np.asarray(lead), np.asarray(tilt)
+        self.point = int(self.touch[0]) if self.touch.size else 0
+        self._sense: dict = {}
+
+    def point_of_block(self, block: int) -> int:
+        """Cutter location of a program block (the nearest touching one)."""
+        rows = np.flatnonzero(self.cam.block == block)
+        i = int(rows[-1]) if rows.size else self.point
+        if self.touch.size and not self.contacts.touching[i]:
+            i = int(self.touch[np.argmin(np.abs(self.touch - i))])
+        return i
+
+    # --- orient's PostureModel at self.point -----------------------------------------
+    def _axis(self, lead: float, tilt: float) -> np.ndarray:
+        i = self.point
+        return posture_axis(self.contacts.normal[i], self.contacts.feed[i], lead, tilt)
+
+    def inclination(self, lead: float, tilt: float) -> float:
+        return float(inclination(self._axis(lead, tilt), self.contacts.normal[self.point]))
+
+    def cut_sense(self, lead: float, tilt: float) -> float:
+        i = self.point
+        key = (i, round(lead, 6), round(tilt, 6))
+        if key not in self._sense:
+            g = process_gain_batch(self.scn.base.tool, self.scn.base.coefficients,
+                                   self._axis(lead, tilt), self.contacts.normal[i],
+                                   self.contacts.feed[i], self.cuts[i])
+            self._sense[key] = float(g.cut_sense)
+        return self._sense[key]
+
+    def margin(self, lead: float, tilt: float) -> float:
+        raise NotImplementedError("the controller has no stability model; use a rule driven "
+                                  "by the detector")
+
+    def gain(self, lead: float, tilt: float, direction: np.ndarray) -> float:
+        raise NotImplementedError("the controller has no process-gain direction")
+
+    def feasible(self, lead: float, tilt: float) -> bool:
+        """Within the offset range of the register map and the planner's inclination
+        bounds (the NC checks interference and axis limits itself)."""
+        i, opt = self.point, self.scn.options
+        lim = math.radians(by_name("lead_cmd").high)
+        if abs(lead - self.cam_lead[i]) > lim + 1e-9 or abs(tilt - self.cam_tilt[i]) > lim + 1e-9:
+            return False
+        inc = self.inclination(lead, tilt)
+        return opt.min_inclination_rad - 1e-9 <= inc <= opt.max_inclination_rad + 1e-9
+
+
+@dataclass
+class ControllerLog:
+    """What the controller saw and did (times are the NC's simulated time [s])."""
+
+    detections: list = field(default_factory=list)
+    commands: list = field(default_factory=list)
+    missed_samples: int = 0
+
+
+class Controller:
+    """Chatter watch and re-orientation over Modbus.
+
+    Parameters
+    ----------
+    client : NCClient
+    geometry : ProgramGeometry
+    sensors : Accelerometers
+        The NC's sensor chain (its rate and LSB are also read from the map).
+    step_deg : float [deg]
+        The rule's posture step.
+    act : bool
+        False: detect and report only (open loop).
+    """
+
+    def __init__(self, client: NCClient, geometry: ProgramGeometry, *,
+                 sensors: Accelerometers | None = None, step_deg: float = CONTROLLER_STEP_DEG,
+                 act: bool = True) -> None:
+        self.client = client
+        self.geometry = geometry
+        st = client.state()
+        sensors = sensors if sensors is not None else Accelerometers(
+            sample_rate_hz=st["accel_rate_hz"])
+        self.lsb = st["accel_lsb_um_s2"] * 1e-6
+        self.detector = ChatterDetector(detector_settings(sensors))
+        self.rule = DetectorRule(geometry, step_rad=math.radians(step_deg))
+        self.act = act
+        self.log = ControllerLog()
+        self._beat = 0
+        self._hold_until = -math.inf
+        self._seq = int(client.client.read_holding_registers(
+            by_name("orient_seq").address, count=1, device_id=client.device_id).registers[0])
+
+    def step(self) -> dict[str, float]:
+        """One poll: heartbeat, new samples through the detector, maybe a command."""
+        c = self.client
+        self._beat = (self._beat + 1) % 65536
+        c.write(heartbeat=self._beat)
+        st = c.state()
+        counts = c.new_samples()
+        self.log.missed_samples = c.missed
+        rpm = st["spindle_rpm"]
+        if counts.shape[0] == 0 or rpm <= 0:
+            return st
+        a = counts.astype(float) * self.lsb
+        found = [d for d in self.detector.feed(a[:, 0], a[:, 1], rpm,
+                                               self.geometry.scn.base.tool.flutes)
+                 if d.chatter]
+        t = st["sim_time_ms"] / 1000.0
+        if found:
+            d = found[-1]
+            self.log.detections.append((t, d.cause, d.frequency_hz, d.amplitude))
+            c.write(chatter_flag=1, chatter_cause=CAUSE.get(d.cause or "unknown", 3),
+                    chatter_freq_hz=min(d.frequency_hz, 65535.0))
+            if self.act and t >= self._hold_until and st["cutting"]:
+                self._react(d, st, t)
+        else:
+            c.write(chatter_flag=0, chatter_cause=0)
+        return st
+
+    def _react(self, d: Detection, st: dict[str, float], t: float) -> None:
+        g = self.geometry
+        i = g.point_of_block(int(st["block"]))
+        g.point = i
+        lead = float(g.cam_lead[i]) + math.radians(st["lead_now"])
+        tilt = float(g.cam_tilt[i]) + math.radians(st["tilt_now"])
+        state = PostureState.from_model(g, lead, tilt, st["spindle_rpm"])
+        change = self.rule.propose(state, d)
+        if change is None:
+            self.log.commands.append((t, None, None, self.rule.last_reason, None))
+            return
+        dl = math.degrees(change.lead_rad - g.cam_lead[i])
+        dt = math.degrees(change.tilt_rad - g.cam_tilt[i])
+        self._seq = (self._seq + 1) % 65536
+        self.client.write(lead_cmd=dl, tilt_cmd=dt)
+        self.client.write(orient_seq=self._seq)
+        ack = self._wait_ack()
+        self.log.commands.append((t, dl, dt, change.reason, ack))
+        # the detector's window still holds the chatter: start afresh after a hold-off
+        self.detector.reset()
+        self._hold_until = t + CONTROLLER_HOLDOFF_REV * 60.0 / st["spindle_rpm"]
+
+    def _wait_ack(self, timeout_s: float = 2.0) -> int:
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < timeout_s:
+            st = self.client.state()
+            if int(st["orient_ack_seq"]) == self._seq:
+                return int(st["orient_ack_state"])
+            time.sleep(0.002)
+        return -1
+
+    def run(self, *, until_finished: bool = True, max_s: float = math.inf,
+            poll_s: float = CONTROLLER_POLL_S) -> ControllerLog:
+        """Poll until the program has finished (or ``max_s`` wall seconds)."""
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < max_s:
+            st = self.step()
+            if until_finished and int(st["status"]) in (2, 3):
+                break
+            time.sleep(poll_s)
+        return self.log
+

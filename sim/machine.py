@@ -1,0 +1,304 @@
+"""The simulated NC: runs a 5-axis program and cuts where the tool is in the workpiece.
+
+``docs/method.md`` §8. The NC follows the program's cutter locations (nc's
+reader and kinematics) along the tip polyline at the programmed feed times
+the feed override, one servo tick at a time. An orientation offset command
+(lead and tilt added to the program's posture at each cutter location, the
+ball centre kept) is taken only after it is checked at the current and the
+next ``LOOKAHEAD_POINTS`` cutter locations against the axis limits (nc's
+kinematics) and shank/holder interference (orient's FCL checker); otherwise it
+is refused and the offset in effect stays. Where the ball touches the design,
+the cutting simulation (:mod:`sim.cutting`) runs with the local cut of that
+cutter location and the posture in effect (the model is rebuilt when the
+cutter location or the posture changes, the vibration and the surface memory
+carry on); elsewhere the modes ring down. The tool's acceleration goes to the
+two accelerometers (:class:`sim.sensors.AccelerometerStream`).
+
+The NC does no I/O: the Modbus server (:mod:`sim.server`) reads its state and
+passes the commands.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from nc.kinematics import get_machine, solve_path
+from nc.path import cutter_locations
+from orient.contacts import ball_contacts
+from orient.dynamics import ModalSystem
+from orient.geometry import lead_tilt_of, posture_axis
+from orient.interference import InterferenceChecker, ToolAssembly
+from orient.plan import local_cuts, stock_mesh
+from orient.scenario import PlanScenario
+from orient.workpiece import WorkpieceModel
+
+from .constants import (
+    LOOKAHEAD_POINTS,
+    MICRO_EDGES_ENVELOPE,
+    MIN_STEPS_PER_REV,
+    MODEL_CACHE,
+    RAPID_MM_MIN,
+    SERVO_HZ,
+    STEPS_PER_MODE_PERIOD,
+)
+from .cutting import Cutter, prepare_cut, with_system
+from .registers import ACK, STATUS
+from .sensors import AccelerometerStream, Accelerometers
+
+__all__ = ["NCState", "SimulatedNC", "SurfaceRecord"]
+
+
+@dataclass
+class NCState:
+    """What the NC shows (the Modbus input registers in engineering units)."""
+
+    status: int = STATUS["idle"]
+    block: int = 0
+    joints: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    spindle_rpm: float = 0.0
+    feed_override_pct: float = 100.0
+    lead_offset_deg: float = 0.0
+    tilt_offset_deg: float = 0.0
+    ack_seq: int = 0
+    ack_state: int = ACK["none"]
+    watchdog_tripped: int = 0
+    cutting: int = 0
+    time_s: float = 0.0
+
+
+@dataclass
+class SurfaceRecord:
+    """The generated surface, once per tooth while cutting.
+
+    Attributes
+    ----------
+    time_s, point, offset_mm, lead_offset_deg, tilt_offset_deg : list
+        Per tooth: time [s], cutter location index, relative displacement
+        along the surface normal at the generating instant [mm] (the surface's
+        deviation), and the orientation offset in effect [deg].
+    """
+
+    time_s: list = field(default_factory=list)
+    point: list = field(default_factory=list)
+    offset_mm: list = field(default_factory=list)
+    lead_offset_deg: list = field(default_factory=list)
+    tilt_offset_deg: list = field(default_factory=list)
+
+    def arrays(self) -> dict:
+        return {k: np.asarray(getattr(self, k)) for k in
+                ("time_s", "point", "offset_mm", "lead_offset_deg", "tilt_offset_deg")}
+
+
+class SimulatedNC:
+    """A 5-axis NC with a cutting simulation behind it.
+
+    Parameters
+    ----------
+    scn : orient.scenario.PlanScenario
+        Program, machine, tool, stock, tool modes and workpiece model.
+    sensors : Accelerometers, optional
+    points : tuple (first, last), optional
+        Run only the cutter locations ``first .. last`` (indices into the
+        program's cutter locations) instead of the whole program.
+    seed : int
+        Sensor noise seed.
+    """
+
+    def __init__(self, scn: PlanScenario, *, sensors: Accelerometers | None = None,
+                 points: tuple[int, int] | None = None, seed: int = 0) -> None:
+        self.scn = scn
+        base = scn.base
+        m = base.machine
+        self.machine = get_machine(m) if isinstance(m, str) else m
+        self.cam = cutter_locations(base.read_program(), self.machine)
+        n = len(self.cam)
+        first, last = (0, n - 1) if points is None else (int(points[0]), int(points[1]))
+        if not 0 <= first < last < n:
+            raise ValueError(f"points: expected 0 <= first < last < {n}, got {points!r}")
+        self.first, self.last = first, last
+        self.tool = base.tool
+        design = base.stock.load_design()
+        self.contacts = ball_contacts(self.cam, self.tool.radius_mm, design)
+        touch = np.flatnonzero(self.contacts.touching)
+        self.rpm = float(np.max(self.cam.spindle_rpm[first:last + 1]))
+        cuts = local_cuts(scn, self.contacts, touch, self.cam, self.rpm) if touch.size else []
+        self.cut_at = dict(zip(touch.tolist(), cuts, strict=True))
+        self.workpiece = WorkpieceModel(scn.workpiece, self.contacts.point[touch])
+        self.tool_system = ModalSystem.tool(base.compliance)
+        lead, tilt = lead_tilt_of(self.cam.axis, self.contacts.normal, self.contacts.feed)
+        self.cam_lead, self.cam_tilt = np.asarray(lead), np.asarray(tilt)
+        f_max = float(self.tool_system.natural_frequency_rad_s.max()) / (2 * math.pi)
+        for lev in self.workpiece.levels:
+            f_max = max(f_max, float(np.max(lev.frequencies_hz)))
+        spr = max(MIN_STEPS_PER_REV, math.ceil(STEPS_PER_MODE_PERIOD * f_max * 60.0 / self.rpm))
+        self.steps_per_rev = self.tool.flutes * math.ceil(spr / self.tool.flutes)
+        self.steps_per_rev += self.steps_per_rev % 2            # engagement wants it even
+        self.dt_s = 60.0 / (self.rpm * self.steps_per_rev)
+        self.edges = self.tool.micro_edges(MICRO_EDGES_ENVELOPE)
+        self.cutter = Cutter(self.steps_per_rev, len(self.edges))
+        self.sensors = sensors if sensors is not None else Accelerometers()
+        self.stream = AccelerometerStream(self.sensors, self.dt_s, seed=seed)
+        opt = scn.options
+        self.checker = InterferenceChecker(
+            stock_mesh(scn, design), ToolAssembly.from_tool(self.tool,
+                                                            clearance_mm=opt.clearance_mm),
+            design_mesh=design, gouge_tol_mm=opt.gouge_tol_mm)
+        seg = np.linalg.norm(np.diff(self.cam.tip, axis=0), axis=1)
+        self.arc = np.concatenate([[0.0], np.cumsum(seg)])
+        self.s = self.arc[first]
+        self.state = NCState(spindle_rpm=self.rpm)
+        self.surface = SurfaceRecord()
+        self._models: OrderedDict = OrderedDict()
+        self._current, self._current_key = None, None
+        self._joints = solve_path(self.machine, self.cam.tip[first:first + 1],
+                                  self.cam.axis[first:first + 1]).joints[0]
+        self.state.joints = self._joints.copy()
+        self.state.block = int(self.cam.block[first])
+
+    # --- commands ----------------------------------------------------------------
+    def set_feed_override(self, percent: float) -> None:
+        """Feed override [%] (0 holds the feed; the spindle keeps turning)."""
+        if not (math.isfinite(percent) and 0.0 <= percent <= 150.0):
+            raise ValueError(f"feed override: expected 0..150 %, got {percent!r}")
+        self.state.feed_override_pct = float(percent)
+
+    def command_orientation(self, lead_deg: float, tilt_deg: float, seq: int) -> int:
+        """Check and take an orientation offset; returns the acknowledgement (``ACK``)."""
+        if not (math.isfinite(lead_deg) and math.isfinite(tilt_deg)):
+            raise ValueError("orientation command: expected finite lead and tilt")
+        i = self.point_index()
+        rows = np.arange(i, min(i + LOOKAHEAD_POINTS, self.last) + 1)
+        rows = rows[self.contacts.touching[rows]] if np.any(self.contacts.touching[rows]) \
+            else rows[:1]
+        tips, axes = self._posture(rows, math.radians(lead_deg), math.radians(tilt_deg))
+        ack = ACK["applied"]
+        try:
+            solve_path(self.machine, tips, axes, start=self._joints)
+        except ValueError:
+            ack = ACK["refused_axis_limit"]
+        if ack == ACK["applied"] and np.any(self.contacts.touching[rows]):
+            if not np.all(self.checker.check(tips, axes).feasible):
+                ack = ACK["refused_interference"]
+        if ack == ACK["applied"]:
+            self.state.lead_offset_deg = float(lead_deg)
+            self.state.tilt_offset_deg = float(tilt_deg)
+        self.state.ack_seq = int(seq)
+        self.state.ack_state = ack
+        return ack
+
+    def reset_orientation(self) -> None:
+        """The safe default: the program's own posture (the watchdog's action)."""
+        self.state.lead_offset_deg = self.state.tilt_offset_deg = 0.0
+        self.state.ack_state = ACK["reset_by_watchdog"]
+
+    # --- motion ------------------------------------------------------------------
+    def point_index(self) -> int:
+        """Cutter location the tool is moving toward (index into the program)."""
+        j = int(np.searchsorted(self.arc, self.s, side="right"))
+        return min(max(j, self.first), self.last)
+
+    def _posture(self, rows: np.ndarray, dlead: float, dtilt: float
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Tips and axes at cutter locations ``rows`` with the offset applied (ball centre
+        kept where the ball touches; elsewhere the program's posture)."""
+        tips = self.cam.tip[rows].copy()
+        axes = self.cam.axis[rows].copy()
+        t = self.contacts.touching[rows]
+        if np.any(t) and (dlead or dtilt):
+            r = rows[t]
+            u = posture_axis(self.contacts.normal[r], self.contacts.feed[r],
+                             self.cam_lead[r] + dlead, self.cam_tilt[r] + dtilt)
+            axes[t] = u
+            tips[t] = self.contacts.centre[r] - self.tool.radius_mm * u
+        return tips, axes
+
+    def _model(self, i: int):
+        """Cutting model at cutter location ``i`` with the offset in effect. The
+        engagement depends only on the posture relative to the local frame, the
+        local frame and the cut, so it is shared by the cutter locations of a pass
+        (cached); the dynamics (wall modes at the point) are set per location."""
+        lead = float(self.cam_lead[i]) + math.radians(self.state.lead_offset_deg)
+        tilt = float(self.cam_tilt[i]) + math.radians(self.state.tilt_offset_deg)
+        n, f = self.contacts.normal[i], self.contacts.feed[i]
+        key = (round(lead, 5), round(tilt, 5), tuple(np.round(n, 6)), tuple(np.round(f, 6)),
+               tuple(np.round(self.cut_at[i].row(), 9)))
+        u = posture_axis(n, f, lead, tilt)
+        system = self.workpiece.system_at(self.tool_system, self.contacts.point[i])
+        if key in self._models:
+            self._models.move_to_end(key)
+            base = self._models[key]
+        else:
+            base = prepare_cut(self.tool, self.scn.base.coefficients, u, n, f, self.cut_at[i],
+                               system, self.rpm, edges=self.edges,
+                               steps_per_rev=self.steps_per_rev)
+            self._models[key] = base
+            if len(self._models) > MODEL_CACHE:
+                self._models.popitem(last=False)
+        if (i, key) != self._current_key:
+            self._current = with_system(base, system, u)
+            self._current_key = (i, key)
+        return self._current
+
+    @property
+    def done(self) -> bool:
+        return self.s >= self.arc[self.last] - 1e-12
+
+    def tick(self, dt_s: float = 1.0 / SERVO_HZ):
+        """Advance the NC by one servo tick; returns the new accelerometer samples.
+
+        Returns
+        -------
+        SensorSignals
+        """
+        st = self.state
+        if self.done:
+            st.status = STATUS["finished"]
+        else:
+            st.status = STATUS["running"]
+            i = self.point_index()
+            rapid = bool(self.cam.rapid[i])
+            feed = RAPID_MM_MIN if rapid else float(self.cam.feed_mm_min[i])
+            self.s = min(self.s + feed * st.feed_override_pct / 100.0 / 60.0 * dt_s,
+                         self.arc[self.last])
+            st.block = int(self.cam.block[i])
+        i = self.point_index()
+        n = max(1, round((st.time_s + dt_s - self.cutter.time_s) / self.dt_s))
+        touching = (not self.done) and bool(self.contacts.touching[i]) and i in self.cut_at
+        if touching and st.feed_override_pct > 0:
+            model = self._model(i)
+            run = self.cutter.advance(model, n)
+            if run.surface_offset_mm.size:
+                k = run.surface_offset_mm.size
+                self.surface.time_s.extend(np.linspace(run.time_s[0], run.time_s[-1], k))
+                self.surface.point.extend([i] * k)
+                self.surface.offset_mm.extend(run.surface_offset_mm.tolist())
+                self.surface.lead_offset_deg.extend([st.lead_offset_deg] * k)
+                self.surface.tilt_offset_deg.extend([st.tilt_offset_deg] * k)
+        else:
+            system = self.workpiece.system_at(self.tool_system, self.contacts.point[i]) \
+                if self.contacts.touching[i] else self.tool_system
+            run = self.cutter.idle(self.dt_s, n, system)
+        st.cutting = int(touching)
+        st.time_s = self.cutter.time_s
+        return self.stream.push(run.time_s, run.tool_acceleration_m_s2)
+
+    def update_joints(self) -> None:
+        """Machine joints of the current posture (for the display; costs a kinematic solve)."""
+        i = self.point_index()
+        a = int(max(self.first, i - 1))
+        w = (self.s - self.arc[a]) / max(self.arc[i] - self.arc[a], 1e-12) if i > a else 1.0
+        tips, axes = self._posture(np.array([a, i]), math.radians(self.state.lead_offset_deg),
+                                   math.radians(self.state.tilt_offset_deg))
+        tip = (1 - w) * tips[0] + w * tips[1]
+        ax = (1 - w) * axes[0] + w * axes[1]
+        ax /= np.linalg.norm(ax)
+        try:
+            self._joints = solve_path(self.machine, tip[None], ax[None],
+                                      start=self._joints).joints[0]
+        except ValueError:
+            self.state.status = STATUS["fault"]
+        self.state.joints = self._joints.copy()
