@@ -74,3 +74,18 @@ CONTROLLER_STEP_DEG = 10.0
 #: After a command, the controller waits this many spindle revolutions (a fresh
 #: detector window) before it acts again [rev].
 CONTROLLER_HOLDOFF_REV = 15.0
+
+# --- the run report (sim/report.py) ---------------------------------------------
+#: Chatter counts as stopped from a quiet window after which, over this long
+#: [s], at most this share of the windows call chatter [-].
+STOP_WINDOW_S = 0.5
+STOP_FRACTION = 0.1
+#: Share of the cut (its end) over which the "after" surface figures are taken [-].
+TAIL_FRACTION = 0.5
+#: Default stretch of the bundled program the simulated machine runs (cutter
+#: location indices): the first two passes along the thin wall's top, where the
+#: CAM's posture chatters.
+DEFAULT_POINTS = (2, 75)
+#: The controller acts on a chatter verdict only when this many verdicts in a
+#: row agree on the cause [-].
+CONTROLLER_CONFIRM = 2

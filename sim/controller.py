@@ -24,14 +24,18 @@ from nc.kinematics import get_machine
 from nc.path import cutter_locations
 from orient.contacts import ball_contacts
 from orient.detect import ChatterDetector, Detection
+from orient.dynamics import ModalSystem
 from orient.gain import process_gain_batch
 from orient.geometry import inclination, lead_tilt_of, posture_axis
 from orient.plan import local_cuts
 from orient.scenario import PlanScenario
-from orient.strategies import DetectorRule
+from orient.stability import zoa_margin, zoa_margin_batch
+from orient.strategies import DetectorRule, EigenCriterion
 from orient.strategy_types import PostureState
+from orient.workpiece import WorkpieceModel
 
 from .constants import (
+    CONTROLLER_CONFIRM,
     CONTROLLER_HOLDOFF_REV,
     CONTROLLER_POLL_S,
     CONTROLLER_STEP_DEG,
@@ -143,7 +147,13 @@ class ProgramGeometry:
         lead, tilt = lead_tilt_of(self.cam.axis, self.contacts.normal, self.contacts.feed)
         self.cam_lead, self.cam_tilt = np.asarray(lead), np.asarray(tilt)
         self.point = int(self.touch[0]) if self.touch.size else 0
-        self._sense: dict = {}
+        self._P: dict = {}
+        self._incl: dict = {}
+        self._margin: dict = {}
+        self._systems: dict = {}
+        self._workpiece: WorkpieceModel | None = None
+        self._tool_system: ModalSystem | None = None
+        self.rpm = rpm
 
     def point_of_block(self, block: int) -> int:
         """Cutter location of a program block (the nearest touching one)."""
@@ -159,24 +169,77 @@ class ProgramGeometry:
         return posture_axis(self.contacts.normal[i], self.contacts.feed[i], lead, tilt)
 
     def inclination(self, lead: float, tilt: float) -> float:
-        return float(inclination(self._axis(lead, tilt), self.contacts.normal[self.point]))
+        key = (self.point, round(lead, 9), round(tilt, 9))
+        if key not in self._incl:
+            self._incl[key] = float(inclination(self._axis(lead, tilt),
+                                                self.contacts.normal[self.point]))
+        return self._incl[key]
 
     def cut_sense(self, lead: float, tilt: float) -> float:
+        self._gain_P(lead, tilt)
+        return self._P[(self.point, round(lead, 9), round(tilt, 9))][1]
+
+    def _gain_P(self, lead: float, tilt: float) -> np.ndarray:
         i = self.point
-        key = (i, round(lead, 6), round(tilt, 6))
-        if key not in self._sense:
+        key = (i, round(lead, 9), round(tilt, 9))
+        if key not in self._P:
             g = process_gain_batch(self.scn.base.tool, self.scn.base.coefficients,
                                    self._axis(lead, tilt), self.contacts.normal[i],
                                    self.contacts.feed[i], self.cuts[i])
-            self._sense[key] = float(g.cut_sense)
-        return self._sense[key]
+            self._P[key] = (np.asarray(g.P), float(g.cut_sense))
+        return self._P[key][0]
+
+    def prefetch(self, postures: np.ndarray, margins: bool = True) -> None:
+        """Evaluate many postures (k, 2) [rad] at the current cutter location at once
+        (one batch of process gains and margins) into the caches the rules read."""
+        i = self.point
+        lt = np.atleast_2d(np.asarray(postures, dtype=float))
+        keys = [(i, round(float(a), 9), round(float(b), 9)) for a, b in lt]
+        todo = [k for k, key in enumerate(keys) if key not in self._P
+                or (margins and key not in self._margin)]
+        if not todo:
+            return
+        lt = lt[todo]
+        n, f = self.contacts.normal[i], self.contacts.feed[i]
+        axes = posture_axis(n[None], f[None], lt[:, 0], lt[:, 1])
+        g = process_gain_batch(self.scn.base.tool, self.scn.base.coefficients, axes, n, f,
+                               self.cuts[i])
+        inc = inclination(axes, n[None])
+        m = None
+        if margins:
+            sys_ = self.system_at(i)
+            m = zoa_margin_batch(g.P, sys_, self.rpm, self.scn.base.tool.flutes,
+                                 mode_directions=sys_.directions_for_axes(axes))
+        for r, k in enumerate(todo):
+            key = keys[k]
+            self._P[key] = (np.asarray(g.P[r]), float(g.cut_sense[r]))
+            self._incl[key] = float(inc[r])
+            if m is not None:
+                self._margin[key] = float(m[r])
+
+    def system_at(self, i: int) -> ModalSystem:
+        """Tool modes plus the workpiece's at cutter location ``i`` (orient's models)."""
+        if self._workpiece is None:
+            self._workpiece = WorkpieceModel(self.scn.workpiece, self.contacts.point[self.touch])
+            self._tool_system = ModalSystem.tool(self.scn.base.compliance)
+        if i not in self._systems:
+            self._systems[i] = self._workpiece.system_at(self._tool_system,
+                                                         self.contacts.point[i])
+        return self._systems[i]
 
     def margin(self, lead: float, tilt: float) -> float:
-        raise NotImplementedError("the controller has no stability model; use a rule driven "
-                                  "by the detector")
+        """Zero-order stability margin of a posture at the current cutter location."""
+        key = (self.point, round(lead, 9), round(tilt, 9))
+        if key not in self._margin:
+            sys_ = self.system_at(self.point).with_tool_axis(self._axis(lead, tilt))
+            self._margin[key] = float(zoa_margin(self._gain_P(lead, tilt), sys_, self.rpm,
+                                                 self.scn.base.tool.flutes))
+        return self._margin[key]
 
     def gain(self, lead: float, tilt: float, direction: np.ndarray) -> float:
-        raise NotImplementedError("the controller has no process-gain direction")
+        e = np.asarray(direction, dtype=float)
+        e = e / np.linalg.norm(e)
+        return float(e @ self._gain_P(lead, tilt) @ e)
 
     def feasible(self, lead: float, tilt: float) -> bool:
         """Within the offset range of the register map and the planner's inclination
@@ -207,15 +270,21 @@ class Controller:
     geometry : ProgramGeometry
     sensors : Accelerometers
         The NC's sensor chain (its rate and LSB are also read from the map).
+    strategy : str
+        ``'eigen'``: orient's :class:`~orient.strategies.EigenCriterion` (the
+        posture of the largest zero-order margin within +-20 deg, from the
+        controller's own models of the tool and the wall); ``'detector'``:
+        :class:`~orient.strategies.DetectorRule` (the patent's cause rules, a
+        ``step_deg`` step toward smaller or larger inclination).
     step_deg : float [deg]
-        The rule's posture step.
+        The detector rule's posture step.
     act : bool
         False: detect and report only (open loop).
     """
 
     def __init__(self, client: NCClient, geometry: ProgramGeometry, *,
-                 sensors: Accelerometers | None = None, step_deg: float = CONTROLLER_STEP_DEG,
-                 act: bool = True) -> None:
+                 sensors: Accelerometers | None = None, strategy: str = "eigen",
+                 step_deg: float = CONTROLLER_STEP_DEG, act: bool = True) -> None:
         self.client = client
         self.geometry = geometry
         st = client.state()
@@ -223,13 +292,28 @@ class Controller:
             sample_rate_hz=st["accel_rate_hz"])
         self.lsb = st["accel_lsb_um_s2"] * 1e-6
         self.detector = ChatterDetector(detector_settings(sensors))
-        self.rule = DetectorRule(geometry, step_rad=math.radians(step_deg))
+        if strategy == "eigen":
+            self.rule = EigenCriterion(geometry)
+        elif strategy == "detector":
+            self.rule = DetectorRule(geometry, step_rad=math.radians(step_deg))
+        else:
+            raise ValueError(f"strategy: expected 'eigen' or 'detector', got {strategy!r}")
+        self.strategy = strategy
         self.act = act
         self.log = ControllerLog()
         self._beat = 0
         self._hold_until = -math.inf
         self._seq = int(client.client.read_holding_registers(
             by_name("orient_seq").address, count=1, device_id=client.device_id).registers[0])
+        self._last_cause: str | None = None
+        # compile and load orient's kernels (and the wall's modes) now, not at the
+        # first chatter
+        if geometry.touch.size:
+            i = int(geometry.touch[0])
+            geometry.point = i
+            geometry.cut_sense(float(geometry.cam_lead[i]), float(geometry.cam_tilt[i]))
+            if strategy == "eigen":
+                geometry.margin(float(geometry.cam_lead[i]), float(geometry.cam_tilt[i]))
 
     def step(self) -> dict[str, float]:
         """One poll: heartbeat, new samples through the detector, maybe a command."""
@@ -252,9 +336,16 @@ class Controller:
             self.log.detections.append((t, d.cause, d.frequency_hz, d.amplitude))
             c.write(chatter_flag=1, chatter_cause=CAUSE.get(d.cause or "unknown", 3),
                     chatter_freq_hz=min(d.frequency_hz, 65535.0))
-            if self.act and t >= self._hold_until and st["cutting"]:
+            # act on a cause seen in two verdicts running (one window can mislead)
+            causes = [x.cause for x in found[-CONTROLLER_CONFIRM:]]
+            if self._last_cause is not None and len(causes) < CONTROLLER_CONFIRM:
+                causes = [self._last_cause] + causes
+            confirmed = len(causes) >= CONTROLLER_CONFIRM and len(set(causes)) == 1
+            self._last_cause = d.cause
+            if self.act and confirmed and t >= self._hold_until and st["cutting"]:
                 self._react(d, st, t)
         else:
+            self._last_cause = None
             c.write(chatter_flag=0, chatter_cause=0)
         return st
 
@@ -264,6 +355,8 @@ class Controller:
         g.point = i
         lead = float(g.cam_lead[i]) + math.radians(st["lead_now"])
         tilt = float(g.cam_tilt[i]) + math.radians(st["tilt_now"])
+        if self.strategy == "eigen":
+            g.prefetch(np.vstack([[lead, tilt], self.rule.candidates.around(lead, tilt)]))
         state = PostureState.from_model(g, lead, tilt, st["spindle_rpm"])
         change = self.rule.propose(state, d)
         if change is None:
@@ -294,9 +387,13 @@ class Controller:
         """Poll until the program has finished (or ``max_s`` wall seconds)."""
         t0 = time.monotonic()
         while time.monotonic() - t0 < max_s:
+            seq = self.client.sequence
             st = self.step()
             if until_finished and int(st["status"]) in (2, 3):
                 break
-            time.sleep(poll_s)
+            got = 0 if seq is None or self.client.sequence is None else \
+                (self.client.sequence - seq) % 2 ** 32
+            if got < self.detector.settings.hop_samples:     # caught up: wait for more
+                time.sleep(poll_s)
         return self.log
 

@@ -61,12 +61,12 @@ from .constants import (
 __all__ = [
     "Cutter",
     "CuttingModel",
-    "with_system",
     "MillingRun",
     "growth_rate",
     "prepare_cut",
     "simulate",
     "stability_boundary",
+    "with_system",
 ]
 
 _MM_PER_M = 1e3

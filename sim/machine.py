@@ -47,7 +47,7 @@ from .constants import (
 )
 from .cutting import Cutter, prepare_cut, with_system
 from .registers import ACK, STATUS
-from .sensors import AccelerometerStream, Accelerometers
+from .sensors import Accelerometers, AccelerometerStream
 
 __all__ = ["NCState", "SimulatedNC", "SurfaceRecord"]
 
@@ -180,9 +180,9 @@ class SimulatedNC:
             solve_path(self.machine, tips, axes, start=self._joints)
         except ValueError:
             ack = ACK["refused_axis_limit"]
-        if ack == ACK["applied"] and np.any(self.contacts.touching[rows]):
-            if not np.all(self.checker.check(tips, axes).feasible):
-                ack = ACK["refused_interference"]
+        if ack == ACK["applied"] and np.any(self.contacts.touching[rows]) \
+                and not np.all(self.checker.check(tips, axes).feasible):
+            ack = ACK["refused_interference"]
         if ack == ACK["applied"]:
             self.state.lead_offset_deg = float(lead_deg)
             self.state.tilt_offset_deg = float(tilt_deg)

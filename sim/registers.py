@@ -47,7 +47,7 @@ CAUSE = {"none": 0, "tool": 1, "workpiece": 2, "unknown": 3}
 INPUT = "input"
 HOLDING = "holding"
 #: Accelerometer ring: sample pairs and their first register.
-RING_SAMPLES = 2048
+RING_SAMPLES = 8192
 RING_START = 100
 
 
@@ -147,6 +147,8 @@ REGISTERS: tuple[Register, ...] = (
     _r("chatter_cause", HOLDING, 7, 1, False, 1, "-", 0, 3,
        "0 none, 1 tool, 2 workpiece, 3 unknown"),
     _r("chatter_freq_hz", HOLDING, 8, 1, False, 1, "Hz", 0, 65535, "Controller's chatter frequency"),
+    _r("cycle_start", HOLDING, 9, 1, False, 1, "-", 0, 1,
+       "1 starts the program (a server started without autostart waits for it)"),
 )
 
 _BY_NAME = {r.name: r for r in REGISTERS}

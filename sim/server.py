@@ -18,7 +18,7 @@ import asyncio
 import math
 import threading
 import time
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 from pymodbus.constants import ExcCodes
@@ -157,10 +157,16 @@ class NCServer:
         as the simulation goes).
     tick_s : float [s]
         Simulated time per machine step.
+    record : bool
+        Keep every accelerometer sample (:meth:`recorded`) for the report.
+    autostart : bool
+        Run the program at once; otherwise wait (status idle) until a client
+        writes ``cycle_start = 1``.
     """
 
     def __init__(self, nc: SimulatedNC, *, host: str = "127.0.0.1", port: int = DEFAULT_PORT,
-                 time_scale: float = 1.0, tick_s: float = TICK_S) -> None:
+                 time_scale: float = 1.0, tick_s: float = TICK_S, record: bool = False,
+                 autostart: bool = True) -> None:
         self.nc = nc
         self.host = host
         self.port = int(port)
@@ -169,11 +175,16 @@ class NCServer:
         self.time_scale = float(time_scale)
         self.tick_s = float(tick_s)
         self.store = RegisterStore()
+        self.record = bool(record)
+        self._rec_t: list[np.ndarray] = []
+        self._rec_c: list[np.ndarray] = []
+        self._rec_cut: list[tuple[float, int]] = []
         self.store.set("feed_override", nc.state.feed_override_pct)
         self.store.set("watchdog_ms", DEFAULT_WATCHDOG_MS)
         self.store.set("accel_rate_hz", nc.sensors.sample_rate_hz)
         self.store.set("accel_lsb_um_s2", nc.sensors.lsb_m_s2 * 1e6)
         self.store.set("spindle_rpm", nc.rpm)
+        self.store.set("cycle_start", 1 if autostart else 0)
         self._loop: asyncio.AbstractEventLoop | None = None
         self._server: ModbusTcpServer | None = None
         self._threads: list[threading.Thread] = []
@@ -205,15 +216,25 @@ class NCServer:
             t.join(5.0)
         self._threads.clear()
 
-    def __enter__(self) -> NCServer:
+    def __enter__(self) -> Self:
         return self.start()
 
-    def __exit__(self, *exc: Any) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.stop()
 
     def wait_finished(self, timeout_s: float | None = None) -> bool:
         """Wait until the program has run to its end (or the machine stopped)."""
         return self._machine_done.wait(timeout_s)
+
+    def recorded(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """All accelerometer samples so far: times (k,) [s], counts (k, 2), and whether
+        the tool was cutting at each sample (k,) bool."""
+        if not self._rec_t:
+            return np.zeros(0), np.zeros((0, 2), dtype=np.int32), np.zeros(0, dtype=bool)
+        t = np.concatenate(self._rec_t)
+        ticks = np.array(self._rec_cut, dtype=float).reshape(-1, 2)
+        j = np.clip(np.searchsorted(ticks[:, 0], t), 0, len(ticks) - 1)
+        return t, np.concatenate(self._rec_c), ticks[j, 1] > 0
 
     # --- threads -------------------------------------------------------------------
     def _serve(self) -> None:
@@ -258,17 +279,23 @@ class NCServer:
                     seq_seen = seq
                     ack = nc.command_orientation(store.get("lead_cmd"), store.get("tilt_cmd"),
                                                  seq)
-                    self.events.append((nc.state.time_s, f"orientation command {seq}: "
-                                        f"lead {store.get('lead_cmd'):+.2f} tilt "
-                                        f"{store.get('tilt_cmd'):+.2f} deg -> ack {ack}"))
+                    what = (f"orientation command {seq}: lead {store.get('lead_cmd'):+.2f} "
+                            f"tilt {store.get('tilt_cmd'):+.2f} deg -> ack {ack}")
+                    self.events.append((nc.state.time_s, what))
                 timeout = store.get("watchdog_ms") / 1000.0
                 if alive_once and not nc.state.watchdog_tripped and now - last_alive > timeout:
                     nc.state.watchdog_tripped = 1
                     if nc.state.lead_offset_deg or nc.state.tilt_offset_deg:
                         nc.reset_orientation()
-                    self.events.append((nc.state.time_s, "watchdog: controller silent, "
-                                        "orientation back to the program's"))
+                    what = "watchdog: controller silent, orientation back to the program's"
+                    self.events.append((nc.state.time_s, what))
                 # machine
+                if not store.get("cycle_start"):
+                    self._publish()
+                    time.sleep(0.005)
+                    t0 = time.monotonic() - nc.state.time_s / self.time_scale \
+                        if math.isfinite(self.time_scale) else t0
+                    continue
                 if nc.done:
                     nc.state.status = STATUS["finished"]
                     self._publish()
@@ -277,6 +304,11 @@ class NCServer:
                     continue
                 sig = nc.tick(self.tick_s)
                 store.push_samples(sig.counts)
+                if self.record:
+                    self._rec_cut.append((nc.state.time_s, nc.state.cutting))
+                    if sig.time_s.size:
+                        self._rec_t.append(sig.time_s)
+                        self._rec_c.append(sig.counts)
                 self._publish()
                 if math.isfinite(self.time_scale):
                     lag = nc.state.time_s / self.time_scale - (time.monotonic() - t0)

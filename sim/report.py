@@ -1,0 +1,116 @@
+"""Figures of a simulated run: chatter onset and stop, surface, spectra (no I/O).
+
+The verdicts are recomputed offline from the recorded accelerometer stream
+with the same detector settings as the controller, window by window, so open
+and closed loop are judged alike. Definitions:
+
+* only windows that end while the tool cuts count;
+* *first detection*: end of the first window with a chatter verdict;
+* *chatter stops*: the first window after the first detection from which, over
+  the next ``STOP_WINDOW_S``, at most ``STOP_FRACTION`` of the windows call
+  chatter; reported in spindle revolutions after the first detection;
+* *chatter share*: the share of windows calling chatter from the first
+  detection to the end;
+* *surface*: the generated surface's deviation once per tooth
+  (:class:`sim.machine.SurfaceRecord`): its mean (location error) and the
+  standard deviation of its tooth-to-tooth change (chatter marks), over the
+  whole cut and over its last ``TAIL_FRACTION``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from orient.detect import ChatterDetector
+
+from .constants import STOP_FRACTION, STOP_WINDOW_S, TAIL_FRACTION
+
+__all__ = ["chatter_timeline", "spectrum", "summarize_run"]
+
+
+def chatter_timeline(time_s: np.ndarray, accel_m_s2: np.ndarray, detector: ChatterDetector,
+                     spindle_rpm: float, teeth: int) -> dict[str, np.ndarray]:
+    """Verdict per window: end time [s], chatter flag, amplitude [m/s^2], frequency [Hz]."""
+    detector.reset()
+    out = detector.feed(accel_m_s2[:, 0], accel_m_s2[:, 1], spindle_rpm, teeth)
+    t0 = float(time_s[0]) if time_s.size else 0.0
+    fs = detector.settings.sample_rate_hz
+    return {"end_s": t0 + np.array([d.sample_index for d in out], dtype=float) / fs,
+            "chatter": np.array([d.chatter for d in out], dtype=bool),
+            "amplitude": np.array([d.amplitude for d in out], dtype=float),
+            "frequency_hz": np.array([d.frequency_hz for d in out], dtype=float),
+            "cause": np.array([d.cause or "" for d in out])}
+
+
+def _stop_index(end_s: np.ndarray, chatter: np.ndarray, first: int) -> int | None:
+    for i in range(first + 1, end_s.size):
+        if chatter[i]:
+            continue
+        ahead = (end_s >= end_s[i]) & (end_s < end_s[i] + STOP_WINDOW_S)
+        if end_s[-1] - end_s[i] < STOP_WINDOW_S:
+            return None
+        if chatter[ahead].mean() <= STOP_FRACTION:
+            return i
+    return None
+
+
+def spectrum(accel_m_s2: np.ndarray, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """Single-sided amplitude spectrum (Hann) of the vector acceleration: f [Hz], A [m/s^2]."""
+    x = np.asarray(accel_m_s2, dtype=float)
+    n = x.shape[0]
+    w = np.hanning(n)
+    X = np.fft.rfft((x - x.mean(axis=0)) * w[:, None], axis=0)
+    amp = 2.0 * np.sqrt(np.sum(np.abs(X) ** 2, axis=1)) / w.sum()
+    return np.fft.rfftfreq(n, 1.0 / fs_hz), amp
+
+
+def summarize_run(time_s: np.ndarray, accel_m_s2: np.ndarray, surface: dict[str, np.ndarray],
+                  detector: ChatterDetector, spindle_rpm: float, teeth: int,
+                  commands: list | None = None, cutting: np.ndarray | None = None
+                  ) -> dict[str, Any]:
+    """The figures of one run (JSON-ready). With ``cutting`` (k,) bool per sample,
+    only the windows that end while the tool cuts are judged (the air moves
+    between passes are neither chatter nor its end)."""
+    tl = chatter_timeline(time_s, accel_m_s2, detector, spindle_rpm, teeth)
+    if cutting is not None and time_s.size:
+        k = np.clip(np.searchsorted(time_s, tl["end_s"]) - 1, 0, time_s.size - 1)
+        keep = np.asarray(cutting, dtype=bool)[k]
+        tl = {key: v[keep] for key, v in tl.items()}
+    rev_s = 60.0 / spindle_rpm
+    hits = np.flatnonzero(tl["chatter"])
+    out: dict[str, Any] = {"windows": int(tl["chatter"].size),
+                           "simulated_s": float(time_s[-1]) if time_s.size else 0.0}
+    if hits.size:
+        first = int(hits[0])
+        stop = _stop_index(tl["end_s"], tl["chatter"], first)
+        t_det = float(tl["end_s"][first])
+        out.update(first_detection_s=t_det,
+                   first_cause=str(tl["cause"][first]),
+                   first_frequency_hz=float(tl["frequency_hz"][first]),
+                   chatter_share_after_detection=float(tl["chatter"][first:].mean()),
+                   chatter_stops_s=None if stop is None else float(tl["end_s"][stop]),
+                   chatter_stops_after_rev=None if stop is None else
+                   float((tl["end_s"][stop] - t_det) / rev_s),
+                   peak_amplitude_m_s2=float(np.nanmax(tl["amplitude"][hits])))
+    else:
+        out.update(first_detection_s=None, chatter_share_after_detection=0.0)
+    off = np.asarray(surface.get("offset_mm", np.zeros(0)), dtype=float)
+    if off.size > 2:
+        tail = off[int((1 - TAIL_FRACTION) * off.size):]
+        out["surface"] = {
+            "teeth": int(off.size),
+            "mean_offset_um": float(off.mean() * 1e3),
+            "chatter_marks_um": float(np.std(np.diff(off)) * 1e3),
+            "peak_to_peak_um": float(np.ptp(off) * 1e3),
+            "tail_mean_offset_um": float(tail.mean() * 1e3),
+            "tail_chatter_marks_um": float(np.std(np.diff(tail)) * 1e3) if tail.size > 2
+            else math.nan,
+            "tail_peak_to_peak_um": float(np.ptp(tail) * 1e3),
+        }
+    out["commands"] = [] if commands is None else [
+        {"time_s": c[0], "lead_deg": c[1], "tilt_deg": c[2], "reason": c[3], "ack": c[4]}
+        for c in commands]
+    return out
