@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pymodbus.client import ModbusTcpClient
+from pymodbus.exceptions import ModbusException
 
 from nc.kinematics import get_machine
 from nc.path import cutter_locations
@@ -80,9 +81,12 @@ class NCClient:
         out: list[int] = []
         while count > 0:
             k = min(count, MAX_READ_REGISTERS)
-            rr = (self.client.read_input_registers if fc == 4 else
-                  self.client.read_holding_registers)(address, count=k,
-                                                       device_id=self.device_id)
+            try:
+                rr = (self.client.read_input_registers if fc == 4 else
+                      self.client.read_holding_registers)(address, count=k,
+                                                           device_id=self.device_id)
+            except ModbusException as exc:
+                raise ConnectionError(f"Modbus read at {address}: {exc}") from exc
             if rr.isError():
                 raise ConnectionError(f"Modbus read of {k} registers at {address} failed: {rr}")
             out.extend(rr.registers)
@@ -95,14 +99,24 @@ class NCClient:
         words = self._read(4, 0, _STATE_COUNT)
         return {r.name: decode(r, words[r.address:r.address + r.words]) for r in _INPUT_STATE}
 
+    def holding(self, name: str) -> float:
+        """One holding register by name (engineering units)."""
+        reg = by_name(name)
+        if reg.table != HOLDING:
+            raise KeyError(f"{name} is not a holding register")
+        return decode(reg, self._read(3, reg.address, reg.words))
+
     def write(self, **values: float) -> None:
         """Write holding registers by name (engineering units)."""
         for name, v in values.items():
             reg = by_name(name)
             if reg.table != HOLDING:
                 raise KeyError(f"{name} is not a holding register")
-            rr = self.client.write_register(reg.address, encode(reg, v)[0],
-                                            device_id=self.device_id)
+            try:
+                rr = self.client.write_register(reg.address, encode(reg, v)[0],
+                                                device_id=self.device_id)
+            except ModbusException as exc:
+                raise ConnectionError(f"Modbus write of {name}: {exc}") from exc
             if rr.isError():
                 raise ConnectionError(f"Modbus write of {name}={v} refused: {rr}")
 
@@ -303,8 +317,7 @@ class Controller:
         self.log = ControllerLog()
         self._beat = 0
         self._hold_until = -math.inf
-        self._seq = int(client.client.read_holding_registers(
-            by_name("orient_seq").address, count=1, device_id=client.device_id).registers[0])
+        self._seq = int(client.holding("orient_seq"))
         self._last_cause: str | None = None
         # compile and load orient's kernels (and the wall's modes) now, not at the
         # first chatter

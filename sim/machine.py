@@ -106,10 +106,14 @@ class SimulatedNC:
         program's cutter locations) instead of the whole program.
     seed : int
         Sensor noise seed.
+    workpiece : orient.workpiece.WorkpieceModel, optional
+        A workpiece model already built for this scenario (its finite elements
+        take seconds); default: built here.
     """
 
     def __init__(self, scn: PlanScenario, *, sensors: Accelerometers | None = None,
-                 points: tuple[int, int] | None = None, seed: int = 0) -> None:
+                 points: tuple[int, int] | None = None, seed: int = 0,
+                 workpiece: WorkpieceModel | None = None) -> None:
         self.scn = scn
         base = scn.base
         m = base.machine
@@ -127,7 +131,8 @@ class SimulatedNC:
         self.rpm = float(np.max(self.cam.spindle_rpm[first:last + 1]))
         cuts = local_cuts(scn, self.contacts, touch, self.cam, self.rpm) if touch.size else []
         self.cut_at = dict(zip(touch.tolist(), cuts, strict=True))
-        self.workpiece = WorkpieceModel(scn.workpiece, self.contacts.point[touch])
+        self.workpiece = workpiece if workpiece is not None else \
+            WorkpieceModel(scn.workpiece, self.contacts.point[touch])
         self.tool_system = ModalSystem.tool(base.compliance)
         lead, tilt = lead_tilt_of(self.cam.axis, self.contacts.normal, self.contacts.feed)
         self.cam_lead, self.cam_tilt = np.asarray(lead), np.asarray(tilt)

@@ -1,0 +1,39 @@
+"""The bundled closed-loop scenario over real TCP on loopback (``python -m sim run``):
+the controller runs as a separate process and talks to the NC only through Modbus."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from sim.cli import main
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    d = tmp_path_factory.mktemp("closed-loop")
+    rep, png = d / "report.json", d / "spectra.png"
+    assert main(["run", "--report", str(rep), "--plot", str(png)]) == 0
+    return json.loads(rep.read_text()), png
+
+
+def test_chatter_stops_and_the_surface_is_better_than_open_loop(report):
+    r, png = report
+    closed, opened = r["closed_loop"], r["open_loop"]
+    # the CAM posture chatters: the open loop chatters all along the cut
+    assert opened["first_detection_s"] is not None
+    assert opened["chatter_share_after_detection"] > 0.9
+    # the loop on: chatter detected early, a re-orientation taken, and it stops
+    assert closed["first_detection_s"] < 0.3
+    applied = [c for c in closed["commands"] if c["ack"] == 1]
+    assert applied
+    assert closed["chatter_stops_after_rev"] is not None
+    assert closed["chatter_stops_after_rev"] < 200
+    assert closed["chatter_share_after_detection"] < 0.5 * opened["chatter_share_after_detection"]
+    # the surface: the chatter marks of the second half of the cut are a fraction of open loop's
+    assert closed["surface"]["tail_chatter_marks_um"] < 0.2 * opened["surface"][
+        "tail_chatter_marks_um"]
+    assert closed["controller_missed_samples"] == 0
+    assert closed["server_error"] is None and opened["server_error"] is None
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
