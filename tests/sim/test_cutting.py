@@ -175,3 +175,24 @@ def test_ball_end_mill_on_the_thin_wall_matches_the_analysis_when_linear():
     assert abs(lin / ref - 1.0) < 0.10
     full = stability_boundary(model, 0.5 * ref, 3.0 * ref)
     assert full > lin
+
+
+def test_cutter_in_chunks_equals_one_run():
+    """The NC's stateful cutter (servo ticks, swapped models) reproduces one run exactly."""
+    from sim.cutting import Cutter
+
+    m = prepare_cut(FLAT, COEF, Z, Z, X, HALF_DOWN, _tool_2dof(), 9000.0, edges=EDGES)
+    run = simulate(m, 20, scale=0.1, ramp_revolutions=0)
+    c = Cutter(m.steps_per_rev, m.n_edges)
+    sizes = (100, 333, 1000, 20 * m.steps_per_rev - 1433)
+    parts = [c.advance(m, k, 0.1) for k in sizes]
+    np.testing.assert_array_equal(np.concatenate([p.force_N for p in parts]), run.force_N)
+    np.testing.assert_array_equal(np.concatenate([p.displacement_m for p in parts]),
+                                  run.displacement_m)
+    # off the cut the modes ring down freely: the energy only decreases
+    free = c.idle(m.dt_s, 2000, m.system)
+    e = np.linalg.norm(free.displacement_m, axis=1)
+    spt = m.steps_per_tooth
+    assert e[-spt:].max() < e[:spt].max()
+    with pytest.raises(ValueError, match="steps per revolution"):
+        Cutter(m.steps_per_rev + 2, m.n_edges).advance(m, 10)

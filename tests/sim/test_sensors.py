@@ -89,3 +89,21 @@ def test_bad_input():
         sample_accelerometers(t, np.zeros((9, 3)), Accelerometers())
     with pytest.raises(ValueError, match="rotation"):
         sample_accelerometers(t, np.zeros((10, 3)), Accelerometers(), rotation=np.ones((3, 3)))
+
+
+def test_stream_in_chunks_equals_one_call():
+    from sim.sensors import AccelerometerStream
+
+    rng = np.random.default_rng(5)
+    t = np.arange(30_000) / 120_000.0
+    a = rng.normal(0, 50, size=(t.size, 3))
+    s = Accelerometers(noise_rms_m_s2=0.0)
+    one = sample_accelerometers(t, a, s)
+    st = AccelerometerStream(s, 1 / 120_000.0)
+    cuts = (0, 77, 1000, 5000, 17_333, t.size)
+    parts = [st.push(t[i:j], a[i:j]) for i, j in zip(cuts[:-1], cuts[1:])]
+    counts = np.concatenate([p.counts for p in parts])
+    n = one.counts.shape[0]
+    np.testing.assert_array_equal(counts[:n], one.counts)
+    np.testing.assert_allclose(np.concatenate([p.time_s for p in parts])[:n], one.time_s,
+                               atol=1e-12)

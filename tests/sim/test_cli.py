@@ -1,0 +1,42 @@
+"""``python -m sim``: bad input ends in one clear line and writes nothing."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+
+from sim.cli import main
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_missing_scenario_is_one_line_naming_the_file(tmp_path, capsys):
+    missing = tmp_path / "nope.toml"
+    rep = tmp_path / "r.json"
+    assert main(["run", str(missing), "--report", str(rep)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "nope.toml" in err[0] and err[0].startswith("error:")
+    assert not rep.exists()
+
+
+def test_bad_points_are_refused(capsys):
+    assert main(["serve", "--points", "40", "10", "--duration", "0.1"]) == 2
+    assert "points" in capsys.readouterr().err
+
+
+def test_controller_without_server_says_so(capsys):
+    port = _free_port()
+    assert main(["controller", "--port", str(port), "--connect-timeout", "0.5"]) == 1
+    assert f"127.0.0.1:{port}" in capsys.readouterr().err
+
+
+def test_module_entry_point_help():
+    out = subprocess.run([sys.executable, "-m", "sim", "--help"], capture_output=True,
+                         text=True, timeout=60, check=True).stdout
+    for cmd in ("serve", "controller", "run"):
+        assert cmd in out
