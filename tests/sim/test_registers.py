@@ -53,3 +53,11 @@ def test_encode_clips_and_refuses_nan():
         encode(by_name("lead_cmd"), float("nan"))
     with pytest.raises(KeyError, match="no register"):
         by_name("spindle_torque")
+
+
+def test_readme_register_table_is_the_map():
+    import os
+
+    readme = open(os.path.join(os.path.dirname(__file__), "..", "..", "README.md"),
+                  encoding="utf-8").read()
+    assert markdown_table() in readme
