@@ -27,9 +27,10 @@ import numpy as np
 
 sys.path.insert(0, os.path.abspath(os.path.join(os.path.dirname(__file__), "..")))
 
+from pymodbus.client import ModbusTcpClient
+
 from orient.detect import ChatterDetector
 from orient.scenario import load_plan_scenario
-from pymodbus.client import ModbusTcpClient
 from sim.cli import BUNDLED
 from sim.constants import DEFAULT_POINTS, TICK_S
 from sim.machine import SimulatedNC
@@ -39,10 +40,10 @@ from sim.server import NCServer
 
 def sim_speed(scn, wp) -> None:
     nc = SimulatedNC(scn, points=DEFAULT_POINTS, workpiece=wp)
-    import sim.cutting as cutting
+    from sim import machine
 
     built = [0.0]
-    orig = cutting.prepare_cut
+    orig = machine.prepare_cut
 
     def timed(*a, **k):
         t = time.perf_counter()
@@ -50,8 +51,6 @@ def sim_speed(scn, wp) -> None:
             return orig(*a, **k)
         finally:
             built[0] += time.perf_counter() - t
-
-    import sim.machine as machine
 
     machine.prepare_cut = timed
     t0 = time.perf_counter()

@@ -10,8 +10,8 @@ __all__ = ["integrate"]
 
 @njit(cache=True, nogil=True)
 def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d, dirs, scale,
-              mk, mc, mm, tool_mode, linear, surface, state, force, disp, acc_tool, chip_mean,
-              contact_loss):
+              mk, mc, mm, tool_mode, linear, half_dt, surface, state, force, disp, acc_tool,
+              chip_mean, contact_loss):
     """March the cut ``n_steps`` rotation steps.
 
     Step ``n`` sits at rotation sample ``i = (start + n) mod spr``; its cutting entries
@@ -19,7 +19,7 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d
     rows; the flutes share positions), micro edge ``edge``, static chip ``h0``
     [mm], chip direction ``nrm`` (3) [mm per m of relative displacement],
     force at zero chip ``f0`` (3) [N] and per mm of chip ``f1`` (3) [N/mm],
-    world frame. ``surface`` (spr, m) [mm]: offset along the chip direction of
+    world frame. ``disp`` is the mid-step displacement. ``surface`` (spr, m) [mm]: offset along the chip direction of
     the surface the previous flute left, relative to its nominal place.
     The modes (``phi_d``, ``gam_d``: the exact step map of
     ``m eta'' + c eta' + k eta = u`` for ``u`` held over the step) are driven
@@ -27,7 +27,10 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d
     chip widths. Fills ``force`` (n, 3) [N], ``disp`` (n, 3) [m] (relative
     displacement at the step's start), ``chip_mean`` (n,) [mm] (mean chip of the
     edges in contact), ``contact_loss`` (n,) (entries whose chip fell to 0).
-    ``acc_tool`` (n, 3) [m/s^2]: acceleration of the tool (modes with
+    The chips use the displacement predicted at the middle of the step
+    (``eta + half_dt eta'``), so the force held over the step is centred on it
+    (second order in the step, where a force from the step's start would act
+    as an extra half-step delay). ``acc_tool`` (n, 3) [m/s^2]: acceleration of the tool (modes with
     ``tool_mode``; ``mk, mc, mm`` their stiffness, damping, mass) at the step's
     start. ``linear``: every engaged edge cuts, whatever its chip (the
     linearized model, no leaving the cut). ``state`` (nm, 2) carries (eta, eta')
@@ -43,7 +46,7 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d
         q[2] = 0.0
         for k in range(nm):
             for a in range(3):
-                q[a] += dirs[k, a] * state[k, 0]
+                q[a] += dirs[k, a] * (state[k, 0] + half_dt * state[k, 1])
         F[0] = 0.0
         F[1] = 0.0
         F[2] = 0.0

@@ -45,8 +45,6 @@ DETECTOR_HOP_SAMPLES = 256
 DETECTOR_HARMONIC_BASE = "tooth"
 
 # --- the simulated NC (sim/machine.py) ----------------------------------------
-#: Servo (interpolation) rate [Hz].
-SERVO_HZ = 1000.0
 #: Rapid traverse rate [mm/min].
 RAPID_MM_MIN = 10_000.0
 #: An orientation command is checked at the current and this many following
@@ -58,7 +56,9 @@ MODEL_CACHE = 64
 # --- the Modbus server (sim/server.py) ------------------------------------------
 #: Default TCP port (502 needs root).
 DEFAULT_PORT = 5020
-#: Simulated time per machine step of the server loop [s].
+#: The NC's interpolation period: the path advances, commands are taken and the
+#: state is published once per period; the cutting simulation inside it runs at
+#: its own step (24 per period of the highest mode) [s].
 TICK_S = 0.005
 #: Default watchdog [ms]: silence of the controller's heartbeat after which the
 #: orientation offset returns to the program's posture.

@@ -25,8 +25,10 @@ linear model that orient's stability analysis uses
 (``F = s H(t) (q(t) - q(t - tau))``), which the tests check.
 
 Each mode ``m eta'' + c eta' + k eta = d . F`` is advanced exactly for the
-force held over the step (its 2x2 matrix exponential), so the step only has
-to sample the force finely: ``STEPS_PER_MODE_PERIOD`` steps per period of the
+force held over the step (its 2x2 matrix exponential); the force is taken
+with the displacement predicted at the middle of the step, so the hold is
+centred (no half-step lag in the regenerative loop). The step only has to
+sample the force finely: ``STEPS_PER_MODE_PERIOD`` steps per period of the
 highest mode at least, and at least ``MIN_STEPS_PER_REV`` per revolution.
 """
 
@@ -128,7 +130,8 @@ class MillingRun:
     force_N : ndarray, shape (n, 3) [N]
         Force on the tool, workpiece frame.
     displacement_m : ndarray, shape (n, 3) [m]
-        Relative displacement, tool minus workpiece, workpiece frame.
+        Relative displacement, tool minus workpiece, workpiece frame (at the
+        middle of each step).
     tool_acceleration_m_s2 : ndarray, shape (n, 3) [m/s^2]
         Acceleration of the tool alone (its modes), workpiece frame: what
         sensors on the spindle see.
@@ -338,7 +341,8 @@ def simulate(model: CuttingModel, revolutions: float, *, scale: Any = 1.0,
     for k in range(n_teeth):                  # one kernel call per tooth: the Poincare state
         sl = slice(k * spt, (k + 1) * spt)
         _k.integrate((k * spt) % spr, spt, spr, *model.table, phi_d, gam_d, dirs, sc[sl],
-                     sysm.k_N_m, sysm.c_Ns_m, sysm.m_kg, tool_mode, bool(linear), surface,
+                     sysm.k_N_m, sysm.c_Ns_m, sysm.m_kg, tool_mode, bool(linear),
+                     0.5 * model.dt_s, surface,
                      state, force[sl],
                      disp[sl], acc[sl], chip[sl], lost[sl])
         poincare[k] = state
@@ -480,6 +484,7 @@ class Cutter:
         _k.integrate(self.step % self.steps_per_rev, n, self.steps_per_rev, *model.table, phi_d,
                      gam_d, np.ascontiguousarray(sysm.direction), np.full(n, s), sysm.k_N_m,
                      sysm.c_Ns_m, sysm.m_kg, np.asarray(sysm.source == "tool"), bool(linear),
+                     0.5 * model.dt_s,
                      self.surface, self.state, force, disp, acc, chip, lost)
         t = self.time_s + np.arange(n) * model.dt_s
         g = _generating_phase(model)

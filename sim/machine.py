@@ -2,7 +2,7 @@
 
 ``docs/method.md`` §8. The NC follows the program's cutter locations (nc's
 reader and kinematics) along the tip polyline at the programmed feed times
-the feed override, one servo tick at a time. An orientation offset command
+the feed override, one interpolation period (``TICK_S``) at a time. An orientation offset command
 (lead and tilt added to the program's posture at each cutter location, the
 ball centre kept) is taken only after it is checked at the current and the
 next ``LOOKAHEAD_POINTS`` cutter locations against the axis limits (nc's
@@ -42,8 +42,8 @@ from .constants import (
     MIN_STEPS_PER_REV,
     MODEL_CACHE,
     RAPID_MM_MIN,
-    SERVO_HZ,
     STEPS_PER_MODE_PERIOD,
+    TICK_S,
 )
 from .cutting import Cutter, prepare_cut, with_system
 from .registers import ACK, STATUS
@@ -252,8 +252,8 @@ class SimulatedNC:
     def done(self) -> bool:
         return self.s >= self.arc[self.last] - 1e-12
 
-    def tick(self, dt_s: float = 1.0 / SERVO_HZ):
-        """Advance the NC by one servo tick; returns the new accelerometer samples.
+    def tick(self, dt_s: float = TICK_S):
+        """Advance the NC by one interpolation period; returns the new accelerometer samples.
 
         Returns
         -------

@@ -1,10 +1,16 @@
 """Time-domain milling (sim.cutting) against orient's stability analysis and closed forms.
 
-Benchmarks: a straight-fluted flat end mill, half-immersion down-milling, on
-the symmetric 2-DOF tool of Ding et al. (IJMTM 50 (2010) 502-509: 922 Hz,
-zeta 0.011, k = 1.34e6 N/m in x and y), with errpred's micro-edge force
-model; the reference is orient's full discretization (Floquet) of the same
-linearized model, whose own benchmarks are in tests/orient/test_stability.py.
+Benchmarks, all with a straight-fluted flat end mill and errpred's micro-edge
+force model; the reference is orient's full discretization (Floquet) of the
+same linearized model, whose own benchmarks are in
+tests/orient/test_stability.py:
+
+* the 1-DOF slotting case of Insperger & Stepan (IJNME 61 (2004) 117-141) and
+  Ding et al. (IJMTM 50 (2010) 502-509): m = 0.03993 kg, 922 Hz, zeta 0.011
+  (k = 1340049.648 N/m) along x, Kt = 6e8 N/m^2, Kn = 2e8 N/m^2, 2 teeth,
+  a/D = 1, no edge forces;
+* half-immersion down-milling on Ding et al.'s symmetric 2-DOF tool (the same
+  mode in x and y), with a steel-like force model with edge forces.
 """
 
 from __future__ import annotations
@@ -35,6 +41,26 @@ HALF_DOWN = LocalCut(DEPTH, 5.0, 1, 0.05)       # ae = 5 mm of D = 10, down-mill
 def _tool_2dof() -> ModalSystem:
     m = Mode.from_frequency(922.0, 0.011, 1.34e6)
     return ModalSystem.from_modes([(m, (1, 0, 0)), (m, (0, 1, 0))], source="tool")
+
+
+def _insperger_case():
+    k, fn, zeta = 1340049.648, 922.0, 0.011
+    m = k / (2 * math.pi * fn) ** 2
+    mode = Mode(k, m, 2 * zeta * math.sqrt(k * m))
+    system = ModalSystem.from_modes([(mode, (1, 0, 0))], source="tool")
+    coef = CuttingCoefficients(Ktc_N_mm2=600.0, Krc_N_mm2=200.0, Kac_N_mm2=0.0,
+                               Kte0_N_mm=0.0, Kre0_N_mm=0.0, Kae0_N_mm=0.0)
+    return system, coef, LocalCut(DEPTH, 10.0, 1, 0.1)         # slot: ae = D
+
+
+@pytest.mark.parametrize("rpm", [5000.0, 10000.0])
+def test_1dof_slotting_boundary_agrees_with_time_periodic_analysis(rpm):
+    system, coef, slot = _insperger_case()
+    g = process_gain(FLAT, coef, Z, Z, X, slot, spindle_rpm=rpm, edges=EDGES, n_angles=720)
+    ref = sdm_margin(g.H, system, rpm, 2).margin
+    model = prepare_cut(FLAT, coef, Z, Z, X, slot, system, rpm, edges=EDGES)
+    b = stability_boundary(model, 0.5 * ref, 2.0 * ref)
+    assert abs(b / ref - 1.0) < 0.10
 
 
 def _fdm_margin(rpm: float, steps: int | None = None) -> float:

@@ -58,6 +58,7 @@ def test_encode_clips_and_refuses_nan():
 def test_readme_register_table_is_the_map():
     import os
 
-    readme = open(os.path.join(os.path.dirname(__file__), "..", "..", "README.md"),
-                  encoding="utf-8").read()
+    with open(os.path.join(os.path.dirname(__file__), "..", "..", "README.md"),
+              encoding="utf-8") as fh:
+        readme = fh.read()
     assert markdown_table() in readme

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -101,7 +102,7 @@ def test_stream_in_chunks_equals_one_call():
     one = sample_accelerometers(t, a, s)
     st = AccelerometerStream(s, 1 / 120_000.0)
     cuts = (0, 77, 1000, 5000, 17_333, t.size)
-    parts = [st.push(t[i:j], a[i:j]) for i, j in zip(cuts[:-1], cuts[1:])]
+    parts = [st.push(t[i:j], a[i:j]) for i, j in itertools.pairwise(cuts)]
     counts = np.concatenate([p.counts for p in parts])
     n = one.counts.shape[0]
     np.testing.assert_array_equal(counts[:n], one.counts)

@@ -14,7 +14,6 @@ import pytest
 from pymodbus.client import ModbusTcpClient
 
 from orient.scenario import load_plan_scenario
-from orient.workpiece import WorkpieceModel
 from sim.cli import BUNDLED
 from sim.controller import NCClient
 from sim.machine import SimulatedNC
@@ -53,7 +52,7 @@ def test_mbpoll_reads_the_register_map(scenario):
         out = subprocess.run(["mbpoll", "-m", "tcp", "-p", str(srv.port), "-a", "1", "-t", "3",
                               "-0", "-r", "0", "-c", "36", "-1", "127.0.0.1"],
                              capture_output=True, text=True, timeout=20, check=True).stdout
-        regs = {int(a): int(v) for a, v in re.findall(r"^\[(\d+)\]:\s+(\d+)", out, re.M)}
+        regs = {int(a): int(v) for a, v in re.findall(r"^\[(\d+)\]:\s+(\d+)", out, re.MULTILINE)}
         assert len(regs) == 36
         nc = srv.nc
         assert regs[by_name("status").address] == STATUS["idle"]
@@ -69,17 +68,17 @@ def test_mbpoll_reads_the_register_map(scenario):
         hold = subprocess.run(["mbpoll", "-m", "tcp", "-p", str(srv.port), "-a", "1", "-t", "4",
                                "-0", "-r", "0", "-c", "10", "-1", "127.0.0.1"],
                               capture_output=True, text=True, timeout=20, check=True).stdout
-        h = {int(a): int(v) for a, v in re.findall(r"^\[(\d+)\]:\s+(\d+)", hold, re.M)}
+        h = {int(a): int(v) for a, v in re.findall(r"^\[(\d+)\]:\s+(\d+)", hold, re.MULTILINE)}
         assert h[by_name("feed_override").address] == 100
         assert h[by_name("watchdog_ms").address] == 1000
         # a write through mbpoll: in range is taken, out of range refused
         ok = subprocess.run(["mbpoll", "-m", "tcp", "-p", str(srv.port), "-a", "1", "-t", "4",
                              "-0", "-r", "0", "-1", "127.0.0.1", "80"],
-                            capture_output=True, text=True, timeout=20)
+                            check=False, capture_output=True, text=True, timeout=20)
         assert ok.returncode == 0 and srv.store.get("feed_override") == 80
         bad = subprocess.run(["mbpoll", "-m", "tcp", "-p", str(srv.port), "-a", "1", "-t", "4",
                               "-0", "-r", "0", "-1", "127.0.0.1", "151"],
-                             capture_output=True, text=True, timeout=20)
+                             check=False, capture_output=True, text=True, timeout=20)
         assert bad.returncode != 0 and "Illegal data value" in bad.stdout + bad.stderr
         assert srv.store.get("feed_override") == 80
 
