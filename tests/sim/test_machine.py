@@ -1,0 +1,92 @@
+"""The simulated NC: feed override, orientation commands checked against axis limits
+and interference, cutting only where the ball touches."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from nc.kinematics import get_machine
+from orient.interference import InterferenceChecker, ToolAssembly
+from orient.plan import stock_mesh
+from orient.scenario import load_plan_scenario
+from sim.cli import BUNDLED
+from sim.machine import SimulatedNC
+from sim.registers import ACK
+
+
+@pytest.fixture(scope="module")
+def built():
+    scn = load_plan_scenario(BUNDLED)
+    nc = SimulatedNC(scn, points=(2, 36))
+    return scn, nc.workpiece
+
+
+def _nc(built) -> SimulatedNC:
+    scn, wp = built
+    nc = SimulatedNC(scn, points=(2, 36), workpiece=wp)
+    for _ in range(60):                              # into the cut
+        nc.tick()
+    return nc
+
+
+def test_feed_override_scales_the_path_speed(built):
+    a, b = _nc(built), _nc(built)
+    b.set_feed_override(50.0)
+    s0a, s0b = a.s, b.s
+    for _ in range(40):
+        a.tick()
+        b.tick()
+    assert (b.s - s0b) == pytest.approx(0.5 * (a.s - s0a), rel=1e-9)
+    assert a.state.cutting == 1
+    with pytest.raises(ValueError, match="override"):
+        a.set_feed_override(151.0)
+
+
+def test_orientation_beyond_the_axis_limits_is_refused(built):
+    """The CAM posture (30 deg from the wall normal toward +Z) needs A = 60 deg; tilting
+    10 deg back toward the normal needs A = 70 deg: with A limited to +-68.75 deg it is
+    refused and the offset in effect stays; 10 deg the other way (A = 50) is taken."""
+    nc = _nc(built)
+    nc.machine = get_machine("xyzac-trt", tilt_limits_rad=(-1.2, 1.2))
+    assert nc.command_orientation(0.0, -10.0, 1) == ACK["refused_axis_limit"]
+    assert (nc.state.lead_offset_deg, nc.state.tilt_offset_deg) == (0.0, 0.0)
+    assert nc.command_orientation(0.0, 10.0, 2) == ACK["applied"]
+    assert nc.state.tilt_offset_deg == 10.0 and nc.state.ack_seq == 2
+
+
+def test_orientation_into_a_collision_is_refused(built):
+    """With a short overhang and an 80 mm holder, turning the axis onto the wall normal
+    brings the holder into the base plate: refused; the check agrees with FCL."""
+    scn, _ = built
+    nc = _nc(built)
+    tool = nc.tool
+    big = dataclasses.replace(tool, overhang_mm=16.0,
+                              holder=type(tool.holder)(diameter_mm=80.0, length_mm=50.0))
+    design = scn.base.stock.load_design()
+    nc.checker = InterferenceChecker(stock_mesh(scn, design),
+                                     ToolAssembly.from_tool(big, clearance_mm=1.0),
+                                     design_mesh=design)
+    i = nc.point_index()
+    tips, axes = nc._posture(np.array([i]), 0.0, np.radians(-30.0))
+    assert nc.checker.check(tips, axes).collides[0]
+    assert nc.command_orientation(0.0, -30.0, 5) == ACK["refused_interference"]
+    assert nc.state.tilt_offset_deg == 0.0
+    tips, axes = nc._posture(np.array([i]), 0.0, np.radians(10.0))
+    assert not nc.checker.check(tips, axes).collides[0]
+
+
+def test_the_ball_centre_is_kept_and_cutting_stops_off_the_part(built):
+    nc = _nc(built)
+    i = nc.point_index()
+    tips, axes = nc._posture(np.array([i]), np.radians(-20.0), np.radians(15.0))
+    centre = tips[0] + nc.tool.radius_mm * axes[0]
+    np.testing.assert_allclose(centre, nc.contacts.centre[i], atol=1e-9)
+    while not nc.done:
+        nc.tick()
+    assert nc.state.cutting == 0                     # the pass ends in the air
+    assert len(nc.surface.offset_mm) > 0
+    pts = np.unique(nc.surface.point)
+    assert np.all(nc.contacts.touching[pts])
