@@ -1,11 +1,16 @@
 """Relative tool-workpiece dynamics with mode directions (``docs/method.md`` §5, §7).
 
-A :class:`ModalSystem` is a set of real (proportionally damped) modes, each
-acting along one unit direction ``d_k`` of the workpiece frame. The relative
-compliance (tool displacement minus workpiece displacement per unit force
-on the tool) is
+A :class:`ModalSystem` is a set of modes, each acting along one unit
+direction ``d_k`` of the workpiece frame. The relative compliance (tool
+displacement minus workpiece displacement per unit force on the tool) is
 
-    ``G(omega) = sum_k d_k d_k^T / (k_k - m_k omega^2 + i c_k omega)``  [m/N]
+    ``G(omega) = sum_k d_k d_k^T (1 + i omega r_k) / (k_k - m_k omega^2 + i c_k omega)``  [m/N]
+
+with ``r_k = 0`` for real (proportionally damped) modes. A measured mode in
+residue form ``(sigma + i nu) / (i omega - p) + conj``, ``p = -zeta wn + i wd``,
+whose residue has a real part (non-proportional damping) has ``r_k != 0``
+(:meth:`ModalSystem.from_residues`); in the time domain its contribution to
+the displacement is ``eta + r eta'`` with ``m eta'' + c eta' + k eta = d . F``.
 
 Tool modes and workpiece modes both add with a plus sign: the workpiece
 receives ``-F`` and ``q`` subtracts its displacement.
@@ -18,8 +23,8 @@ that axis (:attr:`ModalSystem.tool_axis`) so that the tool modes can be
 re-carried to other axes (:meth:`ModalSystem.with_tool_axis`,
 :meth:`ModalSystem.directions_for_axes`).
 
-Modal coordinates for the time-periodic analysis: ``q = D eta`` with
-``D = direction.T`` (3, n) and
+Modal coordinates for the time-periodic analysis: ``q = D (eta + R eta')`` with
+``D = direction.T`` (3, n), ``R = diag(r)`` and
 ``m_k eta_k'' + c_k eta_k' + k_k eta_k = d_k . F``.
 """
 
@@ -126,6 +131,9 @@ class ModalSystem:
         The tool axis to which the tool modes are currently carried (unit,
         default ``+Z``); the tool modes at a vertical axis are
         ``minimal_rotation(tool_axis).T @ direction``.
+    velocity_s : ndarray, shape (n,)
+        ``r_k`` [s]: the velocity share of each mode's displacement (0 for real
+        modes; default all 0).
 
     All arrays are read-only copies. Build with :meth:`from_modes`,
     :meth:`tool`, :meth:`combine`, or directly from arrays.
@@ -137,6 +145,7 @@ class ModalSystem:
     direction: np.ndarray
     source: np.ndarray
     tool_axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    velocity_s: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         k = _finite_array("ModalSystem.k_N_m", self.k_N_m)
@@ -161,8 +170,14 @@ class ModalSystem:
         if bad:
             raise ValueError(f"ModalSystem.source: expected labels in {SOURCES}, got {bad}")
         axis = _unit_vector("ModalSystem.tool_axis", self.tool_axis)
+        r = np.zeros(n) if self.velocity_s is None else \
+            _finite_array("ModalSystem.velocity_s", self.velocity_s)
+        if r.shape[0] != n:
+            raise ValueError(f"ModalSystem.velocity_s: expected {n} entries (one per mode), "
+                             f"got {r.shape[0]}")
         for name, a in (("k_N_m", k), ("m_kg", m), ("c_Ns_m", c),
-                        ("direction", d / norms[:, None]), ("source", src), ("tool_axis", axis)):
+                        ("direction", d / norms[:, None]), ("source", src), ("tool_axis", axis),
+                        ("velocity_s", r)):
             a = np.array(a)
             a.setflags(write=False)
             object.__setattr__(self, name, a)
@@ -195,6 +210,48 @@ class ModalSystem:
         return cls(np.array([m.k_N_m for m, _ in rows]), np.array([m.m_kg for m, _ in rows]),
                    np.array([m.c_Ns_m for m, _ in rows]), np.array([d for _, d in rows]),
                    np.array([source] * len(rows)))
+
+    @classmethod
+    def from_residues(cls, frequency_hz: Any, damping_ratio: Any, residue_m_N: Any,
+                      direction: Any, *, source: str = "tool") -> ModalSystem:
+        """Modes from a measured FRF's modal parameters in residue form.
+
+        Each mode contributes ``R / (i w - p) + conj(R) / (i w - conj(p))``, with
+        ``p = -zeta wn + i wd``, ``wd = wn sqrt(1 - zeta^2)``, ``R = sigma + i nu``
+        [m/(N s)], along its direction. That is
+        ``(alpha + i beta w) / (wn^2 - w^2 + 2 i zeta wn w)`` with
+        ``alpha = 2 (zeta wn sigma - wd nu)`` and ``beta = 2 sigma``, i.e. a mode
+        with ``m = 1/alpha``, ``k = wn^2 m``, ``c = 2 zeta wn m`` and
+        ``r = beta / alpha``. ``alpha`` must be > 0.
+
+        Parameters
+        ----------
+        frequency_hz, damping_ratio : array_like, shape (n,) [Hz, -]
+        residue_m_N : array_like complex, shape (n,) [m/(N s)]
+        direction : array_like, shape (n, 3) [-]
+        source : str
+        """
+        f = _finite_array("from_residues: frequency_hz", frequency_hz)
+        z = _finite_array("from_residues: damping_ratio", damping_ratio)
+        res = np.asarray(residue_m_N, dtype=complex).reshape(-1)
+        d = _finite_array("from_residues: direction", direction, (3,))
+        if not (f.shape == z.shape == res.shape and d.shape[0] == f.shape[0]):
+            raise ValueError("from_residues: expected one frequency, damping ratio, residue "
+                             "and direction per mode")
+        if np.any(f <= 0) or np.any(z < 0) or np.any(z >= 1) or not np.all(np.isfinite(res)):
+            raise ValueError("from_residues: need frequency_hz > 0, 0 <= damping_ratio < 1 and "
+                             "finite residues")
+        wn = 2.0 * math.pi * f
+        wd = wn * np.sqrt(1.0 - z * z)
+        alpha = 2.0 * (z * wn * res.real - wd * res.imag)
+        beta = 2.0 * res.real
+        if np.any(alpha <= 0):
+            raise ValueError(f"from_residues: modes {np.flatnonzero(alpha <= 0).tolist()} have "
+                             f"no positive modal flexibility (alpha <= 0)")
+        m = 1.0 / alpha
+        return cls(wn * wn * m, m, 2.0 * z * wn * m,
+                   d / np.linalg.norm(d, axis=1)[:, None], np.array([source] * f.size),
+                   velocity_s=beta / alpha)
 
     @classmethod
     def tool(cls, compliance: Compliance, axis: Any = (0.0, 0.0, 1.0), *,
@@ -258,8 +315,8 @@ class ModalSystem:
                 raise ValueError(f"ModalSystem.combine: tool modes carried to different tool "
                                  f"axes {axis} and {s.tool_axis}")
         cat = [np.concatenate([getattr(s, a) for s in systems])
-               for a in ("k_N_m", "m_kg", "c_Ns_m", "direction", "source")]
-        return cls(*cat, tool_axis=axis)
+               for a in ("k_N_m", "m_kg", "c_Ns_m", "direction", "source", "velocity_s")]
+        return cls(*cat[:5], tool_axis=axis, velocity_s=cat[5])
 
     # ------------------------------------------------------------------ properties
     @property
@@ -308,7 +365,8 @@ class ModalSystem:
         """The same system with its tool modes carried to ``axis`` (shape (3,))."""
         u = _unit_vector("ModalSystem.with_tool_axis: axis", axis)
         return ModalSystem(self.k_N_m, self.m_kg, self.c_Ns_m,
-                           self.directions_for_axes(u[None])[0], self.source, u)
+                           self.directions_for_axes(u[None])[0], self.source, u,
+                           self.velocity_s)
 
     def rotated(self, rotation: Any) -> ModalSystem:
         """All mode directions (and the tool axis) rotated by ``rotation`` (3, 3, proper)."""
@@ -317,16 +375,18 @@ class ModalSystem:
                 or np.linalg.det(r) <= 0:
             raise ValueError("ModalSystem.rotated: rotation: expected a proper 3x3 rotation")
         return ModalSystem(self.k_N_m, self.m_kg, self.c_Ns_m, self.direction @ r.T,
-                           self.source, r @ self.tool_axis)
+                           self.source, r @ self.tool_axis, self.velocity_s)
 
     # ------------------------------------------------------------------ responses
     def modal_receptance(self, omega_rad_s: Any) -> np.ndarray:
-        """Per-mode receptance ``1 / (k - m w^2 + i c w)`` [m/N], shape ``omega.shape + (n,)``."""
+        """Per-mode receptance ``(1 + i w r) / (k - m w^2 + i c w)`` [m/N], shape
+        ``omega.shape + (n,)``."""
         w = np.asarray(omega_rad_s, dtype=float)
         if not np.all(np.isfinite(w)):
             raise ValueError("omega_rad_s: expected finite values")
         ww = w[..., None]
-        return 1.0 / (self.k_N_m - self.m_kg * ww * ww + 1j * self.c_Ns_m * ww)
+        return (1.0 + 1j * ww * self.velocity_s) / (self.k_N_m - self.m_kg * ww * ww
+                                                    + 1j * self.c_Ns_m * ww)
 
     def frf(self, omega_rad_s: Any) -> np.ndarray:
         """Relative compliance ``G(omega)`` [m/N], shape ``omega.shape + (3, 3)`` complex.

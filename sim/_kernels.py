@@ -10,8 +10,8 @@ __all__ = ["integrate"]
 
 @njit(cache=True, nogil=True)
 def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d, dirs, scale,
-              mk, mc, mm, tool_mode, linear, half_dt, surface, state, force, disp, acc_tool,
-              chip_mean, contact_loss):
+              mk, mc, mm, mr, tool_mode, linear, half_dt, surface, state, force, disp,
+              acc_tool, chip_mean, contact_loss):
     """March the cut ``n_steps`` rotation steps.
 
     Step ``n`` sits at rotation sample ``i = (start + n) mod spr``; its cutting entries
@@ -27,8 +27,9 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d
     chip widths. Fills ``force`` (n, 3) [N], ``disp`` (n, 3) [m] (relative
     displacement at the step's start), ``chip_mean`` (n,) [mm] (mean chip of the
     edges in contact), ``contact_loss`` (n,) (entries whose chip fell to 0).
+    A mode's displacement is ``eta + r eta'`` (``mr`` = r [s], 0 for real modes).
     The chips use the displacement predicted at the middle of the step
-    (``eta + half_dt eta'``), so the force held over the step is centred on it
+    (``eta + (half_dt + r) eta'``), so the force held over the step is centred on it
     (second order in the step, where a force from the step's start would act
     as an extra half-step delay). ``acc_tool`` (n, 3) [m/s^2]: acceleration of the tool (modes with
     ``tool_mode``; ``mk, mc, mm`` their stiffness, damping, mass) at the step's
@@ -46,7 +47,7 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d
         q[2] = 0.0
         for k in range(nm):
             for a in range(3):
-                q[a] += dirs[k, a] * (state[k, 0] + half_dt * state[k, 1])
+                q[a] += dirs[k, a] * (state[k, 0] + (half_dt + mr[k]) * state[k, 1])
         F[0] = 0.0
         F[1] = 0.0
         F[2] = 0.0

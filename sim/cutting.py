@@ -341,7 +341,8 @@ def simulate(model: CuttingModel, revolutions: float, *, scale: Any = 1.0,
     for k in range(n_teeth):                  # one kernel call per tooth: the Poincare state
         sl = slice(k * spt, (k + 1) * spt)
         _k.integrate((k * spt) % spr, spt, spr, *model.table, phi_d, gam_d, dirs, sc[sl],
-                     sysm.k_N_m, sysm.c_Ns_m, sysm.m_kg, tool_mode, bool(linear),
+                     sysm.k_N_m, sysm.c_Ns_m, sysm.m_kg, sysm.velocity_s, tool_mode,
+                     bool(linear),
                      0.5 * model.dt_s, surface,
                      state, force[sl],
                      disp[sl], acc[sl], chip[sl], lost[sl])
@@ -483,7 +484,8 @@ class Cutter:
         phi_d, gam_d = model.step_map
         _k.integrate(self.step % self.steps_per_rev, n, self.steps_per_rev, *model.table, phi_d,
                      gam_d, np.ascontiguousarray(sysm.direction), np.full(n, s), sysm.k_N_m,
-                     sysm.c_Ns_m, sysm.m_kg, np.asarray(sysm.source == "tool"), bool(linear),
+                     sysm.c_Ns_m, sysm.m_kg, sysm.velocity_s, np.asarray(sysm.source == "tool"),
+                     bool(linear),
                      0.5 * model.dt_s,
                      self.surface, self.state, force, disp, acc, chip, lost)
         t = self.time_s + np.arange(n) * model.dt_s

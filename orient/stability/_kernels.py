@@ -67,15 +67,17 @@ def _cdiv(a, b):
 
 
 @njit(cache=True)
-def receptance(w, mk, mm, mc, group, ng, out):
-    """Group receptances at ``w`` [rad/s] into ``out`` (ng,) complex [m/N]."""
+def receptance(w, mk, mm, mc, mr, group, ng, out):
+    """Group receptances at ``w`` [rad/s] into ``out`` (ng,) complex [m/N]:
+    ``(1 + i w r) / (k - m w^2 + i c w)`` summed per group (``mr`` = r [s])."""
     for i in range(ng):
         out[i] = 0.0
     for i in range(mk.shape[0]):
         re = mk[i] - mm[i] * w * w
         im = mc[i] * w
         d = re * re + im * im
-        out[group[i]] += complex(re / d, -im / d)
+        wr = w * mr[i]
+        out[group[i]] += complex((re + wr * im) / d, (wr * re - im) / d)
 
 
 @njit(cache=True, inline="always")
@@ -285,10 +287,10 @@ def _eigs_grid(q, omega, gw, lam):
 
 
 @njit(cache=True)
-def _nearest_eig(q, w, ref, mk, mm, mc, group, g, ev):
+def _nearest_eig(q, w, ref, mk, mm, mc, mr, group, g, ev):
     """Eigenvalue of ``Q diag(g(w))`` nearest to ``ref`` (Newton from ``ref`` for ng = 3)."""
     ng = g.shape[0]
-    receptance(w, mk, mm, mc, group, ng, g)
+    receptance(w, mk, mm, mc, mr, group, ng, g)
     if ng == 3:
         a2, a1, a0 = _cubic_coeffs(q, g[0], g[1], g[2])
         ok, z = _newton3(a2, a1, a0, ref, abs(ref) + abs(a2) + 1e-300)
@@ -304,7 +306,7 @@ def _nearest_eig(q, w, ref, mk, mm, mc, group, g, ev):
 
 
 @njit(cache=True)
-def _refine_crossing(q, tau, wa, wb, la, lb, level, mk, mm, mc, group, g, ev):
+def _refine_crossing(q, tau, wa, wb, la, lb, level, mk, mm, mc, mr, group, g, ev):
     """Root of ``F(w) = level`` on [wa, wb] (Illinois); returns (s, w) or (inf, w)."""
     arg_a = _angle(la)
     fa = wa * tau - math.pi - 2.0 * arg_a - level
@@ -323,7 +325,7 @@ def _refine_crossing(q, tau, wa, wb, la, lb, level, mk, mm, mc, group, g, ev):
                 x = 0.5 * (a + b)
         t = (x - wa) / (wb - wa)
         ref = la + t * (lb - la)
-        lam = _nearest_eig(q, x, ref, mk, mm, mc, group, g, ev)
+        lam = _nearest_eig(q, x, ref, mk, mm, mc, mr, group, g, ev)
         fx = x * tau - math.pi - 2.0 * (arg_a + _wrap(_angle(lam) - arg_a)) - level
         if fx * fb > 0:
             b, fb = x, fx
@@ -343,7 +345,7 @@ def _refine_crossing(q, tau, wa, wb, la, lb, level, mk, mm, mc, group, g, ev):
 
 
 @njit(cache=True)
-def margin_one(q, omega, gw, tau, mk, mm, mc, group, lam):
+def margin_one(q, omega, gw, tau, mk, mm, mc, mr, group, lam):
     """ZOA margin at tooth period ``tau`` [s]; returns (s_min, chatter w [rad/s]).
 
     ``lam`` is a (nw, ng) complex work array.
@@ -402,15 +404,15 @@ def margin_one(q, omega, gw, tau, mk, mm, mc, group, lam):
             break
         j, i = cj[c], ci[c]
         s, w = _refine_crossing(q, tau, omega[j], omega[j + 1], lam[j, i], lam[j + 1, i],
-                                cl[c], mk, mm, mc, group, g, ev)
+                                cl[c], mk, mm, mc, mr, group, g, ev)
         if s < best:
             best, wbest = s, w
     return best, wbest
 
 
 @njit(cache=True)
-def _max_re(q, w, mk, mm, mc, group, g, ev):
-    receptance(w, mk, mm, mc, group, g.shape[0], g)
+def _max_re(q, w, mk, mm, mc, mr, group, g, ev):
+    receptance(w, mk, mm, mc, mr, group, g.shape[0], g)
     eig_small(q, g, ev)
     m = -np.inf
     for i in range(ev.shape[0]):
@@ -419,7 +421,7 @@ def _max_re(q, w, mk, mm, mc, group, g, ev):
 
 
 @njit(cache=True)
-def critical_one(q, omega, gw, mk, mm, mc, group, curve):
+def critical_one(q, omega, gw, mk, mm, mc, mr, group, curve):
     """Speed-independent ZOA margin ``1 / (2 max Re lambda)``; fills ``curve`` (nw,) with
     the per-frequency ``s`` (inf where no eigenvalue has Re > 0); returns (s, w)."""
     nw, ng = gw.shape[0], gw.shape[1]
@@ -441,19 +443,19 @@ def critical_one(q, omega, gw, mk, mm, mc, group, curve):
     inv = (math.sqrt(5.0) - 1.0) / 2.0
     x1 = b - inv * (b - a)
     x2 = a + inv * (b - a)
-    f1 = _max_re(q, x1, mk, mm, mc, group, g, ev)
-    f2 = _max_re(q, x2, mk, mm, mc, group, g, ev)
+    f1 = _max_re(q, x1, mk, mm, mc, mr, group, g, ev)
+    f2 = _max_re(q, x2, mk, mm, mc, mr, group, g, ev)
     for _ in range(GOLDEN_ITERATIONS):
         if f1 > f2:
             b, x2, f2 = x2, x1, f1
             x1 = b - inv * (b - a)
-            f1 = _max_re(q, x1, mk, mm, mc, group, g, ev)
+            f1 = _max_re(q, x1, mk, mm, mc, mr, group, g, ev)
         else:
             a, x1, f1 = x1, x2, f2
             x2 = a + inv * (b - a)
-            f2 = _max_re(q, x2, mk, mm, mc, group, g, ev)
+            f2 = _max_re(q, x2, mk, mm, mc, mr, group, g, ev)
     x = 0.5 * (a + b)
-    r = max(_max_re(q, x, mk, mm, mc, group, g, ev), rbest)
+    r = max(_max_re(q, x, mk, mm, mc, mr, group, g, ev), rbest)
     return 0.5 / r, x
 
 
@@ -471,7 +473,7 @@ def _q_matrix(p, d, q):
 
 
 @njit(cache=True)
-def margin_speeds(p, d, omega, gw, taus, mk, mm, mc, group):
+def margin_speeds(p, d, omega, gw, taus, mk, mm, mc, mr, group):
     """ZOA margins of one posture at many tooth periods ``taus`` (n,) [s]."""
     ng = d.shape[0]
     q = np.empty((ng, ng))
@@ -479,12 +481,12 @@ def margin_speeds(p, d, omega, gw, taus, mk, mm, mc, group):
     lam = np.empty((omega.shape[0], ng), dtype=np.complex128)
     out = np.empty(taus.shape[0])
     for i in range(taus.shape[0]):
-        out[i] = margin_one(q, omega, gw, taus[i], mk, mm, mc, group, lam)[0]
+        out[i] = margin_one(q, omega, gw, taus[i], mk, mm, mc, mr, group, lam)[0]
     return out
 
 
 @njit(cache=True, parallel=True)
-def margin_batch(p, d, omega, gw, taus, mk, mm, mc, group):
+def margin_batch(p, d, omega, gw, taus, mk, mm, mc, mr, group):
     """ZOA margins of many postures: ``p`` (n, 3, 3), ``d`` (n or 1, ng, 3),
     ``taus`` (n or 1,) [s]. Returns (n,)."""
     n = p.shape[0]
@@ -496,5 +498,5 @@ def margin_batch(p, d, omega, gw, taus, mk, mm, mc, group):
         q = np.empty((ng, ng))
         _q_matrix(p[i], d[i * dstep], q)
         lam = np.empty((omega.shape[0], ng), dtype=np.complex128)
-        out[i] = margin_one(q, omega, gw, taus[i * tstep], mk, mm, mc, group, lam)[0]
+        out[i] = margin_one(q, omega, gw, taus[i * tstep], mk, mm, mc, mr, group, lam)[0]
     return out

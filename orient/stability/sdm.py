@@ -3,9 +3,11 @@
 Same model as :mod:`orient.stability.zoa` (the contract), now with the
 time-periodic directional matrix: ``F = s H(t) (q(t) - q(t - tau))``, and
 the modal equations ``m_k eta_k'' + c_k eta_k' + k_k eta_k = d_k . F``
-(:class:`orient.dynamics.ModalSystem`, ``q = D eta``). With ``y = [eta; eta']``:
+(:class:`orient.dynamics.ModalSystem`, ``q = D xi``, ``xi = eta + R eta'``;
+``R = 0`` for real modes). With ``y = [eta; eta']`` and ``xi = C y``,
+``C = [I, R]``:
 
-    ``y' = A0 y + B U(t) (eta(t) - eta(t - tau))``,  ``U = s M^-1 D^T H(t) D``.
+    ``y' = A0 y + B U(t) (xi(t) - xi(t - tau))``,  ``U = s M^-1 D^T H(t) D``.
 
 Method (Ding, Zhu, Zhang, Ding, "A full-discretization method for
 prediction of milling stability", IJMTM 50 (2010) 502-509): the tooth period
@@ -15,7 +17,7 @@ structure ``A0`` (Duhamel), and the periodic, delayed term
 ``g(t) = U(t) (eta(t) - eta(t - tau))`` is interpolated linearly between the
 nodes, which gives the implicit one-step map
 
-    ``(I - Gb U_{i+1} S) y_{i+1} = Phi0 y_i + Ga U_i (eta_i - eta_{i-k}) - Gb U_{i+1} eta_{i+1-k}``
+    ``(I - Gb U_{i+1} C) y_{i+1} = Phi0 y_i + Ga U_i (xi_i - xi_{i-k}) - Gb U_{i+1} xi_{i+1-k}``
 
 with ``Phi0 = e^{A0 dt}``, ``Ga = (Gamma0 - Gamma1/dt) B``, ``Gb = Gamma1/dt B``,
 ``Gamma0 = int_0^dt e^{A0 r} dr``, ``Gamma1 = int_0^dt e^{A0 r} (dt - r) dr``
@@ -23,7 +25,7 @@ with ``Phi0 = e^{A0 dt}``, ``Ga = (Gamma0 - Gamma1/dt) B``, ``Gb = Gamma1/dt B``
 This interpolates the product ``U eta`` rather than ``U`` and ``eta``
 separately as the paper does; both are second-order accurate for smooth
 data. Chaining ``k`` steps gives the monodromy matrix of the state
-``[y; eta_{i-1} .. eta_{i-k}]``; the cut is stable iff its spectral radius is < 1.
+``[y; xi_{i-1} .. xi_{i-k}]``; the cut is stable iff its spectral radius is < 1.
 
 ``H_samples[i]`` is ``H`` at the **node** ``t_i = i tau / k`` (interval
 starts, not midpoints); for discontinuous ``H`` pass hat-weighted node
@@ -136,11 +138,12 @@ def recommended_samples(cut_fraction: float) -> int:
 
 # ---------------------------------------------------------------------- kernel
 @njit(cache=True)
-def _monodromy(phi0, ga, gb, u, s, out):
+def _monodromy(phi0, ga, gb, u, s, cmat, out):
     """Monodromy matrix of the full-discretization map (see module docstring).
 
     ``phi0`` (2m, 2m), ``ga``/``gb`` (2m, m), ``u`` (k, m, m) = M^-1 D^T H_i D,
-    ``s`` the scaling; ``out`` (N, N), N = (k + 2) m.
+    ``s`` the scaling, ``cmat`` (m, 2m) = [I, R]: the modal displacement
+    ``xi = eta + R eta'`` whose delay drives the cut; ``out`` (N, N), N = (k + 2) m.
     """
     k, m = u.shape[0], u.shape[1]
     n2 = 2 * m
@@ -148,24 +151,23 @@ def _monodromy(phi0, ga, gb, u, s, out):
     x = np.zeros((n2, nn))
     for i in range(n2):
         x[i, i] = 1.0
-    hist = np.zeros((2 * k, m, nn))               # eta_j at index j + k, j = -k .. k-1
-    for lag in range(1, k + 1):                   # eta_{-lag} = unit block
+    hist = np.zeros((2 * k, m, nn))               # xi_j at index j + k, j = -k .. k-1
+    for lag in range(1, k + 1):                   # xi_{-lag} = unit block
         for a in range(m):
             hist[k - lag, a, n2 + (lag - 1) * m + a] = 1.0
-    hist[k] = x[:m].copy()
+    hist[k] = cmat @ x
     eye = np.eye(n2)
     for i in range(k):
         ui = s * u[i]
         ui1 = s * u[(i + 1) % k]
-        d = x[:m] - hist[i]
+        d = cmat @ x - hist[i]
         rhs = phi0 @ x + ga @ (ui @ d) - gb @ (ui1 @ hist[i + 1])
-        lmat = eye.copy()
-        lmat[:, :m] -= gb @ ui1
+        lmat = eye - gb @ ui1 @ cmat
         x = np.ascontiguousarray(np.linalg.solve(lmat, rhs))
         if i + 1 < k:
-            hist[i + 1 + k] = x[:m].copy()
+            hist[i + 1 + k] = cmat @ x
     out[:n2] = x
-    for j in range(k):                            # rows: eta_{k-1}, ..., eta_0
+    for j in range(k):                            # rows: xi_{k-1}, ..., xi_0
         out[n2 + j * m:n2 + (j + 1) * m] = hist[2 * k - 1 - j]
 
 
@@ -224,18 +226,19 @@ class _Fdm:
         g1b = e[:2 * m, 3 * m:] / dt                              # Gamma1 B / dt
         self.ga = np.ascontiguousarray(g0b - g1b)
         self.gb = np.ascontiguousarray(g1b)
+        self.cmat = np.ascontiguousarray(np.hstack([np.eye(m), np.diag(system.velocity_s)]))
         self.n = (k + 2) * m
         self._out = np.zeros((self.n, self.n))
         self.evaluations = 0
 
     def multipliers(self, s: float) -> np.ndarray:
-        _monodromy(self.phi0, self.ga, self.gb, self.u, float(s), self._out)
+        _monodromy(self.phi0, self.ga, self.gb, self.u, float(s), self.cmat, self._out)
         self.evaluations += 1
         mu = scipy.linalg.eigvals(self._out, check_finite=False, overwrite_a=False)
         return mu[np.argsort(-np.abs(mu))]
 
     def rho(self, s: float) -> float:
-        _monodromy(self.phi0, self.ga, self.gb, self.u, float(s), self._out)
+        _monodromy(self.phi0, self.ga, self.gb, self.u, float(s), self.cmat, self._out)
         self.evaluations += 1
         return float(np.max(np.abs(scipy.linalg.eigvals(self._out, check_finite=False))))
 

@@ -162,7 +162,8 @@ def _setup(system: ModalSystem, omega: np.ndarray):
     for i in range(group.size):
         gw[:, group[i]] += rec[:, i]
     return (group, first, np.ascontiguousarray(gw), np.ascontiguousarray(system.k_N_m),
-            np.ascontiguousarray(system.m_kg), np.ascontiguousarray(system.c_Ns_m))
+            np.ascontiguousarray(system.m_kg), np.ascontiguousarray(system.c_Ns_m),
+            np.ascontiguousarray(system.velocity_s))
 
 
 def _required_step(w: np.ndarray, wn: np.ndarray, near: np.ndarray,
@@ -274,11 +275,11 @@ def zoa_critical(P: Any, system: ModalSystem, omega_rad_s: Any = None, *,
     p = _restrict(_matrix3("P", P), restrict)
     system = _system(system)
     w = _omega_grid(system, omega_rad_s)
-    group, first, gw, mk, mm, mc = _setup(system, w)
+    group, first, gw, mk, mm, mc, mr = _setup(system, w)
     d = system.direction[first]
     q = d @ p @ d.T
     curve = np.empty(w.size)
-    s, wc = _k.critical_one(np.ascontiguousarray(q), w, gw, mk, mm, mc, group, curve)
+    s, wc = _k.critical_one(np.ascontiguousarray(q), w, gw, mk, mm, mc, mr, group, curve)
     return ZoaCritical(float(s), float(wc), w, curve)
 
 
@@ -290,11 +291,11 @@ def zoa_margin_detail(P: Any, system: ModalSystem, spindle_rpm: float, teeth: in
     rpm = _positive("spindle_rpm", spindle_rpm)
     tau = _tau(rpm, _teeth(teeth))
     w = _omega_grid(system, omega_rad_s)
-    group, first, gw, mk, mm, mc = _setup(system, w)
+    group, first, gw, mk, mm, mc, mr = _setup(system, w)
     d = system.direction[first]
     q = np.ascontiguousarray(d @ p @ d.T)
     lam = np.empty((w.size, first.size), dtype=complex)
-    s, wc = _k.margin_one(q, w, gw, tau, mk, mm, mc, group, lam)
+    s, wc = _k.margin_one(q, w, gw, tau, mk, mm, mc, mr, group, lam)
     return ZoaMargin(float(s), float(wc))
 
 
@@ -361,10 +362,10 @@ def zoa_lobes(P: Any, system: ModalSystem, teeth: int, rpm: Any, omega_rad_s: An
     if r.size == 0 or not np.all(np.isfinite(r)) or np.any(r <= 0):
         raise ValueError("rpm: expected finite spindle speeds > 0 [rev/min]")
     w = _omega_grid(system, omega_rad_s)
-    group, first, gw, mk, mm, mc = _setup(system, w)
+    group, first, gw, mk, mm, mc, mr = _setup(system, w)
     d = np.ascontiguousarray(system.direction[first])
     return _k.margin_speeds(np.ascontiguousarray(p), d, w, gw, 60.0 / (r * n), mk, mm, mc,
-                            group)
+                            mr, group)
 
 
 def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, *,
@@ -405,7 +406,7 @@ def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, 
     if rpm.size not in (1, p.shape[0]) or not np.all(np.isfinite(rpm)) or np.any(rpm <= 0):
         raise ValueError(f"spindle_rpm: expected a finite value > 0 or {p.shape[0]} of them")
     w = _omega_grid(system, omega_rad_s)
-    group, first, gw, mk, mm, mc = _setup(system, w)
+    group, first, gw, mk, mm, mc, mr = _setup(system, w)
     if mode_directions is None:
         d = system.direction[first][None]
     else:
@@ -426,4 +427,4 @@ def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, 
         d = md[:, first, :]
     taus = 60.0 / (rpm * n)
     return _k.margin_batch(np.ascontiguousarray(p), np.ascontiguousarray(d), w, gw, taus,
-                           mk, mm, mc, group)
+                           mk, mm, mc, mr, group)

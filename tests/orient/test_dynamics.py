@@ -133,3 +133,30 @@ def test_combine_and_validation():
     with pytest.raises(ValueError, match="direction"):
         ModalSystem.from_modes([(MX, (np.nan, 0, 0))])
     assert both.direction.flags.writeable is False
+
+
+def test_residue_modes_and_their_velocity_share():
+    """A residue with a real part (non-proportional damping) is a mode whose
+    displacement is eta + r eta'; a purely imaginary residue is a real mode."""
+    import math
+
+    from orient.dynamics import ModalSystem
+
+    f, z = 500.0, 0.02
+    wn = 2 * math.pi * f
+    wd = wn * math.sqrt(1 - z * z)
+    real_mode = ModalSystem.from_residues([f], [z], [-1j / (2 * 0.5 * wd)], [(1, 0, 0)])
+    assert real_mode.velocity_s[0] == 0.0
+    assert real_mode.m_kg[0] == pytest.approx(0.5)
+    assert real_mode.natural_frequency_rad_s[0] == pytest.approx(wn)
+    cplx = ModalSystem.from_residues([f], [z], [2e-5 - 1e-4j], [(0, 2, 0)])
+    w = np.array([0.3, 1.0, 1.7]) * wn
+    p = complex(-z * wn, wd)
+    r = 2e-5 - 1e-4j
+    expect = r / (1j * w - p) + np.conj(r) / (1j * w - np.conj(p))
+    np.testing.assert_allclose(cplx.frf(w)[:, 1, 1], expect, rtol=1e-12)
+    both = ModalSystem.combine(real_mode, cplx)
+    np.testing.assert_array_equal(both.velocity_s, [0.0, cplx.velocity_s[0]])
+    assert both.with_tool_axis((0, 0.6, 0.8)).velocity_s[1] == cplx.velocity_s[0]
+    with pytest.raises(ValueError, match="alpha"):
+        ModalSystem.from_residues([f], [z], [1e-4j], [(1, 0, 0)])

@@ -240,3 +240,31 @@ def test_radius_end_mill_at_a_tilted_posture_agrees_with_the_analysis():
     model = prepare_cut(tool, COEF, u, Z, X, cut, system, rpm)
     b = stability_boundary(model, 0.5 * ref, 2.0 * ref)
     assert abs(b / ref - 1.0) < 0.10
+
+
+def test_book_2dof_time_domain_confirms_the_time_periodic_minimum():
+    """Altintas's Manufacturing Automation (2012) p. 162 tool, non-proportionally damped
+    (residue form), two-flute half-immersion down-milling, Kt = 1319.4 and Kr = 788.8
+    N/mm^2 (sources: tests/orient/test_stability.py). At the lobe minimum the zero-order
+    method allows about 1.01 mm; the full discretization and the time-domain model,
+    which knows nothing of averages, both put the boundary near 0.80 mm."""
+    from orient.stability import zoa_margin
+    from tests.orient.test_stability import BOOK_X, BOOK_Y
+
+    system = ModalSystem.from_residues(BOOK_X[0] + BOOK_Y[0], BOOK_X[1] + BOOK_Y[1],
+                                       BOOK_X[2] + BOOK_Y[2],
+                                       [(1, 0, 0), (1, 0, 0), (0, 1, 0), (0, 1, 0)],
+                                       source="tool")
+    coef = CuttingCoefficients(Ktc_N_mm2=1319.4, Krc_N_mm2=788.8, Kac_N_mm2=0.0,
+                               Kte0_N_mm=0.0, Kre0_N_mm=0.0, Kae0_N_mm=0.0)
+    tool = Tool("flat", 31.75, flutes=2, helix_deg=0.0, flute_length_mm=10.0)
+    edges = tool.micro_edges(40, flank_height_mm=DEPTH)
+    cut = LocalCut(DEPTH, 31.75 / 2, 1, 0.05)
+    rpm = 27400.0
+    g = process_gain(tool, coef, Z, Z, X, cut, spindle_rpm=rpm, edges=edges, n_angles=720)
+    fdm = sdm_margin(g.H, system, rpm, 2).margin
+    zoa = zoa_margin(g.P, system, rpm, 2)
+    model = prepare_cut(tool, coef, Z, Z, X, cut, system, rpm, edges=edges)
+    b = stability_boundary(model, 0.5 * fdm, 2.0 * fdm)
+    assert abs(b / fdm - 1.0) < 0.05
+    assert b < 0.85 * zoa
