@@ -81,7 +81,8 @@ def _cmd_plan(args) -> int:
                          chosen=(res.lead_rad[i], res.tilt_rad[i]),
                          cam=(res.cam_lead_rad[i], res.cam_tilt_rad[i]),
                          title=f"{scn.name}: margin over lead/tilt at point {i} "
-                               f"(block {int(res.cl.block[i])})")
+                               f"(block {int(res.cl.block[i])})",
+                         clip=scn.options.margin_target)
     print(f"planned {rep_s['cutting_points']} cutting points of {rep_s['points']} in "
           f"{time.perf_counter() - t0:.1f} s at {res.spindle_rpm:g} rev/min")
     print(f"margin min {rep_s['cam_margin_min']} -> {rep_s['margin_min']}, median "

@@ -96,7 +96,8 @@ class PlanResult:
     grid_tilt_rad: np.ndarray
     sdm_checks: list = field(default_factory=list)
     stats: dict = field(default_factory=dict)
-    #: margin and feasibility over the grid at the touching points, (t, nl, nt)
+    #: margin (capped at ``margin_target``: values equal to it mean "at least") and
+    #: feasibility over the grid at the touching points, (t, nl, nt)
     grid_margin: np.ndarray | None = None
     grid_feasible: np.ndarray | None = None
     touching_index: np.ndarray | None = None
@@ -153,8 +154,14 @@ def _gains(scn, contacts: Contacts, idx: np.ndarray, axes: np.ndarray, ok: np.nd
 
 def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
              idx: np.ndarray, axes: np.ndarray, ok: np.ndarray, P: np.ndarray, rpm: float,
-             progress=None) -> np.ndarray:
-    """ZOA margin (t, s) of candidate axes (t, s, 3) at ``rpm`` where ``ok``; inf elsewhere."""
+             progress=None, cap: float | None = None, systems: list | None = None
+             ) -> np.ndarray:
+    """ZOA margin (t, s) of candidate axes (t, s, 3) at ``rpm`` where ``ok``; inf elsewhere.
+
+    With ``cap``, margins at or above it come back as ``cap`` (the score only
+    needs ``min(margin, target)``; much faster). ``systems``, a list of length
+    t, receives each cutter location's :class:`ModalSystem`.
+    """
     t, s, _ = axes.shape
     tool = scn.base.tool
     margin = np.full((t, s), np.inf)
@@ -163,12 +170,28 @@ def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
         if len(sel) == 0:
             continue
         system = wp.system_at(tool_sys, contacts.point[idx[i]])
+        if systems is not None:
+            systems[i] = system
         dirs = system.directions_for_axes(axes[i, sel])
         margin[i, sel] = zoa_margin_batch(P[i, sel], system, rpm, tool.flutes,
-                                          mode_directions=dirs)
+                                          mode_directions=dirs, cap=cap)
         if progress is not None:
             progress(i + 1, t)
     return margin
+
+
+def _uncap(scn, systems: list, axes: np.ndarray, P: np.ndarray, rpm: float,
+           margin: np.ndarray, cols: np.ndarray, cap: float) -> None:
+    """Exact margins, in place, of the postures ``margin[r, cols[r, :]]`` found capped."""
+    flutes = scn.base.tool.flutes
+    for r in range(margin.shape[0]):
+        c = np.unique(cols[r])
+        c = c[margin[r, c] >= cap]
+        if len(c) == 0 or systems[r] is None:
+            continue
+        sys_r = systems[r]
+        margin[r, c] = zoa_margin_batch(P[r, c], sys_r, rpm, flutes,
+                                        mode_directions=sys_r.directions_for_axes(axes[r, c]))
 
 
 def _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm0: float) -> float:
@@ -268,8 +291,11 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     rpm_program = rpm
     if opt.spindle is not None and spindle_rpm is None:
         rpm = _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm)
+    systems: list = [None] * len(idx)
+    cap = opt.margin_target
     margin = _margins(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm,
-                      None if progress is None else (lambda d, n: progress("margins", d, n)))
+                      None if progress is None else (lambda d, n: progress("margins", d, n)),
+                      cap=cap, systems=systems)
     if rpm != rpm_program:        # the CAM's posture at the CAM's speed, for the report
         cam_col = np.zeros_like(ok)
         cam_col[:, -1] = True
@@ -306,8 +332,12 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
             break
         ok[rows[bad], choice[bad]] = False
         dropped += int(bad.sum())
-    t4 = time.perf_counter()
     rows = np.arange(len(idx))
+    # the score needed only min(margin, target): the chosen and the CAM postures'
+    # margins are made exact again for the report
+    cam_col = np.full(len(idx), S1 - 1) if rpm == rpm_program else choice
+    _uncap(scn, systems, axes, P, rpm, margin, np.stack([choice, cam_col], axis=1), cap)
+    t4 = time.perf_counter()
     u_new = axes[rows, choice]
     n_all = len(cam)
     lead = np.full(n_all, np.nan)

@@ -30,7 +30,8 @@ def _figure(**kw):
 def plot_margin_grid(lead_rad: np.ndarray, tilt_rad: np.ndarray, margin: np.ndarray,
                      feasible: np.ndarray, path: str | os.PathLike, *,
                      chosen: tuple[float, float] | None = None,
-                     cam: tuple[float, float] | None = None, title: str = "") -> None:
+                     cam: tuple[float, float] | None = None, title: str = "",
+                     clip: float = MARGIN_CLIP) -> None:
     """Stability margin over the lead/tilt grid at one cutter location.
 
     Parameters
@@ -45,18 +46,21 @@ def plot_margin_grid(lead_rad: np.ndarray, tilt_rad: np.ndarray, margin: np.ndar
         PNG file.
     chosen, cam : (lead_rad, tilt_rad), optional
         The planned and the CAM posture, marked.
+    clip : float [-]
+        Top of the colour scale (the planner's margins are exact only below its
+        ``margin_target``: pass that).
     """
     plt, (fig, ax) = _figure(figsize=(6.8, 6.0))
     try:
         bad = ~np.asarray(feasible, bool)
-        m = np.minimum(np.asarray(margin, float), MARGIN_CLIP)
+        m = np.minimum(np.asarray(margin, float), clip)
         m = np.where(bad, np.nan, m)              # infeasible: not evaluated, left blank
         ax.set_facecolor("0.85")
         L, T = np.degrees(lead_rad), np.degrees(tilt_rad)
         mesh = ax.pcolormesh(T, L, m, shading="nearest", cmap="RdYlGn", vmin=0.0,
-                             vmax=MARGIN_CLIP)
+                             vmax=clip)
         cb = fig.colorbar(mesh, ax=ax)
-        cb.set_label(f"stability margin (clipped at {MARGIN_CLIP:g}; > 1 stable)")
+        cb.set_label(f"stability margin (clipped at {clip:g}; > 1 stable)")
         if np.isfinite(m).any() and np.nanmin(m) < 1 < np.nanmax(m):
             ax.contour(T, L, m, levels=[1.0], colors="k", linewidths=1.5)
         if bad.any():

@@ -233,29 +233,68 @@ def _newton3(a2, a1, a0, z, scale):
 
 
 @njit(cache=True)
-def _eigs_grid(q, omega, gw, lam):
+def _needed(q, gw, rmin, need):
+    """Grid points where an eigenvalue can have ``Re >= rmin`` (and their neighbours).
+
+    ``Re lambda <= |lambda| <= ||Q diag(g)||_F``; where that bound is below
+    ``rmin`` at both ends of a grid segment, no crossing in it can have a
+    margin below ``0.5 / rmin``. ``rmin <= 0``: every point.
+    """
+    nw, ng = gw.shape[0], gw.shape[1]
+    if rmin <= 0.0:
+        for j in range(nw):
+            need[j] = True
+        return
+    col = np.zeros(ng)
+    for a in range(ng):
+        for b in range(ng):
+            col[b] += q[a, b] * q[a, b]
+    r2 = rmin * rmin
+    for j in range(nw):
+        f2 = 0.0
+        for b in range(ng):
+            g = gw[j, b]
+            f2 += col[b] * (g.real * g.real + g.imag * g.imag)
+        need[j] = f2 >= r2
+    prev = False
+    for j in range(nw):                       # dilate by one point each way
+        cur = need[j]
+        if not cur and (prev or (j + 1 < nw and need[j + 1])):
+            need[j] = True
+            prev = False                      # a dilated point does not dilate further
+        else:
+            prev = cur
+
+
+@njit(cache=True)
+def _eigs_grid(q, omega, gw, lam, need):
     """Eigenvalue branches over the grid: ``lam`` (nw, ng) complex, continuity-matched.
 
     ng = 2 closed form with pairwise matching; ng = 3 continues the roots from
     the previous grid point by Aberth iterations (which keeps the branches),
     with Cardano plus matching as the fallback; other ng use LAPACK plus
-    greedy matching.
+    greedy matching. Points where ``need`` is False get 0 (not computed; a run
+    of needed points starts afresh).
     """
     nw, ng = gw.shape[0], gw.shape[1]
     if ng == 1:
         for j in range(nw):
-            lam[j, 0] = q[0, 0] * gw[j, 0]
+            lam[j, 0] = q[0, 0] * gw[j, 0] if need[j] else 0j
         return
     if ng == 2:
         q00, q11 = q[0, 0], q[1, 1]
         dq = q[0, 0] * q[1, 1] - q[0, 1] * q[1, 0]
         for j in range(nw):
+            if not need[j]:
+                lam[j, 0] = 0j
+                lam[j, 1] = 0j
+                continue
             g0, g1 = gw[j, 0], gw[j, 1]
             tr = q00 * g0 + q11 * g1
             r = cmath.sqrt(tr * tr - 4.0 * dq * g0 * g1)
             e0 = 0.5 * (tr + r)
             e1 = 0.5 * (tr - r)
-            if j > 0:
+            if j > 0 and need[j - 1]:
                 p0, p1 = lam[j - 1, 0], lam[j - 1, 1]
                 if abs(p0 - e1) + abs(p1 - e0) < abs(p0 - e0) + abs(p1 - e1):
                     e0, e1 = e1, e0
@@ -264,7 +303,11 @@ def _eigs_grid(q, omega, gw, lam):
         return
     tmp = np.empty(ng, dtype=np.complex128)
     for j in range(nw):
-        if ng == 3 and j > 1:
+        if not need[j]:
+            for i in range(ng):
+                lam[j, i] = 0j
+            continue
+        if ng == 3 and j > 1 and need[j - 1] and need[j - 2]:
             a2, a1, a0 = _cubic_coeffs(q, gw[j, 0], gw[j, 1], gw[j, 2])
             h = min((omega[j] - omega[j - 1]) / (omega[j - 1] - omega[j - 2]), 1.0)
             scale = _l1(lam[j - 1, 0]) + _l1(lam[j - 1, 1]) + _l1(lam[j - 1, 2]) + 1e-300
@@ -282,7 +325,7 @@ def _eigs_grid(q, omega, gw, lam):
                 lam[j, 2] = z2
                 continue
         eig_small(q, gw[j], lam[j])
-        if j > 0:
+        if j > 0 and need[j - 1]:
             _match(lam[j - 1], lam[j], tmp)
 
 
@@ -345,13 +388,18 @@ def _refine_crossing(q, tau, wa, wb, la, lb, level, mk, mm, mc, mr, group, g, ev
 
 
 @njit(cache=True)
-def margin_one(q, omega, gw, tau, mk, mm, mc, mr, group, lam):
+def margin_one(q, omega, gw, tau, mk, mm, mc, mr, group, lam, rmin=0.0):
     """ZOA margin at tooth period ``tau`` [s]; returns (s_min, chatter w [rad/s]).
 
-    ``lam`` is a (nw, ng) complex work array.
+    ``lam`` is a (nw, ng) complex work array. With ``rmin > 0`` the result is
+    exact where it is below ``0.5 / rmin`` and otherwise some value at or
+    above it (eigenvalues are computed only where they can matter, see
+    :func:`_needed`).
     """
     nw, ng = gw.shape[0], gw.shape[1]
-    _eigs_grid(q, omega, gw, lam)
+    need = np.empty(nw, dtype=np.bool_)
+    _needed(q, gw, rmin, need)
+    _eigs_grid(q, omega, gw, lam, need)
     arg = np.empty((nw, ng))
     for j in range(nw):
         for i in range(ng):
@@ -486,17 +534,20 @@ def margin_speeds(p, d, omega, gw, taus, mk, mm, mc, mr, group):
 
 
 @njit(cache=True, parallel=True)
-def margin_batch(p, d, omega, gw, taus, mk, mm, mc, mr, group):
+def margin_batch(p, d, omega, gw, taus, mk, mm, mc, mr, group, cap=np.inf):
     """ZOA margins of many postures: ``p`` (n, 3, 3), ``d`` (n or 1, ng, 3),
-    ``taus`` (n or 1,) [s]. Returns (n,)."""
+    ``taus`` (n or 1,) [s]. Returns (n,); with a finite ``cap``, margins at or
+    above it are returned as ``cap`` (exact below it, and much faster)."""
     n = p.shape[0]
     ng = d.shape[1]
     dstep = 1 if d.shape[0] > 1 else 0
     tstep = 1 if taus.shape[0] > 1 else 0
+    rmin = 0.5 / cap if cap < np.inf else 0.0
     out = np.empty(n)
     for i in prange(n):
         q = np.empty((ng, ng))
         _q_matrix(p[i], d[i * dstep], q)
         lam = np.empty((omega.shape[0], ng), dtype=np.complex128)
-        out[i] = margin_one(q, omega, gw, taus[i * tstep], mk, mm, mc, mr, group, lam)[0]
+        s = margin_one(q, omega, gw, taus[i * tstep], mk, mm, mc, mr, group, lam, rmin)[0]
+        out[i] = min(s, cap)
     return out

@@ -369,7 +369,8 @@ def zoa_lobes(P: Any, system: ModalSystem, teeth: int, rpm: Any, omega_rad_s: An
 
 
 def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, *,
-                     mode_directions: Any = None, omega_rad_s: Any = None) -> np.ndarray:
+                     mode_directions: Any = None, omega_rad_s: Any = None,
+                     cap: float | None = None) -> np.ndarray:
     """ZOA margins of many postures at once (numba, parallel over postures).
 
     Parameters
@@ -389,11 +390,16 @@ def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, 
         share it here too.
     omega_rad_s : array_like, shape (w,), optional
         Chatter-frequency grid [rad/s]; default :func:`zoa_frequency_grid`.
+    cap : float, optional
+        Margins at or above ``cap`` (> 0) are returned as ``cap``; below it they
+        are exact. Much faster when only ``min(margin, cap)`` matters (a
+        planner's score): eigenvalues are computed only at frequencies where
+        ``||Q diag(g)||_F >= 1 / (2 cap)``, a bound on their real parts.
 
     Returns
     -------
     ndarray, shape (n,)
-        Margins [-] (inf where no crossing).
+        Margins [-] (inf where no crossing; at most ``cap``).
     """
     system = _system(system)
     p = np.asarray(P, dtype=float)
@@ -426,5 +432,6 @@ def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, 
                              "share it in every posture")
         d = md[:, first, :]
     taus = 60.0 / (rpm * n)
+    c = np.inf if cap is None else _positive("cap", cap)
     return _k.margin_batch(np.ascontiguousarray(p), np.ascontiguousarray(d), w, gw, taus,
-                           mk, mm, mc, mr, group)
+                           mk, mm, mc, mr, group, c)

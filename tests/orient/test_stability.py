@@ -615,3 +615,28 @@ def test_stability_lobes_and_plot(tmp_path):
     plot_lobes([z, s], (18000.0, 1.2), path)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(os.listdir(tmp_path)) == ["lobes.png"]
+
+
+def test_capped_batch_equals_min_of_margin_and_cap():
+    """The capped batch (eigenvalues only where their real parts can matter) gives
+    exactly min(margin, cap) on tool plus close and far wall-like modes."""
+    tool = ModalSystem.from_modes([(Mode.from_frequency(3600, 0.03, 1.6e7), (1, 0, 0)),
+                                   (Mode.from_frequency(3700, 0.03, 1.7e7), (0, 1, 0))],
+                                  source="tool")
+    wall = ModalSystem.from_modes(
+        [(Mode.from_frequency(f, 0.01, k), (0, 0.6, 0.8))
+         for f, k in ((3540, 7.2e6), (5290, 6.5e6), (9870, 2.0e7), (18180, 1.1e8))])
+    sys = ModalSystem.combine(tool, wall)
+    rng = np.random.default_rng(12)
+    p0 = _p_asym()
+    rots = [minimal_rotation(v / np.linalg.norm(v))
+            for v in rng.normal([0, 0, 3], 1.0, size=(200, 3))]
+    p = np.array([r @ p0 @ r.T for r in rots]) * rng.uniform(0.05, 3.0, size=(200, 1, 1))
+    rpm = rng.uniform(4000, 16000, size=200)
+    exact = zoa_margin_batch(p, sys, rpm, 2)
+    for cap in (0.5, 1.5, 4.0):
+        capped = zoa_margin_batch(p, sys, rpm, 2, cap=cap)
+        np.testing.assert_allclose(capped, np.minimum(exact, cap), rtol=1e-9)
+        assert np.any(exact < cap) and np.any(exact > cap)
+    with pytest.raises(ValueError, match="cap"):
+        zoa_margin_batch(p, sys, rpm, 2, cap=0.0)
