@@ -31,7 +31,7 @@ sample ``i`` cuts when its midpoint lies in the material and ``h > 0``.
 :func:`from_errpred` wraps errpred's own engagement (the rasterizer's) in
 the same :class:`SampledEngagement`, so that either source feeds
 :func:`orient.gain.gain_from_engagement`. :func:`cutting_intervals` gives
-the exact entry/exit angles of each micro edge (``orient/_kernels.py``),
+the exact entry/exit angles of each micro edge (``orient/_engagement_kernels.py``),
 from which :func:`orient.gain.process_gain` integrates the gain.
 
 Limits of the local model: the previous pass is the current line shifted
@@ -403,7 +403,7 @@ def cutting_intervals(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: 
         As in :func:`engagement`.
     root_step_rad : float [rad]
         Sampling step of the non-circular material conditions before their
-        roots are refined (``orient/_kernels.py``).
+        roots are refined (``orient/_engagement_kernels.py``).
 
     Returns
     -------
