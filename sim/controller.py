@@ -324,9 +324,11 @@ class Controller:
         if geometry.touch.size:
             i = int(geometry.touch[0])
             geometry.point = i
-            geometry.cut_sense(float(geometry.cam_lead[i]), float(geometry.cam_tilt[i]))
+            lead0, tilt0 = float(geometry.cam_lead[i]), float(geometry.cam_tilt[i])
+            geometry.cut_sense(lead0, tilt0)
             if strategy == "eigen":
-                geometry.margin(float(geometry.cam_lead[i]), float(geometry.cam_tilt[i]))
+                geometry.margin(lead0, tilt0)
+                geometry.prefetch(np.array([[lead0 + 0.01, tilt0], [lead0, tilt0 + 0.01]]))
 
     def step(self) -> dict[str, float]:
         """One poll: heartbeat, new samples through the detector, maybe a command."""
