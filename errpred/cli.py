@@ -6,6 +6,7 @@ Units at this edge: errors in um, forces in N, angles in degrees.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time
@@ -21,8 +22,14 @@ def _progress(total: int, label: str, quiet: bool):
 
     if quiet or total < 50:
         return nullcontext(), None
-    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
-                               TimeElapsedColumn, TimeRemainingColumn)
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
     prog = Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TextColumn("blocks"),
                     TimeElapsedColumn(), TimeRemainingColumn(), transient=False,
@@ -77,7 +84,12 @@ def _scenario(path: str):
 
 
 def _cmd_predict(args) -> int:
-    from .pipeline import blocks_in_scope, build_predictor, design_deviation_um, write_outputs
+    from .pipeline import (
+        blocks_in_scope,
+        build_predictor,
+        design_deviation_um,
+        write_outputs,
+    )
 
     scenario = _scenario(args.scenario)
     if args.lines:
@@ -86,8 +98,8 @@ def _cmd_predict(args) -> int:
     blocks = blocks_in_scope(scenario, pred.program)
     ctx, cb = _progress(len(blocks), "predicting", args.quiet)
     t0 = time.perf_counter()
-    with ctx:
-        prediction = pred.run(blocks, workers=args.workers, progress=cb,
+    with ctx, _dask_client(args) as client:
+        prediction = pred.run(blocks, workers=args.workers, progress=cb, client=client,
                               series_lines=[args.revolution_line] if args.revolution_line else ())
     elapsed = time.perf_counter() - t0
     design = design_deviation_um(scenario, prediction) if not args.no_design else None
@@ -99,6 +111,27 @@ def _cmd_predict(args) -> int:
         for p in rep.get("plots", []):
             print(f"plot: {p}")
     return 0
+
+
+@contextlib.contextmanager
+def _dask_client(args):
+    """A Dask client for ``--scheduler ADDRESS`` (an existing cluster) or ``--dask N``
+    (a local cluster of N worker processes on 127.0.0.1); None otherwise."""
+    if not getattr(args, "scheduler", None) and not getattr(args, "dask", 0):
+        yield None
+        return
+    from distributed import Client, LocalCluster
+
+    if args.scheduler:
+        with Client(args.scheduler, timeout="20s") as client:
+            yield client
+        return
+    if args.dask < 1:
+        raise ValueError(f"--dask: expected >= 1 workers, got {args.dask}")
+    with LocalCluster(n_workers=args.dask, threads_per_worker=1, processes=True,
+                      host="127.0.0.1", dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        yield client
 
 
 def _with_lines(scenario, lines):
@@ -142,6 +175,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", help="report (JSON)")
     p.add_argument("--plots", metavar="DIR", help="write plots (PNG) into DIR")
     p.add_argument("--workers", type=int, default=1, help="processes for the geometry stage")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the geometry stage on an existing Dask scheduler "
+                        "(e.g. tcp://10.0.0.5:8786)")
+    p.add_argument("--dask", type=int, default=0, metavar="N",
+                   help="run the geometry stage on a local Dask cluster of N workers")
     p.add_argument("--lines", type=int, nargs=2, metavar=("FIRST", "LAST"),
                    help="predict only the blocks on these program lines")
     p.add_argument("--revolution-line", type=int, metavar="LINE",

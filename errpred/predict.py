@@ -28,7 +28,7 @@ from .geometry import STATUS, GeometryModel, PointGeometry, Resolution
 from .physics import PointResult, ShapeErrorModel, WearState, evaluate
 from .tool import Tool
 
-__all__ = ["Prediction", "PointPrediction", "Predictor", "predict_points"]
+__all__ = ["PointPrediction", "Prediction", "Predictor", "predict_points"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,6 +96,11 @@ def _init_worker(model: GeometryModel) -> None:
     _WORKER_MODEL = model
 
 
+def _model_chunk(model: GeometryModel, blocks: list[int]) -> list[list[PointGeometry]]:
+    """Stage 1 of a chunk with a given model (a Dask task; the model is scattered once)."""
+    return [model.geometry(b) for b in blocks]
+
+
 def _worker_chunk(blocks: list[int]) -> list[list[PointGeometry]]:
     assert _WORKER_MODEL is not None
     return [_WORKER_MODEL.geometry(b) for b in blocks]
@@ -142,10 +147,27 @@ class Predictor:
     def theta(self) -> np.ndarray:
         return self.model.theta
 
-    def geometries(self, blocks: Iterable[int], *, workers: int = 1,
-                   chunk: int = 64) -> Iterator[list[PointGeometry]]:
-        """Stage 1 of ``blocks``, yielded in the given order."""
+    def geometries(self, blocks: Iterable[int], *, workers: int = 1, chunk: int = 64,
+                   client=None) -> Iterator[list[PointGeometry]]:
+        """Stage 1 of ``blocks``, yielded in the given order.
+
+        With ``client`` (a ``dask.distributed.Client``) the chunks run on its
+        workers: the geometry model is scattered to every worker once, the chunks
+        are submitted in order and their results taken in order (stage 1 of a
+        block depends only on the program and the stock, method.md §3), so the
+        prediction is the same as in one process.
+        """
         blocks = list(blocks)
+        if client is not None:
+            chunks = [blocks[i:i + chunk] for i in range(0, len(blocks), chunk)]
+            model = client.scatter(self.model, broadcast=True)
+            futures = [client.submit(_model_chunk, model, c, pure=False) for c in chunks]
+            try:
+                for f in futures:
+                    yield from f.result()
+            finally:
+                client.cancel(futures)
+            return
         if workers <= 1 or len(blocks) < 2 * chunk:
             for b in blocks:
                 yield self.model.geometry(b)
@@ -161,7 +183,7 @@ class Predictor:
 
     def run(self, blocks: Iterable[int] | None = None, *, workers: int = 1,
             progress: Callable[[int], None] | None = None,
-            series_lines: Iterable[int] = ()) -> Prediction:
+            series_lines: Iterable[int] = (), client=None) -> Prediction:
         """Predict the error of ``blocks`` (default: every block of the program).
 
         Parameters
@@ -177,6 +199,8 @@ class Predictor:
         series_lines : iterable of int
             Program lines whose force and deflection over a revolution are
             kept (:attr:`Prediction.series`); the largest-|E| point's always is.
+        client : dask.distributed.Client, optional
+            Run stage 1 on a Dask cluster instead (``workers`` is then unused).
         """
         blocks = list(range(len(self.program))) if blocks is None else list(blocks)
         wear = WearState.new(self.edges)
@@ -185,7 +209,7 @@ class Predictor:
         kept: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
         worst = -1.0
         done = 0
-        for geoms in self.geometries(blocks, workers=workers):
+        for geoms in self.geometries(blocks, workers=workers, client=client):
             for g in geoms:
                 buf: list = []
                 res = evaluate(self.tool, self.edges, self.coefficients, self.compliance,
