@@ -6,7 +6,6 @@ Units at this edge: errors in um, forces in N, angles in degrees.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import sys
 import time
@@ -113,25 +112,10 @@ def _cmd_predict(args) -> int:
     return 0
 
 
-@contextlib.contextmanager
 def _dask_client(args):
-    """A Dask client for ``--scheduler ADDRESS`` (an existing cluster) or ``--dask N``
-    (a local cluster of N worker processes on 127.0.0.1); None otherwise."""
-    if not getattr(args, "scheduler", None) and not getattr(args, "dask", 0):
-        yield None
-        return
-    from distributed import Client, LocalCluster
+    from .cluster import dask_client
 
-    if args.scheduler:
-        with Client(args.scheduler, timeout="20s") as client:
-            yield client
-        return
-    if args.dask < 1:
-        raise ValueError(f"--dask: expected >= 1 workers, got {args.dask}")
-    with LocalCluster(n_workers=args.dask, threads_per_worker=1, processes=True,
-                      host="127.0.0.1", dashboard_address=None) as cluster, \
-            Client(cluster) as client:
-        yield client
+    return dask_client(getattr(args, "scheduler", None), getattr(args, "dask", 0))
 
 
 def _with_lines(scenario, lines):

@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from errpred.cluster import dask_client
 from errpred.scenario import ScenarioError
 
 __all__ = ["build_parser", "main"]
@@ -52,7 +53,9 @@ def _cmd_plan(args) -> int:
         def progress(stage, done, total):
             if done == total or done % 50 == 0:
                 status.update(f"{stage}: {done}/{total} cutter locations")
-        res = plan(scn, machine=machine, spindle_rpm=args.spindle_rpm, progress=progress)
+        with dask_client(args.scheduler, args.dask) as client:
+            res = plan(scn, machine=machine, spindle_rpm=args.spindle_rpm, progress=progress,
+                       client=client)
     opts = PostOptions(dialect=args.dialect or scn.options.dialect, spindle_rpm=res.spindle_rpm,
                        source=f"orient plan of {scn.name}")
     post = write_program(out, res.cl, res.machine, opts)
@@ -155,6 +158,10 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--spindle-rpm", type=float, help="plan at this speed [rev/min]")
     a.add_argument("--report", help="JSON report (default: OUT-plan.json)")
     a.add_argument("--plots", help="folder for the PNG plots")
+    a.add_argument("--scheduler", metavar="ADDRESS",
+                   help="compute gains and margins on an existing Dask scheduler")
+    a.add_argument("--dask", type=int, default=0, metavar="N",
+                   help="compute gains and margins on a local Dask cluster of N workers")
     a.set_defaults(func=_cmd_plan)
     b = sub.add_parser("lobes", help="stability lobes at one cutter location")
     b.add_argument("scenario", nargs="?", help="planning scenario TOML (default: bundled)")

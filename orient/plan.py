@@ -66,6 +66,8 @@ SDM_CHECK_POINTS = 6
 CAM_PREFERENCE_PER_RAD = 1.0e-3
 #: Cutter locations (spread along the path) on which a spindle speed is chosen [-].
 SPEED_SAMPLE_POINTS = 24
+#: Cutter locations per Dask task when planning on a cluster [-].
+DASK_CHUNK_POINTS = 256
 #: Rounds of "choose, check interference, drop colliding postures" [-].
 MAX_INTERFERENCE_ROUNDS = 12
 
@@ -180,6 +182,59 @@ def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
     return margin
 
 
+def _chunk_gains_margins(tool, coeffs, wp: WorkpieceModel, tool_sys: ModalSystem,
+                         points: np.ndarray, normal: np.ndarray, feed: np.ndarray,
+                         axes: np.ndarray, ok: np.ndarray, cuts: list, rpm: float,
+                         cap: float) -> tuple:
+    """Process gains, cut senses, capped margins and systems of a chunk of cutter
+    locations (a Dask task; each posture is computed as in the one-process path)."""
+    t, s, _ = axes.shape
+    sense = np.zeros((t, s))
+    P = np.zeros((t, s, 3, 3))
+    pi, ps = np.nonzero(ok)
+    if len(pi):
+        per_point = np.empty(len(cuts), dtype=object)
+        per_point[:] = cuts
+        g = process_gain_batch(tool, coeffs, axes[pi, ps], normal[pi], feed[pi], per_point[pi],
+                               parallel=True)
+        sense[pi, ps] = g.cut_sense
+        P[pi, ps] = g.P
+    margin = np.full((t, s), np.inf)
+    systems: list = [None] * t
+    for i in range(t):
+        sel = np.flatnonzero(ok[i])
+        if len(sel) == 0:
+            continue
+        systems[i] = wp.system_at(tool_sys, points[i])
+        margin[i, sel] = zoa_margin_batch(P[i, sel], systems[i], rpm, tool.flutes,
+                                          mode_directions=systems[i].directions_for_axes(
+                                              axes[i, sel]), cap=cap)
+    return P, sense, margin, systems
+
+
+def _dask_gains_margins(client, scn, wp, tool_sys, contacts, idx, axes, ok, cuts, rpm, cap,
+                        chunk: int = DASK_CHUNK_POINTS) -> tuple:
+    """:func:`_chunk_gains_margins` over chunks of cutter locations on a Dask cluster;
+    the workpiece model is scattered once; results are put back in order."""
+    t = len(idx)
+    wp_f = client.scatter(wp, broadcast=True)
+    tool, coeffs = scn.base.tool, scn.base.coefficients
+    futures = []
+    for a in range(0, t, chunk):
+        b = min(a + chunk, t)
+        r = idx[a:b]
+        futures.append(client.submit(
+            _chunk_gains_margins, tool, coeffs, wp_f, tool_sys, contacts.point[r],
+            contacts.normal[r], contacts.feed[r], axes[a:b], ok[a:b], cuts[a:b], rpm, cap,
+            pure=False))
+    parts = client.gather(futures)
+    P = np.concatenate([p[0] for p in parts])
+    sense = np.concatenate([p[1] for p in parts])
+    margin = np.concatenate([p[2] for p in parts])
+    systems = [sys_ for p in parts for sys_ in p[3]]
+    return P, sense, margin, systems
+
+
 def _uncap(scn, systems: list, axes: np.ndarray, P: np.ndarray, rpm: float,
            margin: np.ndarray, cols: np.ndarray, cap: float) -> None:
     """Exact margins, in place, of the postures ``margin[r, cols[r, :]]`` found capped."""
@@ -221,7 +276,7 @@ def _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm0: float) ->
 
 
 def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
-         progress=None) -> PlanResult:
+         progress=None, client=None) -> PlanResult:
     """Plan lead and tilt along the scenario's CAM program.
 
     Parameters
@@ -233,6 +288,9 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
         Plan at this speed (default: the program's).
     progress : callable, optional
         ``progress(stage: str, done: int, total: int)``.
+    client : dask.distributed.Client, optional
+        Compute the process gains and margins on its workers, chunks of cutter
+        locations at a time (the result is the same as in one process).
 
     Returns
     -------
@@ -287,15 +345,26 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     tool_sys = ModalSystem.tool(scn.base.compliance)
     wp = WorkpieceModel(scn.workpiece, contacts.point[idx])
     t2 = time.perf_counter()
-    P, sense = _gains(scn, contacts, idx, axes, ok, cuts)
     rpm_program = rpm
-    if opt.spindle is not None and spindle_rpm is None:
-        rpm = _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm)
-    systems: list = [None] * len(idx)
     cap = opt.margin_target
-    margin = _margins(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm,
-                      None if progress is None else (lambda d, n: progress("margins", d, n)),
-                      cap=cap, systems=systems)
+    if client is not None:
+        if opt.spindle is not None and spindle_rpm is None:
+            sample = np.zeros_like(ok)
+            rows_s = np.unique(np.linspace(0, len(idx) - 1, min(SPEED_SAMPLE_POINTS, len(idx)))
+                               .astype(int))
+            sample[rows_s] = ok[rows_s]
+            P_s, _ = _gains(scn, contacts, idx, axes, sample, cuts)
+            rpm = _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P_s, rpm)
+        P, sense, margin, systems = _dask_gains_margins(client, scn, wp, tool_sys, contacts,
+                                                        idx, axes, ok, cuts, rpm, cap)
+    else:
+        P, sense = _gains(scn, contacts, idx, axes, ok, cuts)
+        if opt.spindle is not None and spindle_rpm is None:
+            rpm = _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm)
+        systems = [None] * len(idx)
+        margin = _margins(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm,
+                          None if progress is None else (lambda d, n: progress("margins", d, n)),
+                          cap=cap, systems=systems)
     if rpm != rpm_program:        # the CAM's posture at the CAM's speed, for the report
         cam_col = np.zeros_like(ok)
         cam_col[:, -1] = True
