@@ -184,7 +184,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.report:
         with atomic_write(args.report) as fh:
             json.dump(report, fh, indent=1, default=_json_default)
-    if args.plot:
+    plot_path = args.plot
+    if args.html and not plot_path:
+        plot_path = os.path.join(tempfile.mkdtemp(prefix="sim-run-plot-"), "spectra.png")
+    if plot_path:
         t_det = cs.get("first_detection_s") or 0.0
         end = float(closed["t"][-1]) if closed["t"].size else 0.0
         panels = [("closed loop: at the first detection (before) and at the end (after)",
@@ -193,9 +196,70 @@ def _cmd_run(args: argparse.Namespace) -> int:
             oend = float(opened["t"][-1])
             panels.append(("end of the cut: open loop (before) and closed loop (after)",
                            _stretch(opened, oend - 0.5, 0.5), _stretch(closed, end - 0.5, 0.5)))
-        plot_spectra(args.plot, panels, closed["fs"], closed["rpm"] / 60.0 * closed["teeth"])
+        plot_spectra(plot_path, panels, closed["fs"], closed["rpm"] / 60.0 * closed["teeth"])
+    if args.html:
+        _write_html(args.html, report, lines, plot_path)
     print("\n".join(lines))
     return 0
+
+
+def _write_html(path: str, report: dict[str, Any], lines: list[str], plot_path: str) -> None:
+    from .html import Figure, Section, write_page
+
+    cs = report["closed_loop"]
+    op = report.get("open_loop")
+    stopped = cs.get("chatter_stops_after_rev")
+    verdict = (f"With the controller on, chatter stopped {stopped:.0f} spindle revolutions "
+               f"after it was first detected." if stopped is not None else
+               "With the controller on, chatter did not stop.")
+    rows = [("", "closed loop", "open loop" if op else "")]
+
+    def val(r, key, fmt="{:.2f}"):
+        if r is None:
+            return ""
+        v = r.get(key)
+        return "-" if v is None else fmt.format(v)
+
+    def surf(r, key):
+        return "" if r is None or "surface" not in r else f"{r['surface'][key]:.2f}"
+
+    rows += [("first chatter detected at [s]", val(cs, "first_detection_s"),
+              val(op, "first_detection_s")),
+             ("side of the first detection", str(cs.get("first_cause", "-")),
+              str(op.get("first_cause", "-")) if op else ""),
+             ("chatter stops after [rev]", val(cs, "chatter_stops_after_rev", "{:.0f}"),
+              val(op, "chatter_stops_after_rev", "{:.0f}")),
+             ("windows with chatter after detection", val(cs, "chatter_share_after_detection",
+                                                          "{:.0%}"),
+              val(op, "chatter_share_after_detection", "{:.0%}")),
+             ("chatter marks, last half [um]", surf(cs, "tail_chatter_marks_um"),
+              surf(op, "tail_chatter_marks_um")),
+             ("chatter marks, whole cut [um]", surf(cs, "chatter_marks_um"),
+              surf(op, "chatter_marks_um")),
+             ("mean surface offset [um]", surf(cs, "mean_offset_um"), surf(op, "mean_offset_um"))]
+    if op is None:
+        rows = [r[:2] for r in rows]
+    cmds = [("time [s]", "lead [deg]", "tilt [deg]", "acknowledged", "why")]
+    cmds += [(f"{c['time_s']:.3f}", f"{c['lead_deg']:+.1f}", f"{c['tilt_deg']:+.1f}",
+              {1: "applied", 2: "refused (interference)", 3: "refused (axis limit)"}.get(
+                  c["ack"], str(c["ack"])), c["reason"])
+             for c in cs["commands"] if c["lead_deg"] is not None]
+    with open(plot_path, "rb") as fh:
+        png = fh.read()
+    setting = (f"Scenario: {report['scenario']}, cutter locations {report['points'][0]} to "
+               f"{report['points'][1]}, {report['spindle_rpm']:.0f} rev/min; the NC ran in "
+               "real time, the controller was a separate process that saw only the Modbus "
+               "registers.")
+    sections = [
+        Section("Result", paragraphs=(*lines, setting), tables=(tuple(rows),)),
+        Section("Orientation commands", tables=(tuple(cmds),) if len(cmds) > 1 else (),
+                paragraphs=() if len(cmds) > 1 else ("No command was sent.",)),
+        Section("Acceleration spectra", figures=(Figure(
+            png, ("Spindle accelerometers: the broad chatter peaks between the "
+                  "tooth-passing lines (grey) before, and what is left after.")),)),
+    ]
+    write_page(path, "Simulated machining with chatter control", verdict, sections,
+               good=stopped is not None)
 
 
 def _json_default(o: Any) -> Any:
@@ -251,6 +315,7 @@ def build_parser() -> argparse.ArgumentParser:
     machine_args(r)
     r.add_argument("--report", default=None, help="JSON report file")
     r.add_argument("--plot", default=None, help="PNG of the acceleration spectra")
+    r.add_argument("--html", default=None, help="self-contained HTML page of the result")
     r.add_argument("--no-compare", action="store_true", help="closed loop only")
     r.add_argument("--strategy", choices=("eigen", "detector"), default="eigen",
                    help="the controller's rule (see python -m sim controller -h)")
