@@ -134,11 +134,11 @@ def local_cuts(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: Cutt
                      int(s), float(z)) for s, z in zip(side, fz)]
 
 
-def _gains(scn, contacts: Contacts, idx: np.ndarray, axes: np.ndarray, ok: np.ndarray,
-           cuts: list) -> tuple[np.ndarray, np.ndarray]:
-    """Process gain P (t, s, 3, 3) [N/m] and cut sense (t, s) where ``ok`` (0 elsewhere)."""
+def _gains_rows(tool, coeffs, normal: np.ndarray, feed: np.ndarray, axes: np.ndarray,
+                ok: np.ndarray, cuts: list) -> tuple[np.ndarray, np.ndarray]:
+    """Process gain P (t, s, 3, 3) [N/m] and cut sense (t, s) of candidate axes (t, s, 3)
+    where ``ok`` (0 elsewhere), at cutter locations with ``normal``, ``feed`` (t, 3)."""
     t, s, _ = axes.shape
-    tool = scn.base.tool
     sense = np.zeros((t, s))
     P = np.zeros((t, s, 3, 3))
     pi, ps = np.nonzero(ok)
@@ -146,18 +146,17 @@ def _gains(scn, contacts: Contacts, idx: np.ndarray, axes: np.ndarray, ok: np.nd
         return P, sense
     per_point = np.empty(len(cuts), dtype=object)
     per_point[:] = cuts
-    gains = process_gain_batch(tool, scn.base.coefficients, axes[pi, ps],
-                               contacts.normal[idx][pi], contacts.feed[idx][pi], per_point[pi],
+    gains = process_gain_batch(tool, coeffs, axes[pi, ps], normal[pi], feed[pi], per_point[pi],
                                parallel=True)
     sense[pi, ps] = gains.cut_sense
     P[pi, ps] = gains.P
     return P, sense
 
 
-def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
-             idx: np.ndarray, axes: np.ndarray, ok: np.ndarray, P: np.ndarray, rpm: float,
-             progress=None, cap: float | None = None, systems: list | None = None
-             ) -> np.ndarray:
+def _margins_rows(tool, wp: WorkpieceModel, tool_sys: ModalSystem, points: np.ndarray,
+                  axes: np.ndarray, ok: np.ndarray, P: np.ndarray, rpm: float,
+                  cap: float | None = None, systems: list | None = None,
+                  progress=None) -> np.ndarray:
     """ZOA margin (t, s) of candidate axes (t, s, 3) at ``rpm`` where ``ok``; inf elsewhere.
 
     With ``cap``, margins at or above it come back as ``cap`` (the score only
@@ -165,13 +164,12 @@ def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
     t, receives each cutter location's :class:`ModalSystem`.
     """
     t, s, _ = axes.shape
-    tool = scn.base.tool
     margin = np.full((t, s), np.inf)
     for i in range(t):
         sel = np.flatnonzero(ok[i])
         if len(sel) == 0:
             continue
-        system = wp.system_at(tool_sys, contacts.point[idx[i]])
+        system = wp.system_at(tool_sys, points[i])
         if systems is not None:
             systems[i] = system
         dirs = system.directions_for_axes(axes[i, sel])
@@ -182,33 +180,31 @@ def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
     return margin
 
 
+def _gains(scn, contacts: Contacts, idx: np.ndarray, axes: np.ndarray, ok: np.ndarray,
+           cuts: list) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_gains_rows` at the touching cutter locations ``idx``."""
+    return _gains_rows(scn.base.tool, scn.base.coefficients, contacts.normal[idx],
+                       contacts.feed[idx], axes, ok, cuts)
+
+
+def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
+             idx: np.ndarray, axes: np.ndarray, ok: np.ndarray, P: np.ndarray, rpm: float,
+             progress=None, cap: float | None = None, systems: list | None = None
+             ) -> np.ndarray:
+    """:func:`_margins_rows` at the touching cutter locations ``idx``."""
+    return _margins_rows(scn.base.tool, wp, tool_sys, contacts.point[idx], axes, ok, P, rpm,
+                         cap, systems, progress)
+
+
 def _chunk_gains_margins(tool, coeffs, wp: WorkpieceModel, tool_sys: ModalSystem,
                          points: np.ndarray, normal: np.ndarray, feed: np.ndarray,
                          axes: np.ndarray, ok: np.ndarray, cuts: list, rpm: float,
                          cap: float) -> tuple:
     """Process gains, cut senses, capped margins and systems of a chunk of cutter
-    locations (a Dask task; each posture is computed as in the one-process path)."""
-    t, s, _ = axes.shape
-    sense = np.zeros((t, s))
-    P = np.zeros((t, s, 3, 3))
-    pi, ps = np.nonzero(ok)
-    if len(pi):
-        per_point = np.empty(len(cuts), dtype=object)
-        per_point[:] = cuts
-        g = process_gain_batch(tool, coeffs, axes[pi, ps], normal[pi], feed[pi], per_point[pi],
-                               parallel=True)
-        sense[pi, ps] = g.cut_sense
-        P[pi, ps] = g.P
-    margin = np.full((t, s), np.inf)
-    systems: list = [None] * t
-    for i in range(t):
-        sel = np.flatnonzero(ok[i])
-        if len(sel) == 0:
-            continue
-        systems[i] = wp.system_at(tool_sys, points[i])
-        margin[i, sel] = zoa_margin_batch(P[i, sel], systems[i], rpm, tool.flutes,
-                                          mode_directions=systems[i].directions_for_axes(
-                                              axes[i, sel]), cap=cap)
+    locations (a Dask task; the same functions as the one-process path)."""
+    P, sense = _gains_rows(tool, coeffs, normal, feed, axes, ok, cuts)
+    systems: list = [None] * axes.shape[0]
+    margin = _margins_rows(tool, wp, tool_sys, points, axes, ok, P, rpm, cap, systems)
     return P, sense, margin, systems
 
 

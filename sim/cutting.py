@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from errpred.engagement import revolution_angles
 from errpred.force import CuttingCoefficients, local_components, to_tool_frame
 from errpred.tool import MicroEdges, Tool
 from nc.checks import real_number
@@ -68,6 +69,7 @@ __all__ = [
     "prepare_cut",
     "simulate",
     "stability_boundary",
+    "steps_per_rev_for",
     "with_system",
 ]
 
@@ -161,24 +163,41 @@ class MillingRun:
     scale: float
 
 
+def steps_per_rev_for(f_max_hz: float, spindle_rpm: float, flutes: int) -> int:
+    """Default rotation steps per revolution for a highest mode of ``f_max_hz`` [Hz]:
+    ``STEPS_PER_MODE_PERIOD`` per its period, at least ``MIN_STEPS_PER_REV``, a
+    multiple of the flutes and even, as the engagement samples it
+    (``errpred.engagement.revolution_angles``); refused above ``MAX_STEPS_PER_REV``."""
+    n = _steps_per_rev_raw(f_max_hz, spindle_rpm)
+    n = _checked(flutes * math.ceil(n / flutes), spindle_rpm)
+    return int(revolution_angles(2.0 * math.pi / n, flutes).size)
+
+
+def _steps_per_rev_raw(f_max_hz: float, spindle_rpm: float) -> int:
+    return max(MIN_STEPS_PER_REV, math.ceil(STEPS_PER_MODE_PERIOD * f_max_hz / (spindle_rpm
+                                                                              / 60.0)))
+
+
+def _checked(n: int, spindle_rpm: float) -> int:
+    if n > MAX_STEPS_PER_REV:
+        raise ValueError(f"steps_per_rev: {n} steps per revolution are needed for the highest "
+                         f"mode at {spindle_rpm:g} rev/min, more than MAX_STEPS_PER_REV="
+                         f"{MAX_STEPS_PER_REV}; drop modes far above the tooth frequency")
+    return n
+
+
 def _steps_per_rev(system: ModalSystem, spindle_rpm: float, flutes: int,
                    steps_per_rev: int | None) -> int:
     if steps_per_rev is None:
-        f_rev = spindle_rpm / 60.0
         f_max = float(system.natural_frequency_rad_s.max()) / (2.0 * math.pi)
-        n = max(MIN_STEPS_PER_REV, math.ceil(STEPS_PER_MODE_PERIOD * f_max / f_rev))
+        n = _steps_per_rev_raw(f_max, spindle_rpm)
     else:
         if isinstance(steps_per_rev, bool) or not isinstance(steps_per_rev, (int, np.integer)) \
                 or steps_per_rev < 4 * flutes:
             raise ValueError(f"steps_per_rev: expected an integer >= {4 * flutes}, "
                              f"got {steps_per_rev!r}")
         n = int(steps_per_rev)
-    n = flutes * math.ceil(n / flutes)
-    if n > MAX_STEPS_PER_REV:
-        raise ValueError(f"steps_per_rev: {n} steps per revolution are needed for the highest "
-                         f"mode at {spindle_rpm:g} rev/min, more than MAX_STEPS_PER_REV="
-                         f"{MAX_STEPS_PER_REV}; drop modes far above the tooth frequency")
-    return n
+    return _checked(flutes * math.ceil(n / flutes), spindle_rpm)
 
 
 def _step_map(system: ModalSystem, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -271,6 +290,19 @@ def with_system(model: CuttingModel, system: ModalSystem, posture_axis: Any) -> 
                         n_edges=model.n_edges, step_map=_step_map(system, model.dt_s))
 
 
+def _integrate(model: CuttingModel, step: int, scale: np.ndarray, linear: bool,
+               surface: np.ndarray, state: np.ndarray, force: np.ndarray, disp: np.ndarray,
+               acc: np.ndarray, chip: np.ndarray, lost: np.ndarray) -> None:
+    """The kernel over ``scale.size`` steps from step ``step`` (its rotation sample), with
+    the model's table, modes and step map; ``surface`` and ``state`` carry in and out."""
+    sysm = model.system
+    phi_d, gam_d = model.step_map
+    _k.integrate(step % model.steps_per_rev, scale.size, model.steps_per_rev, *model.table,
+                 phi_d, gam_d, np.ascontiguousarray(sysm.direction), scale, sysm.k_N_m,
+                 sysm.c_Ns_m, sysm.m_kg, sysm.velocity_s, np.asarray(sysm.source == "tool"),
+                 bool(linear), 0.5 * model.dt_s, surface, state, force, disp, acc, chip, lost)
+
+
 def _generating_phase(model: CuttingModel) -> int:
     """Rotation sample (within a tooth) where an engaged edge's chip direction is most
     nearly the surface normal: where the surface is generated."""
@@ -330,22 +362,14 @@ def simulate(model: CuttingModel, revolutions: float, *, scale: Any = 1.0,
     surface = np.zeros((spr, model.n_edges))
     force = np.empty((n, 3))
     disp = np.empty((n, 3))
+    acc = np.empty((n, 3))
     chip = np.empty(n)
     lost = np.empty(n, dtype=np.int64)
     poincare = np.empty((n_teeth, nm, 2))
-    dirs = np.ascontiguousarray(model.system.direction)
-    phi_d, gam_d = model.step_map
-    acc = np.empty((n, 3))
-    sysm = model.system
-    tool_mode = np.asarray(sysm.source == "tool")
     for k in range(n_teeth):                  # one kernel call per tooth: the Poincare state
         sl = slice(k * spt, (k + 1) * spt)
-        _k.integrate((k * spt) % spr, spt, spr, *model.table, phi_d, gam_d, dirs, sc[sl],
-                     sysm.k_N_m, sysm.c_Ns_m, sysm.m_kg, sysm.velocity_s, tool_mode,
-                     bool(linear),
-                     0.5 * model.dt_s, surface,
-                     state, force[sl],
-                     disp[sl], acc[sl], chip[sl], lost[sl])
+        _integrate(model, k * spt, sc[sl], linear, surface, state, force[sl], disp[sl],
+                   acc[sl], chip[sl], lost[sl])
         poincare[k] = state
     g = _generating_phase(model)
     surf = disp[g::spt][:n_teeth] @ model.normal * _MM_PER_M
@@ -480,14 +504,8 @@ class Cutter:
         acc = np.empty((n, 3))
         chip = np.empty(n)
         lost = np.empty(n, dtype=np.int64)
-        sysm = model.system
-        phi_d, gam_d = model.step_map
-        _k.integrate(self.step % self.steps_per_rev, n, self.steps_per_rev, *model.table, phi_d,
-                     gam_d, np.ascontiguousarray(sysm.direction), np.full(n, s), sysm.k_N_m,
-                     sysm.c_Ns_m, sysm.m_kg, sysm.velocity_s, np.asarray(sysm.source == "tool"),
-                     bool(linear),
-                     0.5 * model.dt_s,
-                     self.surface, self.state, force, disp, acc, chip, lost)
+        _integrate(model, self.step, np.full(n, s), linear, self.surface, self.state, force,
+                   disp, acc, chip, lost)
         t = self.time_s + np.arange(n) * model.dt_s
         g = _generating_phase(model)
         spt = model.steps_per_tooth

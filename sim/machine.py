@@ -39,13 +39,11 @@ from orient.workpiece import WorkpieceModel
 from .constants import (
     LOOKAHEAD_POINTS,
     MICRO_EDGES_ENVELOPE,
-    MIN_STEPS_PER_REV,
     MODEL_CACHE,
     RAPID_MM_MIN,
-    STEPS_PER_MODE_PERIOD,
     TICK_S,
 )
-from .cutting import Cutter, prepare_cut, with_system
+from .cutting import Cutter, prepare_cut, steps_per_rev_for, with_system
 from .registers import ACK, STATUS
 from .sensors import Accelerometers, AccelerometerStream
 
@@ -139,9 +137,7 @@ class SimulatedNC:
         f_max = float(self.tool_system.natural_frequency_rad_s.max()) / (2 * math.pi)
         for lev in self.workpiece.levels:
             f_max = max(f_max, float(np.max(lev.frequencies_hz)))
-        spr = max(MIN_STEPS_PER_REV, math.ceil(STEPS_PER_MODE_PERIOD * f_max * 60.0 / self.rpm))
-        self.steps_per_rev = self.tool.flutes * math.ceil(spr / self.tool.flutes)
-        self.steps_per_rev += self.steps_per_rev % 2            # engagement wants it even
+        self.steps_per_rev = steps_per_rev_for(f_max, self.rpm, self.tool.flutes)
         self.dt_s = 60.0 / (self.rpm * self.steps_per_rev)
         self.edges = self.tool.micro_edges(MICRO_EDGES_ENVELOPE)
         self.cutter = Cutter(self.steps_per_rev, len(self.edges))

@@ -157,6 +157,17 @@ def _filter_exact(x: np.ndarray, dt: float, w: float, zeta: float) -> np.ndarray
     return signal.lfilter(b, a, x)
 
 
+def _convert(sensors: Accelerometers, ts: np.ndarray, y: np.ndarray) -> SensorSignals:
+    """The converter: ``y`` (k, 2) [m/s^2] at ``ts`` to clipped counts of one LSB."""
+    lsb = sensors.lsb_m_s2
+    lo, hi = -(2 ** (sensors.bits - 1)), 2 ** (sensors.bits - 1) - 1
+    raw = np.rint(y / lsb)
+    clipped = int(np.sum((raw < lo) | (raw > hi)))
+    counts = np.clip(raw, lo, hi).astype(np.int32)
+    return SensorSignals(time_s=ts, counts=counts, acceleration_m_s2=counts * lsb,
+                         clipped=clipped)
+
+
 def sample_accelerometers(time_s: Any, tool_acceleration_m_s2: Any, sensors: Accelerometers,
                           *, rotation: Any = None, rng: np.random.Generator | None = None,
                           seed: int = 0) -> SensorSignals:
@@ -204,13 +215,7 @@ def sample_accelerometers(time_s: Any, tool_acceleration_m_s2: Any, sensors: Acc
     gen = rng if rng is not None else np.random.default_rng(seed)
     if sensors.noise_rms_m_s2 > 0:
         y = y + gen.normal(0.0, sensors.noise_rms_m_s2, size=y.shape)
-    lsb = sensors.lsb_m_s2
-    lo, hi = -(2 ** (sensors.bits - 1)), 2 ** (sensors.bits - 1) - 1
-    raw = np.rint(y / lsb)
-    clipped = int(np.sum((raw < lo) | (raw > hi)))
-    counts = np.clip(raw, lo, hi).astype(np.int32)
-    return SensorSignals(time_s=ts, counts=counts, acceleration_m_s2=counts * lsb,
-                         clipped=clipped)
+    return _convert(sensors, ts, y)
 
 
 class AccelerometerStream:
@@ -269,13 +274,7 @@ class AccelerometerStream:
         if ts.size:
             self._next_sample = float(ts[-1]) + step
         self.samples += ts.size
-        lsb = s.lsb_m_s2
-        lo, hi = -(2 ** (s.bits - 1)), 2 ** (s.bits - 1) - 1
-        raw = np.rint(y / lsb)
-        clipped = int(np.sum((raw < lo) | (raw > hi)))
-        counts = np.clip(raw, lo, hi).astype(np.int32)
-        return SensorSignals(time_s=ts, counts=counts, acceleration_m_s2=counts * lsb,
-                             clipped=clipped)
+        return _convert(s, ts, y)
 
 
 def detector_settings(sensors: Accelerometers, **overrides: Any) -> DetectorSettings:

@@ -161,16 +161,22 @@ def test_zoa_1dof_minimum_matches_closed_form(ad, milling):
 def _altintas_budak_alim(ad: float, milling: str, teeth: int, omega: np.ndarray) -> np.ndarray:
     """Altintas & Budak's closed form over ``omega``: a_lim [m] per frequency (positive only)."""
     st, ex = StraightEndMill2D(KT_AB, KR_AB * KT_AB, teeth, ad, milling).angles
-    a = _alpha(st, ex, KR_AB)
     mode = _mode()
     phi = 1.0 / (mode.k_N_m - mode.m_kg * omega**2 + 1j * mode.c_Ns_m * omega)
-    a0 = phi * phi * (a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0])
-    a1 = a[0, 0] * phi + a[1, 1] * phi
+    return _ab_quadratic(_alpha(st, ex, KR_AB), phi, phi, teeth, KT_AB)
+
+
+def _ab_quadratic(a: np.ndarray, phi_xx: np.ndarray, phi_yy: np.ndarray, teeth: int,
+                  kt: float) -> np.ndarray:
+    """Altintas & Budak: ``a0 Lambda^2 + a1 Lambda + 1 = 0`` per frequency, a_lim [m]
+    (positive ones) for directional factors ``a`` and direct FRFs ``phi_xx``, ``phi_yy``."""
+    a0 = phi_xx * phi_yy * (a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0])
+    a1 = a[0, 0] * phi_xx + a[1, 1] * phi_yy
     out = []
     for sign in (1, -1):
         lam = -(a1 + sign * np.sqrt(a1 * a1 - 4 * a0)) / (2 * a0)
         kappa = lam.imag / lam.real
-        out.append(-2 * math.pi * lam.real * (1 + kappa**2) / (teeth * KT_AB))
+        out.append(-2 * math.pi * lam.real * (1 + kappa**2) / (teeth * kt))
     alim = np.concatenate(out)
     return alim[alim > 0]
 
@@ -213,18 +219,10 @@ def _book_frf(w: np.ndarray, modes) -> np.ndarray:
 def _book_closed_form(kt: float, kr: float, teeth: int, ad: float, milling: str) -> float:
     """Altintas & Budak's zero-order minimum [mm] on the book's FRF (fine grid)."""
     st, ex = StraightEndMill2D(kt, kr * kt, teeth, ad, milling).angles
-    a = _alpha(st, ex, kr)
     w = 2 * math.pi * np.linspace(50.0, 4000.0, 400001)
-    px, py = _book_frf(w, BOOK_X), _book_frf(w, BOOK_Y)
-    a0 = px * py * (a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0])
-    a1 = a[0, 0] * px + a[1, 1] * py
-    out = []
-    for sign in (1, -1):
-        lam = -(a1 + sign * np.sqrt(a1 * a1 - 4 * a0)) / (2 * a0)
-        kappa = lam.imag / lam.real
-        out.append(-2 * math.pi * lam.real * (1 + kappa**2) / (teeth * kt))
-    alim = np.concatenate(out)
-    return float(alim[alim > 0].min() * 1e3)
+    alim = _ab_quadratic(_alpha(st, ex, kr), _book_frf(w, BOOK_X), _book_frf(w, BOOK_Y),
+                         teeth, kt)
+    return float(alim.min() * 1e3)
 
 
 def test_book_frf_from_residues():
