@@ -21,14 +21,10 @@ import numpy as np
 from pymodbus.client import ModbusTcpClient
 from pymodbus.exceptions import ModbusException
 
-from nc.kinematics import get_machine
-from nc.path import cutter_locations
-from orient.contacts import ball_contacts
 from orient.detect import ChatterDetector, Detection
 from orient.dynamics import ModalSystem
 from orient.gain import process_gain_batch
-from orient.geometry import inclination, lead_tilt_of, posture_axis
-from orient.plan import local_cuts
+from orient.geometry import inclination, posture_axis
 from orient.scenario import PlanScenario
 from orient.stability import zoa_margin, zoa_margin_batch
 from orient.strategies import DetectorRule, EigenCriterion
@@ -42,6 +38,7 @@ from .constants import (
     CONTROLLER_STEP_DEG,
     MAX_READ_REGISTERS,
 )
+from .program import PartProgram
 from .registers import (
     CAUSE,
     HOLDING,
@@ -141,25 +138,13 @@ class NCClient:
         return np.array(words, dtype=np.uint16).view(np.int16).reshape(-1, 2)
 
 
-class ProgramGeometry:
-    """What the controller knows of the part: per cutter location the surface normal,
-    feed direction, the CAM's lead and tilt, and the local cut (for the up/down-cut
-    degree of a posture); it implements orient's ``PostureModel`` for one location."""
+class ProgramGeometry(PartProgram):
+    """What the controller knows of the part (:class:`sim.program.PartProgram`: per
+    cutter location the surface normal, feed direction, the CAM's lead and tilt, and
+    the local cut); it implements orient's ``PostureModel`` for one location."""
 
     def __init__(self, scn: PlanScenario) -> None:
-        base = scn.base
-        m = base.machine
-        machine = get_machine(m) if isinstance(m, str) else m
-        self.scn = scn
-        self.cam = cutter_locations(base.read_program(), machine)
-        self.contacts = ball_contacts(self.cam, base.tool.radius_mm, base.stock.load_design())
-        self.touch = np.flatnonzero(self.contacts.touching)
-        rpm = float(np.nanmax(self.cam.spindle_rpm))
-        self.cuts = dict(zip(self.touch.tolist(),
-                             local_cuts(scn, self.contacts, self.touch, self.cam, rpm),
-                             strict=True))
-        lead, tilt = lead_tilt_of(self.cam.axis, self.contacts.normal, self.contacts.feed)
-        self.cam_lead, self.cam_tilt = np.asarray(lead), np.asarray(tilt)
+        super().__init__(scn)
         self.point = int(self.touch[0]) if self.touch.size else 0
         self._P: dict = {}
         self._incl: dict = {}
@@ -167,7 +152,6 @@ class ProgramGeometry:
         self._systems: dict = {}
         self._workpiece: WorkpieceModel | None = None
         self._tool_system: ModalSystem | None = None
-        self.rpm = rpm
 
     def point_of_block(self, block: int) -> int:
         """Cutter location of a program block (the nearest touching one)."""

@@ -26,13 +26,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from nc.kinematics import get_machine, solve_path
-from nc.path import cutter_locations
-from orient.contacts import ball_contacts
+from nc.kinematics import solve_path
 from orient.dynamics import ModalSystem
-from orient.geometry import lead_tilt_of, posture_axis
+from orient.geometry import posture_axis
 from orient.interference import InterferenceChecker, ToolAssembly
-from orient.plan import local_cuts, stock_mesh
+from orient.plan import stock_mesh
 from orient.scenario import PlanScenario
 from orient.workpiece import WorkpieceModel
 
@@ -44,6 +42,7 @@ from .constants import (
     TICK_S,
 )
 from .cutting import Cutter, prepare_cut, steps_per_rev_for, with_system
+from .program import PartProgram
 from .registers import ACK, STATUS
 from .sensors import Accelerometers, AccelerometerStream
 
@@ -114,26 +113,18 @@ class SimulatedNC:
                  workpiece: WorkpieceModel | None = None) -> None:
         self.scn = scn
         base = scn.base
-        m = base.machine
-        self.machine = get_machine(m) if isinstance(m, str) else m
-        self.cam = cutter_locations(base.read_program(), self.machine)
-        n = len(self.cam)
-        first, last = (0, n - 1) if points is None else (int(points[0]), int(points[1]))
-        if not 0 <= first < last < n:
-            raise ValueError(f"points: expected 0 <= first < last < {n}, got {points!r}")
-        self.first, self.last = first, last
+        part = PartProgram(scn, points)
+        self.part = part
+        self.machine, self.cam, self.contacts = part.machine, part.cam, part.contacts
+        first = part.first
+        self.first, self.last, self.rpm = first, part.last, part.rpm
+        self.cuts = part.cuts
+        self.cam_lead, self.cam_tilt = part.cam_lead, part.cam_tilt
         self.tool = base.tool
-        design = base.stock.load_design()
-        self.contacts = ball_contacts(self.cam, self.tool.radius_mm, design)
-        touch = np.flatnonzero(self.contacts.touching)
-        self.rpm = float(np.max(self.cam.spindle_rpm[first:last + 1]))
-        cuts = local_cuts(scn, self.contacts, touch, self.cam, self.rpm) if touch.size else []
-        self.cut_at = dict(zip(touch.tolist(), cuts, strict=True))
+        design = part.design
         self.workpiece = workpiece if workpiece is not None else \
-            WorkpieceModel(scn.workpiece, self.contacts.point[touch])
+            WorkpieceModel(scn.workpiece, self.contacts.point[part.touch])
         self.tool_system = ModalSystem.tool(base.compliance)
-        lead, tilt = lead_tilt_of(self.cam.axis, self.contacts.normal, self.contacts.feed)
-        self.cam_lead, self.cam_tilt = np.asarray(lead), np.asarray(tilt)
         f_max = float(self.tool_system.natural_frequency_rad_s.max()) / (2 * math.pi)
         for lev in self.workpiece.levels:
             f_max = max(f_max, float(np.max(lev.frequencies_hz)))
@@ -226,14 +217,14 @@ class SimulatedNC:
         tilt = float(self.cam_tilt[i]) + math.radians(self.state.tilt_offset_deg)
         n, f = self.contacts.normal[i], self.contacts.feed[i]
         key = (round(lead, 5), round(tilt, 5), tuple(np.round(n, 6)), tuple(np.round(f, 6)),
-               tuple(np.round(self.cut_at[i].row(), 9)))
+               tuple(np.round(self.cuts[i].row(), 9)))
         u = posture_axis(n, f, lead, tilt)
         system = self.workpiece.system_at(self.tool_system, self.contacts.point[i])
         if key in self._models:
             self._models.move_to_end(key)
             base = self._models[key]
         else:
-            base = prepare_cut(self.tool, self.scn.base.coefficients, u, n, f, self.cut_at[i],
+            base = prepare_cut(self.tool, self.scn.base.coefficients, u, n, f, self.cuts[i],
                                system, self.rpm, edges=self.edges,
                                steps_per_rev=self.steps_per_rev)
             self._models[key] = base
@@ -268,7 +259,7 @@ class SimulatedNC:
             st.block = int(self.cam.block[i])
         i = self.point_index()
         n = max(1, round((st.time_s + dt_s - self.cutter.time_s) / self.dt_s))
-        touching = (not self.done) and bool(self.contacts.touching[i]) and i in self.cut_at
+        touching = (not self.done) and bool(self.contacts.touching[i]) and i in self.cuts
         if touching and st.feed_override_pct > 0:
             model = self._model(i)
             run = self.cutter.advance(model, n)

@@ -1,0 +1,64 @@
+"""The program and the part as both sides of the machine see them (no I/O of its own)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nc.kinematics import get_machine
+from nc.path import cutter_locations
+from orient.contacts import ball_contacts
+from orient.geometry import lead_tilt_of
+from orient.plan import local_cuts
+from orient.scenario import PlanScenario
+
+__all__ = ["PartProgram"]
+
+
+class PartProgram:
+    """The scenario's program through its machine, and where the ball meets the part.
+
+    Parameters
+    ----------
+    scn : orient.scenario.PlanScenario
+    points : tuple (first, last), optional
+        The stretch of cutter locations that will run (default: all); its highest
+        spindle speed sets the local cuts' feed per tooth.
+
+    Attributes
+    ----------
+    machine, cam
+        The machine and the program's cutter locations.
+    contacts : orient.contacts.Contacts
+        Ball contacts with the design surface.
+    touch : ndarray of int
+        Cutter locations where the ball touches.
+    cuts : dict of int -> orient.engagement.LocalCut
+        The local cut at each touching cutter location.
+    cam_lead, cam_tilt : ndarray [rad]
+        The program's own posture at each cutter location.
+    first, last : int
+        The stretch that runs.
+    rpm : float [rev/min]
+        Its highest spindle speed.
+    """
+
+    def __init__(self, scn: PlanScenario, points: tuple[int, int] | None = None) -> None:
+        base = scn.base
+        m = base.machine
+        self.scn = scn
+        self.machine = get_machine(m) if isinstance(m, str) else m
+        self.cam = cutter_locations(base.read_program(), self.machine)
+        n = len(self.cam)
+        first, last = (0, n - 1) if points is None else (int(points[0]), int(points[1]))
+        if not 0 <= first < last < n:
+            raise ValueError(f"points: expected 0 <= first < last < {n}, got {points!r}")
+        self.first, self.last = first, last
+        self.design = base.stock.load_design()
+        self.contacts = ball_contacts(self.cam, base.tool.radius_mm, self.design)
+        self.touch = np.flatnonzero(self.contacts.touching)
+        self.rpm = float(np.nanmax(self.cam.spindle_rpm[first:last + 1]))
+        cuts = local_cuts(scn, self.contacts, self.touch, self.cam, self.rpm) \
+            if self.touch.size else []
+        self.cuts = dict(zip(self.touch.tolist(), cuts, strict=True))
+        lead, tilt = lead_tilt_of(self.cam.axis, self.contacts.normal, self.contacts.feed)
+        self.cam_lead, self.cam_tilt = np.asarray(lead), np.asarray(tilt)
