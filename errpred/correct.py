@@ -40,8 +40,8 @@ from .predict import Prediction
 #: Sensitivities beyond this are not trusted for the correction's size [-].
 MAX_GAIN = 0.5
 
-__all__ = ["BlockError", "block_errors", "largest_error_um", "correction_moves", "corrected_program",
-           "Compensation", "compensate"]
+__all__ = ["BlockError", "block_errors", "chain_moves", "largest_error_um", "correction_moves",
+           "corrected_program", "Compensation", "compensate"]
 
 
 @dataclass(frozen=True)
@@ -169,17 +169,29 @@ def correction_moves(program: Program, errors: dict[int, list[BlockError]]
     previous ends (no rapid between). Point ``P_0`` of a chain is the end of
     the block before its first block, ``P_K`` the end of its last block.
     """
+    return chain_moves(errors, joined=lambda b: program.motion[b] != RAPID,
+                       refit=lambda b: _refit_arc(program, b))
+
+
+def chain_moves(errors: dict[int, list[BlockError]], *, joined: Callable[[int], bool],
+                refit: Callable[[int], bool] = lambda k: False) -> dict[int, np.ndarray]:
+    """The displacement of each segment's end point [mm], (3,) each.
+
+    Segment ``k`` runs from point ``k - 1`` to point ``k`` (a program's blocks, or a
+    path's cutter locations). ``joined(k)``: segment ``k`` continues from segment
+    ``k - 1`` (not a rapid); ``refit(k)``: segment ``k``'s own error is taken up
+    elsewhere (an arc's centre) and adds no equation.
+    """
     moves: dict[int, np.ndarray] = {}
-    blocks = sorted(errors)
     chains: list[list[int]] = []
-    for b in blocks:
-        if chains and chains[-1][-1] == b - 1 and program.motion[b] != RAPID:
+    for b in sorted(errors):
+        if chains and chains[-1][-1] == b - 1 and joined(b):
             chains[-1].append(b)
         else:
             chains.append([b])
     for chain in chains:
         K = len(chain)
-        # point p (0..K) is the end of block chain[0] - 1 + p; its direction
+        # point p (0..K) is the end of segment chain[0] - 1 + p; its direction
         # comes from the prediction points next to it on either side
         dirs = []
         for p in range(K + 1):
@@ -193,8 +205,7 @@ def correction_moves(program: Program, errors: dict[int, list[BlockError]]
         # moved middle (corrected_program), so it adds no equation here: its
         # ends follow the neighbouring blocks (a full circle keeps its centre
         # and so keeps its equation)
-        rows = [(k, be) for k, b in enumerate(chain) for be in errors[b]
-                if not _refit_arc(program, b)]
+        rows = [(k, be) for k, b in enumerate(chain) for be in errors[b] if not refit(b)]
         if not rows:
             continue
         A = np.zeros((len(rows), K + 1))
@@ -205,9 +216,9 @@ def correction_moves(program: Program, errors: dict[int, list[BlockError]]
             rhs[q] = -be.move_mm
         s = _banded_lstsq(A, rhs, [k for k, _ in rows])
         for p in range(K + 1):
-            block = chain[0] - 1 + p
-            if block >= 0:
-                moves[block] = s[p] * dirs[p]
+            seg = chain[0] - 1 + p
+            if seg >= 0:
+                moves[seg] = s[p] * dirs[p]
     return moves
 
 

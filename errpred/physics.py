@@ -11,6 +11,12 @@ running sum; everything else was computed in stage 1 (:mod:`errpred.geometry`).
 Bending directions: the compliance's ``x`` and ``y`` are world X and Y
 projected onto the plane normal to the tool axis (exactly X and Y for a
 vertical tool); ``z`` is the tool axis.
+
+A flexible workpiece (a thin wall) adds its own compliance at the cutting
+point: with ``workpiece(point_mm) -> [(Mode, direction)]`` the deflection is
+the relative one, tool minus workpiece. The workpiece carries the reaction
+``-F``, so its modes add to the tool's: ``q = (G_tool + sum_m d_m G_m d_m^T) F``
+(the same sum as orient's stability analysis and sim's time-domain model).
 """
 
 from __future__ import annotations
@@ -29,7 +35,7 @@ from .geometry import PointGeometry
 from .tool import MicroEdges, Tool
 
 __all__ = ["PointResult", "ShapeErrorModel", "WearState", "bending_basis", "evaluate",
-           "revolution"]
+           "revolution", "workpiece_deflection"]
 
 
 def bending_basis(axis: np.ndarray) -> dict[str, np.ndarray]:
@@ -110,10 +116,38 @@ class PointResult:
     gain: float = 0.0
 
 
+def workpiece_deflection(modes, force_N: np.ndarray, spindle_rpm: float) -> np.ndarray:
+    """Workpiece's share of the relative deflection over a revolution [mm].
+
+    Parameters
+    ----------
+    modes : list of (Mode, ndarray shape (3,))
+        Workpiece modes at the cutting point, each along a unit direction.
+    force_N : ndarray, shape (n, 3) [N]
+        Force on the tool over a revolution, world frame.
+    spindle_rpm : float [rev/min]
+
+    Returns
+    -------
+    ndarray, shape (n, 3) [mm]
+        ``sum_m d_m (G_m * (F . d_m))`` per harmonic, as :meth:`Compliance.deflection`.
+    """
+    out = np.zeros_like(force_N, dtype=float)
+    for mode, d in modes:
+        d = np.asarray(d, dtype=float)
+        part = Compliance.from_modes({"x": (mode,)}).deflection((force_N @ d)[:, None],
+                                                                spindle_rpm)
+        out += part[:, :1] * d[None, :]
+    return out
+
+
 def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
                compliance: Compliance, g: PointGeometry,
-               cl_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+               cl_mm: np.ndarray, workpiece=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Force on the tool and its deflection over one revolution, world frame.
+
+    With ``workpiece`` (``workpiece(point_mm) -> [(Mode, direction)]``) and a
+    generation point, the deflection is relative: tool minus workpiece.
 
     Returns
     -------
@@ -143,6 +177,10 @@ def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     comp = np.stack([force @ basis[d] for d in dirs], axis=1)
     defl = compliance.deflection(comp, g.spindle_rpm)  # (n, ndir) [mm]
     deflection = sum(defl[:, k:k + 1] * basis[d][None, :] for k, d in enumerate(dirs))
+    if workpiece is not None and g.gen is not None:
+        modes = workpiece(g.gen.point_world)
+        if modes:
+            deflection = deflection + workpiece_deflection(modes, force, g.spindle_rpm)
     return theta, force, deflection
 
 
@@ -181,22 +219,23 @@ def _at_angle(series: np.ndarray, theta: np.ndarray, angle: float) -> np.ndarray
 
 def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
              compliance: Compliance, shape: ShapeErrorModel, theta: np.ndarray,
-             g: PointGeometry, wear: WearState, series: list | None = None
-             ) -> PointResult | None:
+             g: PointGeometry, wear: WearState, series: list | None = None,
+             workpiece=None) -> PointResult | None:
     """Stage 2 for one point; advances ``wear`` by the revolutions it cuts.
 
     Returns None for points that do not cut (the wear does not advance).
     Points that cut but have no generation point (or none to trust) get
     their forces and wear, and NaN errors. If ``series`` is a list,
     ``(theta, force_N, deflection_mm)`` over the revolution (world frame) is
-    appended to it for points with an error.
+    appended to it for points with an error. ``workpiece``: see :func:`revolution`.
     """
     if g.cutting0 is None:
         return None
     revs = g.spindle_rpm * g.cut_length_mm / g.feed_mm_min if g.feed_mm_min > 0 else 0.0
     increment = g.cl_per_rev * revs
     cl_mid = wear.cl_mm + 0.5 * increment
-    theta, force, defl = revolution(tool, edges, coeffs, compliance, g, cl_mm=cl_mid)
+    theta, force, defl = revolution(tool, edges, coeffs, compliance, g, cl_mm=cl_mid,
+                                    workpiece=workpiece)
     gen = g.gen
     nan = math.nan
     E_d = E_p = nan
@@ -220,7 +259,8 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
         if g.sensitivity is not None:
             delta, c_b, w_b, s_b = g.sensitivity
             g_b = dataclasses.replace(g, cutting0=c_b, weight0=w_b, shift0=s_b)
-            th_b, _, defl_b = revolution(tool, edges, coeffs, compliance, g_b, cl_mm=cl_mid)
+            th_b, _, defl_b = revolution(tool, edges, coeffs, compliance, g_b, cl_mm=cl_mid,
+                                         workpiece=workpiece)
             gain = (_strip_error(gen, defl_b, th_b) - E_d) / delta
     result = PointResult(
         peak_force_N=float(np.linalg.norm(force, axis=1).max()),

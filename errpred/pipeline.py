@@ -45,15 +45,19 @@ def _machine(scenario: Scenario):
 
 
 def build_predictor(scenario: Scenario, program: Program | None = None,
-                    resolution: Resolution | None = None, stock=None) -> Predictor:
-    """A :class:`Predictor` for the scenario (or another program, e.g. corrected)."""
+                    resolution: Resolution | None = None, stock=None,
+                    workpiece=None) -> Predictor:
+    """A :class:`Predictor` for the scenario (or another program, e.g. corrected).
+
+    ``workpiece``: the workpiece's modes at a cutting point (see :class:`Predictor`).
+    """
     prog = program if program is not None else scenario.read_program()
     res = resolution or scenario.resolution
     se = scenario.shape_error
     shape = ShapeErrorModel(deviation=se.radius_deviation_mm, wear_rate=se.wear_rate_mm_per_mm)
     return Predictor(scenario.tool, stock if stock is not None else scenario.stock.load(), prog,
                      scenario.coefficients, scenario.compliance, shape_error=shape,
-                     resolution=res, machine=_machine(scenario))
+                     resolution=res, machine=_machine(scenario), workpiece=workpiece)
 
 
 def blocks_in_scope(scenario: Scenario, program: Program) -> list[int]:
@@ -66,11 +70,16 @@ def blocks_in_scope(scenario: Scenario, program: Program) -> list[int]:
 
 def predict(scenario: Scenario, *, program: Program | None = None, workers: int = 1,
             progress: Callable[[int], None] | None = None, resolution: Resolution | None = None,
-            series_lines=(), stock=None) -> Prediction:
-    """Predict the error along the scenario's program (or ``program``)."""
-    pred = build_predictor(scenario, program, resolution, stock)
+            series_lines=(), stock=None, workpiece=None, client=None) -> Prediction:
+    """Predict the error along the scenario's program (or ``program``).
+
+    ``workpiece``: the workpiece's modes at a cutting point (see :class:`Predictor`);
+    ``client``: a Dask client for the geometry stage (``workers`` is then unused).
+    """
+    pred = build_predictor(scenario, program, resolution, stock, workpiece)
     blocks = blocks_in_scope(scenario, pred.program)
-    return pred.run(blocks, workers=workers, progress=progress, series_lines=series_lines)
+    return pred.run(blocks, workers=workers, progress=progress, series_lines=series_lines,
+                    client=client)
 
 
 def design_deviation_um(scenario: Scenario, prediction: Prediction) -> dict[int, float]:

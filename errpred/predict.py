@@ -122,14 +122,19 @@ class Predictor:
         For programs that move rotary axes.
     cl : CutterLocations, optional
         The path, if already made (else from ``program`` and ``machine``).
+    workpiece : callable, optional
+        ``workpiece(point_mm) -> [(Mode, direction)]``: the workpiece's modes at
+        a cutting point (a thin wall); the deflection is then tool minus
+        workpiece (:func:`errpred.physics.revolution`). Default: rigid.
     """
 
     def __init__(self, tool: Tool, stock, program: Program,
                  coefficients: CuttingCoefficients, compliance: Compliance,
                  shape_error: ShapeErrorModel | None = None,
                  resolution: Resolution | None = None, machine=None,
-                 cl: CutterLocations | None = None) -> None:
+                 cl: CutterLocations | None = None, workpiece=None) -> None:
         self.tool = tool
+        self.workpiece = workpiece
         self.program = program
         self.coefficients = coefficients
         self.compliance = compliance
@@ -213,7 +218,8 @@ class Predictor:
             for g in geoms:
                 buf: list = []
                 res = evaluate(self.tool, self.edges, self.coefficients, self.compliance,
-                               self.shape, self.theta, g, wear, series=buf)
+                               self.shape, self.theta, g, wear, series=buf,
+                               workpiece=self.workpiece)
                 line = int(self.program.line[g.block])
                 out.append(PointPrediction(g.light(), res, line))
                 if buf:

@@ -1,4 +1,8 @@
-"""Command line: ``python -m orient plan [SCENARIO] -o OUT.nc`` and ``python -m orient lobes``.
+"""Command line: ``python -m orient plan [SCENARIO]`` and ``python -m orient lobes``.
+
+``python -m orient plan`` alone runs the main job on the bundled default
+(:mod:`sim.job_cli`: plan, correct the error, write, verify in the simulated
+machine, report); ``-o OUT.nc`` plans only and writes the planned program.
 
 Units at the command line: mm, degrees, rev/min. Bad input ends in one line
 naming the file and the key, exit status 2, and nothing written.
@@ -41,6 +45,8 @@ def _cmd_plan(args) -> int:
     from .plots import plot_margin_along_path, plot_margin_grid
     from .report import write_plan_report
 
+    if args.output is None:
+        return _job(args)
     scn = _scenario(args.scenario)
     out = os.path.abspath(args.output)
     for p in [out] + ([os.path.abspath(args.report)] if args.report else []):
@@ -53,7 +59,7 @@ def _cmd_plan(args) -> int:
         def progress(stage, done, total):
             if done == total or done % 50 == 0:
                 status.update(f"{stage}: {done}/{total} cutter locations")
-        with dask_client(args.scheduler, args.dask) as client:
+        with dask_client(args.scheduler, args.dask or 0) as client:
             res = plan(scn, machine=machine, spindle_rpm=args.spindle_rpm, progress=progress,
                        client=client)
     opts = PostOptions(dialect=args.dialect or scn.options.dialect, spindle_rpm=res.spindle_rpm,
@@ -98,6 +104,22 @@ def _cmd_plan(args) -> int:
           f"through {res.machine.name}: {err[0]:.2g} mm, {math.degrees(err[1]):.2g} deg")
     print(f"wrote {out} ({len(post.text.splitlines())} lines) and {rep_path}")
     return 0
+
+
+def _job(args) -> int:
+    """The main job (:mod:`sim.job_cli`; sim sits above orient, so it is imported here,
+    when the job runs, and orient's modules never import it)."""
+    only = [f for f, v in (("--machine", args.machine), ("--dialect", args.dialect),
+                           ("--spindle-rpm", args.spindle_rpm), ("--report", args.report),
+                           ("--plots", args.plots)) if v is not None]
+    if only:
+        raise ValueError(f"{', '.join(only)}: options of the plan-only run; give -o OUT.nc "
+                         f"(the job takes the scenario's machine, dialect and speed)")
+    if args.scheduler and args.dask is not None:
+        raise ValueError("--scheduler and --dask: give one")
+    from sim.job_cli import run
+
+    return run(args)
 
 
 def _round_trip_error(post, back) -> tuple[float, float]:
@@ -147,11 +169,15 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m orient", description=(
         "Chatter-aware lead/tilt planning for 5-axis ball-end milling."))
     sub = p.add_subparsers(dest="cmd", required=True)
-    a = sub.add_parser("plan", help="plan lead/tilt along the CAM program, write the 5-axis "
-                                    "NC program and a JSON report")
+    a = sub.add_parser("plan", help="the main job (plan, correct, write, verify in simulation, "
+                                    "report); with -o only the planning and the program")
     a.add_argument("scenario", nargs="?", help="planning scenario TOML (default: the bundled "
                                                "thin-wall)")
-    a.add_argument("-o", "--output", required=True, help="NC program to write")
+    a.add_argument("-o", "--output", help="plan only: the NC program to write (no error "
+                                          "correction, no simulation)")
+    a.add_argument("--out", metavar="DIR", help="the job's folder for the program and the "
+                                                "report (default: ./NAME-job)")
+    a.add_argument("--no-dask", action="store_true", help="the job in this process")
     a.add_argument("--machine", help="named machine (default: the scenario's program.machine)")
     a.add_argument("--dialect", help="linuxcnc, fanuc-g43.4 or fanuc-g43.5 (default: the "
                                      "scenario's)")
@@ -160,8 +186,9 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--plots", help="folder for the PNG plots")
     a.add_argument("--scheduler", metavar="ADDRESS",
                    help="compute gains and margins on an existing Dask scheduler")
-    a.add_argument("--dask", type=int, default=0, metavar="N",
-                   help="compute gains and margins on a local Dask cluster of N workers")
+    a.add_argument("--dask", type=int, default=None, metavar="N",
+                   help="local Dask cluster of N workers (the job's default: one per core; "
+                        "with -o: none)")
     a.set_defaults(func=_cmd_plan)
     b = sub.add_parser("lobes", help="stability lobes at one cutter location")
     b.add_argument("scenario", nargs="?", help="planning scenario TOML (default: bundled)")
@@ -183,7 +210,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ScenarioError, ValueError, KinematicsError, FileNotFoundError,
+    except (ScenarioError, ValueError, KinematicsError, FileNotFoundError, FileExistsError,
             IsADirectoryError, PermissionError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

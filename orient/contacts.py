@@ -79,7 +79,8 @@ def feed_directions(tip: np.ndarray, rapid: np.ndarray) -> np.ndarray:
     return out
 
 
-def ball_contacts(cl: CutterLocations, radius_mm: float, design) -> Contacts:
+def ball_contacts(cl: CutterLocations, radius_mm: float, design, *,
+                  tol_mm: float = CONTACT_TOL_MM) -> Contacts:
     """Contacts of a ball end mill of radius ``radius_mm`` along ``cl`` with ``design``.
 
     Parameters
@@ -89,6 +90,8 @@ def ball_contacts(cl: CutterLocations, radius_mm: float, design) -> Contacts:
         Ball radius.
     design : trimesh.Trimesh
         The design surface (closed or open mesh).
+    tol_mm : float [mm]
+        A feed move's ball touches where its gap to the design is within this.
 
     Returns
     -------
@@ -111,5 +114,5 @@ def ball_contacts(cl: CutterLocations, radius_mm: float, design) -> Contacts:
     inside = design.contains(centre) if design.is_watertight else np.zeros(len(cl), bool)
     gap = np.where(inside, -dist, dist) - radius_mm
     normal[inside] = -normal[inside]
-    touching = (np.abs(gap) <= CONTACT_TOL_MM) & ~cl.rapid
+    touching = (np.abs(gap) <= tol_mm) & ~cl.rapid
     return Contacts(centre, point, normal, gap, touching, feed_directions(cl.tip, cl.rapid))

@@ -19,7 +19,6 @@ from .contacts import Contacts, ball_contacts
 from .dynamics import ModalSystem
 from .engagement import LocalCut
 from .gain import ProcessGain, process_gain
-from .geometry import local_frame
 from .scenario import PlanScenario
 from .stability import Lobes, stability_lobes
 from .workpiece import WorkpieceModel
@@ -55,7 +54,8 @@ def _machine(scn: PlanScenario):
     return load_machine(m)
 
 
-def point_setup(scn: PlanScenario, point: int | None = None, axis=None) -> PointSetup:
+def point_setup(scn: PlanScenario, point: int | None = None, axis=None,
+                spindle_rpm: float | None = None) -> PointSetup:
     """Set up the analysis at cutter location ``point`` of the CAM path.
 
     Parameters
@@ -66,7 +66,12 @@ def point_setup(scn: PlanScenario, point: int | None = None, axis=None) -> Point
         where the ball touches the design.
     axis : array_like, shape (3,), optional
         Tool axis to analyse (default: the CAM's at that point).
+    spindle_rpm : float, optional [rev/min]
+        Operating speed (default: the program's at that point), the feed per tooth
+        kept.
     """
+    from .plan import local_cuts
+
     cam = cutter_locations(scn.base.read_program(), _machine(scn))
     contacts = ball_contacts(cam, scn.base.tool.radius_mm, scn.base.stock.load_design())
     idx = np.flatnonzero(contacts.touching)
@@ -78,13 +83,10 @@ def point_setup(scn: PlanScenario, point: int | None = None, axis=None) -> Point
         raise ValueError(f"point: {point} is not a cutter location where the ball touches "
                          f"the design (the first such point is {int(idx[0])}, the last "
                          f"{int(idx[-1])})")
-    rpm = float(cam.spindle_rpm[point])
-    opt = scn.options
-    _, b, _ = local_frame(contacts.normal[point], contacts.feed[point])
-    side = float(b @ opt.cut.machined_side)
-    cut = LocalCut(opt.cut.depth_mm * opt.safety_factor, opt.cut.pick_mm * opt.safety_factor,
-                   0 if abs(side) < 1e-6 else int(np.sign(side)),
-                   float(cam.feed_mm_min[point] / (rpm * scn.base.tool.flutes)))
+    rpm0 = float(cam.spindle_rpm[point])
+    # the same local cut as the planner's (the first pass of a face cuts on both sides)
+    cut = local_cuts(scn, contacts, idx, cam, rpm0)[int(np.searchsorted(idx, point))]
+    rpm = rpm0 if spindle_rpm is None else float(spindle_rpm)
     u = cam.axis[point] if axis is None else np.asarray(axis, dtype=float)
     wp = WorkpieceModel(scn.workpiece, contacts.point[point][None])
     system = wp.system_at(ModalSystem.tool(scn.base.compliance), contacts.point[point])

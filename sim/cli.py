@@ -311,6 +311,13 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--log", default=None, help="write the controller's log (JSON) here")
     c.set_defaults(func=_cmd_controller)
 
+    from .job_cli import add_job_arguments, run as run_job
+
+    j = sub.add_parser("job", help="the main job: plan, correct, write and verify a CAM program "
+                                   "(as python -m orient plan)")
+    add_job_arguments(j)
+    j.set_defaults(func=run_job)
+
     r = sub.add_parser("run", help="serve, control over TCP, report (open and closed loop)")
     machine_args(r)
     r.add_argument("--report", default=None, help="JSON report file")
@@ -332,7 +339,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ScenarioError, ValueError, KinematicsError, FileNotFoundError,
+    except (ScenarioError, ValueError, KinematicsError, FileNotFoundError, FileExistsError,
             IsADirectoryError, PermissionError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

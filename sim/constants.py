@@ -83,9 +83,25 @@ STOP_FRACTION = 0.1
 #: Share of the cut (its end) over which the "after" surface figures are taken [-].
 TAIL_FRACTION = 0.5
 #: Default stretch of the bundled program the simulated machine runs (cutter
-#: location indices): the first two passes along the thin wall's top, where the
-#: CAM's posture chatters.
-DEFAULT_POINTS = (2, 75)
+#: location indices): the second and third passes along the thin wall's top, where
+#: the CAM's posture chatters (the first pass, which cuts on both sides of the ball,
+#: is the planner's job: no inclination alone keeps it stable at 9000 min^-1).
+DEFAULT_POINTS = (41, 114)
 #: The controller acts on a chatter verdict only when this many verdicts in a
 #: row agree on the cause [-].
 CONTROLLER_CONFIRM = 2
+#: Samples per segment of the averaged acceleration spectrum of a verification run
+#: (0.32 s at 25.6 kHz: 3 Hz resolution) [-].
+SPECTRUM_SEGMENT = 8192
+#: Correction passes of the main job (predict, correct, predict again...) [-].
+JOB_CORRECTION_PASSES = 3
+#: Spindle speeds of the job's lobe diagrams (0.5 to 1.5 times the planned speed) [-].
+JOB_LOBE_SPEEDS = 300
+#: The job's check: RMS simulated surface error of the corrected program at most this
+#: share of the uncorrected one's [-].
+JOB_SURFACE_RATIO = 0.25
+#: The simulated machine cuts at a feed move whose ball is within this of the design
+#: (a corrected program stands up to tens of micrometres off it) [mm].
+CUTTING_GAP_MM = 0.1
+#: Upper end of the job page's spectrum plot (above the tool and wall modes) [Hz].
+SPECTRUM_MAX_HZ = 8000.0

@@ -304,15 +304,16 @@ def _integrate(model: CuttingModel, step: int, scale: np.ndarray, linear: bool,
 
 
 def _generating_phase(model: CuttingModel) -> int:
-    """Rotation sample (within a tooth) where an engaged edge's chip direction is most
-    nearly the surface normal: where the surface is generated."""
+    """Rotation sample (within a tooth) where an engaged edge faces the finished surface
+    most squarely -- its chip direction (the envelope's outward normal) most nearly
+    against the surface's outward normal: where the surface is generated."""
     ptr, _pos, _e, _h0, nrm, _f0, _f1 = model.table
     if ptr[-1] == 0:
         return 0
     sample = np.repeat(np.arange(model.steps_per_rev), np.diff(ptr))
-    best = np.full(model.steps_per_rev, -np.inf)
-    np.maximum.at(best, sample, nrm @ model.normal)
-    return int(np.argmax(best)) % model.steps_per_tooth
+    best = np.full(model.steps_per_rev, np.inf)
+    np.minimum.at(best, sample, nrm @ model.normal)
+    return int(np.argmin(best)) % model.steps_per_tooth
 
 
 def simulate(model: CuttingModel, revolutions: float, *, scale: Any = 1.0,

@@ -11,6 +11,8 @@ from orient.geometry import lead_tilt_of
 from orient.plan import local_cuts
 from orient.scenario import PlanScenario
 
+from .constants import CUTTING_GAP_MM
+
 __all__ = ["PartProgram"]
 
 
@@ -54,7 +56,9 @@ class PartProgram:
             raise ValueError(f"points: expected 0 <= first < last < {n}, got {points!r}")
         self.first, self.last = first, last
         self.design = base.stock.load_design()
-        self.contacts = ball_contacts(self.cam, base.tool.radius_mm, self.design)
+        # a corrected program's ball stands micrometres off the design and still cuts
+        self.contacts = ball_contacts(self.cam, base.tool.radius_mm, self.design,
+                                      tol_mm=CUTTING_GAP_MM)
         self.touch = np.flatnonzero(self.contacts.touching)
         self.rpm = float(np.nanmax(self.cam.spindle_rpm[first:last + 1]))
         cuts = local_cuts(scn, self.contacts, self.touch, self.cam, self.rpm) \

@@ -82,6 +82,7 @@ def summarize_run(time_s: np.ndarray, accel_m_s2: np.ndarray, surface: dict[str,
     rev_s = 60.0 / spindle_rpm
     hits = np.flatnonzero(tl["chatter"])
     out: dict[str, Any] = {"windows": int(tl["chatter"].size),
+                           "chatter_windows": int(hits.size),
                            "simulated_s": float(time_s[-1]) if time_s.size else 0.0}
     if hits.size:
         first = int(hits[0])

@@ -18,7 +18,7 @@ from orient.scenario import ScenarioError, bundled_scenario, load_plan_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 LIGHT = {
-    "grid = [15, 15]": "grid = [5, 5]",
+    "grid = [17, 17]": "grid = [5, 5]",
     "[orient]\n": "[orient]\nverify_sdm = false\n",
 }
 WALL_TABLE_START = "[workpiece]"
@@ -116,8 +116,7 @@ def test_spindle_speed_chosen_from_the_lobes(tmp_path):
     from orient.plan import plan
 
     scn = load_plan_scenario(_copy(tmp_path, {
-        "[orient.cut]": "[orient.spindle]\nrange_rpm = [6000.0, 12000.0]\nsteps = 7\n\n"
-                        "[orient.cut]"}))
+        "range_rpm = [6000.0, 13000.0]\nsteps = 71": "range_rpm = [6000.0, 12000.0]\nsteps = 7"}))
     fixed = plan(scn, spindle_rpm=9000.0)
     res = plan(scn)
     speeds = np.linspace(6000.0, 12000.0, 7)

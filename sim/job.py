@@ -1,0 +1,296 @@
+"""The main job: a CAM program in; a planned, corrected, verified 5-axis program out.
+
+One run, the four packages in order (``docs/architecture.md``, "Data flow"):
+
+1. read the CAM program and the part (the planning scenario);
+2. plan lead/tilt per cutter location (:func:`orient.plan.plan`): stability
+   margin above 1 where it can be had, interference and axis limits;
+3. predict the machining error along the planned 5-axis path (errpred, the
+   tilted tool, the thin wall's compliance at each cutting point) and correct
+   the path, iterated (:func:`errpred.correct_path.compensate_path`);
+4. write the 5-axis program for the scenario's machine and dialect
+   (:mod:`nc.writer`) and read it back (round trip);
+5. verify in the simulated machine (:func:`sim.verify.verify_program`): the
+   planned program and the corrected one over their whole length, the CAM
+   program over its worst pass; chatter or not, the surface error of each;
+6. the stability lobes at representative points (CAM and planned posture).
+
+No reporting here: :mod:`sim.job_report` turns a :class:`JobResult` into the
+page and the JSON. The programs are written into a working folder, because the
+simulated machine reads its program as a machine would.
+
+With a Dask ``client`` the planner's gains and margins, the error prediction's
+geometry stage and the verification runs go to its workers; the result is the
+same as in one process (the physics is deterministic).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from errpred.correct_path import PathCompensation, compensate_path
+from errpred.physics import ShapeErrorModel
+from errpred.predict import Prediction, Predictor
+from nc.atomic import atomic_write
+from nc.gcode import parse_program
+from nc.path import CutterLocations, cutter_locations
+from nc.writer import PostOptions, PostResult, post
+from orient.interference import InterferenceChecker, ToolAssembly
+from orient.plan import PlanResult, plan, stock_mesh
+from orient.pointwise import point_lobes, point_setup
+from orient.scenario import PlanScenario
+from orient.workpiece import WorkpieceModel
+
+from .constants import JOB_CORRECTION_PASSES, JOB_LOBE_SPEEDS, JOB_SURFACE_RATIO
+from .verify import Verification, scenario_with_program, verify_program
+
+__all__ = ["JobResult", "round_trip_error", "run_job"]
+
+#: ``progress(stage, done, total)``
+Progress = Callable[[str, int, int], None]
+
+
+@dataclass(frozen=True, eq=False)
+class JobResult:
+    """Everything one run of the main job found.
+
+    Attributes
+    ----------
+    scenario : PlanScenario
+    plan : PlanResult
+    compensation : PathCompensation
+        The correction passes (predictions before and after).
+    planned, final : PostResult
+        The program written from the planned path and from the corrected one.
+    planned_path, final_path : Path
+        Where they were written (the working folder).
+    round_trip : tuple (float [mm], float [rad])
+        Largest tip and axis difference between the final path and the final program
+        read back through nc's reader and the machine.
+    collisions : int
+        Cutter locations of the final path where shank or holder meet the stock or
+        the tool gouges the design (FCL).
+    verify_planned, verify_final, verify_cam : Verification
+        The simulated machine on the planned program, the corrected one, and the CAM
+        program over its worst pass (``cam_points``).
+    cam_points : tuple (int, int)
+    lobes : list of dict
+        Per representative point: ``point``, ``why``, ``cam`` and ``planned`` Lobes,
+        the operating point.
+    seconds : dict
+        Wall time per stage [s].
+    """
+
+    scenario: PlanScenario
+    plan: PlanResult
+    compensation: PathCompensation
+    planned: PostResult
+    final: PostResult
+    planned_path: Path
+    final_path: Path
+    round_trip: tuple[float, float]
+    collisions: int
+    verify_planned: Verification
+    verify_final: Verification
+    verify_cam: Verification
+    cam_points: tuple[int, int]
+    lobes: list = field(default_factory=list)
+    seconds: dict = field(default_factory=dict)
+
+    @property
+    def surface_ratio(self) -> float:
+        """RMS simulated surface error of the corrected program over the planned one's [-]."""
+        return _rms(self.verify_final.surface_um) / max(_rms(self.verify_planned.surface_um),
+                                                        1e-12)
+
+    @property
+    def checks(self) -> dict[str, bool]:
+        """The job's acceptance checks, each True when it holds."""
+        idx = self.plan.touching_index
+        return {
+            "margin_above_1_where_cutting": bool(np.all(self.plan.margin[idx] > 1.0)),
+            "no_collisions": self.collisions == 0,
+            "round_trip_within_1um": self.round_trip[0] <= 1e-3,
+            "no_chatter_in_simulation": self.verify_final.chatter_windows == 0,
+            "surface_error_reduced_to_25pct": self.surface_ratio <= JOB_SURFACE_RATIO,
+        }
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x)))) if np.size(x) else 0.0
+
+
+def round_trip_error(post_res: PostResult, back: CutterLocations) -> tuple[float, float]:
+    """Largest tip [mm] and axis [rad] difference between written and read-back points
+    (the writer's approach and retract points are skipped by the best alignment)."""
+    tip, axis = post_res.tip, post_res.axis
+    n = min(len(tip), len(back))
+    best = (math.inf, math.inf)
+    for off in range(max(1, len(back) - len(tip) + 1)):
+        a = back.tip[off:off + n]
+        if len(a) != n:
+            break
+        e_t = float(np.max(np.linalg.norm(a - tip[:n], axis=1)))
+        c = np.clip(np.sum(back.axis[off:off + n] * axis[:n], axis=1), -1, 1)
+        e_a = float(np.max(np.arccos(c)))
+        if e_t < best[0]:
+            best = (e_t, e_a)
+    return best
+
+
+def _worst_cam_pass(res: PlanResult) -> tuple[int, int]:
+    """The CAM pass (cutter locations from two before its first touch to two after its
+    last) holding the lowest CAM-posture margin: where the CAM program chatters most."""
+    idx = res.touching_index
+    i = int(idx[np.argmin(res.cam_margin[idx])])
+    breaks = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.r_[idx[0], idx[breaks + 1]]
+    ends = np.r_[idx[breaks], idx[-1]]
+    k = int(np.searchsorted(starts, i, side="right") - 1)
+    return max(int(starts[k]) - 2, 0), min(int(ends[k]) + 2, len(res.cl) - 1)
+
+
+def _lobes(scn: PlanScenario, res: PlanResult, planned_scn: PlanScenario) -> list[dict]:
+    """Lobes (zero-order) at the lowest-CAM-margin and the lowest-planned-margin points,
+    for the CAM posture and for the planned one, at the planned speed."""
+    idx = res.touching_index
+    picks = [(int(idx[np.argmin(res.cam_margin[idx])]), "lowest margin of the CAM posture"),
+             (int(idx[np.argmin(res.margin[idx])]), "lowest margin of the planned posture")]
+    if picks[0][0] == picks[1][0]:
+        picks = picks[:1]
+    rpm = res.spindle_rpm
+    speeds = np.linspace(0.5 * rpm, 1.5 * rpm, JOB_LOBE_SPEEDS)
+    out = []
+    for i, why in picks:
+        cam = point_setup(scn, i, spindle_rpm=rpm)
+        pl = point_setup(planned_scn, i, spindle_rpm=rpm)
+        lc, op = point_lobes(scn, cam, ("zoa",), speeds)
+        lp, _ = point_lobes(planned_scn, pl, ("zoa",), speeds)
+        out.append({"point": i, "why": why, "cam": lc[0], "planned": lp[0],
+                    "operating_point": op})
+    return out
+
+
+def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
+            progress: Progress | None = None) -> JobResult:
+    """Plan, correct, write and verify the scenario's CAM program.
+
+    Parameters
+    ----------
+    scn : PlanScenario
+    workdir : path-like
+        Existing folder for the written programs (``NAME-planned.nc``, ``NAME.nc``).
+    client : dask.distributed.Client, optional
+        Run the parallel stages on its workers.
+    progress : callable, optional
+        ``progress(stage, done, total)``; stages ``plan``, ``predict k`` (pass k,
+        blocks), ``verify`` (runs), ``lobes``.
+
+    Returns
+    -------
+    JobResult
+    """
+    say = progress or (lambda stage, done, total: None)
+    work = Path(workdir)
+    seconds: dict[str, float] = {}
+    t0 = time.perf_counter()
+
+    def lap(name: str) -> None:
+        nonlocal t0
+        seconds[name] = round(time.perf_counter() - t0, 2)
+        t0 = time.perf_counter()
+
+    # 1-2: plan
+    res = plan(scn, progress=lambda stage, d, t: say(f"plan: {stage}", d, t), client=client)
+    machine = res.machine
+    base = scn.base
+    wp = WorkpieceModel(scn.workpiece, res.contacts.point[res.touching_index])
+    lap("plan")
+    opts = PostOptions(dialect=scn.options.dialect, spindle_rpm=res.spindle_rpm,
+                       source=f"firstcut job on {scn.name}: planned lead/tilt, error corrected")
+
+    # 3: predict and correct, iterated
+    stock = base.stock.load()
+    shape = ShapeErrorModel(deviation=base.shape_error.radius_deviation_mm,
+                            wear_rate=base.shape_error.wear_rate_mm_per_mm)
+    state = {"pass": 0}
+
+    def predict(cl: CutterLocations) -> Prediction:
+        text = post(cl, machine, opts).text
+        prog = parse_program(text, file=f"<{scn.name}: correction pass {state['pass']}>")
+        pred = Predictor(base.tool, stock, prog, base.coefficients, base.compliance,
+                         shape_error=shape, resolution=base.resolution, machine=machine,
+                         workpiece=wp.modes_at)
+        blocks = list(range(len(prog)))
+        stage = f"predict {state['pass']}"
+        out = pred.run(blocks, client=client,
+                       progress=lambda d: say(stage, d, len(blocks)) if d % 25 == 0 else None)
+        say(stage, len(blocks), len(blocks))
+        return out
+
+    def on_pass(k: int, _cl) -> None:
+        state["pass"] = k
+
+    comp = compensate_path(res.cl, predict, iterate=True,
+                           tolerance_mm=base.correction.tolerance_um * 1e-3,
+                           max_iterations=JOB_CORRECTION_PASSES, progress=on_pass)
+    lap("predict_and_correct")
+
+    # 4: write both programs and read the final one back
+    planned_post = post(res.cl, machine, opts)
+    final_post = post(comp.cl, machine, opts)
+    planned_path = work / f"{scn.name}-planned.nc"
+    final_path = work / f"{scn.name}.nc"
+    for path, p in ((planned_path, planned_post), (final_path, final_post)):
+        with atomic_write(path) as fh:
+            fh.write(p.text)
+    back = cutter_locations(parse_program(final_post.text, file=str(final_path)), machine)
+    rt = round_trip_error(final_post, back)
+    design = base.stock.load_design()
+    chk = InterferenceChecker(stock_mesh(scn, design),
+                              ToolAssembly.from_tool(base.tool,
+                                                     clearance_mm=scn.options.clearance_mm),
+                              design_mesh=design, gouge_tol_mm=scn.options.gouge_tol_mm)
+    feed = ~comp.cl.rapid
+    r = chk.check(comp.cl.tip[feed], comp.cl.axis[feed])
+    collisions = int(np.count_nonzero(r.collides | r.gouges))
+    lap("write")
+
+    # 5: verify in the simulated machine
+    cam_points = _worst_cam_pass(res)
+    runs = [(scenario_with_program(scn, planned_path), None),
+            (scenario_with_program(scn, final_path), None),
+            (scn, cam_points)]
+    say("verify", 0, len(runs))
+    if client is not None:
+        wp_f = client.scatter(wp, broadcast=True)
+        futures = [client.submit(verify_program, s, points=p, workpiece=wp_f, pure=False)
+                   for s, p in runs]
+        verified = []
+        for k, f in enumerate(futures):
+            verified.append(f.result())
+            say("verify", k + 1, len(runs))
+    else:
+        verified = []
+        for k, (s, p) in enumerate(runs):
+            verified.append(verify_program(s, points=p, workpiece=wp))
+            say("verify", k + 1, len(runs))
+    lap("verify")
+
+    # 6: lobes at representative points
+    say("lobes", 0, 1)
+    lobes = _lobes(scn, res, scenario_with_program(scn, planned_path))
+    say("lobes", 1, 1)
+    lap("lobes")
+    seconds["total"] = round(sum(seconds.values()), 2)
+    return JobResult(scenario=scn, plan=res, compensation=comp, planned=planned_post,
+                     final=final_post, planned_path=planned_path, final_path=final_path,
+                     round_trip=rt, collisions=collisions, verify_planned=verified[0],
+                     verify_final=verified[1], verify_cam=verified[2], cam_points=cam_points,
+                     lobes=lobes, seconds=seconds)

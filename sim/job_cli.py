@@ -1,0 +1,116 @@
+"""The main job's command line: ``python -m sim job [SCENARIO]``, also ``python -m orient plan``.
+
+Without a scenario the bundled default (orient's thin wall) runs. Everything is
+written into one folder (default ``./NAME-job``): the final program
+``NAME.nc``, the planned one before correction ``NAME-planned.nc``,
+``report.html`` (self-contained) and ``report.json``. The folder is filled
+from a staging folder beside it only when the whole run has succeeded, so a
+failed run leaves nothing behind. Bad input ends in one line naming the file
+and the key, exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+__all__ = ["add_job_arguments", "main", "run"]
+
+
+def add_job_arguments(a: argparse.ArgumentParser) -> None:
+    """The job's options (shared by ``python -m sim job`` and ``python -m orient plan``)."""
+    a.add_argument("scenario", nargs="?", help="planning scenario TOML (default: the bundled "
+                                               "thin wall)")
+    a.add_argument("--out", metavar="DIR", help="folder for the program and the report "
+                                                "(default: ./NAME-job)")
+    g = a.add_mutually_exclusive_group()
+    g.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the parallel stages on an existing Dask scheduler")
+    g.add_argument("--dask", type=int, metavar="N", default=None,
+                   help="local Dask cluster of N workers (default: one per core)")
+    g.add_argument("--no-dask", action="store_true", help="everything in this process")
+
+
+def _progress(con):
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+    )
+
+    return Progress(TextColumn("{task.description:<26}"), BarColumn(), MofNCompleteColumn(),
+                    TimeElapsedColumn(), console=con, transient=False)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the job for parsed arguments (see :func:`add_job_arguments`)."""
+    from rich.console import Console
+
+    from errpred.cluster import dask_client
+    from orient.scenario import bundled_scenario, load_plan_scenario
+
+    from .job import run_job
+    from .job_report import write_job_report
+
+    scn = load_plan_scenario(args.scenario if args.scenario else bundled_scenario())
+    out = Path(args.out if args.out else f"{scn.name}-job").resolve()
+    if not out.parent.is_dir():
+        raise FileNotFoundError(f"{out}: directory {out.parent} does not exist")
+    if out.exists() and not out.is_dir():
+        raise FileExistsError(f"{out}: exists and is not a directory")
+    workers = 0 if args.no_dask else (args.dask if args.dask is not None
+                                      else max(1, len(os.sched_getaffinity(0))))
+    con = Console(file=sys.stderr, width=None if sys.stderr.isatty() else 110)
+    stage = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
+    t0 = time.perf_counter()
+    try:
+        with _progress(con) as bar, dask_client(args.scheduler, workers) as client:
+            tasks: dict[str, int] = {}
+
+            def progress(name: str, done: int, total: int) -> None:
+                if name not in tasks:
+                    tasks[name] = bar.add_task(name, total=total)
+                bar.update(tasks[name], completed=done, total=total)
+
+            res = run_job(scn, stage, client=client, progress=progress)
+            rep = write_job_report(res, stage)
+        out.mkdir(exist_ok=True)
+        for f in sorted(stage.iterdir()):
+            os.replace(f, out / f.name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    sim = rep["simulation"]
+    p = rep["plan"]
+    print(f"{scn.name}: planned {p['cutting_points']} cutting points at {p['spindle_rpm']:.0f} "
+          f"rev/min; margin min {p['cam_margin_min']} -> {p['margin_min']}")
+    print(f"predicted error RMS {rep['correction']['predicted_rms_um'][0]} -> "
+          f"{rep['correction']['predicted_rms_um'][rep['correction']['best_pass']]} um; "
+          f"simulated {sim['planned']['surface_rms_um']} -> "
+          f"{sim['corrected']['surface_rms_um']} um (ratio {sim['surface_rms_ratio']})")
+    print("checks: " + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in rep["checks"].items()))
+    print(f"wrote {out / res.final_path.name}, {out / 'report.html'}, {out / 'report.json'} "
+          f"in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m sim job``; returns the exit status (2 for bad input)."""
+    from errpred.scenario import ScenarioError
+    from nc.errors import KinematicsError
+
+    p = argparse.ArgumentParser(prog="python -m sim job", description=__doc__.splitlines()[0])
+    add_job_arguments(p)
+    args = p.parse_args(argv)
+    try:
+        return run(args)
+    except (ScenarioError, ValueError, KinematicsError, FileNotFoundError, FileExistsError,
+            IsADirectoryError, PermissionError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2

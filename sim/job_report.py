@@ -1,0 +1,220 @@
+"""The main job's report: the JSON behind it and the self-contained HTML page (no physics)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from errpred.correct_path import error_points
+from nc.atomic import atomic_write
+
+from .constants import JOB_SURFACE_RATIO, SPECTRUM_MAX_HZ
+from .html import Figure, Section, render_page
+from .job import JobResult
+from .job_plots import error_map_png, lobes_png, margin_png, spectra_png
+
+__all__ = ["job_page", "job_report", "write_job_report"]
+
+_CHECK_TEXT = {
+    "margin_above_1_where_cutting": "stability margin above 1 at every cutting point (plan)",
+    "no_collisions": "no collision or gouge of the final program (FCL)",
+    "round_trip_within_1um": "final program read back within 1 um of the corrected path",
+    "no_chatter_in_simulation": "no chatter window in the simulated run of the final program",
+    "surface_error_reduced_to_25pct": f"simulated surface error (RMS) after correction at most "
+                                      f"{JOB_SURFACE_RATIO:.0%} of before",
+}
+
+
+def _r(x: float, nd: int = 3) -> float | None:
+    return None if x is None or not math.isfinite(float(x)) else round(float(x), nd)
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x)))) if np.size(x) else math.nan
+
+
+def _verification(v) -> dict[str, Any]:
+    return {"cutter_locations": int(v.points.size),
+            "machining_s": _r(v.machining_s, 2),
+            "spindle_rpm": _r(v.spindle_rpm, 1),
+            "surface_rms_um": _r(_rms(v.surface_um)),
+            "surface_max_abs_um": _r(float(np.max(np.abs(v.surface_um))) if v.points.size
+                                     else math.nan),
+            "chatter_marks_max_um": _r(float(np.max(v.marks_um)) if v.points.size
+                                       else math.nan),
+            "detector_windows": int(v.summary["windows"]),
+            "chatter_windows": int(v.summary["chatter_windows"]),
+            "first_chatter_s": v.summary.get("first_detection_s")}
+
+
+def _errors(res: JobResult) -> tuple[tuple, tuple]:
+    comp = res.compensation
+    ref = comp.paths[0]
+    before = error_points(ref, comp.predictions[0])
+    after = error_points(comp.paths[comp.best], comp.predictions[comp.best], reference=ref)
+    return before, after
+
+
+def job_report(res: JobResult) -> dict[str, Any]:
+    """The JSON report of a job (summary, checks, per-point arrays)."""
+    p = res.plan
+    idx = p.touching_index
+    comp = res.compensation
+    (pb, eb), (pa, ea) = _errors(res)
+    scn = res.scenario
+    return {
+        "scenario": scn.name,
+        "scenario_file": str(scn.path),
+        "programs": {"final": res.final_path.name, "planned": res.planned_path.name},
+        "checks": res.checks,
+        "plan": {
+            "spindle_rpm": p.spindle_rpm,
+            "cutting_points": int(idx.size),
+            "points": len(p.cl),
+            "cam_margin_min": _r(float(p.cam_margin[idx].min())),
+            "margin_min": _r(float(p.margin[idx].min())),
+            "cam_points_below_1": int(np.count_nonzero(p.cam_margin[idx] < 1)),
+            "points_below_1": int(np.count_nonzero(p.margin[idx] < 1)),
+            "time_periodic_checks": [{k: (_r(v) if isinstance(v, float) else v)
+                                      for k, v in c.items()} for c in p.sdm_checks],
+        },
+        "correction": {
+            "passes": comp.iterations,
+            "best_pass": comp.best,
+            "largest_change_um": [_r(x * 1e3) for x in comp.largest_change_mm],
+            "predicted_max_abs_um": [_r(x) for x in comp.max_error_um],
+            "predicted_rms_um": [_r(x) for x in comp.rms_error_um],
+        },
+        "program": {
+            "dialect": scn.options.dialect,
+            "machine": res.plan.machine.name,
+            "lines": len(res.final.text.splitlines()),
+            "round_trip_tip_mm": _r(res.round_trip[0], 6),
+            "round_trip_axis_deg": _r(math.degrees(res.round_trip[1]), 6),
+            "collisions": res.collisions,
+        },
+        "simulation": {
+            "planned": _verification(res.verify_planned),
+            "corrected": _verification(res.verify_final),
+            "cam_worst_pass": {**_verification(res.verify_cam),
+                               "cutter_locations_run": list(res.cam_points)},
+            "surface_rms_ratio": _r(res.surface_ratio, 4),
+        },
+        "seconds": res.seconds,
+        "points": {
+            "margin_cam": [_r(x) for x in p.cam_margin[idx]],
+            "margin_planned": [_r(x) for x in p.margin[idx]],
+            "cutter_location": idx.tolist(),
+            "lead_deg": [_r(math.degrees(x), 2) for x in p.lead_rad[idx]],
+            "tilt_deg": [_r(math.degrees(x), 2) for x in p.tilt_rad[idx]],
+            "predicted_before": {"xyz_mm": np.round(pb, 4).tolist(),
+                                 "E_um": [_r(x) for x in eb]},
+            "predicted_after": {"xyz_mm": np.round(pa, 4).tolist(),
+                                "E_um": [_r(x) for x in ea]},
+            "simulated_before": {"xyz_mm": np.round(res.verify_planned.contact_mm, 4).tolist(),
+                                 "E_um": [_r(x) for x in res.verify_planned.surface_um]},
+            "simulated_after": {"xyz_mm": np.round(res.verify_final.contact_mm, 4).tolist(),
+                                "E_um": [_r(x) for x in res.verify_final.surface_um]},
+        },
+    }
+
+
+def job_page(res: JobResult, rep: dict[str, Any]) -> str:
+    """The self-contained HTML page of a job."""
+    p = res.plan
+    s = rep["plan"]
+    sim = rep["simulation"]
+    checks = rep["checks"]
+    good = all(checks.values())
+    failed = [_CHECK_TEXT[k] for k, v in checks.items() if not v]
+    verdict = ("All checks hold: the program is ready to cut." if good else
+               "Not every check holds: " + "; ".join(failed) + ".")
+    (pb, eb), (pa, ea) = _errors(res)
+    d = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p.cl.tip, axis=0), axis=1))])
+    cutting = np.zeros(len(p.cl), bool)
+    cutting[p.touching_index] = True
+    vp, vf, vc = res.verify_planned, res.verify_final, res.verify_cam
+    max_hz = min(SPECTRUM_MAX_HZ,
+                 float(vp.spectrum_hz[-1]) if vp.spectrum_hz.size else SPECTRUM_MAX_HZ)
+    teeth = res.scenario.base.tool.flutes
+    check_rows = (("check", "holds"),) + tuple((_CHECK_TEXT[k], "yes" if v else "NO")
+                                                for k, v in checks.items())
+    sim_rows = (("simulated run", "cutter locations", "surface RMS [um]", "largest |E| [um]",
+                 "chatter marks max [um]", "chatter windows"),) + tuple(
+        (name, str(v["cutter_locations"]), str(v["surface_rms_um"]),
+         str(v["surface_max_abs_um"]), str(v["chatter_marks_max_um"]),
+         f"{v['chatter_windows']} of {v['detector_windows']}")
+        for name, v in (("CAM program, worst pass", sim["cam_worst_pass"]),
+                        ("planned, uncorrected", sim["planned"]),
+                        ("planned and corrected (final)", sim["corrected"])))
+    corr = rep["correction"]
+    sections = [
+        Section("Result", paragraphs=(
+            f"Scenario {rep['scenario']} ({rep['scenario_file']}). The final program "
+            f"{rep['programs']['final']} ({rep['program']['lines']} lines, "
+            f"{rep['program']['dialect']} for {rep['program']['machine']}) runs at "
+            f"{p.spindle_rpm:.0f} rev/min.",
+            f"Planning raised the lowest stability margin from {s['cam_margin_min']} (CAM "
+            f"posture, {s['cam_points_below_1']} of {s['cutting_points']} cutting points "
+            f"below 1) to {s['margin_min']} ({s['points_below_1']} below 1).",
+            f"The predicted error (RMS over the generation points) went from "
+            f"{corr['predicted_rms_um'][0]} um to {corr['predicted_rms_um'][corr['best_pass']]}"
+            f" um in {corr['passes']} correction passes; in the simulated machine from "
+            f"{sim['planned']['surface_rms_um']} um to {sim['corrected']['surface_rms_um']} um "
+            f"(ratio {sim['surface_rms_ratio']}).",
+            f"Run time: {rep['seconds']['total']:.0f} s."),
+            tables=(check_rows, sim_rows)),
+        Section("Stability margin along the path", figures=(Figure(
+            margin_png(d, p.cam_margin, p.margin, cutting, res.scenario.options.margin_target),
+            "Zero-order stability margin at each cutting point: the CAM posture (red) and the "
+            "planned lead/tilt (blue). Below 1 the cut chatters."),)),
+        Section("Error map before and after correction", figures=(Figure(
+            error_map_png([("predicted, planned path", pb, eb),
+                           ("predicted, corrected path", pa, ea),
+                           ("simulated machine, planned program", vp.contact_mm, vp.surface_um),
+                           ("simulated machine, corrected program", vf.contact_mm,
+                            vf.surface_um)]),
+            "Surface error against the design along its normal over the finished face "
+            "(X along the wall, Z up). Top: the error prediction (rasterized engagement, "
+            "micro-edge forces, tool and wall compliance); bottom: the time-domain simulation "
+            "of the written programs."),)),
+        Section("Stability lobes at representative points", figures=(Figure(
+            lobes_png(res.lobes),
+            "Limiting depth of cut over spindle speed (zero-order method) for the CAM posture "
+            "and the planned one; the star is the operating point (depth of the finishing "
+            "cut, planned speed)."),)),
+        Section("Simulated acceleration spectrum", tables=(sim_rows,), figures=(Figure(
+            spectra_png([(f"CAM program, worst pass (cutter locations {res.cam_points[0]}-"
+                          f"{res.cam_points[1]}, {vc.spindle_rpm:.0f} rev/min)",
+                          vc.spectrum_hz, vc.spectrum_m_s2, vc.spindle_rpm),
+                         ("planned and corrected program, whole run", vf.spectrum_hz,
+                          vf.spectrum_m_s2, vf.spindle_rpm)], teeth, max_hz),
+            "Spindle accelerometers while cutting (averaged spectrum). Chatter shows as peaks "
+            "between the tooth-passing harmonics."),)),
+    ]
+    return render_page(f"firstcut job: {rep['scenario']}", verdict, sections, good=good)
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(f"not JSON serializable: {type(o).__name__}")
+
+
+def write_job_report(res: JobResult, folder: str | Path) -> dict[str, Any]:
+    """Write ``report.json`` and ``report.html`` into ``folder`` (atomically); returns the
+    report."""
+    folder = Path(folder)
+    rep = job_report(res)
+    with atomic_write(folder / "report.json") as fh:
+        json.dump(rep, fh, indent=1, default=_json_default)
+    page = job_page(res, rep)
+    with atomic_write(folder / "report.html") as fh:
+        fh.write(page)
+    return rep
