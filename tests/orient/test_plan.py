@@ -94,3 +94,21 @@ def test_program_round_trips_and_rs274_accepts_it(planned, tmp_path, rs274):
     assert np.degrees(np.arccos(np.clip(cos, -1, 1))).max() < 1e-3
     cmp = compare_with_rs274(out, prog)
     assert cmp.ok, cmp.message
+
+
+def test_first_pass_of_the_face_cuts_on_both_sides():
+    """Passes run from the top down with the previous pass above (machined side +Z): the
+    top pass has none beside it, every later one has."""
+    from nc.kinematics import get_machine
+    from nc.path import cutter_locations
+    from orient.contacts import ball_contacts
+    from orient.plan import local_cuts
+
+    scn = load_plan_scenario(bundled_scenario("thin-wall"))
+    cam = cutter_locations(scn.base.read_program(), get_machine(scn.base.machine))
+    con = ball_contacts(cam, scn.base.tool.radius_mm, scn.base.stock.load_design())
+    idx = np.flatnonzero(con.touching)
+    side = np.array([c.previous_side for c in local_cuts(scn, con, idx, cam, 9000.0)])
+    top = con.point[idx, 2] > con.point[idx, 2].max() - 1e-6
+    assert top.sum() > 20
+    assert np.all(side[top] == 0) and np.all(side[~top] != 0)

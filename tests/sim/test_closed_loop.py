@@ -42,35 +42,18 @@ def test_chatter_stops_and_the_surface_is_better_than_open_loop(report):
 def test_html_page_opens_in_headless_chromium(tmp_path, report):
     """The page of `python -m sim run --html` renders in Chromium without any console
     message, and every embedded image decodes (checked by a probe added to a copy)."""
-    import re
-    import shutil
-    import subprocess
-
     from sim.cli import _write_html
 
-    browser = shutil.which("chromium") or shutil.which("chromium-browser")
-    if browser is None:
-        pytest.skip("chromium (Debian package chromium) is not installed")
+    from .chromium import open_page
+
     r, png = report
     page = tmp_path / "run.html"
     _write_html(str(page), r, ["line one", "line two"], str(png))
     text = page.read_text()
     assert "<script" not in text and "http" not in text.replace("http-equiv", "")
     assert text.count("data:image/png;base64,") == 1
-    flags = ["--headless=new", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr",
-             "--v=0", "--window-size=1000,1600"]
-    shot = tmp_path / "shot.png"
-    run = subprocess.run([browser, *flags, f"--screenshot={shot}", page.as_uri()],
-                         capture_output=True, text=True, timeout=120, check=False)
-    assert shot.exists() and shot.stat().st_size > 20_000
-    assert "CONSOLE" not in run.stderr
-    probe = tmp_path / "probe.html"
-    probe.write_text(text.replace("</body>", (
-        "<script>document.body.setAttribute('data-broken', String(Array.from("
-        "document.images).filter(i => !(i.complete && i.naturalWidth > 0)).length));"
-        "document.body.setAttribute('data-images', String(document.images.length));"
-        "</script></body>")))
-    dom = subprocess.run([browser, *flags, "--dump-dom", probe.as_uri()],
-                         capture_output=True, text=True, timeout=120, check=False).stdout
-    assert re.search(r'data-images="1"', dom) and re.search(r'data-broken="0"', dom)
-    assert "chatter stopped" in dom
+    seen = open_page(page, tmp_path)
+    assert seen["screenshot_bytes"] > 20_000
+    assert "CONSOLE" not in seen["stderr"]
+    assert seen["images"] == 1 and seen["broken"] == 0
+    assert "chatter stopped" in seen["dom"]

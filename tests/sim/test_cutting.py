@@ -268,3 +268,27 @@ def test_book_2dof_time_domain_confirms_the_time_periodic_minimum():
     b = stability_boundary(model, 0.5 * fdm, 2.0 * fdm)
     assert abs(b / fdm - 1.0) < 0.05
     assert b < 0.85 * zoa
+
+
+@pytest.mark.parametrize(("lead_deg", "tilt_deg"), [(0.0, 45.0), (30.0, 10.0), (-20.0, 30.0)])
+def test_surface_is_generated_where_an_edge_faces_the_surface(lead_deg, tilt_deg):
+    """A tilted ball finishing a wall (normal +Y): the record's phase is the one where an
+    engaged edge's outward normal points into the surface (-n), and the record is the
+    relative displacement along n there."""
+    from orient.geometry import posture_axis
+    from sim.cutting import _generating_phase
+
+    ball = Tool("ball", 10.0, flutes=2, helix_deg=30.0, flute_length_mm=15.0)
+    u = posture_axis(Y, X, math.radians(lead_deg), math.radians(tilt_deg))
+    model = prepare_cut(ball, COEF, u, Y, X, LocalCut(0.2, 0.5, -1, 0.1), _tool_2dof(), 9000.0)
+    g = _generating_phase(model)
+    ptr, _, _, _, nrm, _, _ = model.table
+    spt = model.steps_per_tooth
+    facing = [float(np.min(nrm[ptr[s]:ptr[s + 1]] @ Y)) / 1e3 if ptr[s + 1] > ptr[s] else 1.0
+              for s in range(model.steps_per_rev)]
+    assert facing[g] == pytest.approx(min(facing[:spt] + facing[spt:]), abs=1e-12) or \
+        facing[g + spt] == pytest.approx(min(facing), abs=1e-12)
+    assert min(facing[g], facing[g + spt]) < -0.999
+    run = simulate(model, 10)
+    disp = run.displacement_m[g::spt][:run.surface_offset_mm.size] @ Y * 1e3
+    np.testing.assert_allclose(run.surface_offset_mm, disp, rtol=1e-12)

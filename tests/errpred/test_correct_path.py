@@ -1,0 +1,86 @@
+"""Path-level correction (5-axis programs) and the workpiece's share of the deflection."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from errpred.correct_path import compensate_path, corrected_path, error_points, path_errors
+from errpred.dynamics import Mode
+from errpred.physics import workpiece_deflection
+from errpred.predict import Prediction, PointPrediction
+from nc.path import CutterLocations
+
+
+def _line(n: int = 11) -> CutterLocations:
+    x = np.linspace(0.0, 20.0, n)
+    tip = np.c_[x, np.zeros(n), np.zeros(n)]
+    axis = np.tile([0.0, -math.sin(0.5), math.cos(0.5)], (n, 1))      # a tilted tool
+    return CutterLocations.from_arrays(tip, axis, 1000.0, 9000.0)
+
+
+def _prediction(cl: CutterLocations, E_um) -> Prediction:
+    """Duck-typed prediction points at the middle of each segment, surface normal +Z."""
+    pts = []
+    for k in range(1, len(cl)):
+        tip = 0.5 * (cl.tip[k - 1] + cl.tip[k])
+        e = float(E_um(tip) if callable(E_um) else E_um)
+        geom = SimpleNamespace(tip=tip, status="predicted", block=k,
+                               gen=SimpleNamespace(normal_world=np.array([0.0, 0.0, 1.0]),
+                                                   point_world=tip - [0.0, 0.0, 0.0]))
+        pts.append(PointPrediction(geom, SimpleNamespace(E_um=e, gain=0.0), k))
+    return Prediction(points=pts, wear_mm=np.zeros(1), edges_kappa_rad=np.zeros(1),
+                      edges_z_mm=np.zeros(1))
+
+
+def test_a_uniform_error_moves_every_tip_back_along_the_normal():
+    cl = _line()
+    errs = path_errors(cl, _prediction(cl, 5.0))
+    assert sorted(errs) == list(range(1, len(cl)))
+    new, largest = corrected_path(cl, errs)
+    # 5 um left everywhere: every tip goes 5 um deeper along -Z, axes unchanged
+    np.testing.assert_allclose(new.tip - cl.tip, np.tile([0, 0, -5e-3], (len(cl), 1)),
+                               atol=1e-7)
+    np.testing.assert_array_equal(new.axis, cl.axis)
+    assert largest == pytest.approx(5e-3, rel=1e-4)
+
+
+def test_iterating_against_a_plant_that_follows_the_path_converges():
+    """A plant whose error is 8 um minus 0.3 times how far the tip went down (the cut
+    deepens, the force grows): the fixed point is E = 0 against the reference."""
+    ref = _line()
+
+    def predict(cl):
+        def err(tip):
+            return 8.0 + 0.3 * tip[2] * 1e3       # tip[2] < 0 after correcting
+        return _prediction(cl, err)
+
+    comp = compensate_path(ref, predict, iterate=True, tolerance_mm=1e-5, max_iterations=6)
+    assert comp.rms_error_um[0] == pytest.approx(8.0)
+    assert comp.rms_error_um[comp.best] < 0.05
+    assert comp.best == len(comp.rms_error_um) - 1 and comp.iterations >= 2
+    xyz, e = error_points(comp.cl, comp.predictions[comp.best], reference=ref)
+    assert xyz.shape == (len(ref) - 1, 3) and np.all(np.abs(e) < 0.05)
+
+
+def test_rapids_break_the_chain_and_get_no_equation():
+    cl = _line()
+    rapid = np.zeros(len(cl), bool)
+    rapid[5] = True
+    cl = CutterLocations(cl.tip, cl.axis, np.where(rapid, np.nan, 1000.0), cl.spindle_rpm,
+                         cl.block, rapid)
+    errs = path_errors(cl, _prediction(cl, 2.0))
+    assert 5 not in errs and 4 in errs and 6 in errs
+
+
+def test_workpiece_deflection_static_limit():
+    """A mode far above the spindle harmonics deflects statically: (F . d) / k along d."""
+    d = np.array([0.0, 1.0, 0.0])
+    mode = Mode.from_frequency(2.0e6, 0.01, 2.0e7)
+    F = np.tile([3.0, 40.0, -7.0], (64, 1))
+    D = workpiece_deflection([(mode, d)], F, 9000.0)
+    np.testing.assert_allclose(D, np.tile([0.0, 40.0 / 2.0e7 * 1e3, 0.0], (64, 1)), rtol=1e-6,
+                               atol=1e-12)

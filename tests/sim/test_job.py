@@ -1,0 +1,106 @@
+"""The main job on a light copy of the bundled thin wall (its first three passes): one
+process and a two-worker Dask LocalCluster give the same report and program; the report's
+figures hold; the page opens in Chromium; bad scenario files end in one line and leave
+nothing behind."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from orient.cli import main as orient_main
+from sim.cli import main as sim_main
+
+from .chromium import open_page
+from .job_scenario import light_scenario
+
+
+def _without_times(rep: dict) -> dict:
+    return {k: v for k, v in rep.items() if k != "seconds"}
+
+
+@pytest.fixture(scope="module")
+def jobs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("job")
+    scn = light_scenario(root / "scn")
+    one, two = root / "one-process", root / "local-cluster"
+    # python -m orient plan hands the job over to sim; python -m sim job is the same job
+    assert orient_main(["plan", str(scn), "--out", str(one), "--no-dask"]) == 0
+    assert sim_main(["job", str(scn), "--out", str(two), "--dask", "2"]) == 0
+    return scn, one, two
+
+
+def test_local_cluster_gives_the_same_report_and_program(jobs):
+    _, one, two = jobs
+    a = json.loads((one / "report.json").read_text())
+    b = json.loads((two / "report.json").read_text())
+    assert _without_times(a) == _without_times(b)
+    assert (one / "thin-wall.nc").read_text() == (two / "thin-wall.nc").read_text()
+    assert sorted(p.name for p in one.iterdir()) == ["report.html", "report.json",
+                                                     "thin-wall-planned.nc", "thin-wall.nc"]
+
+
+def test_the_job_plans_corrects_and_verifies(jobs, lcnc_agrees):
+    _, one, _ = jobs
+    rep = json.loads((one / "report.json").read_text())
+    p, c, s = rep["plan"], rep["correction"], rep["simulation"]
+    # the CAM posture chatters at the top pass (margin < 1) and the simulated machine,
+    # running it, calls chatter in nearly every window; the plan is above 1 everywhere
+    assert p["cam_points_below_1"] > 0 and p["points_below_1"] == 0
+    assert s["cam_worst_pass"]["chatter_windows"] > 0.9 * s["cam_worst_pass"]["detector_windows"]
+    assert rep["checks"]["margin_above_1_where_cutting"] and rep["checks"]["no_collisions"]
+    # the prediction's own error after the correction, and the simulated one's
+    assert c["predicted_rms_um"][c["best_pass"]] < 0.05 * c["predicted_rms_um"][0]
+    assert s["corrected"]["surface_rms_um"] <= 0.25 * s["planned"]["surface_rms_um"]
+    assert s["corrected"]["cutter_locations"] == s["planned"]["cutter_locations"]
+    # written, read back, accepted by LinuxCNC's interpreter
+    assert rep["program"]["round_trip_tip_mm"] < 1e-3
+    lcnc_agrees(one / "thin-wall.nc")
+    # the corrected program differs from the planned one by micrometres only
+    planned = (one / "thin-wall-planned.nc").read_text().splitlines()
+    final = (one / "thin-wall.nc").read_text().splitlines()
+    assert len(planned) == len(final) and planned != final
+
+
+def test_report_page_opens_in_headless_chromium(jobs, tmp_path):
+    _, one, _ = jobs
+    page = one / "report.html"
+    text = page.read_text()
+    assert "<script" not in text and "http" not in text.replace("http-equiv", "")
+    seen = open_page(page, tmp_path)
+    assert seen["screenshot_bytes"] > 20_000
+    assert "CONSOLE" not in seen["stderr"]
+    # margin along the path, error maps, lobes, spectra: all decoded
+    assert seen["images"] == 4 and seen["broken"] == 0
+    assert "Error map before and after correction" in seen["dom"]
+
+
+BAD = [
+    ("missing key", {"diameter_mm = 10.0\n": ""}, "tool.diameter_mm"),
+    ("wrong unit", {"diameter_mm = 10.0": "diameter_in = 10.0"}, "tool.diameter_mm"),
+    ("unknown tool type", {'type = "ball"': 'type = "drill"'}, "tool.type"),
+    ("file that does not exist", {'gcode = "cam.nc"': 'gcode = "missing.nc"'}, "missing.nc"),
+    ("NaN value", {"stiffness_N_m = 1.6e7": "stiffness_N_m = nan"},
+     "dynamics.modes[0].stiffness_N_m"),
+]
+
+
+@pytest.mark.parametrize(("what", "edits", "key"), BAD, ids=[b[0] for b in BAD])
+def test_bad_scenario_ends_in_one_line_and_writes_nothing(tmp_path, capsys, what, edits, key):
+    scn = light_scenario(tmp_path / "scn", edits)
+    out = tmp_path / "out"
+    assert orient_main(["plan", str(scn), "--out", str(out), "--no-dask"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert str(scn) in err[0] and key in err[0], err[0]
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scn"]
+
+
+def test_plan_only_options_need_an_output_program(tmp_path, capsys):
+    scn = light_scenario(tmp_path / "scn")
+    assert orient_main(["plan", str(scn), "--plots", str(tmp_path / "p"), "--no-dask"]) == 2
+    assert "-o OUT.nc" in capsys.readouterr().err
+    assert sorted(p.name for p in Path(tmp_path).iterdir()) == ["scn"]
