@@ -37,7 +37,7 @@ from .errors import KinematicsError
 from .kinematics import Machine, linearize, solve_path
 from .path import CutterLocations
 
-__all__ = ["DIALECTS", "PostOptions", "PostResult", "post", "write_program"]
+__all__ = ["DIALECTS", "PostOptions", "PostResult", "post", "round_trip_error", "write_program"]
 
 DIALECTS = ("linuxcnc", "fanuc-g43.4", "fanuc-g43.5")
 
@@ -340,3 +340,21 @@ def write_program(path: str | os.PathLike, cl: CutterLocations, machine: Machine
     with atomic_write(path) as fh:
         fh.write(result.text)
     return result
+
+
+def round_trip_error(post_res: PostResult, back: CutterLocations) -> tuple[float, float]:
+    """Largest tip [mm] and axis [rad] difference between written and read-back points
+    (the writer's approach and retract points are skipped by the best alignment)."""
+    tip, axis = post_res.tip, post_res.axis
+    n = min(len(tip), len(back))
+    best = (math.inf, math.inf)
+    for off in range(max(1, len(back) - len(tip) + 1)):
+        a = back.tip[off:off + n]
+        if len(a) != n:
+            break
+        e_t = float(np.max(np.linalg.norm(a - tip[:n], axis=1)))
+        c = np.clip(np.sum(back.axis[off:off + n] * axis[:n], axis=1), -1, 1)
+        e_a = float(np.max(np.arccos(c)))
+        if e_t < best[0]:
+            best = (e_t, e_a)
+    return best

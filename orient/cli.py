@@ -39,7 +39,7 @@ def _scenario(path: str | None):
 def _cmd_plan(args) -> int:
     from nc.kinematics import get_machine
     from nc.path import cutter_locations
-    from nc.writer import PostOptions, write_program
+    from nc.writer import PostOptions, round_trip_error, write_program
 
     from .plan import plan
     from .plots import plot_margin_along_path, plot_margin_grid
@@ -69,7 +69,7 @@ def _cmd_plan(args) -> int:
     from nc import read_program
 
     back = cutter_locations(read_program(out), res.machine)
-    err = _round_trip_error(post, back)
+    err = round_trip_error(post, back)
     rep_path = args.report or os.path.splitext(out)[0] + "-plan.json"
     rep = write_plan_report(rep_path, res, scenario=str(scn.path), program=out)
     rep_s = rep["summary"]
@@ -120,24 +120,6 @@ def _job(args) -> int:
     from sim.job_cli import run
 
     return run(args)
-
-
-def _round_trip_error(post, back) -> tuple[float, float]:
-    """Largest tip [mm] and axis [rad] difference between written and read-back points."""
-    tip, axis = post.tip, post.axis
-    n = min(len(tip), len(back))
-    # the reader adds no points; the writer's approach/retract points come first/last
-    best = (math.inf, math.inf)
-    for off in range(max(1, len(back) - len(tip) + 1)):
-        a = back.tip[off:off + n]
-        if len(a) != n:
-            break
-        e_t = float(np.max(np.linalg.norm(a - tip[:n], axis=1)))
-        c = np.clip(np.sum(back.axis[off:off + n] * axis[:n], axis=1), -1, 1)
-        e_a = float(np.max(np.arccos(c)))
-        if e_t < best[0]:
-            best = (e_t, e_a)
-    return best
 
 
 def _cmd_lobes(args) -> int:

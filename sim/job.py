@@ -26,7 +26,6 @@ same as in one process (the physics is deterministic).
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -40,7 +39,7 @@ from errpred.predict import Prediction, Predictor
 from nc.atomic import atomic_write
 from nc.gcode import parse_program
 from nc.path import CutterLocations, cutter_locations
-from nc.writer import PostOptions, PostResult, post
+from nc.writer import PostOptions, PostResult, post, round_trip_error
 from orient.interference import InterferenceChecker, ToolAssembly
 from orient.plan import PlanResult, plan, stock_mesh
 from orient.pointwise import point_lobes, point_setup
@@ -50,7 +49,7 @@ from orient.workpiece import WorkpieceModel
 from .constants import JOB_CORRECTION_PASSES, JOB_LOBE_SPEEDS, JOB_SURFACE_RATIO
 from .verify import Verification, scenario_with_program, verify_program
 
-__all__ = ["JobResult", "round_trip_error", "run_job"]
+__all__ = ["JobResult", "run_job"]
 
 #: ``progress(stage, done, total)``
 Progress = Callable[[str, int, int], None]
@@ -124,24 +123,6 @@ class JobResult:
 
 def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(x)))) if np.size(x) else 0.0
-
-
-def round_trip_error(post_res: PostResult, back: CutterLocations) -> tuple[float, float]:
-    """Largest tip [mm] and axis [rad] difference between written and read-back points
-    (the writer's approach and retract points are skipped by the best alignment)."""
-    tip, axis = post_res.tip, post_res.axis
-    n = min(len(tip), len(back))
-    best = (math.inf, math.inf)
-    for off in range(max(1, len(back) - len(tip) + 1)):
-        a = back.tip[off:off + n]
-        if len(a) != n:
-            break
-        e_t = float(np.max(np.linalg.norm(a - tip[:n], axis=1)))
-        c = np.clip(np.sum(back.axis[off:off + n] * axis[:n], axis=1), -1, 1)
-        e_a = float(np.max(np.arccos(c)))
-        if e_t < best[0]:
-            best = (e_t, e_a)
-    return best
 
 
 def _worst_cam_pass(res: PlanResult) -> tuple[int, int]:
