@@ -6,11 +6,11 @@ Units at this edge: errors in um, forces in N, angles in degrees.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 
 from nc.atomic import atomic_write
+from nc.command import run_command
 
 __all__ = ["main"]
 
@@ -191,12 +191,4 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "workers", 1) < 1:
         print("error: --workers must be >= 1", file=sys.stderr)
         return 2
-    try:
-        return args.func(args)
-    except (ValueError, FileNotFoundError, IsADirectoryError, PermissionError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except BrokenPipeError:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        return 0
+    return run_command(args.func, args)

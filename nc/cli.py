@@ -13,8 +13,8 @@ import os
 import sys
 import tomllib
 
+from .command import run_command
 from .constants import SINGULAR_CONE_RAD
-from .errors import KinematicsError
 from .gcode import ALLOWABLE_EXAMPLES, read_program
 from .linuxcnc import Rs274Error
 from .summary import blocks_as_json, summarize
@@ -188,13 +188,4 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status (2 for bad input)."""
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except (ValueError, KinematicsError, Rs274Error, FileNotFoundError, IsADirectoryError,
-            PermissionError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except BrokenPipeError:  # output piped into head & co.
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        return 0
+    return run_command(args.func, args, extra=(Rs274Error,))

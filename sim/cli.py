@@ -333,13 +333,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status (2 for bad input)."""
-    from errpred.scenario import ScenarioError
-    from nc.errors import KinematicsError
+    from nc.command import run_command
 
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except (ScenarioError, ValueError, KinematicsError, FileNotFoundError, FileExistsError,
-            IsADirectoryError, PermissionError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return run_command(args.func, args)

@@ -1,4 +1,5 @@
-"""The main job's command line: ``python -m sim job [SCENARIO]``, also ``python -m orient plan``.
+"""The main job's command line (``python -m sim job [SCENARIO]`` and ``python -m orient plan``
+without ``-o``; their parsers add these arguments and call :func:`run`).
 
 Without a scenario the bundled default (orient's thin wall) runs. Everything is
 written into one folder (default ``./NAME-job``): the final program
@@ -19,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-__all__ = ["add_job_arguments", "main", "run"]
+__all__ = ["add_job_arguments", "run"]
 
 
 def add_job_arguments(a: argparse.ArgumentParser) -> None:
@@ -99,18 +100,3 @@ def run(args: argparse.Namespace) -> int:
           f"in {time.perf_counter() - t0:.0f} s")
     return 0
 
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m sim job``; returns the exit status (2 for bad input)."""
-    from errpred.scenario import ScenarioError
-    from nc.errors import KinematicsError
-
-    p = argparse.ArgumentParser(prog="python -m sim job", description=__doc__.splitlines()[0])
-    add_job_arguments(p)
-    args = p.parse_args(argv)
-    try:
-        return run(args)
-    except (ScenarioError, ValueError, KinematicsError, FileNotFoundError, FileExistsError,
-            IsADirectoryError, PermissionError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2

@@ -1,0 +1,41 @@
+"""How every command line of the project ends (``nc``, ``errpred``, ``orient``, ``sim``).
+
+Bad input -- any ``ValueError`` (the packages' input errors all derive from it:
+``NCParseError``, ``KinematicsError``, ``ScenarioError``, ...) or a file that is
+missing, exists, is a directory or may not be read -- ends in one line
+``error: ...`` on stderr and exit status 2; output piped into ``head`` and the
+like ends quietly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Callable
+
+__all__ = ["INPUT_ERRORS", "run_command"]
+
+#: Exceptions that mean bad input, not a bug.
+INPUT_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError, FileNotFoundError, FileExistsError, IsADirectoryError, PermissionError)
+
+
+def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namespace,
+                extra: tuple[type[BaseException], ...] = ()) -> int:
+    """``func(args)``, with bad input (``INPUT_ERRORS`` and ``extra``) reported in one line.
+
+    Returns
+    -------
+    int
+        ``func``'s exit status; 2 for bad input; 0 when stdout was closed early.
+    """
+    try:
+        return func(args)
+    except (*INPUT_ERRORS, *extra) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:  # output piped into head & co.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
