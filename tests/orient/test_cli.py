@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -14,37 +13,19 @@ import numpy as np
 import pytest
 
 from orient.cli import main
-from orient.scenario import ScenarioError, bundled_scenario, load_plan_scenario
+from orient.scenario import ScenarioError, load_plan_scenario
+from tests.thin_wall import thin_wall_copy, wall_mode
 
 ROOT = Path(__file__).resolve().parents[2]
 LIGHT = {
     "grid = [17, 17]": "grid = [5, 5]",
     "[orient]\n": "[orient]\nverify_sdm = false\n",
 }
-WALL_TABLE_START = "[workpiece]"
-MODES = """[workpiece]
-source = "one wall mode along the normal (test)"
-
-[[workpiece.modes]]
-direction = [0.0, 1.0, 0.0]
-frequency_hz = 3500.0
-damping_ratio = 0.01
-stiffness_N_m = 6.0e6
-"""
+MODES = wall_mode(6.0e6)
 
 
 def _copy(tmp_path: Path, edits: dict | None = None, workpiece: str | None = MODES) -> Path:
-    src = bundled_scenario("thin-wall").parent
-    dst = tmp_path / "scn"
-    shutil.copytree(src, dst)
-    text = (dst / "scenario.toml").read_text()
-    for a, b in {**LIGHT, **(edits or {})}.items():
-        assert a in text, a
-        text = text.replace(a, b)
-    if workpiece is not None:
-        text = text[:text.index(WALL_TABLE_START)] + workpiece
-    (dst / "scenario.toml").write_text(text)
-    return dst / "scenario.toml"
+    return thin_wall_copy(tmp_path / "scn", {**LIGHT, **(edits or {})}, workpiece)
 
 
 def test_plan_writes_program_report_and_plots(tmp_path, capsys, lcnc_agrees):
