@@ -22,6 +22,7 @@ sys.path.insert(0, os.path.abspath(os.path.join(os.path.dirname(__file__), "..")
 
 from distributed import Client, LocalCluster
 
+from bench_errpred import stage_seconds  # noqa: E402  (same folder)
 from errpred.pipeline import blocks_in_scope, build_predictor, load
 
 SCENARIO = "errpred/scenarios/mold-ball/scenario.toml"
@@ -36,22 +37,12 @@ def main(argv=None) -> int:
     pred = build_predictor(scn)
     blocks = blocks_in_scope(scn, pred.program)
     pred.run(blocks[:20])                                   # compile, warm caches
-    t0 = time.perf_counter()
-    geoms = [g for gl in pred.geometries(blocks) for g in gl]
-    t_geo = time.perf_counter() - t0
-    from errpred.predict import WearState, evaluate
-
-    wear = WearState.new(pred.edges)
-    t0 = time.perf_counter()
-    for g in geoms:
-        evaluate(pred.tool, pred.edges, pred.coefficients, pred.compliance, pred.shape,
-                 pred.theta, g, wear)
-    t_phys = time.perf_counter() - t0
+    t_geo, t_phys, points = stage_seconds(pred, blocks)
     t0 = time.perf_counter()
     build_predictor(scn).run(blocks)
     t_one = time.perf_counter() - t0
     n = len(blocks)
-    print(f"{n} blocks (lines {args.lines[0]}..{args.lines[1]}), {len(geoms)} points; "
+    print(f"{n} blocks (lines {args.lines[0]}..{args.lines[1]}), {points} points; "
           f"{os.cpu_count()} CPUs")
     print(f"one process: {n / t_one:.1f} blocks/s (stage 1 {1e3 * t_geo / n:.1f} ms/block, "
           f"stage 2 {1e3 * t_phys / n:.2f} ms/block)")

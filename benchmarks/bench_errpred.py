@@ -29,6 +29,20 @@ from errpred.physics import WearState, evaluate  # noqa: E402
 from errpred.scenario import bundled_scenario  # noqa: E402
 
 
+def stage_seconds(pred, blocks) -> tuple[float, float, int]:
+    """Stage 1 (geometry) and stage 2 (physics) of ``blocks`` in this process, one after
+    the other: seconds of each and the number of prediction points."""
+    t0 = time.perf_counter()
+    geoms = [g for gl in pred.geometries(blocks) for g in gl]
+    t_geo = time.perf_counter() - t0
+    wear = WearState.new(pred.edges)
+    t0 = time.perf_counter()
+    for g in geoms:
+        evaluate(pred.tool, pred.edges, pred.coefficients, pred.compliance, pred.shape,
+                 pred.theta, g, wear)
+    return t_geo, time.perf_counter() - t0, len(geoms)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--first", type=int, default=19103, help="first program line")
@@ -45,16 +59,7 @@ def main(argv=None) -> int:
     print(f"fixed memory: sweep index {pred.model.sweeps.nbytes / 1e6:.1f} MB, program "
           f"arrays {sum(a.nbytes for a in (pred.program.end, pred.program.line)) / 1e6:.1f} MB")
     pred.run(blocks[:30])  # numba compiled and cached
-    # one core, stage by stage
-    t0 = time.perf_counter()
-    geoms = [g for b in blocks for g in pred.model.geometry(b)]
-    t_geo = time.perf_counter() - t0
-    wear = WearState.new(pred.edges)
-    t0 = time.perf_counter()
-    for g in geoms:
-        evaluate(pred.tool, pred.edges, pred.coefficients, pred.compliance, pred.shape,
-                 pred.theta, g, wear)
-    t_phys = time.perf_counter() - t0
+    t_geo, t_phys, _ = stage_seconds(pred, blocks)
     one = len(blocks) / (t_geo + t_phys)
     print(f"1 core : {one:8.1f} blocks/s  (geometry {t_geo / len(blocks) * 1e3:.2f} ms/block, "
           f"physics {t_phys / len(blocks) * 1e3:.2f} ms/block)")

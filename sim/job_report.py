@@ -59,12 +59,13 @@ def _errors(res: JobResult) -> tuple[tuple, tuple]:
     return before, after
 
 
-def job_report(res: JobResult) -> dict[str, Any]:
-    """The JSON report of a job (summary, checks, per-point arrays)."""
+def job_report(res: JobResult, errors: tuple | None = None) -> dict[str, Any]:
+    """The JSON report of a job (summary, checks, per-point arrays); ``errors``: the
+    predicted error points before and after correction, if already computed."""
     p = res.plan
     idx = p.touching_index
     comp = res.compensation
-    (pb, eb), (pa, ea) = _errors(res)
+    (pb, eb), (pa, ea) = errors if errors is not None else _errors(res)
     scn = res.scenario
     return {
         "scenario": scn.name,
@@ -123,8 +124,8 @@ def job_report(res: JobResult) -> dict[str, Any]:
     }
 
 
-def job_page(res: JobResult, rep: dict[str, Any]) -> str:
-    """The self-contained HTML page of a job."""
+def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -> str:
+    """The self-contained HTML page of a job (``errors`` as in :func:`job_report`)."""
     p = res.plan
     s = rep["plan"]
     sim = rep["simulation"]
@@ -133,7 +134,7 @@ def job_page(res: JobResult, rep: dict[str, Any]) -> str:
     failed = [_CHECK_TEXT[k] for k, v in checks.items() if not v]
     verdict = ("All checks hold: the program is ready to cut." if good else
                "Not every check holds: " + "; ".join(failed) + ".")
-    (pb, eb), (pa, ea) = _errors(res)
+    (pb, eb), (pa, ea) = errors if errors is not None else _errors(res)
     d = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p.cl.tip, axis=0), axis=1))])
     cutting = np.zeros(len(p.cl), bool)
     cutting[p.touching_index] = True
@@ -211,10 +212,11 @@ def write_job_report(res: JobResult, folder: str | Path) -> dict[str, Any]:
     """Write ``report.json`` and ``report.html`` into ``folder`` (atomically); returns the
     report."""
     folder = Path(folder)
-    rep = job_report(res)
+    errors = _errors(res)
+    rep = job_report(res, errors)
     with atomic_write(folder / "report.json") as fh:
         json.dump(rep, fh, indent=1, default=_json_default)
-    page = job_page(res, rep)
+    page = job_page(res, rep, errors)
     with atomic_write(folder / "report.html") as fh:
         fh.write(page)
     return rep
