@@ -59,6 +59,11 @@ POINT_SPACING_MM = math.inf
 #: Extra stock thickness along the normal with which the error's sensitivity
 #: to the correction is evaluated (a finite difference) [mm].
 SENSITIVITY_STEP_MM = 2.0e-3
+#: A 5-axis path's prediction points are placed on the path by the nearest
+#: cutter location in tip and axis together: one radian of axis counts as this
+#: many mm of tip (errpred/correct_path.py; about a ball's diameter, so a
+#: point's own pass wins over another pass whose tilted tips run nearby) [mm].
+LOCATE_AXIS_MM = 10.0
 #: Below this angle between tool axis and surface normal the cutting speed
 #: at the generation point is too small for the force model (flat floors cut
 #: by the ball's tip); no prediction is made there [rad].

@@ -25,6 +25,7 @@ import numpy as np
 
 from nc.path import CutterLocations
 
+from .constants import LOCATE_AXIS_MM
 from .correct import BlockError, chain_moves, largest_error_um
 from .predict import Prediction
 
@@ -32,13 +33,20 @@ __all__ = ["PathCompensation", "compensate_path", "corrected_path", "error_point
            "path_errors"]
 
 
-def _locate(cl: CutterLocations, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Feed segment (ending at cutter location k) and fraction along it nearest each point."""
+def _locate(cl: CutterLocations, points: np.ndarray, axes: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Feed segment (ending at cutter location k) and fraction along it nearest each point.
+
+    The nearest cutter location is found on tip *and* axis (``LOCATE_AXIS_MM`` per
+    radian of axis): on a 5-axis path the same tip is reached from different
+    contacts with different axes (a tilted pass can run where another pass's tips
+    lie), so the tip alone can put a point on the wrong pass."""
     from scipy.spatial import cKDTree
 
     tip = cl.tip
     n = len(cl)
-    near = cKDTree(tip).query(points)[1]
+    w = LOCATE_AXIS_MM
+    near = cKDTree(np.hstack([tip, w * cl.axis])).query(np.hstack([points, w * axes]))[1]
     best_d = np.full(len(points), np.inf)
     seg = np.full(len(points), -1, dtype=np.int64)
     frac = np.zeros(len(points))
@@ -48,7 +56,9 @@ def _locate(cl: CutterLocations, points: np.ndarray) -> tuple[np.ndarray, np.nda
         d = e - a
         L2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
         t = np.clip(np.einsum("ij,ij->i", points - a, d) / L2, 0.0, 1.0)
-        dist = np.linalg.norm(a + t[:, None] * d - points, axis=1)
+        ax = (1 - t[:, None]) * cl.axis[k - 1] + t[:, None] * cl.axis[k]
+        dist = np.hypot(np.linalg.norm(a + t[:, None] * d - points, axis=1),
+                        w * np.linalg.norm(ax - axes, axis=1))
         better = (dist < best_d) & ~cl.rapid[k]
         best_d[better], seg[better], frac[better] = dist[better], k[better], t[better]
     return seg, frac
@@ -64,7 +74,7 @@ def _point_errors(cl: CutterLocations, prediction: Prediction,
     if not pts:
         return pts, np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
     tips = np.array([p.geometry.tip for p in pts])
-    seg, frac = _locate(cl, tips)
+    seg, frac = _locate(cl, tips, np.array([p.geometry.axis for p in pts]))
     E = np.array([p.result.E_um * 1e-3 for p in pts])
     if reference is not None:
         k = np.maximum(seg, 1)

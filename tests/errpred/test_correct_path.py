@@ -26,9 +26,12 @@ def _prediction(cl: CutterLocations, E_um) -> Prediction:
     """Duck-typed prediction points at the middle of each segment, surface normal +Z."""
     pts = []
     for k in range(1, len(cl)):
+        if cl.rapid[k]:
+            continue
         tip = 0.5 * (cl.tip[k - 1] + cl.tip[k])
-        e = float(E_um(tip) if callable(E_um) else E_um)
-        geom = SimpleNamespace(tip=tip, status="predicted", block=k,
+        axis = cl.axis[k]
+        e = float(E_um(tip, axis) if callable(E_um) else E_um)
+        geom = SimpleNamespace(tip=tip, axis=axis, status="predicted", block=k,
                                gen=SimpleNamespace(normal_world=np.array([0.0, 0.0, 1.0]),
                                                    point_world=tip - [0.0, 0.0, 0.0]))
         pts.append(PointPrediction(geom, SimpleNamespace(E_um=e, gain=0.0), k))
@@ -54,7 +57,7 @@ def test_iterating_against_a_plant_that_follows_the_path_converges():
     ref = _line()
 
     def predict(cl):
-        def err(tip):
+        def err(tip, _axis):
             return 8.0 + 0.3 * tip[2] * 1e3       # tip[2] < 0 after correcting
         return _prediction(cl, err)
 
@@ -74,6 +77,26 @@ def test_rapids_break_the_chain_and_get_no_equation():
                          cl.block, rapid)
     errs = path_errors(cl, _prediction(cl, 2.0))
     assert 5 not in errs and 4 in errs and 6 in errs
+
+
+def test_a_pass_over_the_same_tips_with_another_axis_keeps_its_own_errors():
+    """Two passes whose tips coincide but whose axes differ (on a 5-axis path another
+    contact, tilted otherwise, reaches the same tip): each prediction point is placed
+    on its own pass, found by tip and axis together."""
+    a = _line()
+    n = len(a)
+    axis_b = np.tile([0.0, math.sin(0.5), math.cos(0.5)], (n, 1))
+    tip = np.vstack([a.tip, a.tip])
+    axis = np.vstack([a.axis, axis_b])
+    rapid = np.zeros(2 * n, bool)
+    rapid[n] = True
+    cl = CutterLocations(tip, axis, np.where(rapid, np.nan, 1000.0), np.full(2 * n, 9000.0),
+                         np.arange(2 * n), rapid)
+    errs = path_errors(cl, _prediction(cl, lambda _tip, ax: 5.0 if ax[1] < 0 else -3.0))
+    assert sorted(errs) == list(range(1, n)) + list(range(n + 1, 2 * n))
+    for k, v in errs.items():
+        assert len(v) == 1
+        assert v[0].E_mm == pytest.approx(5e-3 if k < n else -3e-3)
 
 
 def test_workpiece_deflection_static_limit():
