@@ -18,6 +18,15 @@ MICRO_EDGES_ENVELOPE = 60
 #: structure out of the linear range [-].
 RAMP_REVOLUTIONS = 3.0
 
+#: The finished patch of a cutter location (feed per tooth by pick feed) is
+#: sampled with this many points a side to find the rotation samples that
+#: generate it (sim/cutting.py: generating_weights) [-] ...
+STRIP_GRID = 9
+#: ... a patch point counts as generated when an engaged micro edge's normal lies
+#: within this many of the table's angular steps (rotation step or micro-edge
+#: step, the larger) of the point's normal [-].
+STRIP_REACH = 1.0
+
 # --- stability from simulation (sim/cutting.py: growth_rate, boundary) -------
 #: The per-tooth (Poincare) differences are fitted from this many revolutions
 #: after the ramp (the start's transient decays first) [-] ...

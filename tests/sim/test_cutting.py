@@ -272,23 +272,45 @@ def test_book_2dof_time_domain_confirms_the_time_periodic_minimum():
 
 @pytest.mark.parametrize(("lead_deg", "tilt_deg"), [(0.0, 45.0), (30.0, 10.0), (-20.0, 30.0)])
 def test_surface_is_generated_where_an_edge_faces_the_surface(lead_deg, tilt_deg):
-    """A tilted ball finishing a wall (normal +Y): the record's phase is the one where an
-    engaged edge's outward normal points into the surface (-n), and the record is the
-    relative displacement along n there."""
+    """A tilted ball finishing a wall (normal +Y): the rotation samples that generate the
+    surface include the one where an engaged edge's outward normal points into the
+    surface (-n), and the record is the relative displacement along n averaged over them."""
     from orient.geometry import posture_axis
-    from sim.cutting import _generating_phase
 
     ball = Tool("ball", 10.0, flutes=2, helix_deg=30.0, flute_length_mm=15.0)
     u = posture_axis(Y, X, math.radians(lead_deg), math.radians(tilt_deg))
     model = prepare_cut(ball, COEF, u, Y, X, LocalCut(0.2, 0.5, -1, 0.1), _tool_2dof(), 9000.0)
-    g = _generating_phase(model)
+    w = model.generating
+    assert w.sum() == pytest.approx(1.0)
     ptr, _, _, _, nrm, _, _ = model.table
     spt = model.steps_per_tooth
-    facing = [float(np.min(nrm[ptr[s]:ptr[s + 1]] @ Y)) / 1e3 if ptr[s + 1] > ptr[s] else 1.0
-              for s in range(model.steps_per_rev)]
-    assert facing[g] == pytest.approx(min(facing[:spt] + facing[spt:]), abs=1e-12) or \
-        facing[g + spt] == pytest.approx(min(facing), abs=1e-12)
-    assert min(facing[g], facing[g + spt]) < -0.999
+    facing = np.array([float(np.min(nrm[ptr[s]:ptr[s + 1]] @ Y)) / 1e3
+                       if ptr[s + 1] > ptr[s] else 1.0 for s in range(model.steps_per_rev)])
+    squarest = int(np.argmin(facing)) % spt
+    assert facing.min() < -0.999
+    assert w[squarest] > 0
     run = simulate(model, 10)
-    disp = run.displacement_m[g::spt][:run.surface_offset_mm.size] @ Y * 1e3
-    np.testing.assert_allclose(run.surface_offset_mm, disp, rtol=1e-12)
+    d = (run.displacement_m @ Y * 1e3).reshape(-1, spt)
+    np.testing.assert_allclose(run.surface_offset_mm, d @ w, rtol=1e-12)
+
+
+@pytest.mark.parametrize(("lead_deg", "tilt_deg"), [(30.0, 10.0), (30.0, 0.0)])
+def test_generating_strip_spans_the_finished_patch(lead_deg, tilt_deg):
+    """Where the whole patch (fz along the feed, pick across) lies inside the engagement,
+    the rotation it is generated over is the patch's extent along the direction the edge
+    normal turns, over the sine of the normal's angle to the axis: a closed form."""
+    from orient.geometry import posture_axis
+
+    ball = Tool("ball", 10.0, flutes=2, helix_deg=30.0, flute_length_mm=15.0)
+    fz, pick = 0.1, 0.5
+    u = posture_axis(Y, X, math.radians(lead_deg), math.radians(tilt_deg))
+    model = prepare_cut(ball, COEF, u, Y, X, LocalCut(0.2, pick, -1, fz), _tool_2dof(), 9000.0)
+    on = np.flatnonzero(model.generating)
+    step_deg = 360.0 / model.steps_per_rev
+    t = np.cross(u, -Y)
+    sin_k = np.linalg.norm(t)
+    t /= sin_k
+    b = np.cross(Y, X)
+    half = (fz / 2 / 5.0 * abs(t @ X) + pick / 2 / 5.0 * abs(t @ b)) / sin_k
+    assert (on.max() - on.min() + 1) * step_deg == pytest.approx(2 * math.degrees(half),
+                                                                 abs=2 * step_deg)
