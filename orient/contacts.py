@@ -40,7 +40,9 @@ class Contacts:
     touching : ndarray of bool, shape (n,)
         ``|gap| <= CONTACT_TOL_MM`` on a feed move.
     feed : ndarray, shape (n, 3)
-        Unit direction of the tip's motion at the point.
+        Unit direction of the ball centre's motion at the point: the direction in
+        which the contact moves over the part. (The tip's motion is not: where the
+        posture changes between two points, the tip also swings with the axis.)
     """
 
     centre: np.ndarray
@@ -52,7 +54,7 @@ class Contacts:
 
 
 def feed_directions(tip: np.ndarray, rapid: np.ndarray) -> np.ndarray:
-    """Unit direction of motion at each point, shape (n, 3).
+    """Unit direction of motion of the points ``tip`` (n, 3) [mm], shape (n, 3).
 
     The move ending at the point; at the first point of a pass (after a
     rapid, or the very first point) the move leaving it. Points that do not
@@ -115,4 +117,4 @@ def ball_contacts(cl: CutterLocations, radius_mm: float, design, *,
     gap = np.where(inside, -dist, dist) - radius_mm
     normal[inside] = -normal[inside]
     touching = (np.abs(gap) <= tol_mm) & ~cl.rapid
-    return Contacts(centre, point, normal, gap, touching, feed_directions(cl.tip, cl.rapid))
+    return Contacts(centre, point, normal, gap, touching, feed_directions(centre, cl.rapid))

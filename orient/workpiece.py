@@ -78,6 +78,11 @@ class WorkpieceModel:
                 lambda shape: wall_modes(shape, n_modes=w["modes"], elements=w["element_mm"]),
                 shapes))
 
+    def _level(self, p: np.ndarray) -> int:
+        """The solved in-process level nearest the point's height on the wall."""
+        h = float(self.wall.to_local(p)[2])
+        return int(np.argmin(np.abs(self.level_z - h)))
+
     def modes_at(self, point_mm: np.ndarray) -> list:
         """``[(Mode, direction)]`` of the workpiece at a contact point (empty: rigid)."""
         if self.spec.kind == "rigid":
@@ -85,13 +90,28 @@ class WorkpieceModel:
         if self.spec.kind == "modes":
             return list(self.spec.modes)
         p = np.asarray(point_mm, dtype=float)
-        h = float(self.wall.to_local(p)[2])
-        k = int(np.argmin(np.abs(self.level_z - h)))
+        k = self._level(p)
         # along the wall normal: the flexible direction (a thin wall's modes move the
         # cutting point along it to within a few degrees); one direction keeps the
         # stability analysis at tool (2) + wall (1) directions
         return self.levels[k].modes_at(p, direction=np.asarray(self.wall.normal),
                                        tol_mm=WALL_POINT_TOL_MM)
+
+    def shape_at(self, point_mm: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+        """The workpiece modes of :meth:`modes_at` by name, for carrying a vibration
+        from point to point: ``(level, index, amp)`` -- the level (-1: none), each
+        mode's number and its signed displacement at the point along the
+        direction (1 for point-independent modes)."""
+        if self.spec.kind == "rigid":
+            return -1, np.zeros(0, dtype=np.int64), np.zeros(0)
+        if self.spec.kind == "modes":
+            n = len(self.spec.modes)
+            return 0, np.arange(n), np.ones(n)
+        p = np.asarray(point_mm, dtype=float)
+        k = self._level(p)
+        idx, amp = self.levels[k].shape_along(p, np.asarray(self.wall.normal),
+                                              tol_mm=WALL_POINT_TOL_MM)
+        return k, idx, amp
 
     def system_at(self, tool: ModalSystem, point_mm: np.ndarray) -> ModalSystem:
         """Tool modes plus the workpiece's modes at ``point_mm``."""

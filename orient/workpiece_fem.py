@@ -201,14 +201,40 @@ class WallModes:
             e = _vec3("direction", direction, unit=True)
             amp = np.abs(u @ e)
             dirs = [e.copy() for _ in u]
-        contrib = amp ** 2 / w ** 2
-        if not np.any(contrib > 0):
-            return []
-        keep = contrib > NEGLIGIBLE_MODE_FRACTION * contrib.max()
         zeta = self.wall.damping_ratio
         return [(Mode.from_frequency(float(self.frequencies_hz[k]), zeta,
                                      float(w[k] ** 2 / amp[k] ** 2)), dirs[k])
-                for k in np.flatnonzero(keep)]
+                for k in self._kept(amp)]
+
+    def _kept(self, amp: np.ndarray) -> np.ndarray:
+        """Indices of the modes whose static compliance at the point (``amp^2 / w^2``)
+        is above ``NEGLIGIBLE_MODE_FRACTION`` of the largest."""
+        contrib = amp ** 2 / self.omega_rad_s ** 2
+        if not np.any(contrib > 0):
+            return np.zeros(0, dtype=np.int64)
+        return np.flatnonzero(contrib > NEGLIGIBLE_MODE_FRACTION * contrib.max())
+
+    def shape_along(self, point_mm: Any, direction: Any, *,
+                    tol_mm: float = POINT_TOLERANCE_MM) -> tuple[np.ndarray, np.ndarray]:
+        """Which modes :meth:`modes_at` keeps at a point, and their signed displacement
+        there along ``direction``.
+
+        A time-domain run that moves from point to point keeps each mode's modal
+        coordinate: the displacement at the point, ``a q``, changes by ``a_new /
+        a_old`` (and flips sign across a node), which :meth:`modes_at`'s
+        equivalent single-DOF modes (``|a|``) do not carry.
+
+        Returns
+        -------
+        index : ndarray of int, shape (k,)
+            Mode numbers (ascending frequency), as :meth:`modes_at` returns them.
+        amp : ndarray, shape (k,) [m/sqrt(kg)]
+            ``u . e`` of each.
+        """
+        e = _vec3("direction", direction, unit=True)
+        a = self.shapes_at(point_mm, tol_mm=tol_mm) @ e
+        k = self._kept(np.abs(a))
+        return k, a[k]
 
     def frf_at(self, point_mm: Any, omega_rad_s: Any, *,
                tol_mm: float = POINT_TOLERANCE_MM) -> np.ndarray:

@@ -19,8 +19,12 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d
     rows; the flutes share positions), micro edge ``edge``, static chip ``h0``
     [mm], chip direction ``nrm`` (3) [mm per m of relative displacement],
     force at zero chip ``f0`` (3) [N] and per mm of chip ``f1`` (3) [N/mm],
-    world frame. ``disp`` is the mid-step displacement. ``surface`` (spr, m) [mm]: offset along the chip direction of
-    the surface the previous flute left, relative to its nominal place.
+    world frame. ``disp`` is the mid-step displacement. ``surface`` (spr, m, 3) [m]: the
+    relative displacement with which the previous flute left the surface at that place
+    (a vector, so that a change of posture -- another chip direction for the same
+    place -- reads it along the new direction: the chip is
+    ``h0 + nrm . (q - surface)``); where an edge did not cut, it is moved back by
+    ``h0`` along the chip direction (the next flute meets the thicker chip).
     The modes (``phi_d``, ``gam_d``: the exact step map of
     ``m eta'' + c eta' + k eta = u`` for ``u`` held over the step) are driven
     by ``u = d . F`` (``dirs`` (nm, 3)). ``scale`` (n_steps,) multiplies the
@@ -58,16 +62,19 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d
         for e in range(ptr[i], ptr[i + 1]):
             p = pos[e]
             j = edge[e]
-            qn = nrm[e, 0] * q[0] + nrm[e, 1] * q[1] + nrm[e, 2] * q[2]
-            h = h0[e] + qn - surface[p, j]
+            h = h0[e] + (nrm[e, 0] * (q[0] - surface[p, j, 0])
+                         + nrm[e, 1] * (q[1] - surface[p, j, 1])
+                         + nrm[e, 2] * (q[2] - surface[p, j, 2]))
             if h > 0.0 or linear:
-                surface[p, j] = qn
                 for a in range(3):
+                    surface[p, j, a] = q[a]
                     F[a] += s * (f0[e, a] + h * f1[e, a])
                 hsum += h
                 cnt += 1
-            else:
-                surface[p, j] -= h0[e]        # not cut: the next flute meets it
+            else:                             # not cut: the next flute meets it
+                n2 = nrm[e, 0] ** 2 + nrm[e, 1] ** 2 + nrm[e, 2] ** 2
+                for a in range(3):
+                    surface[p, j, a] -= h0[e] * nrm[e, a] / n2
                 lost += 1
         for a in range(3):
             force[n, a] = F[a]

@@ -46,7 +46,7 @@ from .program import PartProgram
 from .registers import ACK, STATUS
 from .sensors import Accelerometers, AccelerometerStream
 
-__all__ = ["NCState", "SimulatedNC", "SurfaceRecord"]
+__all__ = ["NO_WALL", "NCState", "SimulatedNC", "SurfaceRecord", "carry_wall_state"]
 
 
 @dataclass
@@ -88,6 +88,45 @@ class SurfaceRecord:
     def arrays(self) -> dict:
         return {k: np.asarray(getattr(self, k)) for k in
                 ("time_s", "point", "offset_mm", "lead_offset_deg", "tilt_offset_deg")}
+
+
+#: No workpiece modes: ``(level, index, amp)`` of :meth:`WorkpieceModel.shape_at`.
+NO_WALL = (-1, np.zeros(0, dtype=np.int64), np.zeros(0))
+
+
+def carry_wall_state(state: np.ndarray, n_tool: int, old: tuple, new: tuple) -> np.ndarray:
+    """The modal state ``(eta, eta')`` when the cut moves to another point of the part.
+
+    The tool modes (the first ``n_tool`` rows) are the same. A workpiece mode's
+    row is its displacement at the cutting point, ``a q`` with ``q`` its modal
+    coordinate: the vibration goes on, so ``q`` is kept and the row becomes
+    ``a_new / a_old`` times the old one (a node between the points flips its
+    sign). A mode that was not in the old set (or another level of the wall)
+    starts at rest.
+
+    Parameters
+    ----------
+    state : ndarray, shape (n_tool + k_old, 2) [m, m/s]
+    n_tool : int
+    old, new : tuple (level, index, amp)
+        :meth:`orient.workpiece.WorkpieceModel.shape_at` at the two points.
+
+    Returns
+    -------
+    ndarray, shape (n_tool + k_new, 2)
+    """
+    lev0, idx0, amp0 = old
+    lev1, idx1, amp1 = new
+    out = np.zeros((n_tool + len(idx1), 2))
+    k = min(n_tool, state.shape[0])
+    out[:k] = state[:k]
+    if lev0 == lev1 and lev0 >= 0:
+        row = {int(m): r for r, m in enumerate(idx0)}
+        for r, m in enumerate(idx1):
+            j = row.get(int(m))
+            if j is not None and n_tool + j < state.shape[0] and amp0[j] != 0.0:
+                out[n_tool + r] = state[n_tool + j] * (amp1[r] / amp0[j])
+    return out
 
 
 class SimulatedNC:
@@ -146,6 +185,9 @@ class SimulatedNC:
         self.surface = SurfaceRecord()
         self._models: OrderedDict = OrderedDict()
         self._current, self._current_key = None, None
+        self._shapes: dict[int, tuple] = {}
+        self._shape_now = NO_WALL
+        self._cut_now = None
         self._joints = solve_path(self.machine, self.cam.tip[first:first + 1],
                                   self.cam.axis[first:first + 1]).joints[0]
         self.state.joints = self._joints.copy()
@@ -260,8 +302,9 @@ class SimulatedNC:
         i = self.point_index()
         n = max(1, round((st.time_s + dt_s - self.cutter.time_s) / self.dt_s))
         touching = (not self.done) and bool(self.contacts.touching[i]) and i in self.cuts
-        if touching and st.feed_override_pct > 0:
-            model = self._model(i)
+        model = self._model(i) if touching and st.feed_override_pct > 0 else None
+        self._switch(i, model)
+        if model is not None:
             run = self.cutter.advance(model, n)
             if run.surface_offset_mm.size:
                 k = run.surface_offset_mm.size
@@ -277,6 +320,24 @@ class SimulatedNC:
         st.cutting = int(touching)
         st.time_s = self.cutter.time_s
         return self.stream.push(run.time_s, run.tool_acceleration_m_s2)
+
+    def _switch(self, i: int, model) -> None:
+        """Take the cut of cutter location ``i`` (``model``; None: not cutting) as a
+        machine would, moving continuously: the vibration goes on in the workpiece's
+        modes at the new point (:func:`carry_wall_state`) and follows the change of
+        the cut's forced response (:meth:`sim.cutting.Cutter.switch`)."""
+        if not self.contacts.touching[i]:
+            shape = NO_WALL
+        else:
+            if i not in self._shapes:
+                self._shapes[i] = self.workpiece.shape_at(self.contacts.point[i])
+            shape = self._shapes[i]
+        if shape is self._shape_now and model is self._cut_now:
+            return
+        n_tool, before = self.tool_system.n_modes, self._shape_now
+        self.cutter.switch(self._cut_now, model,
+                           lambda st: carry_wall_state(st, n_tool, before, shape))
+        self._shape_now, self._cut_now = shape, model
 
     def update_joints(self) -> None:
         """Machine joints of the current posture (for the display; costs a kinematic solve)."""

@@ -8,10 +8,15 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from errpred.correct_path import compensate_path, corrected_path, error_points, path_errors
+from errpred.correct_path import (
+    compensate_path,
+    corrected_path,
+    error_points,
+    path_errors,
+)
 from errpred.dynamics import Mode
 from errpred.physics import workpiece_deflection
-from errpred.predict import Prediction, PointPrediction
+from errpred.predict import PointPrediction, Prediction
 from nc.path import CutterLocations
 
 

@@ -9,7 +9,7 @@ import pytest
 from nc import read_program
 from nc.kinematics import solve_path
 from nc.linuxcnc import compare_with_rs274
-from nc.path import cutter_locations
+from nc.path import CutterLocations, cutter_locations
 from nc.writer import PostOptions, write_program
 from orient.interference import InterferenceChecker, ToolAssembly
 from orient.plan import plan
@@ -112,3 +112,24 @@ def test_first_pass_of_the_face_cuts_on_both_sides():
     top = con.point[idx, 2] > con.point[idx, 2].max() - 1e-6
     assert top.sum() > 20
     assert np.all(side[top] == 0) and np.all(side[~top] != 0)
+
+
+def test_the_feed_is_the_ball_centre_motion_where_the_posture_turns():
+    """A ball whose centre runs along +X while its axis swings in the Y-Z plane: the tip
+    moves in Y and Z as well, but the contact -- and the feed of the cut -- runs along
+    +X."""
+    import trimesh
+
+    from orient.contacts import ball_contacts
+
+    n = 9
+    x = np.linspace(0.0, 8.0, n)
+    ang = np.radians(np.linspace(0.0, 40.0, n))
+    axis = np.c_[np.zeros(n), np.sin(ang), np.cos(ang)]
+    centre = np.c_[x, np.zeros(n), np.full(n, 5.0)]
+    cl = CutterLocations.from_arrays(centre - 5.0 * axis, axis, 1000.0, 9000.0)
+    plate = trimesh.creation.box(extents=(40.0, 40.0, 2.0))
+    plate.apply_translation((0.0, 0.0, -1.0))
+    con = ball_contacts(cl, 5.0, plate)
+    assert con.touching.all()
+    np.testing.assert_allclose(con.feed, np.tile([1.0, 0.0, 0.0], (n, 1)), atol=1e-12)

@@ -379,3 +379,24 @@ def test_q2_kernel_matches_scikit_fem():
     assert k.shape == ks.shape
     assert np.allclose(w2_mine, w2_sk, rtol=1e-9)
     assert m.sum() == pytest.approx(3 * rho * 2.5e-3 * 2e-3 * 20e-3, rel=1e-12)  # total mass x 3
+
+
+def test_shape_along_names_the_kept_modes_with_their_signs():
+    """shape_along keeps the same modes as modes_at, and |amp| gives their equivalent
+    masses (m = 1 / amp^2); the sign of an antisymmetric mode flips across the middle."""
+    wall = _small_wall()
+    m = wall_modes(wall, n_modes=6, elements=(4, 1, 4))
+    n = np.array(wall.normal)
+    left, right = (5.0, 0.0, 15.0), (15.0, 0.0, 15.0)
+    idx_l, amp_l = m.shape_along(left, n)
+    pairs = m.modes_at(left, direction=n)
+    assert len(idx_l) == len(pairs)
+    for k, a, (mo, _) in zip(idx_l, amp_l, pairs, strict=True):
+        assert mo.natural_frequency_hz == pytest.approx(m.frequencies_hz[k], rel=1e-12)
+        assert mo.m_kg == pytest.approx(1.0 / a ** 2, rel=1e-9)
+    idx_r, amp_r = m.shape_along(right, n)
+    common = sorted(set(idx_l.tolist()) & set(idx_r.tolist()))
+    ratio = [amp_r[list(idx_r).index(k)] / amp_l[list(idx_l).index(k)] for k in common]
+    # mirror points: each mode is symmetric (+1) or antisymmetric (-1) about the middle
+    assert np.allclose(np.abs(ratio), 1.0, rtol=1e-6)
+    assert any(r < 0 for r in ratio) and any(r > 0 for r in ratio)

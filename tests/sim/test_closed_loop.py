@@ -24,8 +24,10 @@ def test_chatter_stops_and_the_surface_is_better_than_open_loop(report):
     # the CAM posture chatters: the open loop chatters all along the cut
     assert opened["first_detection_s"] is not None
     assert opened["chatter_share_after_detection"] > 0.9
-    # the loop on: chatter detected early, a re-orientation taken, and it stops
-    assert closed["first_detection_s"] < 0.3
+    # the loop on: until its first command the cut is the open loop's, so chatter is
+    # detected at the same window (the detector's hop, 10 ms); a re-orientation is
+    # taken, and it stops
+    assert closed["first_detection_s"] == pytest.approx(opened["first_detection_s"], abs=0.011)
     applied = [c for c in closed["commands"] if c["ack"] == 1]
     assert applied
     assert closed["chatter_stops_after_rev"] is not None

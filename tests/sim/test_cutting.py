@@ -314,3 +314,52 @@ def test_generating_strip_spans_the_finished_patch(lead_deg, tilt_deg):
     half = (fz / 2 / 5.0 * abs(t @ X) + pick / 2 / 5.0 * abs(t @ b)) / sin_k
     assert (on.max() - on.min() + 1) * step_deg == pytest.approx(2 * math.degrees(half),
                                                                  abs=2 * step_deg)
+
+
+def _ball_cut(tilt_deg: float, spr: int | None = None):
+    from orient.geometry import posture_axis
+
+    ball = Tool("ball", 10.0, flutes=2, helix_deg=30.0, flute_length_mm=15.0)
+    u = posture_axis(Y, X, math.radians(30.0), math.radians(tilt_deg))
+    return prepare_cut(ball, COEF, u, Y, X, LocalCut(0.2, 0.5, -1, 0.1), _tool_2dof(), 9000.0,
+                       steps_per_rev=spr)
+
+
+def test_forced_response_is_where_a_stable_cut_settles():
+    """The closed-form periodic response to the static chips is the state a long
+    time-domain run (with regeneration and the tool free to leave the cut) settles to,
+    tooth after tooth (a stable cut: regeneration leaves a tooth-periodic vibration)."""
+    from sim.cutting import forced_response
+
+    model = _ball_cut(10.0)
+    x = forced_response(model)
+    run = simulate(model, 200, ramp_revolutions=20)
+    for k in (-1, -2):                      # the Poincare section: the start of a tooth
+        for col in (0, 1):                  # displacement [m] and velocity [m/s]
+            np.testing.assert_allclose(run.modal_state[k][:, col], x[0][:, col], rtol=1e-3,
+                                       atol=1e-3 * np.abs(x[0][:, col]).max())
+    assert np.abs(x[0]).max() > 0
+
+
+def test_a_change_of_cut_taken_as_a_machine_moves_does_not_ring():
+    """Cut A to steady state, then B (3 deg more tilt): taken through Cutter.switch the
+    acceleration is tooth-periodic at once; switched bare, the step of force rings the
+    modes for many revolutions."""
+    from sim.cutting import Cutter
+
+    a = _ball_cut(10.0)
+    b = _ball_cut(13.0, a.steps_per_rev)
+    spr, spt = a.steps_per_rev, a.steps_per_tooth
+    ringing = {}
+    for smooth in (False, True):
+        c = Cutter(spr, a.n_edges)
+        c.switch(None, a)
+        c.advance(a, 40 * spr)
+        if smooth:
+            c.switch(a, b)
+        acc = c.advance(b, 3 * spr).tool_acceleration_m_s2
+        d = acc[spt:] - acc[:-spt]               # what is not tooth-periodic
+        ringing[smooth] = float(np.sqrt(np.mean(d[:spr] ** 2)))
+        forced = float(np.sqrt(np.mean(acc ** 2)))
+    assert ringing[False] > 0.05 * forced
+    assert ringing[True] < 1e-3 * ringing[False]

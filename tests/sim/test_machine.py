@@ -90,3 +90,22 @@ def test_the_ball_centre_is_kept_and_cutting_stops_off_the_part(built):
     assert len(nc.surface.offset_mm) > 0
     pts = np.unique(nc.surface.point)
     assert np.all(nc.contacts.touching[pts])
+
+
+def test_the_wall_vibration_is_carried_in_modal_coordinates():
+    """Moving the cut from one point of the wall to another keeps each wall mode's
+    modal coordinate: its displacement at the point scales by a_new / a_old (a node
+    between them flips the sign); the tool modes are untouched; a mode new to the set,
+    or another level of the wall, starts at rest."""
+    from sim.machine import NO_WALL, carry_wall_state
+
+    state = np.array([[1.0, 10.0], [2.0, 20.0], [3.0, 30.0], [4.0, 40.0]])   # 2 tool + 2 wall
+    old = (1, np.array([0, 2]), np.array([2.0, 0.5]))
+    new = (1, np.array([0, 1, 2]), np.array([-1.0, 3.0, 1.5]))
+    out = carry_wall_state(state, 2, old, new)
+    np.testing.assert_array_equal(out[:2], state[:2])
+    np.testing.assert_allclose(out[2], state[2] * (-1.0 / 2.0))
+    np.testing.assert_array_equal(out[3], [0.0, 0.0])
+    np.testing.assert_allclose(out[4], state[3] * (1.5 / 0.5))
+    assert not carry_wall_state(state, 2, old, (2, new[1], new[2]))[2:].any()
+    np.testing.assert_array_equal(carry_wall_state(state, 2, old, NO_WALL), state[:2])

@@ -1,0 +1,70 @@
+"""The cut's periodic forced response, and what a change of cut does to the simulated
+machine's state (``docs/method.md`` §8): a machine moves its posture and its
+cutting point continuously, the simulation per cutter location."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import scipy.signal
+
+if TYPE_CHECKING:
+    from .cutting import CuttingModel
+
+__all__ = ["engaged_cells", "forced_response", "mid_step_displacement"]
+
+
+def forced_response(model: CuttingModel, scale: float = 1.0) -> np.ndarray:
+    """The modes' periodic forced response to the cut's static chips (no regeneration):
+    ``(eta, eta')`` at the start of each rotation step of a revolution, shape
+    (steps_per_rev, nm, 2) [m, m/s].
+
+    A machine moves its posture and its cutting point continuously, slowly
+    against the modes' periods, so its vibration follows the cut's forced
+    response (where the cut is stable, regeneration leaves a tooth-periodic
+    response as it is). The simulation changes its cut per cutter location;
+    :meth:`sim.cutting.Cutter.switch` moves the state by the change of this response when it
+    does, so the change does not ring the modes like a hammer blow, which no
+    machine does."""
+    ptr, _pos, _e, h0, _nrm, f0, f1 = model.table
+    spr = model.steps_per_rev
+    nm = model.system.n_modes
+    if ptr[-1] == 0 or scale == 0.0:
+        return np.zeros((spr, nm, 2))
+    sample = np.repeat(np.arange(spr), np.diff(ptr))
+    fe = scale * (f0 + h0[:, None] * f1)
+    force = np.stack([np.bincount(sample, fe[:, a], minlength=spr) for a in range(3)], axis=1)
+    u = force @ model.system.direction.T                     # (spr, nm)
+    phi, gam = model.step_map
+    # x_{n+1} = phi x_n + gam u_n per mode; in phi's eigenvectors each component is
+    # w_p = lam^p w_0 + z t_p, t_{p+1} = lam t_p + u_p (z = V^-1 gam): a first-order filter
+    lam, vec = np.linalg.eig(phi)                            # (nm, 2), (nm, 2, 2)
+    z = np.linalg.solve(vec, gam[..., None].astype(complex))[..., 0]
+    tail = np.empty((spr + 1, nm, 2), complex)
+    for m in range(nm):
+        for i in range(2):
+            tail[:, m, i] = scipy.signal.lfilter([0.0, 1.0], [1.0, -lam[m, i]],
+                                                 np.r_[u[:, m], 0.0].astype(complex))
+    w0 = z * tail[spr] / (1.0 - lam ** spr)
+    w = np.cumprod(np.concatenate([np.ones((1, nm, 2), complex),
+                                   np.broadcast_to(lam, (spr - 1, nm, 2))]), axis=0)
+    w = w * w0[None] + z[None] * tail[:-1]
+    return np.einsum("mij,pmj->pmi", vec, w).real
+
+
+def mid_step_displacement(model: CuttingModel, x: np.ndarray) -> np.ndarray:
+    """Relative displacement [m], shape (spr, 3), that the kernel's chips use (the middle
+    of each step) from the modes' states ``x`` (spr, nm, 2) at the steps' starts."""
+    sysm = model.system
+    r = (0.5 * model.dt_s + sysm.velocity_s)[None, :]
+    return (x[:, :, 0] + r * x[:, :, 1]) @ sysm.direction
+
+
+def engaged_cells(model: CuttingModel, n_edges: int) -> np.ndarray:
+    """Places of the surface memory (rotation position, micro edge) the cut engages,
+    shape (spr, n_edges) of bool."""
+    _ptr, pos, edge, _h0, _nrm, _f0, _f1 = model.table
+    out = np.zeros((model.steps_per_rev, n_edges), bool)
+    out[pos, edge] = True
+    return out
