@@ -48,7 +48,8 @@ def _verification(v) -> dict[str, Any]:
                                        else math.nan),
             "detector_windows": int(v.summary["windows"]),
             "chatter_windows": int(v.summary["chatter_windows"]),
-            "first_chatter_s": v.summary.get("first_detection_s")}
+            "first_chatter_s": v.summary.get("first_detection_s"),
+            "chatter_share_after_first": _r(v.summary.get("chatter_share_after_detection", 0.0))}
 
 
 def _errors(res: JobResult) -> tuple[tuple, tuple]:
