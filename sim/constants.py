@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+#: The cutting model's chips are in mm, its displacements in m [mm/m].
+MM_PER_M = 1e3
+
 # --- time-domain cutting (sim/cutting.py) -----------------------------------
 #: The integrator takes at least this many steps per period of the highest
 #: mode (the modes are integrated exactly for a force held over a step, so

@@ -60,6 +60,7 @@ from .constants import (
     MAX_STEPS_PER_REV,
     MICRO_EDGES_ENVELOPE,
     MIN_STEPS_PER_REV,
+    MM_PER_M,
     RAMP_REVOLUTIONS,
     STEPS_PER_MODE_PERIOD,
 )
@@ -80,7 +81,6 @@ __all__ = [
     "with_system",
 ]
 
-_MM_PER_M = 1e3
 
 
 @dataclass(frozen=True, eq=False)
@@ -279,7 +279,7 @@ def prepare_cut(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, norm
     frame = eng.frame
     f0 = zero @ frame
     f1 = (one - zero) @ frame
-    nrm = edges.take(j).normals(phi) @ frame * _MM_PER_M
+    nrm = edges.take(j).normals(phi) @ frame * MM_PER_M
     ptr = np.searchsorted(i, np.arange(spr + 1)).astype(np.int64)
     pos = ((i + f * spt) % spr).astype(np.int64)
     table = (ptr, pos, j.astype(np.int64), np.ascontiguousarray(eng.h[i, f, j]),
@@ -399,7 +399,7 @@ def growth_rate(run: MillingRun, model: CuttingModel) -> float:
     ramp_end = math.ceil(RAMP_REVOLUTIONS * model.flutes)
     first = ramp_end + math.ceil(GROWTH_SKIP_REVOLUTIONS * model.flutes)
     # deviation of the Poincare samples of the displacement from their settled value
-    amp = run.displacement_m[::model.steps_per_tooth][1:n + 1] * _MM_PER_M
+    amp = run.displacement_m[::model.steps_per_tooth][1:n + 1] * MM_PER_M
     ref = np.median(amp[min(first, n - 1):], axis=0) if n else np.zeros(3)
     dev = np.linalg.norm(amp - ref, axis=1)
     over = np.flatnonzero(dev > GROWTH_LINEAR_FRACTION * model.fz_mm)
@@ -482,6 +482,8 @@ class Cutter:
         self.state = np.zeros((0, 2))
         self.step = 0
         self.time_s = 0.0
+        self._forced_of: CuttingModel | None = None
+        self._forced_x = np.zeros((0, 0, 2))
 
     def switch(self, old: CuttingModel | None, new: CuttingModel | None,
                carry: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
@@ -494,11 +496,10 @@ class Cutter:
         engage keeps what the vibration beyond the forced response left on it; a
         place only ``new`` engages is as ``new``'s forced response leaves it
         (what the tool would have left, had it been cutting so already)."""
-        spr = self.steps_per_rev
-        p = self.step % spr
+        p = self.step % self.steps_per_rev
         q_old = None
         if old is not None:
-            x = forced_response(old)
+            x = self._forced(old)
             self._check_modes(old)
             self.state = self.state - x[p]
             q_old = mid_step_displacement(old, x)
@@ -506,20 +507,23 @@ class Cutter:
             self.state = carry(self.state)
         if new is None:
             return
-        x = forced_response(new)
+        x = self._forced(new)
         self._check_modes(new)
         self.state = self.state + x[p]
         q_new = mid_step_displacement(new, x)
         on_new = engaged_cells(new, self.n_edges)
-        if old is None:
-            self.surface[on_new] = np.broadcast_to(q_new[:, None, :], self.surface.shape)[on_new]
-            return
-        on_old = engaged_cells(old, self.n_edges)
-        both = on_new & on_old
-        only = on_new & ~on_old
-        self.surface[both] += np.broadcast_to((q_new - q_old)[:, None, :],
-                                              self.surface.shape)[both]
-        self.surface[only] = np.broadcast_to(q_new[:, None, :], self.surface.shape)[only]
+        if old is not None:                  # both engage it: the vibration's imprint stays
+            both = on_new & engaged_cells(old, self.n_edges)
+            self.surface[both] += (q_new - q_old)[both.nonzero()[0]]
+            on_new &= ~both
+        self.surface[on_new] = q_new[on_new.nonzero()[0]]    # only the new cut engages it
+
+    def _forced(self, model: CuttingModel) -> np.ndarray:
+        """:func:`forced_response` of ``model``, kept for the cut last taken (it is left
+        at the next switch)."""
+        if self._forced_of is not model:
+            self._forced_of, self._forced_x = model, forced_response(model)
+        return self._forced_x
 
     def _check_modes(self, model: CuttingModel) -> None:
         if self.state.shape[0] == 0:                   # at rest before the first cut

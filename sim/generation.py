@@ -13,14 +13,13 @@ import numpy as np
 from errpred.tool import MicroEdges
 from orient.engagement import LocalCut
 
-from .constants import STRIP_GRID, STRIP_REACH
+from .constants import MM_PER_M, STRIP_GRID, STRIP_REACH
 
 if TYPE_CHECKING:
     from .cutting import CuttingModel
 
 __all__ = ["edge_spacing_rad", "generating_weights", "tooth_surface"]
 
-_MM_PER_M = 1e3
 
 
 def edge_spacing_rad(edges: MicroEdges) -> float:
@@ -69,12 +68,12 @@ def generating_weights(table: tuple, steps_per_rev: int, flutes: int, normal: np
     w = np.zeros(spt)
     if ptr[-1] == 0:
         return w
-    unit = nrm / _MM_PER_M
+    unit = nrm / MM_PER_M
     sample = np.repeat(np.arange(steps_per_rev), np.diff(ptr)) % spt
     n = np.asarray(normal, dtype=float)
-    facing = unit @ n
+    squarest = sample[int(np.argmin(unit @ n))]      # an edge facing the surface squarest
     if corner_radius_mm <= 0.0:
-        w[sample[int(np.argmin(facing))]] = 1.0
+        w[squarest] = 1.0
         return w
     f = np.asarray(feed_dir, dtype=float)
     f = f - (f @ n) * n
@@ -89,7 +88,7 @@ def generating_weights(table: tuple, steps_per_rev: int, flutes: int, normal: np
     reach = math.cos(STRIP_REACH * max(2.0 * math.pi / steps_per_rev, edge_step_rad))
     ok = dots[best, np.arange(best.size)] >= reach
     if not ok.any():
-        w[sample[int(np.argmin(facing))]] = 1.0
+        w[squarest] = 1.0
         return w
     np.add.at(w, sample[best[ok]], 1.0)
     return w / w.sum()
@@ -110,4 +109,4 @@ def tooth_surface(disp_m: np.ndarray, model: CuttingModel, first_step: int) -> n
     num = np.bincount(tooth, w * (disp_m @ model.normal))
     den = np.bincount(tooth, w)
     keep = den > 0.5
-    return num[keep] / den[keep] * _MM_PER_M
+    return num[keep] / den[keep] * MM_PER_M
