@@ -270,16 +270,26 @@ def test_book_2dof_time_domain_confirms_the_time_periodic_minimum():
     assert b < 0.85 * zoa
 
 
+FZ_MM, PICK_MM = 0.1, 0.5
+
+
+def _ball_cut(lead_deg: float, tilt_deg: float, spr: int | None = None):
+    """A D10 ball finishing a wall (normal +Y, feed +X) at a lead/tilt, 9000 min^-1:
+    the model and the tool axis."""
+    from orient.geometry import posture_axis
+
+    ball = Tool("ball", 10.0, flutes=2, helix_deg=30.0, flute_length_mm=15.0)
+    u = posture_axis(Y, X, math.radians(lead_deg), math.radians(tilt_deg))
+    cut = LocalCut(0.2, PICK_MM, -1, FZ_MM)
+    return prepare_cut(ball, COEF, u, Y, X, cut, _tool_2dof(), 9000.0, steps_per_rev=spr), u
+
+
 @pytest.mark.parametrize(("lead_deg", "tilt_deg"), [(0.0, 45.0), (30.0, 10.0), (-20.0, 30.0)])
 def test_surface_is_generated_where_an_edge_faces_the_surface(lead_deg, tilt_deg):
     """A tilted ball finishing a wall (normal +Y): the rotation samples that generate the
     surface include the one where an engaged edge's outward normal points into the
     surface (-n), and the record is the relative displacement along n averaged over them."""
-    from orient.geometry import posture_axis
-
-    ball = Tool("ball", 10.0, flutes=2, helix_deg=30.0, flute_length_mm=15.0)
-    u = posture_axis(Y, X, math.radians(lead_deg), math.radians(tilt_deg))
-    model = prepare_cut(ball, COEF, u, Y, X, LocalCut(0.2, 0.5, -1, 0.1), _tool_2dof(), 9000.0)
+    model, _ = _ball_cut(lead_deg, tilt_deg)
     w = model.generating
     assert w.sum() == pytest.approx(1.0)
     ptr, _, _, _, nrm, _, _ = model.table
@@ -299,12 +309,8 @@ def test_generating_strip_spans_the_finished_patch(lead_deg, tilt_deg):
     """Where the whole patch (fz along the feed, pick across) lies inside the engagement,
     the rotation it is generated over is the patch's extent along the direction the edge
     normal turns, over the sine of the normal's angle to the axis: a closed form."""
-    from orient.geometry import posture_axis
-
-    ball = Tool("ball", 10.0, flutes=2, helix_deg=30.0, flute_length_mm=15.0)
-    fz, pick = 0.1, 0.5
-    u = posture_axis(Y, X, math.radians(lead_deg), math.radians(tilt_deg))
-    model = prepare_cut(ball, COEF, u, Y, X, LocalCut(0.2, pick, -1, fz), _tool_2dof(), 9000.0)
+    fz, pick = FZ_MM, PICK_MM
+    model, u = _ball_cut(lead_deg, tilt_deg)
     on = np.flatnonzero(model.generating)
     step_deg = 360.0 / model.steps_per_rev
     t = np.cross(u, -Y)
@@ -316,22 +322,13 @@ def test_generating_strip_spans_the_finished_patch(lead_deg, tilt_deg):
                                                                  abs=2 * step_deg)
 
 
-def _ball_cut(tilt_deg: float, spr: int | None = None):
-    from orient.geometry import posture_axis
-
-    ball = Tool("ball", 10.0, flutes=2, helix_deg=30.0, flute_length_mm=15.0)
-    u = posture_axis(Y, X, math.radians(30.0), math.radians(tilt_deg))
-    return prepare_cut(ball, COEF, u, Y, X, LocalCut(0.2, 0.5, -1, 0.1), _tool_2dof(), 9000.0,
-                       steps_per_rev=spr)
-
-
 def test_forced_response_is_where_a_stable_cut_settles():
     """The closed-form periodic response to the static chips is the state a long
     time-domain run (with regeneration and the tool free to leave the cut) settles to,
     tooth after tooth (a stable cut: regeneration leaves a tooth-periodic vibration)."""
     from sim.cutting import forced_response
 
-    model = _ball_cut(10.0)
+    model, _ = _ball_cut(30.0, 10.0)
     x = forced_response(model)
     run = simulate(model, 200, ramp_revolutions=20)
     for k in (-1, -2):                      # the Poincare section: the start of a tooth
@@ -347,8 +344,8 @@ def test_a_change_of_cut_taken_as_a_machine_moves_does_not_ring():
     modes for many revolutions."""
     from sim.cutting import Cutter
 
-    a = _ball_cut(10.0)
-    b = _ball_cut(13.0, a.steps_per_rev)
+    a, _ = _ball_cut(30.0, 10.0)
+    b, _ = _ball_cut(30.0, 13.0, a.steps_per_rev)
     spr, spt = a.steps_per_rev, a.steps_per_tooth
     ringing = {}
     for smooth in (False, True):
