@@ -106,6 +106,9 @@ class PlanResult:
     grid_margin: np.ndarray | None = None
     grid_feasible: np.ndarray | None = None
     touching_index: np.ndarray | None = None
+    #: the workpiece's modes along the touching points, as the margins used them
+    #: (its finite elements take seconds: later stages reuse it)
+    workpiece: WorkpieceModel | None = None
 
 
 def candidate_grid(options) -> tuple[np.ndarray, np.ndarray]:
@@ -468,7 +471,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
                            "choice_and_interference": t4 - t3, "finish": t5 - t4,
                            "total": t5 - t0}},
         grid_margin=margin[:, :nlg].reshape(-1, nl, nt),
-        grid_feasible=ok[:, :nlg].reshape(-1, nl, nt), touching_index=idx)
+        grid_feasible=ok[:, :nlg].reshape(-1, nl, nt), touching_index=idx, workpiece=wp)
 
 
 def stock_mesh(scn: PlanScenario, design: Any) -> Any:

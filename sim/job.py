@@ -44,7 +44,6 @@ from orient.interference import InterferenceChecker, ToolAssembly
 from orient.plan import PlanResult, plan, stock_mesh
 from orient.pointwise import point_lobes, point_setup
 from orient.scenario import PlanScenario
-from orient.workpiece import WorkpieceModel
 
 from .constants import JOB_CORRECTION_PASSES, JOB_LOBE_SPEEDS, JOB_SURFACE_RATIO
 from .verify import Verification, scenario_with_program, verify_program
@@ -191,7 +190,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     res = plan(scn, progress=lambda stage, d, t: say(f"plan: {stage}", d, t), client=client)
     machine = res.machine
     base = scn.base
-    wp = WorkpieceModel(scn.workpiece, res.contacts.point[res.touching_index])
+    wp = res.workpiece
     lap("plan")
     opts = PostOptions(dialect=scn.options.dialect, spindle_rpm=res.spindle_rpm,
                        source=f"firstcut job on {scn.name}: planned lead/tilt, error corrected")
