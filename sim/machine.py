@@ -260,6 +260,8 @@ class SimulatedNC:
         n, f = self.contacts.normal[i], self.contacts.feed[i]
         key = (round(lead, 5), round(tilt, 5), tuple(np.round(n, 6)), tuple(np.round(f, 6)),
                tuple(np.round(self.cuts[i].row(), 9)))
+        if (i, key) == self._current_key:
+            return self._current
         u = posture_axis(n, f, lead, tilt)
         system = self.workpiece.system_at(self.tool_system, self.contacts.point[i])
         if key in self._models:
@@ -272,9 +274,8 @@ class SimulatedNC:
             self._models[key] = base
             if len(self._models) > MODEL_CACHE:
                 self._models.popitem(last=False)
-        if (i, key) != self._current_key:
-            self._current = with_system(base, system, u)
-            self._current_key = (i, key)
+        self._current = with_system(base, system, u)
+        self._current_key = (i, key)
         return self._current
 
     @property
