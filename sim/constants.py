@@ -23,6 +23,16 @@ MICRO_EDGES_ENVELOPE = 60
 #: force on and off with sub-micrometre vibration: a relay that keeps a linearly stable
 #: cut in a limit cycle, an artefact of the micro edges' discretization.
 EDGE_RUB_MM = 0.005
+#: Chip-to-chip scatter of the cutting force: the chip widths of each tooth pass are
+#: multiplied by 1 + this times a standard normal draw (the work material's hardness and
+#: the edges' micro-geometry are never uniform) [-]. It seeds a regenerative instability
+#: as a real cut's unevenness does; without it the only seed is the discretization (the
+#: switches between cutter locations), whose size depends on the steps, so an unstable
+#: cut could stay near its periodic motion for a whole pass. 0.2 %: its own vibration
+#: on a stable cut stays far below the detector's threshold.
+MATERIAL_SCATTER = 0.002
+#: Stream of the scatter's random generator beside the sensors' (same run seed) [-].
+MATERIAL_SCATTER_STREAM = 1
 #: The chip widths are ramped from 0 to full over this many revolutions when a
 #: run starts (the tool entering the cut), so the start does not kick the
 #: structure out of the linear range [-].

@@ -162,7 +162,8 @@ class Cutter:
 
     def advance(self, model: CuttingModel, n_steps: int, scale: float = 1.0, *,
                 linear: bool = False, previous: CuttingModel | None = None,
-                weight: tuple[float, float] = (1.0, 1.0)) -> MillingRun:
+                weight: tuple[float, float] = (1.0, 1.0),
+                variation: np.ndarray | None = None) -> MillingRun:
         """Cut ``n_steps`` steps with ``model`` (its table, modes and step) from where
         the last call stopped; returns that stretch (``modal_state`` empty,
         ``surface_offset_mm`` at the generating phase of each tooth within it).
@@ -170,7 +171,8 @@ class Cutter:
         With ``previous`` (a table with ``model``'s dynamics, see :class:`Cut`), the
         force is blended: ``model``'s share goes linearly from ``weight[0]`` at
         the start of the stretch to ``weight[1]`` at its end, ``previous`` has the
-        rest."""
+        rest. ``variation`` (``n_steps``,) [-], optional, multiplies the chip widths step
+        by step (the work material's scatter, ``sim.constants.MATERIAL_SCATTER``)."""
         for m in (model, previous):
             if m is not None and (m.steps_per_rev != self.steps_per_rev
                                   or m.n_edges != self.n_edges):
@@ -182,6 +184,12 @@ class Cutter:
                              "(the same system)")
         n = int(n_steps)
         s = real_number("scale", scale, ">=0")
+        widths = np.full(n, s)
+        if variation is not None:
+            v = np.asarray(variation, dtype=float)
+            if v.shape != (n,) or not np.all(v >= 0.0):
+                raise ValueError(f"variation: expected {n} values >= 0, got shape {v.shape}")
+            widths = widths * v
         w0, w1 = (real_number("weight", w, ">=0") for w in weight)
         if w0 > 1.0 or w1 > 1.0:
             raise ValueError(f"weight: expected values in [0, 1], got {weight!r}")
@@ -198,11 +206,11 @@ class Cutter:
         lost = np.empty(n, dtype=np.int64)
         generating = None
         if previous is None:
-            _integrate(model, self.step, np.full(n, s), linear, self.surface, self.state,
+            _integrate(model, self.step, widths, linear, self.surface, self.state,
                        force, disp, acc, chip, lost)
         else:
             w = w0 + (w1 - w0) * (np.arange(n) + 0.5) / max(n, 1)
-            _integrate(model, self.step, np.full(n, s), linear, self.surface, self.state,
+            _integrate(model, self.step, widths, linear, self.surface, self.state,
                        force, disp, acc, chip, lost, previous.table, 1.0 - w)
             wm = 0.5 * (w0 + w1)
             generating = wm * model.generating + (1.0 - wm) * previous.generating

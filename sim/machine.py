@@ -40,6 +40,8 @@ from orient.workpiece import WorkpieceModel
 
 from .constants import (
     LOOKAHEAD_POINTS,
+    MATERIAL_SCATTER,
+    MATERIAL_SCATTER_STREAM,
     MICRO_EDGES_ENVELOPE,
     MODEL_CACHE,
     RAPID_MM_MIN,
@@ -146,7 +148,8 @@ class SimulatedNC:
         Run only the cutter locations ``first .. last`` (indices into the
         program's cutter locations) instead of the whole program.
     seed : int
-        Sensor noise seed.
+        Seed of the sensor noise and of the work material's scatter
+        (``sim.constants.MATERIAL_SCATTER``).
     workpiece : orient.workpiece.WorkpieceModel, optional
         A workpiece model already built for this scenario (its finite elements
         take seconds); default: built here.
@@ -178,6 +181,8 @@ class SimulatedNC:
         self.cutter = Cutter(self.steps_per_rev, len(self.edges))
         self.sensors = sensors if sensors is not None else Accelerometers()
         self.stream = AccelerometerStream(self.sensors, self.dt_s, seed=seed)
+        self._scatter = np.random.default_rng([MATERIAL_SCATTER_STREAM, seed])
+        self._scatter_tooth, self._scatter_now = -1, 1.0
         opt = scn.options
         self.checker = InterferenceChecker(
             stock_mesh(scn, design), ToolAssembly.from_tool(self.tool,
@@ -379,7 +384,8 @@ class SimulatedNC:
             cut = Cut(model, start, w0)
         self._switch(i, cut)
         if cut is not None:
-            run = self.cutter.advance(cut.model, n, previous=cut.previous, weight=(w0, w1))
+            run = self.cutter.advance(cut.model, n, previous=cut.previous, weight=(w0, w1),
+                                      variation=self._variation(n))
             if run.surface_offset_mm.size:
                 k = run.surface_offset_mm.size
                 self.surface.time_s.extend(np.linspace(run.time_s[0], run.time_s[-1], k))
@@ -392,6 +398,22 @@ class SimulatedNC:
                 if self.contacts.touching[i] else self.tool_system
             run = self.cutter.idle(self.dt_s, n, system)
         return run, touching
+
+    def _variation(self, n: int) -> np.ndarray:
+        """Chip-width factors of the next ``n`` steps: one draw per tooth pass, held over
+        it (``sim.constants.MATERIAL_SCATTER``; the same pass keeps its draw across
+        ticks)."""
+        spt = self.steps_per_rev // self.tool.flutes
+        tooth = (self.cutter.step + np.arange(n)) // spt
+        first, last = int(tooth[0]), int(tooth[-1])
+        held = first <= self._scatter_tooth          # the stretch goes on with a pass drawn
+        start = first + 1 if held else first
+        draws = 1.0 + MATERIAL_SCATTER * self._scatter.standard_normal(max(last - start + 1, 0))
+        values = np.maximum(draws, 0.0)
+        if held:
+            values = np.concatenate([[self._scatter_now], values])
+        self._scatter_tooth, self._scatter_now = last, float(values[-1])
+        return values[tooth - first]
 
     def _switch(self, i: int, cut: Cut | None) -> None:
         """Take ``cut`` on the segment into cutter location ``i`` (None: not cutting) as

@@ -394,3 +394,40 @@ def test_blending_a_table_with_itself_or_at_its_ends_is_the_plain_run():
     assert np.abs(mid - run(a)).max() > 1e-3 * np.abs(mid).max()
     with pytest.raises(ValueError, match="same system"):
         Cutter(spr, a.n_edges).advance(a, 10, previous=b0)
+
+
+def test_an_unstable_cut_grows_from_the_material_scatter():
+    """With the work material's chip-to-chip scatter (``MATERIAL_SCATTER`` per tooth
+    pass), a cut at twice the boundary started on its periodic motion (Cutter.switch;
+    the linear model) leaves it within 30 revolutions: the once-per-tooth samples
+    spread by more than a tenth of the vibration. At half the boundary the same
+    scatter leaves a spread of the order of the scatter itself."""
+    import dataclasses
+
+    from sim.constants import MATERIAL_SCATTER
+    from sim.cutter import Cutter
+
+    rpm = 9000.0
+    ref = _fdm_margin(rpm)
+
+    def spread(scale: float, scatter: bool) -> float:
+        k = {f.name: scale * ref * getattr(COEF, f.name) for f in dataclasses.fields(COEF)
+             if f.name.endswith(("_N_mm2", "_N_mm"))}
+        model = prepare_cut(FLAT, dataclasses.replace(COEF, **k), Z, Z, X, HALF_DOWN,
+                            _tool_2dof(), rpm, edges=EDGES)
+        spt, spr = model.steps_per_tooth, model.steps_per_rev
+        c = Cutter(spr, model.n_edges)
+        c.switch(model)
+        rng = np.random.default_rng(7)
+        disp = []
+        for _ in range(30):
+            v = None
+            if scatter:
+                v = np.repeat(1.0 + MATERIAL_SCATTER * rng.standard_normal(model.flutes), spt)
+            disp.append(c.advance(model, spr, linear=True, variation=v).displacement_m[:, :2])
+        d = np.concatenate(disp)
+        p = d[::spt][-10 * model.flutes:]          # once per tooth: 0 for a forced motion
+        return float(np.ptp(p, axis=0).max() / np.ptp(d[-spr:], axis=0).max())
+
+    assert spread(2.0, scatter=True) > 0.1
+    assert spread(0.5, scatter=True) < 10 * MATERIAL_SCATTER
