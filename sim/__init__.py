@@ -3,8 +3,8 @@ accelerometers, an NC that runs 5-axis programs behind a Modbus TCP server, and 
 controller side that watches for chatter and re-orients the tool over Modbus."""
 
 from .controller import Controller, NCClient, ProgramGeometry
+from .cutter import Cut, Cutter
 from .cutting import (
-    Cutter,
     CuttingModel,
     MillingRun,
     growth_rate,
@@ -28,6 +28,7 @@ __all__ = [
     "AccelerometerStream",
     "Accelerometers",
     "Controller",
+    "Cut",
     "Cutter",
     "CuttingModel",
     "MillingRun",

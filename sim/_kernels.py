@@ -8,9 +8,72 @@ from numba import njit
 __all__ = ["integrate"]
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _chips(i, ptr, pos, edge, h0, nrm, q, surface, out):
+    """Chips [mm] of a table's entries at rotation sample ``i`` into ``out``; their count."""
+    k = 0
+    for e in range(ptr[i], ptr[i + 1]):
+        p = pos[e]
+        j = edge[e]
+        out[k] = h0[e] + (nrm[e, 0] * (q[0] - surface[p, j, 0])
+                          + nrm[e, 1] * (q[1] - surface[p, j, 1])
+                          + nrm[e, 2] * (q[2] - surface[p, j, 2]))
+        k += 1
+    return k
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _forces(i, ptr, f0, f1, h, s, w, linear, rub, F):
+    """Adds a table's force at sample ``i`` times ``s w`` to ``F``; returns (chip sum
+    weighted by ``w``, weight of the edges in contact, entries whose chip fell to 0).
+    An edge whose chip fell to 0 but not below ``-rub`` still rubs (edge force only)."""
+    hsum = 0.0
+    wsum = 0.0
+    lost = 0
+    for k in range(ptr[i + 1] - ptr[i]):
+        e = ptr[i] + k
+        if h[k] > 0.0 or linear:
+            for a in range(3):
+                F[a] += s * w * (f0[e, a] + h[k] * f1[e, a])
+            hsum += w * h[k]
+            wsum += w
+        else:
+            lost += 1
+            if h[k] > -rub:
+                for a in range(3):
+                    F[a] += s * w * f0[e, a]
+    return hsum, wsum, lost
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _leave(i, ptr, pos, edge, h0, nrm, h, q, linear, surface, o_ptr, o_pos, o_edge, skip):
+    """Writes what a table's edges leave on the surface at sample ``i``; with ``skip``,
+    not where the other table (``o_*``) engages at this sample (it writes those)."""
+    for k in range(ptr[i + 1] - ptr[i]):
+        e = ptr[i] + k
+        p = pos[e]
+        j = edge[e]
+        if skip:
+            other = False
+            for e2 in range(o_ptr[i], o_ptr[i + 1]):
+                if o_pos[e2] == p and o_edge[e2] == j:
+                    other = True
+            if other:
+                continue
+        if h[k] > 0.0 or linear:
+            for a in range(3):
+                surface[p, j, a] = q[a]
+        else:                             # not cut: the next flute meets it
+            n2 = nrm[e, 0] ** 2 + nrm[e, 1] ** 2 + nrm[e, 2] ** 2
+            for a in range(3):
+                surface[p, j, a] -= h0[e] * nrm[e, a] / n2
+
+
 @njit(cache=True, nogil=True)
-def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d, dirs, scale,
-              mk, mc, mm, mr, tool_mode, linear, half_dt, surface, state, force, disp,
+def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1,
+              ptr_b, pos_b, edge_b, h0_b, nrm_b, f0_b, f1_b, blend,
+              phi_d, gam_d, dirs, scale,
+              mk, mc, mm, mr, tool_mode, linear, rub, half_dt, surface, state, force, disp,
               acc_tool, chip_mean, contact_loss):
     """March the cut ``n_steps`` rotation steps.
 
@@ -25,12 +88,19 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d
     place -- reads it along the new direction: the chip is
     ``h0 + nrm . (q - surface)``); where an edge did not cut, it is moved back by
     ``h0`` along the chip direction (the next flute meets the thicker chip).
+
+    A second table (``*_b``, same layout; empty: ``ptr_b`` all zero) is blended
+    in: step ``n``'s force is ``(1 - blend[n])`` times the first table's plus
+    ``blend[n]`` times the second's (a posture changing along a segment). Both
+    read the surface before either writes it; where both engage a place at a
+    step, the table with the larger weight writes it.
+
     The modes (``phi_d``, ``gam_d``: the exact step map of
     ``m eta'' + c eta' + k eta = u`` for ``u`` held over the step) are driven
     by ``u = d . F`` (``dirs`` (nm, 3)). ``scale`` (n_steps,) multiplies the
     chip widths. Fills ``force`` (n, 3) [N], ``disp`` (n, 3) [m] (relative
     displacement at the step's start), ``chip_mean`` (n,) [mm] (mean chip of the
-    edges in contact), ``contact_loss`` (n,) (entries whose chip fell to 0).
+    edges in contact, weighted), ``contact_loss`` (n,) (entries whose chip fell to 0).
     A mode's displacement is ``eta + r eta'`` (``mr`` = r [s], 0 for real modes).
     The chips use the displacement predicted at the middle of the step
     (``eta + (half_dt + r) eta'``), so the force held over the step is centred on it
@@ -44,6 +114,11 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d
     nm = dirs.shape[0]
     q = np.zeros(3)
     F = np.zeros(3)
+    most = 1
+    for i in range(spr):
+        most = max(most, ptr[i + 1] - ptr[i], ptr_b[i + 1] - ptr_b[i])
+    h_a = np.empty(most)
+    h_b = np.empty(most)
     for n in range(n_steps):
         i = (start + n) % spr
         q[0] = 0.0
@@ -56,30 +131,41 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1, phi_d, gam_d
         F[1] = 0.0
         F[2] = 0.0
         s = scale[n]
-        hsum = 0.0
-        cnt = 0
-        lost = 0
-        for e in range(ptr[i], ptr[i + 1]):
-            p = pos[e]
-            j = edge[e]
-            h = h0[e] + (nrm[e, 0] * (q[0] - surface[p, j, 0])
-                         + nrm[e, 1] * (q[1] - surface[p, j, 1])
-                         + nrm[e, 2] * (q[2] - surface[p, j, 2]))
-            if h > 0.0 or linear:
-                for a in range(3):
-                    surface[p, j, a] = q[a]
-                    F[a] += s * (f0[e, a] + h * f1[e, a])
-                hsum += h
-                cnt += 1
-            else:                             # not cut: the next flute meets it
-                n2 = nrm[e, 0] ** 2 + nrm[e, 1] ** 2 + nrm[e, 2] ** 2
-                for a in range(3):
-                    surface[p, j, a] -= h0[e] * nrm[e, a] / n2
-                lost += 1
+        w_b = blend[n]
+        w_a = 1.0 - w_b
+        _chips(i, ptr, pos, edge, h0, nrm, q, surface, h_a)
+        _chips(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, q, surface, h_b)
+        hsum, wsum, lost = 0.0, 0.0, 0
+        if w_a > 0.0:
+            hs, ws, ls = _forces(i, ptr, f0, f1, h_a, s, w_a, linear, rub, F)
+            hsum += hs
+            wsum += ws
+            lost += ls
+        if w_b > 0.0:
+            hs, ws, ls = _forces(i, ptr_b, f0_b, f1_b, h_b, s, w_b, linear, rub, F)
+            hsum += hs
+            wsum += ws
+            lost += ls
+        if w_b <= 0.0:
+            _leave(i, ptr, pos, edge, h0, nrm, h_a, q, linear, surface, ptr_b, pos_b, edge_b,
+                   False)
+        elif w_a <= 0.0:
+            _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q, linear, surface, ptr, pos,
+                   edge, False)
+        elif w_a >= w_b:
+            _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q, linear, surface, ptr, pos,
+                   edge, True)
+            _leave(i, ptr, pos, edge, h0, nrm, h_a, q, linear, surface, ptr_b, pos_b, edge_b,
+                   False)
+        else:
+            _leave(i, ptr, pos, edge, h0, nrm, h_a, q, linear, surface, ptr_b, pos_b, edge_b,
+                   True)
+            _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q, linear, surface, ptr, pos,
+                   edge, False)
         for a in range(3):
             force[n, a] = F[a]
             disp[n, a] = q[a]
-        chip_mean[n] = hsum / cnt if cnt > 0 else 0.0
+        chip_mean[n] = hsum / wsum if wsum > 0.0 else 0.0
         contact_loss[n] = lost
         for a in range(3):
             acc_tool[n, a] = 0.0

@@ -16,6 +16,23 @@ MIN_STEPS_PER_REV = 360
 MAX_STEPS_PER_REV = 20_000
 #: Micro edges on the lower envelope of the simulated tool [-].
 MICRO_EDGES_ENVELOPE = 60
+#: An edge whose chip the vibration takes to zero still rubs the surface (edge force,
+#: no chip force) until it stands off by more than this, the rounded cutting edge's
+#: radius (ground carbide ball end mills: 3-10 um) [mm]. Without it, an edge at the
+#: engagement's boundary, whose static chip is a few nanometres, switches its whole edge
+#: force on and off with sub-micrometre vibration: a relay that keeps a linearly stable
+#: cut in a limit cycle, an artefact of the micro edges' discretization.
+EDGE_RUB_MM = 0.005
+#: Chip-to-chip scatter of the cutting force: the chip widths of each tooth pass are
+#: multiplied by 1 + this times a standard normal draw (the work material's hardness and
+#: the edges' micro-geometry are never uniform) [-]. It seeds a regenerative instability
+#: as a real cut's unevenness does; without it the only seed is the discretization (the
+#: switches between cutter locations), whose size depends on the steps, so an unstable
+#: cut could stay near its periodic motion for a whole pass. 0.2 %: its own vibration
+#: on a stable cut stays far below the detector's threshold.
+MATERIAL_SCATTER = 0.002
+#: Stream of the scatter's random generator beside the sensors' (same run seed) [-].
+MATERIAL_SCATTER_STREAM = 1
 #: The chip widths are ramped from 0 to full over this many revolutions when a
 #: run starts (the tool entering the cut), so the start does not kick the
 #: structure out of the linear range [-].
@@ -47,6 +64,12 @@ BOUNDARY_RTOL = 0.01
 #: the noise of a bin (2 sigma sqrt(1.5 / N) = 0.16 m/s^2 for 3 m/s^2 rms noise
 #: and N = 2048) and below a starting chatter's first windows.
 DETECTOR_THRESHOLD_M_S2 = 5.0
+#: ... and at least this share of the strongest tooth-passing line [-]. A posture that
+#: changes along the path modulates the forced vibration: lines a few percent of the
+#: tooth-passing line's stand beside it (the bundled plan's top pass: 3 %, 11 of 355
+#: m/s^2), and the entry into the cut rings the modes once; chatter grows past the
+#: forced lines within a few windows (the CAM pass: 7, 30, 111, 296 ... 650 m/s^2).
+DETECTOR_RELATIVE_THRESHOLD = 0.05
 #: Window and hop [samples] at the accelerometers' rate: 2048 at 25.6 kHz is
 #: 80 ms (12.5 Hz bins), a verdict every 10 ms.
 DETECTOR_WINDOW_SAMPLES = 2048

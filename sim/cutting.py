@@ -37,7 +37,6 @@ highest mode at least, and at least ``MIN_STEPS_PER_REV`` per revolution.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -54,6 +53,7 @@ from orient.engagement import LocalCut, engagement
 from . import _kernels as _k
 from .constants import (
     BOUNDARY_RTOL,
+    EDGE_RUB_MM,
     GROWTH_LINEAR_FRACTION,
     GROWTH_MIN_POINTS,
     GROWTH_SKIP_REVOLUTIONS,
@@ -64,11 +64,10 @@ from .constants import (
     RAMP_REVOLUTIONS,
     STEPS_PER_MODE_PERIOD,
 )
-from .forced import engaged_cells, forced_response, mid_step_displacement
+from .forced import forced_response
 from .generation import edge_spacing_rad, generating_weights, tooth_surface
 
 __all__ = [
-    "Cutter",
     "CuttingModel",
     "MillingRun",
     "forced_response",
@@ -304,17 +303,30 @@ def with_system(model: CuttingModel, system: ModalSystem, posture_axis: Any) -> 
                         generating=model.generating)
 
 
+def empty_table(steps_per_rev: int) -> tuple:
+    """An engagement table that cuts nothing (``CuttingModel.table`` layout)."""
+    return (np.zeros(steps_per_rev + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
+            np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)),
+            np.zeros((0, 3)))
+
+
 def _integrate(model: CuttingModel, step: int, scale: np.ndarray, linear: bool,
                surface: np.ndarray, state: np.ndarray, force: np.ndarray, disp: np.ndarray,
-               acc: np.ndarray, chip: np.ndarray, lost: np.ndarray) -> None:
+               acc: np.ndarray, chip: np.ndarray, lost: np.ndarray,
+               previous: tuple | None = None, blend: np.ndarray | None = None) -> None:
     """The kernel over ``scale.size`` steps from step ``step`` (its rotation sample), with
-    the model's table, modes and step map; ``surface`` and ``state`` carry in and out."""
+    the model's table, modes and step map; ``surface`` and ``state`` carry in and out.
+    ``previous`` (a table) is blended in with weight ``blend`` (per step)."""
     sysm = model.system
     phi_d, gam_d = model.step_map
-    _k.integrate(step % model.steps_per_rev, scale.size, model.steps_per_rev, *model.table,
+    spr = model.steps_per_rev
+    if previous is None:
+        previous, blend = empty_table(spr), np.zeros(scale.size)
+    _k.integrate(step % spr, scale.size, spr, *model.table, *previous, blend,
                  phi_d, gam_d, np.ascontiguousarray(sysm.direction), scale, sysm.k_N_m,
                  sysm.c_Ns_m, sysm.m_kg, sysm.velocity_s, np.asarray(sysm.source == "tool"),
-                 bool(linear), 0.5 * model.dt_s, surface, state, force, disp, acc, chip, lost)
+                 bool(linear), EDGE_RUB_MM, 0.5 * model.dt_s, surface, state, force, disp, acc,
+                 chip, lost)
 
 
 def simulate(model: CuttingModel, revolutions: float, *, scale: Any = 1.0,
@@ -456,122 +468,3 @@ def stability_boundary(model: CuttingModel, lo: float, hi: float, *, revolutions
         else:
             hi = mid
     return 0.5 * (lo + hi)
-
-
-class Cutter:
-    """A cut that goes on across changes of the cutting model (the NC moving on).
-
-    Keeps the modal state, the surface memory and the rotation sample between
-    calls of :meth:`advance`, so a run can be cut into servo ticks and the
-    model swapped when the cutter location or the posture changes (same
-    ``steps_per_rev`` and micro edges; when the number of modes changes, the
-    state of the modes kept by index is carried and new ones start at rest).
-
-    Parameters
-    ----------
-    steps_per_rev : int
-        Rotation steps per revolution of every model used.
-    n_edges : int
-        Micro edges per flute of every model used.
-    """
-
-    def __init__(self, steps_per_rev: int, n_edges: int) -> None:
-        self.steps_per_rev = int(steps_per_rev)
-        self.n_edges = int(n_edges)
-        self.surface = np.zeros((self.steps_per_rev, self.n_edges, 3))
-        self.state = np.zeros((0, 2))
-        self.step = 0
-        self.time_s = 0.0
-        self._forced_of: CuttingModel | None = None
-        self._forced_x = np.zeros((0, 0, 2))
-
-    def switch(self, old: CuttingModel | None, new: CuttingModel | None,
-               carry: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
-        """Leave the cut ``old`` and take ``new`` (None: not cutting) as a machine
-        would, whose posture and cutting point move continuously.
-
-        The state moves by the change of the forced response
-        (:func:`forced_response`) at the current step, ``carry`` (optional) in
-        between maps it to ``new``'s modes. The surface memory: a place both cuts
-        engage keeps what the vibration beyond the forced response left on it; a
-        place only ``new`` engages is as ``new``'s forced response leaves it
-        (what the tool would have left, had it been cutting so already)."""
-        p = self.step % self.steps_per_rev
-        q_old = None
-        if old is not None:
-            x = self._forced(old)
-            self._check_modes(old)
-            self.state = self.state - x[p]
-            q_old = mid_step_displacement(old, x)
-        if carry is not None:
-            self.state = carry(self.state)
-        if new is None:
-            return
-        x = self._forced(new)
-        self._check_modes(new)
-        self.state = self.state + x[p]
-        q_new = mid_step_displacement(new, x)
-        on_new = engaged_cells(new, self.n_edges)
-        if old is not None:                  # both engage it: the vibration's imprint stays
-            both = on_new & engaged_cells(old, self.n_edges)
-            self.surface[both] += (q_new - q_old)[both.nonzero()[0]]
-            on_new &= ~both
-        self.surface[on_new] = q_new[on_new.nonzero()[0]]    # only the new cut engages it
-
-    def _forced(self, model: CuttingModel) -> np.ndarray:
-        """:func:`forced_response` of ``model``, kept for the cut last taken (it is left
-        at the next switch)."""
-        if self._forced_of is not model:
-            self._forced_of, self._forced_x = model, forced_response(model)
-        return self._forced_x
-
-    def _check_modes(self, model: CuttingModel) -> None:
-        if self.state.shape[0] == 0:                   # at rest before the first cut
-            self.state = np.zeros((model.system.n_modes, 2))
-        if self.state.shape[0] != model.system.n_modes:
-            raise ValueError(f"state: expected {model.system.n_modes} modes, got "
-                             f"{self.state.shape[0]}")
-
-    def advance(self, model: CuttingModel, n_steps: int, scale: float = 1.0, *,
-                linear: bool = False) -> MillingRun:
-        """Cut ``n_steps`` steps with ``model`` (its table, modes and step) from where
-        the last call stopped; returns that stretch (``modal_state`` empty,
-        ``surface_offset_mm`` at the generating phase of each tooth within it)."""
-        if model.steps_per_rev != self.steps_per_rev or model.n_edges != self.n_edges:
-            raise ValueError(f"model: expected {self.steps_per_rev} steps per revolution and "
-                             f"{self.n_edges} micro edges, got {model.steps_per_rev} and "
-                             f"{model.n_edges}")
-        n = int(n_steps)
-        s = real_number("scale", scale, ">=0")
-        nm = model.system.n_modes
-        if self.state.shape[0] != nm:
-            st = np.zeros((nm, 2))
-            k = min(nm, self.state.shape[0])
-            st[:k] = self.state[:k]
-            self.state = st
-        force = np.empty((n, 3))
-        disp = np.empty((n, 3))
-        acc = np.empty((n, 3))
-        chip = np.empty(n)
-        lost = np.empty(n, dtype=np.int64)
-        _integrate(model, self.step, np.full(n, s), linear, self.surface, self.state, force,
-                   disp, acc, chip, lost)
-        t = self.time_s + np.arange(n) * model.dt_s
-        surf = tooth_surface(disp, model, self.step)
-        self.step += n
-        self.time_s += n * model.dt_s
-        return MillingRun(time_s=t, force_N=force, displacement_m=disp,
-                          tool_acceleration_m_s2=acc, modal_state=np.zeros((0, nm, 2)),
-                          chip_mean_mm=chip, contact_loss=lost, surface_offset_mm=surf, scale=s)
-
-    def idle(self, dt_s: float, n_steps: int, system: ModalSystem) -> MillingRun:
-        """Advance without cutting (the modes ring down; no force), ``dt_s`` [s] per step."""
-        spr = self.steps_per_rev
-        empty = (np.zeros(spr + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
-                 np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)),
-                 np.zeros((0, 3)))
-        model = CuttingModel(spindle_rpm=60.0 / (dt_s * spr), flutes=1, steps_per_rev=spr,
-                             dt_s=dt_s, system=system, normal=np.array([0.0, 0.0, 1.0]),
-                             fz_mm=0.0, table=empty, n_edges=self.n_edges,
-                             step_map=_step_map(system, dt_s), generating=np.zeros(spr))
-        return self.advance(model, n_steps, 0.0)

@@ -94,11 +94,13 @@ def generating_weights(table: tuple, steps_per_rev: int, flutes: int, normal: np
     return w / w.sum()
 
 
-def tooth_surface(disp_m: np.ndarray, model: CuttingModel, first_step: int) -> np.ndarray:
+def tooth_surface(disp_m: np.ndarray, model: CuttingModel, first_step: int,
+                  generating: np.ndarray | None = None) -> np.ndarray:
     """The generated surface's offset per tooth [mm]: the relative displacement along the
-    normal, averaged over the rotation samples that generate it (``model.generating``),
-    for the teeth whose samples lie mostly within this stretch of steps."""
-    w_tooth = model.generating
+    normal, averaged over the rotation samples that generate it (``generating``, default
+    ``model.generating``), for the teeth whose samples lie mostly within this stretch of
+    steps."""
+    w_tooth = model.generating if generating is None else generating
     n = disp_m.shape[0]
     if n == 0 or not w_tooth.any():
         return np.zeros(0)

@@ -8,10 +8,13 @@ ball centre kept) is taken only after it is checked at the current and the
 next ``LOOKAHEAD_POINTS`` cutter locations against the axis limits (nc's
 kinematics) and shank/holder interference (orient's FCL checker); otherwise it
 is refused and the offset in effect stays. Where the ball touches the design,
-the cutting simulation (:mod:`sim.cutting`) runs with the local cut of that
-cutter location and the posture in effect (the model is rebuilt when the
-cutter location or the posture changes, the vibration and the surface memory
-carry on); elsewhere the modes ring down. The tool's acceleration goes to the
+the cutting simulation (:mod:`sim.cutting`) runs with the local cut and the
+posture in effect: along the segment into a cutter location the force goes
+linearly from the previous cutter location's engagement to this one's (the
+posture changes continuously, :class:`sim.cutter.Cut`; a tick is split where
+it passes a cutter location), with the dynamics at the cutter location (the
+wall's modes there); the vibration and the surface memory carry on across
+every change (:meth:`sim.cutter.Cutter.switch`). Elsewhere the modes ring down. The tool's acceleration goes to the
 two accelerometers (:class:`sim.sensors.AccelerometerStream`).
 
 The NC does no I/O: the Modbus server (:mod:`sim.server`) reads its state and
@@ -20,6 +23,7 @@ passes the commands.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -36,12 +40,15 @@ from orient.workpiece import WorkpieceModel
 
 from .constants import (
     LOOKAHEAD_POINTS,
+    MATERIAL_SCATTER,
+    MATERIAL_SCATTER_STREAM,
     MICRO_EDGES_ENVELOPE,
     MODEL_CACHE,
     RAPID_MM_MIN,
     TICK_S,
 )
-from .cutting import Cutter, prepare_cut, steps_per_rev_for, with_system
+from .cutter import Cut, Cutter
+from .cutting import CuttingModel, prepare_cut, steps_per_rev_for, with_system
 from .program import PartProgram
 from .registers import ACK, STATUS
 from .sensors import Accelerometers, AccelerometerStream
@@ -141,7 +148,8 @@ class SimulatedNC:
         Run only the cutter locations ``first .. last`` (indices into the
         program's cutter locations) instead of the whole program.
     seed : int
-        Sensor noise seed.
+        Seed of the sensor noise and of the work material's scatter
+        (``sim.constants.MATERIAL_SCATTER``).
     workpiece : orient.workpiece.WorkpieceModel, optional
         A workpiece model already built for this scenario (its finite elements
         take seconds); default: built here.
@@ -173,6 +181,8 @@ class SimulatedNC:
         self.cutter = Cutter(self.steps_per_rev, len(self.edges))
         self.sensors = sensors if sensors is not None else Accelerometers()
         self.stream = AccelerometerStream(self.sensors, self.dt_s, seed=seed)
+        self._scatter = np.random.default_rng([MATERIAL_SCATTER_STREAM, seed])
+        self._scatter_tooth, self._scatter_now = -1, 1.0
         opt = scn.options
         self.checker = InterferenceChecker(
             stock_mesh(scn, design), ToolAssembly.from_tool(self.tool,
@@ -187,7 +197,6 @@ class SimulatedNC:
         self._current, self._current_key = None, None
         self._shapes: dict[int, tuple] = {}
         self._shape_now = NO_WALL
-        self._cut_now = None
         self._joints = solve_path(self.machine, self.cam.tip[first:first + 1],
                                   self.cam.axis[first:first + 1]).joints[0]
         self.state.joints = self._joints.copy()
@@ -250,33 +259,84 @@ class SimulatedNC:
             tips[t] = self.contacts.centre[r] - self.tool.radius_mm * u
         return tips, axes
 
-    def _model(self, i: int):
-        """Cutting model at cutter location ``i`` with the offset in effect. The
-        engagement depends only on the posture relative to the local frame, the
-        local frame and the cut, so it is shared by the cutter locations of a pass
-        (cached); the dynamics (wall modes at the point) are set per location."""
+    def _key(self, i: int) -> tuple:
+        """What the engagement at cutter location ``i`` depends on, with the offset in
+        effect: posture relative to the local frame, the local frame, the cut."""
         lead = float(self.cam_lead[i]) + math.radians(self.state.lead_offset_deg)
         tilt = float(self.cam_tilt[i]) + math.radians(self.state.tilt_offset_deg)
         n, f = self.contacts.normal[i], self.contacts.feed[i]
-        key = (round(lead, 5), round(tilt, 5), tuple(np.round(n, 6)), tuple(np.round(f, 6)),
-               tuple(np.round(self.cuts[i].row(), 9)))
-        if (i, key) == self._current_key:
-            return self._current
+        return (round(lead, 5), round(tilt, 5), tuple(np.round(n, 6)), tuple(np.round(f, 6)),
+                tuple(np.round(self.cuts[i].row(), 9)))
+
+    def _base(self, i: int, key: tuple):
+        """The engagement at cutter location ``i`` (cached by ``key``: shared by the
+        cutter locations of a pass) and the tool axis there."""
+        lead, tilt = key[0], key[1]
+        n, f = self.contacts.normal[i], self.contacts.feed[i]
         u = posture_axis(n, f, lead, tilt)
-        system = self.workpiece.system_at(self.tool_system, self.contacts.point[i])
         if key in self._models:
             self._models.move_to_end(key)
-            base = self._models[key]
-        else:
-            base = prepare_cut(self.tool, self.scn.base.coefficients, u, n, f, self.cuts[i],
-                               system, self.rpm, edges=self.edges,
-                               steps_per_rev=self.steps_per_rev)
-            self._models[key] = base
-            if len(self._models) > MODEL_CACHE:
-                self._models.popitem(last=False)
-        self._current = with_system(base, system, u)
-        self._current_key = (i, key)
+            return self._models[key], u
+        system = self.workpiece.system_at(self.tool_system, self.contacts.point[i])
+        base = prepare_cut(self.tool, self.scn.base.coefficients, u, n, f, self.cuts[i],
+                           system, self.rpm, edges=self.edges, steps_per_rev=self.steps_per_rev)
+        self._models[key] = base
+        if len(self._models) > MODEL_CACHE:
+            self._models.popitem(last=False)
+        return base, u
+
+    def _model(self, i: int) -> tuple[CuttingModel, CuttingModel | None]:
+        """Cutting model on the segment into cutter location ``i`` with the offset in
+        effect: ``i``'s engagement with the dynamics at ``i`` (the wall modes at the
+        point), and the engagement of the cutter location before it with the same
+        dynamics (None where the tool was not cutting there, or the engagement is the
+        same), which the segment blends from (:class:`sim.cutter.Cut`)."""
+        key = self._key(i)
+        prev_key = None
+        j = i - 1
+        if j >= self.first and self.contacts.touching[j] and j in self.cuts \
+                and not self.cam.rapid[i]:
+            prev_key = self._key(j)
+            if prev_key == key:
+                prev_key = None
+        if (i, key, prev_key) != self._current_key:
+            base, u = self._base(i, key)
+            system = self.workpiece.system_at(self.tool_system, self.contacts.point[i])
+            model = with_system(base, system, u)
+            start = None
+            if prev_key is not None:
+                before, _ = self._base(j, prev_key)
+                start = dataclasses.replace(model, table=before.table,
+                                            generating=before.generating)
+            self._current = (model, start)
+            self._current_key = (i, key, prev_key)
         return self._current
+
+    def _weight(self, i: int, s: float) -> float:
+        """Share of cutter location ``i``'s engagement at arc length ``s`` [mm] on the
+        segment into it (0 at the one before, 1 at ``i``)."""
+        a, b = self.arc[max(i - 1, 0)], self.arc[i]
+        if i <= self.first or b <= a:
+            return 1.0
+        return min(max((s - a) / (b - a), 0.0), 1.0)
+
+    def _pieces(self, s0: float, s1: float, n: int) -> list[tuple[int, int, float, float]]:
+        """The tick's ``n`` steps from arc length ``s0`` to ``s1`` split where it passes a
+        cutter location: ``(i, steps, weight at start, weight at end)`` per segment."""
+        if s1 <= s0:
+            i = self.point_index()
+            w = self._weight(i, s1)
+            return [(i, n, w, w)]
+        inner = self.arc[(self.arc > s0) & (self.arc < s1)]
+        marks = np.concatenate([[s0], inner, [s1]])
+        steps = np.round(n * (marks - s0) / (s1 - s0)).astype(int)
+        out = []
+        for a, b, ka, kb in zip(marks[:-1], marks[1:], steps[:-1], steps[1:]):
+            if kb > ka:
+                i = min(max(int(np.searchsorted(self.arc, 0.5 * (a + b), side="right")),
+                            self.first), self.last)
+                out.append((i, int(kb - ka), self._weight(i, a), self._weight(i, b)))
+        return out
 
     @property
     def done(self) -> bool:
@@ -290,6 +350,7 @@ class SimulatedNC:
         SensorSignals
         """
         st = self.state
+        s0 = self.s
         if self.done:
             st.status = STATUS["finished"]
         else:
@@ -300,13 +361,31 @@ class SimulatedNC:
             self.s = min(self.s + feed * st.feed_override_pct / 100.0 / 60.0 * dt_s,
                          self.arc[self.last])
             st.block = int(self.cam.block[i])
-        i = self.point_index()
         n = max(1, round((st.time_s + dt_s - self.cutter.time_s) / self.dt_s))
-        touching = (not self.done) and bool(self.contacts.touching[i]) and i in self.cuts
-        model = self._model(i) if touching and st.feed_override_pct > 0 else None
-        self._switch(i, model)
-        if model is not None:
-            run = self.cutter.advance(model, n)
+        times, accel = [], []
+        for i, k, w0, w1 in self._pieces(s0, self.s, n):
+            run, touching = self._run(i, k, w0, w1, self.s > s0)
+            times.append(run.time_s)
+            accel.append(run.tool_acceleration_m_s2)
+        st.cutting = int(touching)
+        st.time_s = self.cutter.time_s
+        return self.stream.push(np.concatenate(times), np.concatenate(accel))
+
+    def _run(self, i: int, n: int, w0: float, w1: float, moving: bool):
+        """``n`` steps on the segment into cutter location ``i`` (weights ``w0`` to ``w1``
+        of its engagement); the run and whether the tool is in the cut (at the end of
+        the program it is not, unless this tick moved it there)."""
+        st = self.state
+        touching = (moving or not self.done) and bool(self.contacts.touching[i]) \
+            and i in self.cuts
+        cut = None
+        if touching and st.feed_override_pct > 0:
+            model, start = self._model(i)
+            cut = Cut(model, start, w0)
+        self._switch(i, cut)
+        if cut is not None:
+            run = self.cutter.advance(cut.model, n, previous=cut.previous, weight=(w0, w1),
+                                      variation=self._variation(n))
             if run.surface_offset_mm.size:
                 k = run.surface_offset_mm.size
                 self.surface.time_s.extend(np.linspace(run.time_s[0], run.time_s[-1], k))
@@ -318,27 +397,42 @@ class SimulatedNC:
             system = self.workpiece.system_at(self.tool_system, self.contacts.point[i]) \
                 if self.contacts.touching[i] else self.tool_system
             run = self.cutter.idle(self.dt_s, n, system)
-        st.cutting = int(touching)
-        st.time_s = self.cutter.time_s
-        return self.stream.push(run.time_s, run.tool_acceleration_m_s2)
+        return run, touching
 
-    def _switch(self, i: int, model) -> None:
-        """Take the cut of cutter location ``i`` (``model``; None: not cutting) as a
-        machine would, moving continuously: the vibration goes on in the workpiece's
+    def _variation(self, n: int) -> np.ndarray:
+        """Chip-width factors of the next ``n`` steps: one draw per tooth pass, held over
+        it (``sim.constants.MATERIAL_SCATTER``; the same pass keeps its draw across
+        ticks)."""
+        spt = self.steps_per_rev // self.tool.flutes
+        tooth = (self.cutter.step + np.arange(n)) // spt
+        first, last = int(tooth[0]), int(tooth[-1])
+        held = first <= self._scatter_tooth          # the stretch goes on with a pass drawn
+        start = first + 1 if held else first
+        draws = 1.0 + MATERIAL_SCATTER * self._scatter.standard_normal(max(last - start + 1, 0))
+        values = np.maximum(draws, 0.0)
+        if held:
+            values = np.concatenate([[self._scatter_now], values])
+        self._scatter_tooth, self._scatter_now = last, float(values[-1])
+        return values[tooth - first]
+
+    def _switch(self, i: int, cut: Cut | None) -> None:
+        """Take ``cut`` on the segment into cutter location ``i`` (None: not cutting) as
+        a machine would, moving continuously: the vibration goes on in the workpiece's
         modes at the new point (:func:`carry_wall_state`) and follows the change of
-        the cut's forced response (:meth:`sim.cutting.Cutter.switch`)."""
+        the cut's forced response (:meth:`sim.cutter.Cutter.switch`)."""
         if not self.contacts.touching[i]:
             shape = NO_WALL
         else:
             if i not in self._shapes:
                 self._shapes[i] = self.workpiece.shape_at(self.contacts.point[i])
             shape = self._shapes[i]
-        if shape is self._shape_now and model is self._cut_now:
+        now = self.cutter.cut
+        if shape is self._shape_now and (cut is None and now is None
+                                         or cut is not None and cut.same_as(now)):
             return
         n_tool, before = self.tool_system.n_modes, self._shape_now
-        self.cutter.switch(self._cut_now, model,
-                           lambda st: carry_wall_state(st, n_tool, before, shape))
-        self._shape_now, self._cut_now = shape, model
+        self.cutter.switch(cut, lambda x: carry_wall_state(x, n_tool, before, shape))
+        self._shape_now = shape
 
     def update_joints(self) -> None:
         """Machine joints of the current posture (for the display; costs a kinematic solve)."""

@@ -34,6 +34,7 @@ from orient.detect import DetectorSettings
 from .constants import (
     DETECTOR_HARMONIC_BASE,
     DETECTOR_HOP_SAMPLES,
+    DETECTOR_RELATIVE_THRESHOLD,
     DETECTOR_THRESHOLD_M_S2,
     DETECTOR_WINDOW_SAMPLES,
 )
@@ -286,7 +287,9 @@ def detector_settings(sensors: Accelerometers, **overrides: Any) -> DetectorSett
     **overrides
         Fields of :class:`orient.detect.DetectorSettings` to change.
     """
-    kw = {"threshold": DETECTOR_THRESHOLD_M_S2, "window_samples": DETECTOR_WINDOW_SAMPLES,
+    kw = {"threshold": DETECTOR_THRESHOLD_M_S2,
+          "relative_threshold": DETECTOR_RELATIVE_THRESHOLD,
+          "window_samples": DETECTOR_WINDOW_SAMPLES,
           "hop_samples": DETECTOR_HOP_SAMPLES, "harmonic_base": DETECTOR_HARMONIC_BASE}
     kw.update(overrides)
     return DetectorSettings(sensors.sample_rate_hz, **kw)

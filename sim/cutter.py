@@ -1,0 +1,235 @@
+"""A cut that goes on while the NC moves: the cutting model changes, the vibration and
+the surface memory carry on (``docs/method.md`` §8).
+
+Along a segment of the path the posture changes continuously from one cutter
+location's to the next's; the simulation has the engagement (its table) at
+the cutter locations, so along the segment it blends the two tables' forces
+(:class:`Cut`). Where the dynamics change (the workpiece's modes at the next
+point), :meth:`Cutter.switch` moves the state by the change of the cut's
+periodic forced response (:mod:`sim.forced`), so the change does not ring the
+modes like a hammer blow, which no machine does.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+
+from nc.checks import real_number
+from orient.dynamics import ModalSystem
+
+from .cutting import CuttingModel, MillingRun, _integrate, _step_map, empty_table
+from .forced import engaged_cells, forced_response, mid_step_displacement
+from .generation import tooth_surface
+
+__all__ = ["Cut", "Cutter"]
+
+#: Forced responses kept by the cutter (the cuts of the segment in hand and the next) [-].
+_FORCED_CACHE = 4
+
+
+class Cut(NamedTuple):
+    """The cut in effect at an instant: ``weight`` of ``model``'s force and ``1 - weight``
+    of ``previous``'s (the posture between two cutter locations).
+
+    Attributes
+    ----------
+    model : CuttingModel
+    previous : CuttingModel or None
+        Another table with ``model``'s dynamics (the same ``system`` object);
+        None: ``model`` alone.
+    weight : float [-]
+        In [0, 1].
+    """
+
+    model: CuttingModel
+    previous: CuttingModel | None = None
+    weight: float = 1.0
+
+    def parts(self) -> list[tuple[CuttingModel, float]]:
+        """The models with a share of the force, and their shares."""
+        if self.previous is None:
+            return [(self.model, 1.0)]
+        out = [(self.model, self.weight), (self.previous, 1.0 - self.weight)]
+        return [(m, w) for m, w in out if w > 0.0]
+
+    def same_as(self, other: Cut | None) -> bool:
+        return other is not None and self.model is other.model \
+            and self.previous is other.previous \
+            and (self.previous is None or abs(self.weight - other.weight) < 1e-12)
+
+
+def _as_cut(cut: Cut | CuttingModel | None) -> Cut | None:
+    return Cut(cut) if isinstance(cut, CuttingModel) else cut
+
+
+class Cutter:
+    """A cut that goes on across changes of the cutting model (the NC moving on).
+
+    Keeps the modal state, the surface memory and the rotation sample between
+    calls of :meth:`advance`, so a run can be cut into servo ticks and the
+    model swapped when the cutter location or the posture changes (same
+    ``steps_per_rev`` and micro edges; when the number of modes changes, the
+    state of the modes kept by index is carried and new ones start at rest).
+
+    Parameters
+    ----------
+    steps_per_rev : int
+        Rotation steps per revolution of every model used.
+    n_edges : int
+        Micro edges per flute of every model used.
+    """
+
+    def __init__(self, steps_per_rev: int, n_edges: int) -> None:
+        self.steps_per_rev = int(steps_per_rev)
+        self.n_edges = int(n_edges)
+        self.surface = np.zeros((self.steps_per_rev, self.n_edges, 3))
+        self.state = np.zeros((0, 2))
+        self.step = 0
+        self.time_s = 0.0
+        #: The cut in effect after the last :meth:`advance` or :meth:`switch` (None: idle).
+        self.cut: Cut | None = None
+        self._forced_cache: OrderedDict = OrderedDict()
+
+    def switch(self, new: Cut | CuttingModel | None,
+               carry: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+        """Leave the cut in effect and take ``new`` (None: not cutting) as a machine
+        would, whose posture and cutting point move continuously.
+
+        The state moves by the change of the forced response
+        (:func:`sim.forced.forced_response`) at the current step, ``carry``
+        (optional) in between maps it to ``new``'s modes. The surface memory: a
+        place both cuts engage keeps what the vibration beyond the forced
+        response left on it; a place only ``new`` engages is as ``new``'s forced
+        response leaves it (what the tool would have left, had it been cutting so
+        already)."""
+        old, new = self.cut, _as_cut(new)
+        p = self.step % self.steps_per_rev
+        q_old = None
+        if old is not None:
+            x = self._forced(old)
+            self._check_modes(old.model)
+            self.state = self.state - x[p]
+            q_old = mid_step_displacement(old.model, x)
+        if carry is not None:
+            self.state = carry(self.state)
+        self.cut = new
+        if new is None:
+            return
+        x = self._forced(new)
+        self._check_modes(new.model)
+        self.state = self.state + x[p]
+        q_new = mid_step_displacement(new.model, x)
+        on_new = self._engaged(new)
+        if old is not None:                  # both engage it: the vibration's imprint stays
+            both = on_new & self._engaged(old)
+            self.surface[both] += (q_new - q_old)[both.nonzero()[0]]
+            on_new &= ~both
+        self.surface[on_new] = q_new[on_new.nonzero()[0]]    # only the new cut engages it
+
+    def _engaged(self, cut: Cut) -> np.ndarray:
+        out = np.zeros((self.steps_per_rev, self.n_edges), bool)
+        for m, _w in cut.parts():
+            out |= engaged_cells(m, self.n_edges)
+        return out
+
+    def _forced(self, cut: Cut) -> np.ndarray:
+        """The forced response of ``cut``: the weighted sum of its models' (the same
+        dynamics), each kept for the next cuts (a segment's end is the next one's
+        start)."""
+        total = 0.0
+        for m, w in cut.parts():
+            hit = self._forced_cache.get(id(m))
+            if hit is None or hit[0] is not m:
+                hit = (m, forced_response(m))
+                self._forced_cache[id(m)] = hit
+                if len(self._forced_cache) > _FORCED_CACHE:
+                    self._forced_cache.popitem(last=False)
+            else:
+                self._forced_cache.move_to_end(id(m))
+            total = total + w * hit[1]
+        return total
+
+    def _check_modes(self, model: CuttingModel) -> None:
+        if self.state.shape[0] == 0:                   # at rest before the first cut
+            self.state = np.zeros((model.system.n_modes, 2))
+        if self.state.shape[0] != model.system.n_modes:
+            raise ValueError(f"state: expected {model.system.n_modes} modes, got "
+                             f"{self.state.shape[0]}")
+
+    def advance(self, model: CuttingModel, n_steps: int, scale: float = 1.0, *,
+                linear: bool = False, previous: CuttingModel | None = None,
+                weight: tuple[float, float] = (1.0, 1.0),
+                variation: np.ndarray | None = None) -> MillingRun:
+        """Cut ``n_steps`` steps with ``model`` (its table, modes and step) from where
+        the last call stopped; returns that stretch (``modal_state`` empty,
+        ``surface_offset_mm`` at the generating phase of each tooth within it).
+
+        With ``previous`` (a table with ``model``'s dynamics, see :class:`Cut`), the
+        force is blended: ``model``'s share goes linearly from ``weight[0]`` at
+        the start of the stretch to ``weight[1]`` at its end, ``previous`` has the
+        rest. ``variation`` (``n_steps``,) [-], optional, multiplies the chip widths step
+        by step (the work material's scatter, ``sim.constants.MATERIAL_SCATTER``)."""
+        for m in (model, previous):
+            if m is not None and (m.steps_per_rev != self.steps_per_rev
+                                  or m.n_edges != self.n_edges):
+                raise ValueError(f"model: expected {self.steps_per_rev} steps per revolution "
+                                 f"and {self.n_edges} micro edges, got {m.steps_per_rev} and "
+                                 f"{m.n_edges}")
+        if previous is not None and previous.system is not model.system:
+            raise ValueError("previous: expected a table with the model's dynamics "
+                             "(the same system)")
+        n = int(n_steps)
+        s = real_number("scale", scale, ">=0")
+        widths = np.full(n, s)
+        if variation is not None:
+            v = np.asarray(variation, dtype=float)
+            if v.shape != (n,) or not np.all(v >= 0.0):
+                raise ValueError(f"variation: expected {n} values >= 0, got shape {v.shape}")
+            widths = widths * v
+        w0, w1 = (real_number("weight", w, ">=0") for w in weight)
+        if w0 > 1.0 or w1 > 1.0:
+            raise ValueError(f"weight: expected values in [0, 1], got {weight!r}")
+        nm = model.system.n_modes
+        if self.state.shape[0] != nm:
+            st = np.zeros((nm, 2))
+            k = min(nm, self.state.shape[0])
+            st[:k] = self.state[:k]
+            self.state = st
+        force = np.empty((n, 3))
+        disp = np.empty((n, 3))
+        acc = np.empty((n, 3))
+        chip = np.empty(n)
+        lost = np.empty(n, dtype=np.int64)
+        generating = None
+        if previous is None:
+            _integrate(model, self.step, widths, linear, self.surface, self.state,
+                       force, disp, acc, chip, lost)
+        else:
+            w = w0 + (w1 - w0) * (np.arange(n) + 0.5) / max(n, 1)
+            _integrate(model, self.step, widths, linear, self.surface, self.state,
+                       force, disp, acc, chip, lost, previous.table, 1.0 - w)
+            wm = 0.5 * (w0 + w1)
+            generating = wm * model.generating + (1.0 - wm) * previous.generating
+        t = self.time_s + np.arange(n) * model.dt_s
+        surf = tooth_surface(disp, model, self.step, generating)
+        self.step += n
+        self.time_s += n * model.dt_s
+        self.cut = Cut(model, previous, w1)
+        return MillingRun(time_s=t, force_N=force, displacement_m=disp,
+                          tool_acceleration_m_s2=acc, modal_state=np.zeros((0, nm, 2)),
+                          chip_mean_mm=chip, contact_loss=lost, surface_offset_mm=surf, scale=s)
+
+    def idle(self, dt_s: float, n_steps: int, system: ModalSystem) -> MillingRun:
+        """Advance without cutting (the modes ring down; no force), ``dt_s`` [s] per step."""
+        spr = self.steps_per_rev
+        model = CuttingModel(spindle_rpm=60.0 / (dt_s * spr), flutes=1, steps_per_rev=spr,
+                             dt_s=dt_s, system=system, normal=np.array([0.0, 0.0, 1.0]),
+                             fz_mm=0.0, table=empty_table(spr), n_edges=self.n_edges,
+                             step_map=_step_map(system, dt_s), generating=np.zeros(spr))
+        run = self.advance(model, n_steps, 0.0)
+        self.cut = None
+        return run
