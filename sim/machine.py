@@ -194,7 +194,7 @@ class SimulatedNC:
         self.state = NCState(spindle_rpm=self.rpm)
         self.surface = SurfaceRecord()
         self._models: OrderedDict = OrderedDict()
-        self._current, self._current_key = None, None
+        self._current, self._current_key, self._current_at = None, None, None
         self._shapes: dict[int, tuple] = {}
         self._shape_now = NO_WALL
         self._joints = solve_path(self.machine, self.cam.tip[first:first + 1],
@@ -268,16 +268,16 @@ class SimulatedNC:
         return (round(lead, 5), round(tilt, 5), tuple(np.round(n, 6)), tuple(np.round(f, 6)),
                 tuple(np.round(self.cuts[i].row(), 9)))
 
-    def _base(self, i: int, key: tuple):
+    def _base(self, i: int, key: tuple, system: ModalSystem):
         """The engagement at cutter location ``i`` (cached by ``key``: shared by the
-        cutter locations of a pass) and the tool axis there."""
+        cutter locations of a pass; built with ``system``, which the engagement does
+        not depend on) and the tool axis there."""
         lead, tilt = key[0], key[1]
         n, f = self.contacts.normal[i], self.contacts.feed[i]
         u = posture_axis(n, f, lead, tilt)
         if key in self._models:
             self._models.move_to_end(key)
             return self._models[key], u
-        system = self.workpiece.system_at(self.tool_system, self.contacts.point[i])
         base = prepare_cut(self.tool, self.scn.base.coefficients, u, n, f, self.cuts[i],
                            system, self.rpm, edges=self.edges, steps_per_rev=self.steps_per_rev)
         self._models[key] = base
@@ -291,6 +291,10 @@ class SimulatedNC:
         point), and the engagement of the cutter location before it with the same
         dynamics (None where the tool was not cutting there, or the engagement is the
         same), which the segment blends from (:class:`sim.cutter.Cut`)."""
+        at = (i, self.state.lead_offset_deg, self.state.tilt_offset_deg)
+        if at == self._current_at:         # the keys depend on nothing else
+            return self._current
+        self._current_at = at
         key = self._key(i)
         prev_key = None
         j = i - 1
@@ -300,12 +304,12 @@ class SimulatedNC:
             if prev_key == key:
                 prev_key = None
         if (i, key, prev_key) != self._current_key:
-            base, u = self._base(i, key)
             system = self.workpiece.system_at(self.tool_system, self.contacts.point[i])
+            base, u = self._base(i, key, system)
             model = with_system(base, system, u)
             start = None
             if prev_key is not None:
-                before, _ = self._base(j, prev_key)
+                before, _ = self._base(j, prev_key, system)
                 start = dataclasses.replace(model, table=before.table,
                                             generating=before.generating)
             self._current = (model, start)
