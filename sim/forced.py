@@ -24,7 +24,7 @@ def forced_response(model: CuttingModel, scale: float = 1.0) -> np.ndarray:
     against the modes' periods, so its vibration follows the cut's forced
     response (where the cut is stable, regeneration leaves a tooth-periodic
     response as it is). The simulation changes its cut per cutter location;
-    :meth:`sim.cutting.Cutter.switch` moves the state by the change of this response when it
+    :meth:`sim.cutter.Cutter.switch` moves the state by the change of this response when it
     does, so the change does not ring the modes like a hammer blow, which no
     machine does."""
     ptr, _pos, _e, h0, _nrm, f0, f1 = model.table
