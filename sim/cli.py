@@ -311,7 +311,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--log", default=None, help="write the controller's log (JSON) here")
     c.set_defaults(func=_cmd_controller)
 
-    from .job_cli import add_job_arguments, run as run_job
+    from .job_cli import add_job_arguments
+    from .job_cli import run as run_job
 
     j = sub.add_parser("job", help="the main job: plan, correct, write and verify a CAM program "
                                    "(as python -m orient plan)")

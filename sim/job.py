@@ -115,7 +115,7 @@ class JobResult:
             "margin_above_1_where_cutting": bool(np.all(self.plan.margin[idx] > 1.0)),
             "no_collisions": self.collisions == 0,
             "round_trip_within_1um": self.round_trip[0] <= 1e-3,
-            "no_chatter_in_simulation": self.verify_final.chatter_windows == 0,
+            "no_chatter_in_simulation": self.verify_final.sustained_chatter == 0,
             "surface_error_reduced_to_25pct": self.surface_ratio <= JOB_SURFACE_RATIO,
         }
 

@@ -23,7 +23,8 @@ _CHECK_TEXT = {
     "margin_above_1_where_cutting": "stability margin above 1 at every cutting point (plan)",
     "no_collisions": "no collision or gouge of the final program (FCL)",
     "round_trip_within_1um": "final program read back within 1 um of the corrected path",
-    "no_chatter_in_simulation": "no chatter window in the simulated run of the final program",
+    "no_chatter_in_simulation": "no sustained chatter (a detector call outliving its "
+                                "window) in the simulated run of the final program",
     "surface_error_reduced_to_25pct": f"simulated surface error (RMS) after correction at most "
                                       f"{JOB_SURFACE_RATIO:.0%} of before",
 }
@@ -48,6 +49,10 @@ def _verification(v) -> dict[str, Any]:
                                        else math.nan),
             "detector_windows": int(v.summary["windows"]),
             "chatter_windows": int(v.summary["chatter_windows"]),
+            "sustained_chatter_episodes": int(v.summary["sustained_episodes"]),
+            "transient_chatter_episodes": [
+                {"first_s": _r(e["first_s"]), "last_s": _r(e["last_s"]), "windows": e["windows"]}
+                for e in v.summary["episodes"] if not e["sustained"]],
             "first_chatter_s": v.summary.get("first_detection_s"),
             "chatter_share_after_first": _r(v.summary.get("chatter_share_after_detection", 0.0))}
 
@@ -146,28 +151,30 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
     check_rows = (("check", "holds"),) + tuple((_CHECK_TEXT[k], "yes" if v else "NO")
                                                 for k, v in checks.items())
     sim_rows = (("simulated run", "cutter locations", "surface RMS [um]", "largest |E| [um]",
-                 "chatter marks max [um]", "chatter windows"),) + tuple(
+                 "chatter marks max [um]", "chatter windows",
+                 "chatter episodes: sustained, transient"),) + tuple(
         (name, str(v["cutter_locations"]), str(v["surface_rms_um"]),
          str(v["surface_max_abs_um"]), str(v["chatter_marks_max_um"]),
-         f"{v['chatter_windows']} of {v['detector_windows']}")
+         f"{v['chatter_windows']} of {v['detector_windows']}",
+         f"{v['sustained_chatter_episodes']}, {len(v['transient_chatter_episodes'])}")
         for name, v in (("CAM program, worst pass", sim["cam_worst_pass"]),
                         ("planned, uncorrected", sim["planned"]),
                         ("planned and corrected (final)", sim["corrected"])))
     corr = rep["correction"]
     sections = [
         Section("Result", paragraphs=(
-            f"Scenario {rep['scenario']} ({rep['scenario_file']}). The final program "
+            (f"Scenario {rep['scenario']} ({rep['scenario_file']}). The final program "
             f"{rep['programs']['final']} ({rep['program']['lines']} lines, "
             f"{rep['program']['dialect']} for {rep['program']['machine']}) runs at "
-            f"{p.spindle_rpm:.0f} rev/min.",
-            f"Planning raised the lowest stability margin from {s['cam_margin_min']} (CAM "
+            f"{p.spindle_rpm:.0f} rev/min."),
+            (f"Planning raised the lowest stability margin from {s['cam_margin_min']} (CAM "
             f"posture, {s['cam_points_below_1']} of {s['cutting_points']} cutting points "
-            f"below 1) to {s['margin_min']} ({s['points_below_1']} below 1).",
-            f"The predicted error (RMS over the generation points) went from "
+            f"below 1) to {s['margin_min']} ({s['points_below_1']} below 1)."),
+            (f"The predicted error (RMS over the generation points) went from "
             f"{corr['predicted_rms_um'][0]} um to {corr['predicted_rms_um'][corr['best_pass']]}"
             f" um in {corr['passes']} correction passes; in the simulated machine from "
             f"{sim['planned']['surface_rms_um']} um to {sim['corrected']['surface_rms_um']} um "
-            f"(ratio {sim['surface_rms_ratio']}).",
+            f"(ratio {sim['surface_rms_ratio']})."),
             f"Run time: {rep['seconds']['total']:.0f} s."),
             tables=(check_rows, sim_rows)),
         Section("Stability margin along the path", figures=(Figure(
@@ -189,9 +196,10 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
             "Limiting depth of cut over spindle speed (zero-order method) for the CAM posture "
             "and the planned one; the star is the operating point (depth of the finishing "
             "cut, planned speed)."),)),
-        Section("Simulated acceleration spectrum", tables=(sim_rows,), figures=(Figure(
-            spectra_png([(f"CAM program, worst pass (cutter locations {res.cam_points[0]}-"
-                          f"{res.cam_points[1]}, {vc.spindle_rpm:.0f} rev/min)",
+        Section("Simulated acceleration spectrum", paragraphs=(_episodes_text(sim["corrected"]),),
+                tables=(sim_rows,), figures=(Figure(
+            spectra_png([((f"CAM program, worst pass (cutter locations {res.cam_points[0]}-"
+                          f"{res.cam_points[1]}, {vc.spindle_rpm:.0f} rev/min)"),
                           vc.spectrum_hz, vc.spectrum_m_s2, vc.spindle_rpm),
                          ("planned and corrected program, whole run", vf.spectrum_hz,
                           vf.spectrum_m_s2, vf.spindle_rpm)], teeth, max_hz),
@@ -199,6 +207,22 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
             "between the tooth-passing harmonics."),)),
     ]
     return render_page(f"firstcut job: {rep['scenario']}", verdict, sections, good=good)
+
+
+def _episodes_text(v: dict[str, Any]) -> str:
+    """What the detector's calls on the final program were (``sim.report`` module notes)."""
+    head = ("The controller's chatter detector judges the accelerometers window by window. "
+            "Chatter is self-excited and goes on once set off: an episode of calls that "
+            "outlives its window is sustained chatter. A step of the cut (entering or "
+            "leaving the material, a change of posture) rings the structure at its natural "
+            "frequency for a moment; calls that die within their window are transients.")
+    eps = v["transient_chatter_episodes"]
+    if not eps and not v["sustained_chatter_episodes"]:
+        return head + " On the final program the detector called no chatter."
+    times = ", ".join(f"{e['first_s']:.2f} s" for e in eps[:12]) + (" ..." if len(eps) > 12
+                                                                      else "")
+    return (head + f" On the final program: {v['sustained_chatter_episodes']} sustained "
+            f"episode(s), {len(eps)} transient(s)" + (f" (at {times})." if eps else "."))
 
 
 def _json_default(o: Any) -> Any:

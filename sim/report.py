@@ -11,6 +11,15 @@ and closed loop are judged alike. Definitions:
   chatter; reported in spindle revolutions after the first detection;
 * *chatter share*: the share of windows calling chatter from the first
   detection to the end;
+* *episode*: chatter calls whose windows overlap their neighbour's (end times
+  less than one window length apart); *sustained* when its first and last
+  windows do not overlap (the non-harmonic vibration outlived a whole window),
+  *transient* otherwise. Chatter is self-excited: once set off it goes on, and
+  the windows after its onset call it too. A step of the cut (the tool entering
+  or leaving the material, a change of posture) rings the structure at its
+  natural frequency, away from the tooth harmonics, and the ringing of a stable
+  cut dies within the window; a cut so lightly damped that its ringing outlives
+  a window counts as sustained;
 * *surface*: the generated surface's deviation once per tooth
   (:class:`sim.machine.SurfaceRecord`): its mean (location error) and the
   standard deviation of its tooth-to-tooth change (chatter marks), over the
@@ -28,7 +37,7 @@ from orient.detect import ChatterDetector
 
 from .constants import STOP_FRACTION, STOP_WINDOW_S, TAIL_FRACTION
 
-__all__ = ["chatter_timeline", "spectrum", "summarize_run"]
+__all__ = ["chatter_episodes", "chatter_timeline", "spectrum", "summarize_run"]
 
 
 def chatter_timeline(time_s: np.ndarray, accel_m_s2: np.ndarray, detector: ChatterDetector,
@@ -43,6 +52,36 @@ def chatter_timeline(time_s: np.ndarray, accel_m_s2: np.ndarray, detector: Chatt
             "amplitude": np.array([d.amplitude for d in out], dtype=float),
             "frequency_hz": np.array([d.frequency_hz for d in out], dtype=float),
             "cause": np.array([d.cause or "" for d in out])}
+
+
+def chatter_episodes(end_s: np.ndarray, chatter: np.ndarray, window_s: float
+                     ) -> list[tuple[float, float, int, bool]]:
+    """Episodes of chatter calls (module notes): runs of calls whose windows overlap.
+
+    Parameters
+    ----------
+    end_s : ndarray, shape (k,) [s]
+        End time of each judged window, increasing.
+    chatter : ndarray of bool, shape (k,)
+        The detector's verdict per window.
+    window_s : float [s]
+        Window length.
+
+    Returns
+    -------
+    list of (first_end_s, last_end_s, windows, sustained)
+        One entry per episode: the end times of its first and last calls [s], its
+        number of calls, and whether the first and last windows do not overlap.
+    """
+    t = np.asarray(end_s, dtype=float)[np.asarray(chatter, dtype=bool)]
+    if t.size == 0:
+        return []
+    cuts = np.flatnonzero(np.diff(t) >= window_s) + 1
+    out = []
+    for run in np.split(t, cuts):
+        span = float(run[-1] - run[0])
+        out.append((float(run[0]), float(run[-1]), int(run.size), span >= window_s))
+    return out
 
 
 def _stop_index(end_s: np.ndarray, chatter: np.ndarray, first: int) -> int | None:
@@ -81,8 +120,14 @@ def summarize_run(time_s: np.ndarray, accel_m_s2: np.ndarray, surface: dict[str,
         tl = {key: v[keep] for key, v in tl.items()}
     rev_s = 60.0 / spindle_rpm
     hits = np.flatnonzero(tl["chatter"])
+    window_s = detector.settings.window_samples / detector.settings.sample_rate_hz
+    episodes = chatter_episodes(tl["end_s"], tl["chatter"], window_s)
     out: dict[str, Any] = {"windows": int(tl["chatter"].size),
                            "chatter_windows": int(hits.size),
+                           "episodes": [{"first_s": a, "last_s": b, "windows": n,
+                                         "sustained": bool(sus)}
+                                        for a, b, n, sus in episodes],
+                           "sustained_episodes": int(sum(e[3] for e in episodes)),
                            "simulated_s": float(time_s[-1]) if time_s.size else 0.0}
     if hits.size:
         first = int(hits[0])

@@ -15,7 +15,8 @@ orientation offsets. Per cutter location where the ball cuts:
 
 The accelerometer stream is judged window by window with the controller's
 detector (:func:`sim.report.summarize_run`, only windows that end while the
-tool cuts), and its spectrum while cutting is averaged (Welch).
+tool cuts; chatter is a sustained episode, a call that outlives its window),
+and its spectrum while cutting is averaged (Welch).
 """
 
 from __future__ import annotations
@@ -75,6 +76,11 @@ class Verification:
     def chatter_windows(self) -> int:
         """Detector windows (while cutting) that called chatter."""
         return int(self.summary["chatter_windows"])
+
+    @property
+    def sustained_chatter(self) -> int:
+        """Chatter episodes that outlived a detector window (:func:`sim.report.chatter_episodes`)."""
+        return int(self.summary["sustained_episodes"])
 
 
 def scenario_with_program(scn: PlanScenario, program: str | Path) -> PlanScenario:
