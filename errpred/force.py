@@ -43,7 +43,8 @@ from .tool import MicroEdges
 __all__ = ["chip_thickness", "local_components", "to_tool_frame", "tool_forces"]
 
 
-def chip_thickness(edges: MicroEdges, phi: Any, f_tooth_tool: Any) -> np.ndarray:
+def chip_thickness(edges: MicroEdges, phi: Any, f_tooth_tool: Any,
+                   sin_cos: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Uncut chip thickness ``h = max(f_tooth . n, 0)``.
 
     Parameters
@@ -57,6 +58,8 @@ def chip_thickness(edges: MicroEdges, phi: Any, f_tooth_tool: Any) -> np.ndarray
         Feed per tooth vector in the tool frame (``(fz, 0, 0)`` for feed along
         ``+x'``; an axial component for plunges and ramps). A per-sample feed
         has shape e.g. (n_ang, 1, 1, 3).
+    sin_cos : tuple of ndarray, optional
+        ``(sin(phi), cos(phi))`` when the caller has them already.
 
     Returns
     -------
@@ -72,7 +75,8 @@ def chip_thickness(edges: MicroEdges, phi: Any, f_tooth_tool: Any) -> np.ndarray
     if phi.ndim == 0 or phi.shape[-1] != m:
         raise ValueError(f"phi: last axis must hold the {m} micro edges, got shape {phi.shape}")
     sk, ck = np.sin(edges.kappa), np.cos(edges.kappa)
-    h = (f[..., 0] * sk) * np.sin(phi) + (f[..., 1] * sk) * np.cos(phi) - f[..., 2] * ck
+    sin_phi, cos_phi = (np.sin(phi), np.cos(phi)) if sin_cos is None else sin_cos
+    h = (f[..., 0] * sk) * sin_phi + (f[..., 1] * sk) * cos_phi - f[..., 2] * ck
     return np.maximum(h, 0.0)
 
 

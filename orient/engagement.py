@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 
 from errpred._kernels import inside_any_sweep
-from errpred.engagement import edge_points_tool, expand_flutes, revolution_angles
+from errpred.engagement import expand_flutes, revolution_angles
 from errpred.force import chip_thickness
 from errpred.frames import tool_frame
 from errpred.tool import MicroEdges, Tool
@@ -275,22 +275,35 @@ class SampledEngagement:
     f_tooth_world: np.ndarray
 
 
-def _in_material(tool: Tool, pl: Placement, cut: LocalCut, pts: np.ndarray) -> np.ndarray:
-    """Below the stock top and outside the previous pass, points (k, 3) [mm] -> (k,) bool."""
+def _in_material(tool: Tool, pl: Placement, cut: LocalCut, x: np.ndarray, y: np.ndarray,
+                 z: np.ndarray) -> np.ndarray:
+    """Below the stock top and outside the previous pass: points given by their tool-frame
+    coordinates ``x, y, z`` (broadcasting arrays) [mm] -> bool of their broadcast shape.
+
+    Only the three projections of the world points on ``f``, ``b``, ``n`` are formed
+    (``(tip + p @ frame) . v = tip . v + p . (frame v)``); world points are built for the
+    points below the top alone, for the previous pass's sweep."""
+    def along(v: np.ndarray) -> np.ndarray:
+        w = pl.frame @ v
+        return float(pl.tip @ v) + x * w[0] + y * w[1] + z * w[2]
+
     kf = cut.curvature_f_1_mm / (1.0 + cut.curvature_f_1_mm * cut.depth_mm)
     kb = cut.curvature_b_1_mm / (1.0 + cut.curvature_b_1_mm * cut.depth_mm)
-    top = cut.depth_mm - 0.5 * (kf * (pts @ pl.f) ** 2 + kb * (pts @ pl.b) ** 2)
-    inside = pts @ pl.n < top
+    top = cut.depth_mm - 0.5 * (kf * along(pl.f) ** 2 + kb * along(pl.b) ** 2)
+    inside = along(pl.n) < top
     if cut.previous_side != 0 and inside.any():
         half = _pass_half_length(tool, cut.pick_mm)
         p0 = (pl.tip + cut.previous_side * cut.pick_mm * pl.b - half * pl.f)[None, :]
         d = (2.0 * half * pl.f)[None, :]
         big = np.full((1, 3), 1e300)
-        removed = inside_any_sweep(np.ascontiguousarray(pts), inside, p0, d,
+        where = np.nonzero(inside)
+        xyz = np.broadcast_arrays(x, y, z)
+        pts = pl.tip + np.stack([a[where] for a in xyz], axis=-1) @ pl.frame
+        removed = inside_any_sweep(np.ascontiguousarray(pts), np.ones(len(pts), bool), p0, d,
                                    pl.axis[None, :].copy(), -big, big, tool.core_radius_mm,
                                    tool.corner_radius_mm, tool.flute_length_mm,
                                    MEMBERSHIP_EPS_MM)
-        inside &= ~removed
+        inside[where] = ~removed
     return inside
 
 
@@ -322,15 +335,17 @@ def engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: Any, fe
     cut.check_tool(tool)
     pl = place(tool, posture_axis, normal, feed_dir)
     theta = revolution_angles(2 * math.pi / n_angles, tool.flutes)
-    pts = edge_points_tool(edges, theta)                     # (n, m, 3) tool frame
-    n, m, _ = pts.shape
-    world = pl.tip + pts.reshape(-1, 3) @ pl.frame
-    material = _in_material(tool, pl, cut, world).reshape(n, m)
+    phi0 = theta[:, None] - edges.psi[None, :]               # (n, m) flute 0
+    sin0, cos0 = np.sin(phi0), np.cos(phi0)
+    # flute 0's edge points in the tool frame (errpred.engagement.edge_points_tool)
+    material = _in_material(tool, pl, cut, edges.rho * sin0, edges.rho * cos0,
+                            edges.z[None, :])
     f_tool = pl.frame @ (cut.fz_mm * pl.f)
-    h0 = chip_thickness(edges, theta[:, None] - edges.psi[None, :], f_tool)
+    h0 = chip_thickness(edges, phi0, f_tool, sin_cos=(sin0, cos0))
     cutting0 = material & (h0 > CHIP_EPS * cut.fz_mm)
     phi, cutting = expand_flutes(theta, cutting0, edges, tool.flutes)
-    h = chip_thickness(edges, phi, f_tool)
+    # flute k at step i is flute 0 at step i + k n / N (expand_flutes): same chip
+    h = expand_flutes(theta, h0, edges, tool.flutes)[1]
     return SampledEngagement(theta=theta, phi=phi, cutting=cutting, h=h, weight=None,
                              frame=pl.frame, normal=pl.n, f_tooth_world=cut.fz_mm * pl.f)
 

@@ -10,6 +10,10 @@ MM_PER_M = 1e3
 #: mode (the modes are integrated exactly for a force held over a step, so
 #: this bounds the force's sampling, not a stability limit) [-].
 STEPS_PER_MODE_PERIOD = 24
+#: Modes with a damped natural frequency squared above this share of the undamped one
+#: (damping ratio below about 0.99) are discretized in closed form, the rest by the
+#: matrix exponential [-].
+STEP_MAP_UNDERDAMPED = 0.02
 #: Least rotation steps per revolution (engagement sampling) [-].
 MIN_STEPS_PER_REV = 360
 #: Most rotation steps per revolution (refused above: choose fewer modes) [-].

@@ -431,3 +431,28 @@ def test_an_unstable_cut_grows_from_the_material_scatter():
 
     assert spread(2.0, scatter=True) > 0.1
     assert spread(0.5, scatter=True) < 10 * MATERIAL_SCATTER
+
+
+@pytest.mark.parametrize("zeta", [0.002, 0.03, 0.3, 0.95, 0.995, 1.0, 2.5])
+def test_the_step_map_is_the_exact_discretization(zeta):
+    """The closed-form step map of each mode equals the matrix exponential of its state
+    equation (Van Loan's block form), lightly damped to overdamped."""
+    import scipy.linalg
+
+    from sim.cutting import _step_map
+
+    rng = np.random.default_rng(5)
+    f_hz = rng.uniform(200.0, 20_000.0, 4)
+    k = rng.uniform(1e6, 1e9, 4)
+    system = ModalSystem.from_modes([(Mode.from_frequency(f, zeta, kk), (1, 0, 0))
+                                     for f, kk in zip(f_hz, k)], source="tool")
+    dt = 1.0 / (24 * f_hz.max())
+    phi, gam = _step_map(system, dt)
+    for j in range(4):
+        m, c, kk = system.m_kg[j], system.c_Ns_m[j], system.k_N_m[j]
+        big = np.zeros((3, 3))
+        big[:2, :2] = [[0.0, 1.0], [-kk / m, -c / m]]
+        big[1, 2] = 1.0 / m
+        ex = scipy.linalg.expm(big * dt)
+        np.testing.assert_allclose(phi[j], ex[:2, :2], rtol=1e-9, atol=1e-12 * np.abs(ex[:2, :2]).max())
+        np.testing.assert_allclose(gam[j], ex[:2, 2], rtol=1e-9, atol=1e-12 * np.abs(ex[:2, 2]).max())
