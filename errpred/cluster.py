@@ -13,7 +13,8 @@ __all__ = ["dask_client"]
 def dask_client(scheduler: str | None = None, workers: int = 0) -> Iterator[Any]:
     """``dask.distributed.Client`` of ``scheduler`` (an address such as
     ``tcp://10.0.0.5:8786``), or of a local cluster of ``workers`` single-threaded
-    worker processes bound to 127.0.0.1; None (no cluster) when neither is given.
+    worker processes bound to 127.0.0.1 (with ``constants.WORKER_MALLOC_ENV``); None
+    (no cluster) when neither is given.
 
     Parameters
     ----------
@@ -33,7 +34,13 @@ def dask_client(scheduler: str | None = None, workers: int = 0) -> Iterator[Any]
         return
     if workers < 1:
         raise ValueError(f"--dask: expected >= 1 workers, got {workers}")
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                      host="127.0.0.1", dashboard_address=None) as cluster, \
+    import dask
+
+    from .constants import WORKER_MALLOC_ENV
+
+    env = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **WORKER_MALLOC_ENV}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": env}), \
+            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                         host="127.0.0.1", dashboard_address=None) as cluster, \
             Client(cluster) as client:
         yield client

@@ -54,3 +54,18 @@ def test_cli_scheduler_option_gives_the_same_report(cluster, tmp_path):
     dist.pop("timing", None)
     assert one["points"] == dist["points"]
     assert one["summary"] == dist["summary"]
+
+
+def test_the_local_cluster_workers_keep_freed_memory_for_reuse():
+    """The command lines' local cluster starts its workers with the malloc settings of
+    ``WORKER_MALLOC_ENV`` (not Dask's 64 kB trim threshold, which maps and unmaps every
+    array above 128 kB), and keeps Dask's one-thread settings for the numeric libraries."""
+    import os
+
+    from errpred.cluster import dask_client
+    from errpred.constants import WORKER_MALLOC_ENV
+
+    keys = (*WORKER_MALLOC_ENV, "OMP_NUM_THREADS")
+    with dask_client(workers=1) as client:
+        seen = list(client.run(lambda: {k: os.environ.get(k) for k in keys}).values())
+    assert seen == [{**WORKER_MALLOC_ENV, "OMP_NUM_THREADS": "1"}]
