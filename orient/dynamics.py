@@ -182,6 +182,15 @@ class ModalSystem:
             a.setflags(write=False)
             object.__setattr__(self, name, a)
 
+    def __setstate__(self, state: dict) -> None:
+        """Unpickled (on a Dask worker, or back from one): the arrays read-only again, as
+        built, so that the numba kernels see the same array types (and reuse their
+        compiled, cached code) in every process."""
+        for name, a in state.items():
+            if isinstance(a, np.ndarray):
+                a.setflags(write=False)
+            object.__setattr__(self, name, a)
+
     # ------------------------------------------------------------------ constructors
     @classmethod
     def from_modes(cls, pairs: Iterable[tuple[Mode, Any]], *,

@@ -160,3 +160,16 @@ def test_residue_modes_and_their_velocity_share():
     assert both.with_tool_axis((0, 0.6, 0.8)).velocity_s[1] == cplx.velocity_s[0]
     with pytest.raises(ValueError, match="alpha"):
         ModalSystem.from_residues([f], [z], [1e-4j], [(1, 0, 0)])
+
+
+def test_a_system_unpickled_keeps_its_arrays_read_only():
+    """A system sent to a Dask worker and back is the same, read-only as built (the numba
+    kernels type read-only and writable arrays apart: one compiled version for both)."""
+    import pickle
+
+    system = ModalSystem.from_modes([(Mode.from_frequency(800.0, 0.03, 2e7), (1, 0, 0)),
+                                     (Mode.from_frequency(2500.0, 0.01, 5e7), (0, 1, 0))])
+    back = pickle.loads(pickle.dumps(system))
+    for name in ("k_N_m", "m_kg", "c_Ns_m", "direction", "velocity_s"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(system, name))
+        assert not getattr(back, name).flags.writeable
