@@ -42,7 +42,6 @@ from typing import Any
 
 import numpy as np
 
-from nc.kinematics import get_machine
 from nc.path import CutterLocations, cutter_locations
 
 from .contacts import Contacts, ball_contacts
@@ -163,9 +162,12 @@ def _previous_pass_cut(points: np.ndarray, toward: np.ndarray, pick_mm: float) -
 
 
 def _gains_rows(tool, coeffs, normal: np.ndarray, feed: np.ndarray, axes: np.ndarray,
-                ok: np.ndarray, cuts: list) -> tuple[np.ndarray, np.ndarray]:
+                ok: np.ndarray, cuts: list, parallel: bool = True
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Process gain P (t, s, 3, 3) [N/m] and cut sense (t, s) of candidate axes (t, s, 3)
-    where ``ok`` (0 elsewhere), at cutter locations with ``normal``, ``feed`` (t, 3)."""
+    where ``ok`` (0 elsewhere), at cutter locations with ``normal``, ``feed`` (t, 3);
+    ``parallel``: over numba's threads (not in a Dask task: the workers are the
+    parallelism there, and the threaded kernel would only add its compilation)."""
     t, s, _ = axes.shape
     sense = np.zeros((t, s))
     P = np.zeros((t, s, 3, 3))
@@ -175,7 +177,7 @@ def _gains_rows(tool, coeffs, normal: np.ndarray, feed: np.ndarray, axes: np.nda
     per_point = np.empty(len(cuts), dtype=object)
     per_point[:] = cuts
     gains = process_gain_batch(tool, coeffs, axes[pi, ps], normal[pi], feed[pi], per_point[pi],
-                               parallel=True)
+                               parallel=parallel)
     sense[pi, ps] = gains.cut_sense
     P[pi, ps] = gains.P
     return P, sense
@@ -230,7 +232,7 @@ def _chunk_gains_margins(tool, coeffs, wp: WorkpieceModel, tool_sys: ModalSystem
                          cap: float) -> tuple:
     """Process gains, cut senses, capped margins and systems of a chunk of cutter
     locations (a Dask task; the same functions as the one-process path)."""
-    P, sense = _gains_rows(tool, coeffs, normal, feed, axes, ok, cuts)
+    P, sense = _gains_rows(tool, coeffs, normal, feed, axes, ok, cuts, parallel=False)
     systems: list = [None] * axes.shape[0]
     margin = _margins_rows(tool, wp, tool_sys, points, axes, ok, P, rpm, cap, systems)
     return P, sense, margin, systems
@@ -324,16 +326,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     opt = scn.options
     tool = scn.base.tool
     R = tool.radius_mm
-    machine = machine if machine is not None else scn.base.machine
-    if machine is None:
-        raise ValueError(f"{scn.path}: program.machine is missing; the planner needs the "
-                         f"machine (axis limits, kinematics)")
-    if isinstance(machine, str):
-        machine = get_machine(machine)
-    elif not hasattr(machine, "inverse"):
-        from nc.machines import load_machine
-
-        machine = load_machine(machine)
+    machine = scn.machine(machine)
     program = scn.base.read_program()
     cam = cutter_locations(program, machine)
     design = scn.base.stock.load_design()
@@ -366,24 +359,31 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     ok[:, -1] = True            # the CAM posture is always evaluated (for the report)
     t1 = time.perf_counter()
     cuts = local_cuts(scn, contacts, idx, cam, rpm)
+    choose_speed = opt.spindle is not None and spindle_rpm is None
+    if client is not None and choose_speed:
+        # the speed's sample of gains on a worker, which compiles the gain kernel (and
+        # caches it for the others) while this process builds the workpiece model
+        rows_s = np.unique(np.linspace(0, len(idx) - 1, min(SPEED_SAMPLE_POINTS, len(idx)))
+                           .astype(int))
+        sample_f = client.submit(_gains_rows, tool, scn.base.coefficients,
+                                 contacts.normal[idx[rows_s]], contacts.feed[idx[rows_s]],
+                                 axes[rows_s], ok[rows_s], [cuts[r] for r in rows_s], False,
+                                 pure=False)
     tool_sys = ModalSystem.tool(scn.base.compliance)
     wp = WorkpieceModel(scn.workpiece, contacts.point[idx])
     t2 = time.perf_counter()
     rpm_program = rpm
     cap = opt.margin_target
     if client is not None:
-        if opt.spindle is not None and spindle_rpm is None:
-            sample = np.zeros_like(ok)
-            rows_s = np.unique(np.linspace(0, len(idx) - 1, min(SPEED_SAMPLE_POINTS, len(idx)))
-                               .astype(int))
-            sample[rows_s] = ok[rows_s]
-            P_s, _ = _gains(scn, contacts, idx, axes, sample, cuts)
+        if choose_speed:
+            P_s = np.zeros(axes.shape[:2] + (3, 3))
+            P_s[rows_s] = sample_f.result()[0]
             rpm = _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P_s, rpm)
         P, sense, margin, systems = _dask_gains_margins(client, scn, wp, tool_sys, contacts,
                                                         idx, axes, ok, cuts, rpm, cap)
     else:
         P, sense = _gains(scn, contacts, idx, axes, ok, cuts)
-        if opt.spindle is not None and spindle_rpm is None:
+        if choose_speed:
             rpm = _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm)
         systems = [None] * len(idx)
         margin = _margins(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm,

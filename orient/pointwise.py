@@ -12,7 +12,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nc.kinematics import get_machine
 from nc.path import cutter_locations
 
 from .contacts import Contacts, ball_contacts
@@ -43,19 +42,9 @@ class PointSetup:
     axis: np.ndarray
 
 
-def _machine(scn: PlanScenario):
-    m = scn.base.machine
-    if m is None:
-        raise ValueError(f"{scn.path}: program.machine is missing")
-    if isinstance(m, str):
-        return get_machine(m)
-    from nc.machines import load_machine
-
-    return load_machine(m)
-
-
 def point_setup(scn: PlanScenario, point: int | None = None, axis=None,
-                spindle_rpm: float | None = None) -> PointSetup:
+                spindle_rpm: float | None = None, *,
+                workpiece: WorkpieceModel | None = None) -> PointSetup:
     """Set up the analysis at cutter location ``point`` of the CAM path.
 
     Parameters
@@ -69,10 +58,14 @@ def point_setup(scn: PlanScenario, point: int | None = None, axis=None,
     spindle_rpm : float, optional [rev/min]
         Operating speed (default: the program's at that point), the feed per tooth
         kept.
+    workpiece : orient.workpiece.WorkpieceModel, optional
+        The part's model already built over its cutter locations (the planner's
+        ``PlanResult.workpiece``); default: built for this point (its finite elements
+        take seconds).
     """
     from .plan import local_cuts
 
-    cam = cutter_locations(scn.base.read_program(), _machine(scn))
+    cam = cutter_locations(scn.base.read_program(), scn.machine())
     contacts = ball_contacts(cam, scn.base.tool.radius_mm, scn.base.stock.load_design())
     idx = np.flatnonzero(contacts.touching)
     if len(idx) == 0:
@@ -88,7 +81,8 @@ def point_setup(scn: PlanScenario, point: int | None = None, axis=None,
     cut = local_cuts(scn, contacts, idx, cam, rpm0)[int(np.searchsorted(idx, point))]
     rpm = rpm0 if spindle_rpm is None else float(spindle_rpm)
     u = cam.axis[point] if axis is None else np.asarray(axis, dtype=float)
-    wp = WorkpieceModel(scn.workpiece, contacts.point[point][None])
+    wp = workpiece if workpiece is not None else WorkpieceModel(scn.workpiece,
+                                                                contacts.point[point][None])
     system = wp.system_at(ModalSystem.tool(scn.base.compliance), contacts.point[point])
     return PointSetup(point, contacts, cut, system.with_tool_axis(u), rpm, u)
 

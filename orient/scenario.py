@@ -142,6 +142,29 @@ class PlanScenario:
     def path(self) -> Path:
         return self.base.path
 
+    def machine(self, override: Any = None) -> Any:
+        """The machine the program runs on (``override``, else ``program.machine``): a
+        :class:`nc.kinematics` machine, from a name or a machine file when not one.
+
+        Raises
+        ------
+        ValueError
+            Neither given.
+        """
+        m = override if override is not None else self.base.machine
+        if m is None:
+            raise ValueError(f"{self.path}: program.machine is missing; the planner needs "
+                             f"the machine (axis limits, kinematics)")
+        if isinstance(m, str):
+            from nc.kinematics import get_machine
+
+            return get_machine(m)
+        if hasattr(m, "inverse"):
+            return m
+        from nc.machines import load_machine
+
+        return load_machine(m)
+
 
 # --------------------------------------------------------------------------- reading
 def _range(r: TableReader, d: dict, k: str, p: str, default: float) -> tuple[float, float]:

@@ -136,6 +136,10 @@ SPECTRUM_SEGMENT = 8192
 #: on the bundled thin wall the second pass reaches the prediction's own noise
 #: (RMS 7.73 -> 0.89 -> 0.30 um; a third pass gave 0.30 again).
 JOB_CORRECTION_PASSES = 2
+#: The Dask job's warm-up (``sim.job._warm_kernels``): blocks of the CAM program
+#: predicted and cutter locations simulated while the planner chooses the speed [-].
+JOB_WARM_BLOCKS = 40
+JOB_WARM_POINTS = 30
 #: Spindle speeds of the job's lobe diagrams (0.5 to 1.5 times the planned speed) [-].
 JOB_LOBE_SPEEDS = 300
 #: The job's check: RMS simulated surface error of the corrected program at most this

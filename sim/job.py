@@ -40,12 +40,20 @@ from nc.atomic import atomic_write
 from nc.gcode import parse_program
 from nc.path import CutterLocations, cutter_locations
 from nc.writer import PostOptions, PostResult, post, round_trip_error
+from orient.dynamics import ModalSystem
 from orient.interference import InterferenceChecker, ToolAssembly
 from orient.plan import PlanResult, plan, stock_mesh
 from orient.pointwise import point_lobes, point_setup
 from orient.scenario import PlanScenario
+from orient.stability import zoa_margin_batch
 
-from .constants import JOB_CORRECTION_PASSES, JOB_LOBE_SPEEDS, JOB_SURFACE_RATIO
+from .constants import (
+    JOB_CORRECTION_PASSES,
+    JOB_LOBE_SPEEDS,
+    JOB_SURFACE_RATIO,
+    JOB_WARM_BLOCKS,
+    JOB_WARM_POINTS,
+)
 from .verify import Verification, scenario_with_program, verify_program
 
 __all__ = ["JobResult", "run_job"]
@@ -136,6 +144,37 @@ def _worst_cam_pass(res: PlanResult) -> tuple[int, int]:
     return max(int(starts[k]) - 2, 0), min(int(ends[k]) + 2, len(res.cl) - 1)
 
 
+def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
+    """Run the kernels later stages need on small inputs, so that numba compiles them here
+    and caches them on disk for every process. Parts: ``'margins'`` the planner's
+    zero-order margins (which this process's speed choice needs after the gains it
+    compiles itself), ``'predict'`` the error prediction's (``JOB_WARM_BLOCKS`` blocks
+    of the CAM program), ``'simulate'`` the simulated machine's (``JOB_WARM_POINTS``
+    cutter locations from the first cut) and the point analyses' (lobes by both methods
+    at two speeds, as in the plan's time-periodic check). Only time depends on it: a
+    stage compiles whatever is not cached yet."""
+    base = scn.base
+    for part in parts:
+        if part == "margins":
+            P = np.broadcast_to(np.diag([1e6, 1e6, 1e5]), (2, 3, 3)).copy()
+            zoa_margin_batch(P, ModalSystem.tool(base.compliance), [9000.0, 10000.0],
+                             base.tool.flutes, cap=scn.options.margin_target)
+        elif part == "predict":
+            prog = base.read_program()
+            shape = ShapeErrorModel(deviation=base.shape_error.radius_deviation_mm,
+                                    wear_rate=base.shape_error.wear_rate_mm_per_mm)
+            pred = Predictor(base.tool, base.stock.load(), prog, base.coefficients,
+                             base.compliance, shape_error=shape, resolution=base.resolution,
+                             machine=scn.machine())
+            pred.run(range(min(len(prog), JOB_WARM_BLOCKS)))
+        elif part == "simulate":
+            setup = point_setup(scn)
+            point_lobes(scn, setup, ("zoa", "sdm"), setup.spindle_rpm * np.array([0.9, 1.1]))
+            verify_program(scn, points=(setup.index, setup.index + JOB_WARM_POINTS))
+        else:
+            raise ValueError(f"parts: unknown part {part!r}")
+
+
 def _lobes(scn: PlanScenario, res: PlanResult, planned_scn: PlanScenario) -> list[dict]:
     """Lobes (zero-order) at the lowest-CAM-margin and the lowest-planned-margin points,
     for the CAM posture and for the planned one, at the planned speed."""
@@ -148,8 +187,8 @@ def _lobes(scn: PlanScenario, res: PlanResult, planned_scn: PlanScenario) -> lis
     speeds = np.linspace(0.5 * rpm, 1.5 * rpm, JOB_LOBE_SPEEDS)
     out = []
     for i, why in picks:
-        cam = point_setup(scn, i, spindle_rpm=rpm)
-        pl = point_setup(planned_scn, i, spindle_rpm=rpm)
+        cam = point_setup(scn, i, spindle_rpm=rpm, workpiece=res.workpiece)
+        pl = point_setup(planned_scn, i, spindle_rpm=rpm, workpiece=res.workpiece)
         lc, op = point_lobes(scn, cam, ("zoa",), speeds)
         lp, _ = point_lobes(planned_scn, pl, ("zoa",), speeds)
         out.append({"point": i, "why": why, "cam": lc[0], "planned": lp[0],
@@ -179,7 +218,14 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     say = progress or (lambda stage, done, total: None)
     work = Path(workdir)
     seconds: dict[str, float] = {}
-    t0 = time.perf_counter()
+    t0 = t_start = time.perf_counter()
+    # the workers compile what later stages need whenever they would wait (numba caches it
+    # on disk for every process): one task at a time, behind the planner's (priority),
+    # so the other worker takes the planner's first task (the speed's sample of gains,
+    # which compiles the gain kernel) at once
+    warm = [] if client is None else [client.submit(_warm_kernels, scn, (part,), pure=False,
+                                                    priority=-1)
+                                      for part in ("margins", "simulate", "predict")]
 
     def lap(name: str) -> None:
         nonlocal t0
@@ -217,6 +263,11 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     def on_pass(k: int, _cl) -> None:
         state["pass"] = k
 
+    if warm:        # the prediction's kernels: compiled (and cached) before it starts
+        from distributed import wait
+
+        wait(warm)
+        del warm
     comp = compensate_path(res.cl, predict, iterate=True,
                            tolerance_mm=base.correction.tolerance_um * 1e-3,
                            max_iterations=JOB_CORRECTION_PASSES, progress=on_pass)
@@ -248,27 +299,34 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
             (scenario_with_program(scn, final_path), None),
             (scn, cam_points)]
     say("verify", 0, len(runs))
+    planned_scn = scenario_with_program(scn, planned_path)
     if client is not None:
         wp_f = client.scatter(wp, broadcast=True)
         futures = [client.submit(verify_program, s, points=p, workpiece=wp_f, pure=False)
                    for s, p in runs]
+        # 6 (while the workers verify): lobes at representative points
+        t_lobes = time.perf_counter()
+        say("lobes", 0, 1)
+        lobes = _lobes(scn, res, planned_scn)
+        say("lobes", 1, 1)
+        seconds["lobes"] = round(time.perf_counter() - t_lobes, 2)
         verified = []
         for k, f in enumerate(futures):
             verified.append(f.result())
             say("verify", k + 1, len(runs))
+        lap("verify")
     else:
         verified = []
         for k, (s, p) in enumerate(runs):
             verified.append(verify_program(s, points=p, workpiece=wp))
             say("verify", k + 1, len(runs))
-    lap("verify")
-
-    # 6: lobes at representative points
-    say("lobes", 0, 1)
-    lobes = _lobes(scn, res, scenario_with_program(scn, planned_path))
-    say("lobes", 1, 1)
-    lap("lobes")
-    seconds["total"] = round(sum(seconds.values()), 2)
+        lap("verify")
+        # 6: lobes at representative points
+        say("lobes", 0, 1)
+        lobes = _lobes(scn, res, planned_scn)
+        say("lobes", 1, 1)
+        lap("lobes")
+    seconds["total"] = round(time.perf_counter() - t_start, 2)
     return JobResult(scenario=scn, plan=res, compensation=comp, planned=planned_post,
                      final=final_post, planned_path=planned_path, final_path=final_path,
                      round_trip=rt, collisions=collisions, verify_planned=verified[0],
