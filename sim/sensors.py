@@ -243,8 +243,12 @@ class AccelerometerStream:
         self.sensors = sensors
         self.dt_s = real_number("dt_s", dt_s, ">0")
         self.rotation = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
-        self._tf = [_section_tf(self.dt_s, w, z) for w, z in _sections(sensors)]
-        self._zi = [np.zeros((max(len(a), len(b)) - 1, 2)) for b, a in self._tf]
+        # the sections as one second-order cascade: one filter call per chunk
+        self._sos = np.array([np.r_[np.pad(b, (0, 3 - len(b))) / a[0],
+                                    np.pad(a, (0, 3 - len(a))) / a[0]]
+                              for b, a in (_section_tf(self.dt_s, w, z)
+                                           for w, z in _sections(sensors))])
+        self._zi = np.zeros((len(self._sos), 2, 2))
         self._rng = np.random.default_rng(seed)
         self._t_last: float | None = None
         self._y_last = np.zeros(2)
@@ -257,8 +261,8 @@ class AccelerometerStream:
         acc = np.asarray(tool_acceleration_m_s2, dtype=float).reshape(-1, 3)
         s = self.sensors
         x = s.location_factor * (acc @ self.rotation.T)[:, :2]
-        for k, (b, a) in enumerate(self._tf):
-            x, self._zi[k] = signal.lfilter(b, a, x, axis=0, zi=self._zi[k])
+        if len(self._sos):
+            x, self._zi = signal.sosfilt(self._sos, x, axis=0, zi=self._zi)
         if self._t_last is not None:
             t = np.concatenate([[self._t_last], t])
             x = np.concatenate([self._y_last[None], x])
