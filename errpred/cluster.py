@@ -6,15 +6,15 @@ import contextlib
 from collections.abc import Iterator
 from typing import Any
 
-__all__ = ["dask_client"]
+__all__ = ["dask_client", "keep_freed_memory"]
 
 
 @contextlib.contextmanager
 def dask_client(scheduler: str | None = None, workers: int = 0) -> Iterator[Any]:
     """``dask.distributed.Client`` of ``scheduler`` (an address such as
     ``tcp://10.0.0.5:8786``), or of a local cluster of ``workers`` single-threaded
-    worker processes bound to 127.0.0.1 (with ``constants.WORKER_MALLOC_ENV``); None
-    (no cluster) when neither is given.
+    worker processes bound to 127.0.0.1 (whose malloc keeps freed memory:
+    :func:`keep_freed_memory`); None (no cluster) when neither is given.
 
     Parameters
     ----------
@@ -34,13 +34,29 @@ def dask_client(scheduler: str | None = None, workers: int = 0) -> Iterator[Any]
         return
     if workers < 1:
         raise ValueError(f"--dask: expected >= 1 workers, got {workers}")
-    import dask
-
-    from .constants import WORKER_MALLOC_ENV
-
-    env = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **WORKER_MALLOC_ENV}
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": env}), \
-            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                         host="127.0.0.1", dashboard_address=None) as cluster, \
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                      host="127.0.0.1", dashboard_address=None) as cluster, \
             Client(cluster) as client:
+        client.run(keep_freed_memory)       # speed only (a restarted worker goes without)
         yield client
+
+
+def keep_freed_memory() -> bool:
+    """Let glibc's malloc in this process keep freed memory for reuse
+    (``constants.WORKER_MALLOC_TRIM_BYTES``, ``WORKER_MALLOC_MMAP_BYTES``); False where
+    there is no glibc ``mallopt`` (nothing changed)."""
+    import ctypes
+    import ctypes.util
+
+    from .constants import WORKER_MALLOC_MMAP_BYTES, WORKER_MALLOC_TRIM_BYTES
+
+    name = ctypes.util.find_library("c")
+    try:
+        libc = ctypes.CDLL(name) if name else None
+    except OSError:
+        libc = None
+    if libc is None or not hasattr(libc, "mallopt"):
+        return False
+    m_trim_threshold, m_mmap_threshold = -1, -3            # glibc's malloc.h
+    return (libc.mallopt(m_trim_threshold, WORKER_MALLOC_TRIM_BYTES) == 1
+            and libc.mallopt(m_mmap_threshold, WORKER_MALLOC_MMAP_BYTES) == 1)

@@ -75,10 +75,11 @@ VIEW_CORRECTION_KAPPA_RAD = math.radians(60.0)
 VIEW_ZOOM = 8.0
 
 # --- the local Dask cluster (errpred/cluster.py) ---------------------------------
-#: glibc malloc settings of the local cluster's worker processes. Dask's default,
+#: glibc malloc settings of the local cluster's workers [bytes]: trim threshold and mmap
+#: threshold (mallopt M_TRIM_THRESHOLD, M_MMAP_THRESHOLD). Dask's default,
 #: MALLOC_TRIM_THRESHOLD_=65536, hands freed memory back at once and pins the mmap
 #: threshold at 128 kB, so every array above it is mapped and unmapped again (page
 #: faults): the bundled error prediction of 1,200 blocks took 30 s with it against 17 s
 #: with these, at the same peak memory (260 MB).
-WORKER_MALLOC_ENV = {"MALLOC_TRIM_THRESHOLD_": str(128 << 20),
-                     "MALLOC_MMAP_THRESHOLD_": str(32 << 20)}
+WORKER_MALLOC_TRIM_BYTES = 128 << 20
+WORKER_MALLOC_MMAP_BYTES = 32 << 20
