@@ -20,9 +20,8 @@ import time
 
 sys.path.insert(0, os.path.abspath(os.path.join(os.path.dirname(__file__), "..")))
 
-from distributed import Client, LocalCluster
-
 from bench_errpred import stage_seconds  # noqa: E402  (same folder)
+from errpred.cluster import dask_client
 from errpred.pipeline import blocks_in_scope, build_predictor, load
 
 SCENARIO = "errpred/scenarios/mold-ball/scenario.toml"
@@ -48,9 +47,7 @@ def main(argv=None) -> int:
           f"stage 2 {1e3 * t_phys / n:.2f} ms/block)")
     rates = {}
     for workers in (1, 2):
-        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                          host="127.0.0.1", dashboard_address=None) as cluster, \
-                Client(cluster) as client:
+        with dask_client(workers=workers) as client:       # the command lines' cluster
             build_predictor(scn).run(blocks[:20], client=client)        # warm the workers
             p = build_predictor(scn)
             t0 = time.perf_counter()
