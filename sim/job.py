@@ -35,6 +35,7 @@ import numpy as np
 
 from errpred.correct_path import PathCompensation, compensate_path
 from errpred.physics import ShapeErrorModel
+from errpred.pipeline import build_predictor
 from errpred.predict import Prediction, Predictor
 from nc.atomic import atomic_write
 from nc.gcode import parse_program
@@ -147,12 +148,12 @@ def _worst_cam_pass(res: PlanResult) -> tuple[int, int]:
 def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
     """Run the kernels later stages need on small inputs, so that numba compiles them here
     and caches them on disk for every process. Parts: ``'margins'`` the planner's
-    zero-order margins (which this process's speed choice needs after the gains it
-    compiles itself), ``'predict'`` the error prediction's (``JOB_WARM_BLOCKS`` blocks
-    of the CAM program), ``'simulate'`` the simulated machine's (``JOB_WARM_POINTS``
-    cutter locations from the first cut) and the point analyses' (lobes by both methods
-    at two speeds, as in the plan's time-periodic check). Only time depends on it: a
-    stage compiles whatever is not cached yet."""
+    zero-order margins (which the main process's speed choice needs once a worker has
+    its sample of gains), ``'predict'`` the error prediction's (``JOB_WARM_BLOCKS``
+    blocks of the CAM program), ``'simulate'`` the simulated machine's
+    (``JOB_WARM_POINTS`` cutter locations from the first cut) and the point analyses'
+    (lobes by both methods at two speeds, as in the plan's time-periodic check). Only
+    time depends on it: a stage compiles whatever is not cached yet."""
     base = scn.base
     for part in parts:
         if part == "margins":
@@ -161,12 +162,7 @@ def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
                              base.tool.flutes, cap=scn.options.margin_target)
         elif part == "predict":
             prog = base.read_program()
-            shape = ShapeErrorModel(deviation=base.shape_error.radius_deviation_mm,
-                                    wear_rate=base.shape_error.wear_rate_mm_per_mm)
-            pred = Predictor(base.tool, base.stock.load(), prog, base.coefficients,
-                             base.compliance, shape_error=shape, resolution=base.resolution,
-                             machine=scn.machine())
-            pred.run(range(min(len(prog), JOB_WARM_BLOCKS)))
+            build_predictor(base, prog).run(range(min(len(prog), JOB_WARM_BLOCKS)))
         elif part == "simulate":
             setup = point_setup(scn)
             point_lobes(scn, setup, ("zoa", "sdm"), setup.spindle_rpm * np.array([0.9, 1.1]))
@@ -299,32 +295,32 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
             (scenario_with_program(scn, final_path), None),
             (scn, cam_points)]
     say("verify", 0, len(runs))
-    planned_scn = scenario_with_program(scn, planned_path)
+
+    # 6: lobes at representative points
+    def lobes_stage() -> list[dict]:
+        say("lobes", 0, 1)
+        out = _lobes(scn, res, scenario_with_program(scn, planned_path))
+        say("lobes", 1, 1)
+        return out
+
+    verified = []
     if client is not None:
         wp_f = client.scatter(wp, broadcast=True)
         futures = [client.submit(verify_program, s, points=p, workpiece=wp_f, pure=False)
                    for s, p in runs]
-        # 6 (while the workers verify): lobes at representative points
         t_lobes = time.perf_counter()
-        say("lobes", 0, 1)
-        lobes = _lobes(scn, res, planned_scn)
-        say("lobes", 1, 1)
+        lobes = lobes_stage()                       # while the workers verify
         seconds["lobes"] = round(time.perf_counter() - t_lobes, 2)
-        verified = []
         for k, f in enumerate(futures):
             verified.append(f.result())
             say("verify", k + 1, len(runs))
         lap("verify")
     else:
-        verified = []
         for k, (s, p) in enumerate(runs):
             verified.append(verify_program(s, points=p, workpiece=wp))
             say("verify", k + 1, len(runs))
         lap("verify")
-        # 6: lobes at representative points
-        say("lobes", 0, 1)
-        lobes = _lobes(scn, res, planned_scn)
-        say("lobes", 1, 1)
+        lobes = lobes_stage()
         lap("lobes")
     seconds["total"] = round(time.perf_counter() - t_start, 2)
     return JobResult(scenario=scn, plan=res, compensation=comp, planned=planned_post,

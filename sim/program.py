@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from nc.kinematics import get_machine
 from nc.path import cutter_locations
 from orient.contacts import ball_contacts
 from orient.geometry import lead_tilt_of
@@ -46,9 +45,8 @@ class PartProgram:
 
     def __init__(self, scn: PlanScenario, points: tuple[int, int] | None = None) -> None:
         base = scn.base
-        m = base.machine
         self.scn = scn
-        self.machine = get_machine(m) if isinstance(m, str) else m
+        self.machine = scn.machine()
         self.cam = cutter_locations(base.read_program(), self.machine)
         n = len(self.cam)
         first, last = (0, n - 1) if points is None else (int(points[0]), int(points[1]))
