@@ -128,26 +128,73 @@ def _with_lines(scenario, lines):
 
 
 def _cmd_compensate(args) -> int:
+    import dataclasses
+    import json
+
+    from nc.command import Refused
+
     from .pipeline import compensate_scenario
 
     scenario = _scenario(args.scenario)
     if args.lines:
         scenario = _with_lines(scenario, args.lines)
+    if args.tolerance_um is not None:
+        if not (args.tolerance_um >= 0 and args.tolerance_um < float("inf")):
+            raise ValueError(f"--tolerance-um: expected a finite value >= 0, got "
+                             f"{args.tolerance_um}")
+        scenario = dataclasses.replace(scenario, correction=dataclasses.replace(
+            scenario.correction, verify_tolerance_um=args.tolerance_um))
     t0 = time.perf_counter()
-    res = compensate_scenario(scenario, iterate=True if args.iterate else None,
-                              workers=args.workers)
+    con = _console(sys.stderr)
+    state = {"stage": ""}
+
+    def stage(name: str) -> None:
+        state["stage"] = name
+        if not args.quiet:
+            con.print(f"[dim]{time.perf_counter() - t0:7.1f} s  predicting densely: "
+                      f"{name}[/dim]")
+
+    with _dask_client(args) as client:
+        res = compensate_scenario(scenario, iterate=True if args.iterate else None,
+                                  workers=args.workers, progress=stage, client=client)
+    v = res.verified
+    if args.report:
+        rep = {"scenario": scenario.name, "program": str(scenario.program_path),
+               "corrected": res.corrected, "reason": res.reason(),
+               "verification": (v.comparison.as_dict() if v.comparison is not None
+                                else None),
+               "passes": [{"pass": p.index, "attempt": p.attempt, "relaxation": p.relaxation,
+                           "largest_move_um": round(p.largest_move_mm * 1e3, 3),
+                           "accepted": p.accepted, "ok": p.comparison.ok,
+                           "before": p.comparison.before.as_dict(),
+                           "after": p.comparison.after.as_dict()} for p in v.passes]}
+        with atomic_write(args.report) as fh:
+            json.dump(rep, fh, indent=1, allow_nan=False)
+            fh.write("\n")
+    if not res.corrected and v.passes:
+        raise Refused(f"{scenario.program_path}: nothing written to {args.output}: "
+                      f"{res.reason()}")
     with atomic_write(args.output) as fh:
         fh.write(res.text)
+    if not res.corrected:          # nothing to move: the program as it is
+        if not args.quiet:
+            print(f"wrote {args.output} unchanged: {res.reason()}")
+        return 0
     if not args.quiet:
-        print(f"wrote {args.output}: {res.iterations} pass(es) in "
-              f"{time.perf_counter() - t0:.1f} s")
-        for k, (err, chg) in enumerate(zip(res.max_error_um, res.largest_change_mm,
-                                           strict=False)):
-            print(f"  pass {k + 1}: largest |error| {err:.2f} um -> largest point move "
-                  f"{chg * 1e3:.2f} um")
-        print(f"  re-predicted on the corrected program: largest |error| "
-              f"{res.max_error_um[-1]:.2f} um (from {res.max_error_um[0]:.2f} um)")
+        b, a = v.before_stats, v.after_stats
+        print(f"wrote {args.output}: {res.iterations} pass(es), {len(v.passes)} dense "
+              f"re-predictions, in {time.perf_counter() - t0:.1f} s")
+        print(f"  verified on {a.points} points (every {_spacing(scenario):g} mm, block ends "
+              f"included), against the original's {b.points}:")
+        print(f"  largest |E| {b.max_abs_um:.2f} -> {a.max_abs_um:.2f} um, most negative "
+              f"{b.min_um:+.2f} -> {a.min_um:+.2f} um, RMS {b.rms_um:.2f} -> "
+              f"{a.rms_um:.2f} um; no point worse than the original by more than "
+              f"{v.comparison.tolerance_um:g} um")
     return 0
+
+
+def _spacing(scenario) -> float:
+    return scenario.resolution.dense().point_spacing_mm
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -173,13 +220,25 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip the comparison with the design surface")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=_cmd_predict)
-    p = sub.add_parser("compensate", help="write the program corrected against its error")
+    p = sub.add_parser("compensate", help=(
+        "write the program corrected against its error, only if its dense re-prediction "
+        "is nowhere worse than the original's (exit status 1 and nothing written "
+        "otherwise)"))
     p.add_argument("scenario")
     p.add_argument("-o", "--output", required=True, help="corrected program")
     p.add_argument("--iterate", action="store_true",
                    help="predict-correct until the largest change is below the tolerance")
     p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the geometry stage on an existing Dask scheduler")
+    p.add_argument("--dask", type=int, default=0, metavar="N",
+                   help="run the geometry stage on a local Dask cluster of N workers")
     p.add_argument("--lines", type=int, nargs=2, metavar=("FIRST", "LAST"))
+    p.add_argument("--tolerance-um", type=float, metavar="UM",
+                   help="how much worse than the original the corrected program may be "
+                        "anywhere (default: [correction] verify_tolerance_um, 1 um)")
+    p.add_argument("--report", metavar="JSON",
+                   help="write the verification (before/after per block, every pass)")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=_cmd_compensate)
     return ap

@@ -49,13 +49,86 @@ SWEEP_AXIS_STEP_RAD = math.radians(1.0)
 # --- prediction -------------------------------------------------------------
 #: Blocks longer than this get a prediction point in each of equal parts
 #: no longer than it (method.md section 3: long blocks, several points) [mm].
-#: Default: one point per block, as the seeds do. More points show how the
+#: Default: one point per stretch of a block that cuts (one per block, as the seeds
+#: do, where the whole block cuts). More points show how the
 #: error varies along a long block, but a correction that moves only the
 #: block's ends cannot follow that variation (the bundled wall, 44 mm lines
 #: between corners: a third of the largest error removed when the
 #: corner-affected ends of the lines count too), so the largest error then
 #: mixes in what no rewrite of the block's end points can correct.
 POINT_SPACING_MM = math.inf
+#: Spacing of the dense verification's prediction points along every block (both
+#: ends included) [mm]: a corrected program is re-predicted this densely before it
+#: is written (the corrected path's vertices and everything between them).
+VERIFY_SPACING_MM = 2.0
+#: A feed move within this angle of the tool axis is a plunge (or a retract): the
+#: dense points predict the corner at its end as the next move's start [rad].
+PLUNGE_ANGLE_RAD = math.radians(45.0)
+#: Whole-block pre-check: the tool is tested for material at stations this many
+#: tool diameters apart along every block (a quarter diameter: an island of stock
+#: that the tool's swept band crosses over more than a quarter of its diameter is
+#: met at a station) [-].
+PRECHECK_STEP_PER_DIAMETER = 0.25
+#: The pre-check tests flute 0's micro-edge samples at every this-many rotation
+#: steps (a coarse engagement: 4 deg at the default 2 deg step) [-].
+PRECHECK_ROTATION_STRIDE = 2
+#: The pre-check tests the tool shrunk by this much (toward its axis and up) [mm]:
+#: samples on an earlier sweep's boundary (a slot's walls and floor) are no cut
+#: whatever the rounding of the membership tests (~1e-5 mm for non-ball tools).
+PRECHECK_INSET_MM = 1.0e-3
+#: A rapid move counts as "into material" only where the tool shrunk by this much
+#: still meets the stock [mm]: positioning onto the stock's surface is no crash.
+RAPID_TOUCH_MM = 0.01
+#: A corrected program may be worse than the original by at most this much at any
+#: point of the dense verification (larger |E|, or a deeper overcut) [um]: below the
+#: prediction's own convergence (0.5 um at the default resolution) plus margin.
+VERIFY_TOLERANCE_UM = 1.0
+#: ... and a corrected program may cut deeper than the original and than the
+#: nominal surface (E below min(E_original, 0)) by at most this much [um]: an
+#: overcut cannot be mended, but iterating ends within the prediction's own noise
+#: (0.5 um) on either side of zero, so a correction that takes 10 um of undercut to
+#: 1.5 um of overcut is no harm; 2 um is the finish tolerance's order, not the
+#: error's.
+VERIFY_OVERCUT_UM = 2.0
+#: Verification: an error of the corrected program is compared with the original's
+#: interpolated along the path between its two nearest points, if they are at most
+#: this many dense spacings apart (else the nearest within one spacing) [-].
+VERIFY_BRACKET_SPACINGS = 2.5
+#: Sensitivities dE/dx beyond this are not trusted for the correction's size [-]
+#: (a move of E / (1 - gain) cancels E to first order).
+MAX_GAIN = 0.5
+#: The correction's fit (errpred/offset.py): weight of the second-difference rows
+#: against a point's equation [-]. Small: it decides only what the points leave free
+#: (air inside a chain) and damps point-to-point noise; a uniform or linearly varying
+#: error is followed exactly.
+OFFSET_SMOOTH = 0.05
+#: ... and of the rows holding each vertex's move along its surface normal [-] (a
+#: component across it changes no error: without them the few points whose normals
+#: tilt would buy tiny improvements with large slides along the wall).
+OFFSET_NORMAL = 1.0
+#: ... and of the ridge on every move [-] (no component that no equation asks for).
+OFFSET_RIDGE = 1.0e-6
+#: ... and of the rows holding a full circle's start on the moved circle [-].
+OFFSET_STIFF = 1.0e3
+#: A line block is split (points inserted) where the moves its points ask for depart
+#: from a straight line in the path length by more than this [mm]: two end points
+#: cannot follow an error that changes inside the block (a wall's end).
+SPLIT_TOL_MM = 1.0e-3
+#: Iteration of the correction: each pass adds this share of the new fit's moves
+#: (under-relaxation; halved after a pass that did not improve) [-].
+RELAXATION = 1.0
+#: The secant dE/dshift between two candidates is measured only where the path moved
+#: at least this much along the normal [um] ...
+SECANT_MIN_SHIFT_UM = 0.3
+#: ... and clipped to this range [-] (1 - gain of the model: 1 where the error
+#: follows the path exactly; 0.5 where deeper cutting bends the tool back half).
+SECANT_SLOPE_RANGE = (0.25, 2.0)
+#: A pass whose moves make some block worse than the original keeps that block's
+#: moves scaled by 1/2, 1/4, ... this many times, then zero (verified each time) [-].
+FALLBACK_HALVINGS = 2
+#: ... the moves of vertices within this many tool radii of a worse point too (the
+#: pass beside or below can finish the same surface) [-].
+FALLBACK_REACH_RADII = 0.25
 #: Extra stock thickness along the normal with which the error's sensitivity
 #: to the correction is evaluated (a finite difference) [mm].
 SENSITIVITY_STEP_MM = 2.0e-3
@@ -64,6 +137,9 @@ SENSITIVITY_STEP_MM = 2.0e-3
 #: many mm of tip (errpred/correct_path.py; about a ball's diameter, so a
 #: point's own pass wins over another pass whose tilted tips run nearby) [mm].
 LOCATE_AXIS_MM = 10.0
+#: ... the path sampled at most this far apart for that search [mm] (a long block is
+#: found from its middle, not only from its ends).
+LOCATE_SAMPLE_MM = 0.5
 #: Below this angle between tool axis and surface normal the cutting speed
 #: at the generation point is too small for the force model (flat floors cut
 #: by the ball's tip); no prediction is made there [rad].

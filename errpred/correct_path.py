@@ -4,20 +4,21 @@
 program's X/Y/Z words are machine coordinates that the rotary axes turn, so
 the correction is made where the physics is, on the tool tips in the
 workpiece frame, and the program is written again from them (``nc.writer``).
-The tool axis is kept: each tip moves along the surface normals by the chain
-fit of :func:`errpred.correct.chain_moves` (segment ``k`` runs from cutter
-location ``k - 1`` to ``k``), so the ball centre moves by the same vector.
+The tool axis is kept: each tip moves by the smooth offset along the surface
+normal of :mod:`errpred.offset` (every cutter location a vertex, every feed
+segment a straight piece; a segment whose points ask for more than a straight
+move gets cutter locations inserted at them), so the ball centre moves by the
+same vector.
 
-Each prediction point (on the program written from the path, where the
-writer may have inserted points) is placed on the path's nearest feed
-segment. As in :func:`errpred.correct.compensate`, iterating measures the
-error against the *reference* path's surface: the prediction plus how far
-the corrected path moved along the normal at that place.
+The loop is :func:`errpred.verified.correct_verified`: every candidate path is
+written, re-predicted densely (``predict``) and compared point by point with
+the reference path's own dense prediction, against the reference path's
+surface; only a candidate nowhere worse than the reference and better than the
+best so far is accepted, and the reference itself is the first candidate.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -25,112 +26,197 @@ import numpy as np
 
 from nc.path import CutterLocations
 
-from .constants import LOCATE_AXIS_MM
-from .correct import BlockError, chain_moves, largest_error_um
+from .constants import VERIFY_SPACING_MM, VERIFY_TOLERANCE_UM
+from .correct import split_fractions, wanted_moves
+from .offset import LINE, OffsetProblem, solve_offsets
 from .predict import Prediction
+from .verification import ErrorField, error_field, locate_on_path
+from .verified import VerifiedCorrection, correct_verified
 
-__all__ = ["PathCompensation", "compensate_path", "corrected_path", "error_points",
-           "path_errors"]
-
-
-def _locate(cl: CutterLocations, points: np.ndarray, axes: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray]:
-    """Feed segment (ending at cutter location k) and fraction along it nearest each point.
-
-    The nearest cutter location is found on tip *and* axis (``LOCATE_AXIS_MM`` per
-    radian of axis): on a 5-axis path the same tip is reached from different
-    contacts with different axes (a tilted pass can run where another pass's tips
-    lie), so the tip alone can put a point on the wrong pass."""
-    from scipy.spatial import cKDTree
-
-    tip = cl.tip
-    n = len(cl)
-    w = LOCATE_AXIS_MM
-    near = cKDTree(np.hstack([tip, w * cl.axis])).query(np.hstack([points, w * axes]))[1]
-    best_d = np.full(len(points), np.inf)
-    seg = np.full(len(points), -1, dtype=np.int64)
-    frac = np.zeros(len(points))
-    for cand in (near, near + 1):
-        k = np.clip(cand, 1, n - 1)
-        a, e = tip[k - 1], tip[k]
-        d = e - a
-        L2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
-        t = np.clip(np.einsum("ij,ij->i", points - a, d) / L2, 0.0, 1.0)
-        ax = (1 - t[:, None]) * cl.axis[k - 1] + t[:, None] * cl.axis[k]
-        dist = np.hypot(np.linalg.norm(a + t[:, None] * d - points, axis=1),
-                        w * np.linalg.norm(ax - axes, axis=1))
-        better = (dist < best_d) & ~cl.rapid[k]
-        best_d[better], seg[better], frac[better] = dist[better], k[better], t[better]
-    return seg, frac
-
-
-def _point_errors(cl: CutterLocations, prediction: Prediction,
-                  reference: CutterLocations | None):
-    """Per predicted point: the point, its segment, fraction, normal, gain and error [mm]."""
-    pts = prediction.predicted()
-    if reference is not None and len(reference) != len(cl):
-        raise ValueError(f"reference: expected {len(cl)} cutter locations like the path, got "
-                         f"{len(reference)}")
-    if not pts:
-        return pts, np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
-    tips = np.array([p.geometry.tip for p in pts])
-    seg, frac = _locate(cl, tips, np.array([p.geometry.axis for p in pts]))
-    E = np.array([p.result.E_um * 1e-3 for p in pts])
-    if reference is not None:
-        k = np.maximum(seg, 1)
-        t = frac[:, None]
-        moved = ((1 - t) * (cl.tip[k - 1] - reference.tip[k - 1])
-                 + t * (cl.tip[k] - reference.tip[k]))
-        normal = np.array([p.geometry.gen.normal_world for p in pts])
-        E = E + np.einsum("ij,ij->i", moved, normal)
-    return pts, seg, frac, E
+__all__ = ["PathEdit", "PathCompensation", "compensate_path", "fit_path", "apply_path_edit",
+           "error_points"]
 
 
 def error_points(cl: CutterLocations, prediction: Prediction,
                  reference: CutterLocations | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Generation points (m, 3) [mm] and errors (m,) [um] against ``reference``'s surface
-    (see :func:`path_errors`), for the points on a feed segment of ``cl``."""
-    pts, seg, _, E = _point_errors(cl, prediction, reference)
-    keep = seg >= 0
-    xyz = np.array([p.geometry.gen.point_world for p in pts]).reshape(-1, 3)
-    return xyz[keep], E[keep] * 1e3
+    (default: ``cl``'s own), for the predicted points on a feed segment of the reference."""
+    ref = cl if reference is None else reference
+    f = error_field(prediction, ref, moved=reference is not None)
+    keep = f.ref_segment >= 0
+    return f.point_mm[keep], f.E_um[keep]
 
 
-def path_errors(cl: CutterLocations, prediction: Prediction,
-                reference: CutterLocations | None = None) -> dict[int, list[BlockError]]:
-    """Errors per feed segment of ``cl``, against ``reference`` (default: ``cl`` itself).
+@dataclass(frozen=True, eq=False)
+class PathEdit:
+    """A fitted correction of a path: moves of its cutter locations and of the cutter
+    locations to insert.
+
+    Attributes
+    ----------
+    moves : ndarray, shape (V, 3) [mm]
+        Vertex ``k < n``: cutter location ``k``; then the inserted ones.
+    insert_fractions : dict of int -> ndarray
+        Segment (ending at cutter location k) -> fractions at which points are inserted.
+    insert_vertices : dict of int -> ndarray of int
+    movable : ndarray, shape (V,), bool
+    vertices : ndarray, shape (V, 3) [mm]
+    """
+
+    moves: np.ndarray
+    insert_fractions: dict
+    insert_vertices: dict
+    movable: np.ndarray
+    vertices: np.ndarray
+
+    @property
+    def n_vertices(self) -> int:
+        return int(self.moves.shape[0])
+
+    @property
+    def largest_mm(self) -> float:
+        return float(np.linalg.norm(self.moves, axis=1).max(initial=0.0))
+
+
+def fit_path(cl: CutterLocations, field_: ErrorField, slope: np.ndarray | None = None,
+             weight: np.ndarray | None = None, *, split: bool = True) -> PathEdit:
+    """The correction of path ``cl`` for the errors ``field_`` (its own dense
+    prediction, against the reference surface): see :mod:`errpred.correct`."""
+    n = len(cl)
+    target = wanted_moves(field_, slope)
+    if weight is not None:
+        target = target * np.asarray(weight, float)
+    seg, t = locate_on_path(cl, field_.tip_mm, field_.axis)
+    ok = seg >= 1
+    cut = np.zeros(n, bool)
+    cut[seg[ok]] = True
+    feed = ~cl.rapid
+    feed[0] = False
+    # chains: runs of feed segments, trimmed to their first and last cutting segment
+    chains: list[list[int]] = []
+    run: list[int] = []
+    for k in range(1, n + 1):
+        if k < n and feed[k]:
+            run.append(k)
+            continue
+        idx = [i for i, s in enumerate(run) if cut[s]]
+        if idx:
+            chains.append(run[idx[0]:idx[-1] + 1])
+        run = []
+    vertices = [cl.tip]
+    V = n
+    movable = np.zeros(n, bool)
+    ins_frac: dict[int, np.ndarray] = {}
+    ins_vtx: dict[int, np.ndarray] = {}
+    seg_v0, seg_v1, seg_k, seg_lo, seg_hi = [], [], [], [], []
+    chain_vertices = []
+    for chain in chains:
+        cv = [chain[0] - 1]
+        movable[chain[0] - 1] = True
+        for k in chain:
+            movable[k] = True
+            sel = np.flatnonzero(ok & (seg == k))
+            fr = np.zeros(0)
+            if split and sel.size >= 2:
+                tt, tg, nn = t[sel], target[sel], field_.normal[sel]
+                prev = np.flatnonzero(ok & (seg == k - 1) & (t >= 1.0 - 1e-9))
+                if prev.size and not np.any(tt <= 1e-9):
+                    tt, tg = np.r_[0.0, tt], np.r_[target[prev[0]], tg]
+                    nn = np.vstack([field_.normal[prev[0]], nn])
+                fr = split_fractions(float(np.linalg.norm(cl.tip[k] - cl.tip[k - 1])), tt,
+                                     tg, nn)
+            pieces = np.concatenate([[0.0], fr, [1.0]])
+            vs = [cv[-1]]
+            if fr.size:
+                ids = np.arange(V, V + fr.size)
+                V += fr.size
+                ins_frac[k], ins_vtx[k] = fr, ids
+                vertices.append(cl.tip[k - 1] + fr[:, None] * (cl.tip[k] - cl.tip[k - 1]))
+                vs += ids.tolist()
+            vs.append(k)
+            for j in range(len(vs) - 1):
+                seg_v0.append(vs[j])
+                seg_v1.append(vs[j + 1])
+                seg_k.append(k)
+                seg_lo.append(pieces[j])
+                seg_hi.append(pieces[j + 1])
+            cv += vs[1:]
+        chain_vertices.append(np.asarray(cv, np.int64))
+    verts = np.vstack(vertices)
+    mov = np.ones(V, bool)
+    mov[:n] = movable
+    seg_k = np.asarray(seg_k, np.int64)
+    seg_lo, seg_hi = np.asarray(seg_lo), np.asarray(seg_hi)
+    first = {}
+    for s, k in enumerate(seg_k):
+        first.setdefault(int(k), s)
+    keep = np.array([ok[q] and int(seg[q]) in first for q in range(seg.size)], bool)
+    q_seg = np.zeros(seg.size, np.int64)
+    q_t = np.zeros(seg.size)
+    for q in np.flatnonzero(keep):
+        k = int(seg[q])
+        s = first[k]
+        while s + 1 < seg_k.size and seg_k[s + 1] == k and seg_lo[s + 1] < t[q]:
+            s += 1
+        span = seg_hi[s] - seg_lo[s]
+        q_seg[q] = s
+        q_t[q] = float(np.clip((t[q] - seg_lo[s]) / span, 0.0, 1.0)) if span > 0 else 0.0
+    m = int(keep.sum())
+    S = seg_k.size
+    pb = OffsetProblem(
+        vertices=verts, movable=mov, seg_v0=np.asarray(seg_v0, np.int64),
+        seg_v1=np.asarray(seg_v1, np.int64), seg_kind=np.full(S, LINE, np.int64),
+        seg_plane=np.tile([0, 1, 2], (S, 1)), seg_centre=np.zeros((S, 3)),
+        chains=chain_vertices, pt_seg=q_seg[keep], pt_t=q_t[keep],
+        pt_w=np.column_stack([q_t[keep], np.zeros(m)]), pt_theta=np.zeros(m),
+        pt_normal=field_.normal[keep], pt_target=target[keep], pt_weight=np.ones(m))
+    sol = solve_offsets(pb)
+    return PathEdit(moves=sol.moves, insert_fractions=ins_frac, insert_vertices=ins_vtx,
+                    movable=mov, vertices=verts)
+
+
+def apply_path_edit(cl: CutterLocations, edit: PathEdit, scale: np.ndarray | None = None
+                    ) -> tuple[CutterLocations, np.ndarray]:
+    """The path with ``edit``'s moves (times ``scale`` per vertex) applied and its points
+    inserted (tip and axis interpolated, the segment's feed, spindle and block).
 
     Returns
     -------
-    dict of int -> list of BlockError
-        Segment ``k`` (cutter location ``k - 1`` to ``k``): one entry per prediction
-        point on it, ordered along it; ``E_mm`` is the prediction plus, with a
-        reference of the same length, the normal component of how far the path moved
-        from it at that place.
+    CutterLocations
+    owner : ndarray, shape (new points, 2), int
+        The edit's vertices at the ends of the segment ending at each new point (-1 for
+        the first point).
     """
-    pts, seg, frac, E = _point_errors(cl, prediction, reference)
-    out: dict[int, list[BlockError]] = {}
-    for p, k, t, e in zip(pts, seg, frac, E, strict=True):
-        if k < 0:
-            continue
-        out.setdefault(int(k), []).append(BlockError(float(e), p.geometry.gen.normal_world,
-                                                     float(t), p.result.gain))
-    for v in out.values():
-        v.sort(key=lambda be: be.fraction)
-    return out
-
-
-def corrected_path(cl: CutterLocations, errors: dict[int, list[BlockError]]
-                   ) -> tuple[CutterLocations, float]:
-    """The path with the tips moved against ``errors``, and the largest move [mm]."""
-    moves = chain_moves(errors, joined=lambda k: not cl.rapid[k])
-    tip = cl.tip.copy()
-    largest = 0.0
-    for k, m in moves.items():
-        tip[k] += m
-        largest = max(largest, float(np.linalg.norm(m)))
-    return CutterLocations(tip, cl.axis, cl.feed_mm_min, cl.spindle_rpm, cl.block,
-                           cl.rapid), largest
+    n = len(cl)
+    s = np.ones(edit.n_vertices) if scale is None else np.asarray(scale, float)
+    moves = edit.moves * s[:, None]
+    tips, axes, feed, rpm, block, rapid, vid = [], [], [], [], [], [], []
+    for k in range(n):
+        fr = edit.insert_fractions.get(k)
+        if fr is not None:
+            ids = edit.insert_vertices[k]
+            a, b = cl.tip[k - 1], cl.tip[k]
+            u = (1 - fr[:, None]) * cl.axis[k - 1] + fr[:, None] * cl.axis[k]
+            u /= np.linalg.norm(u, axis=1, keepdims=True)
+            tips.append(a + fr[:, None] * (b - a) + moves[ids])
+            axes.append(u)
+            feed.append(np.full(fr.size, cl.feed_mm_min[k]))
+            rpm.append(np.full(fr.size, cl.spindle_rpm[k]))
+            block.append(np.full(fr.size, cl.block[k]))
+            rapid.append(np.zeros(fr.size, bool))
+            vid.append(ids)
+        tips.append(cl.tip[k:k + 1] + moves[k:k + 1])
+        axes.append(cl.axis[k:k + 1])
+        feed.append(cl.feed_mm_min[k:k + 1])
+        rpm.append(cl.spindle_rpm[k:k + 1])
+        block.append(cl.block[k:k + 1])
+        rapid.append(cl.rapid[k:k + 1])
+        vid.append(np.array([k]))
+    v = np.concatenate(vid)
+    owner = np.column_stack([np.r_[-1, v[:-1]], v])
+    new = CutterLocations(np.vstack(tips), np.vstack(axes), np.concatenate(feed),
+                          np.concatenate(rpm), np.concatenate(block), np.concatenate(rapid))
+    return new, owner
 
 
 @dataclass
@@ -140,86 +226,97 @@ class PathCompensation:
     Attributes
     ----------
     cl : CutterLocations
-        The corrected path (the best pass).
-    iterations : int
-        Correction passes made.
-    largest_change_mm : list of float [mm]
-        Largest tip move of each pass.
-    max_error_um, rms_error_um : list of float [um]
-        Largest and root-mean-square |error| against the reference path's surface,
-        before each pass and after the last (re-predicted).
+        The accepted path (the reference when no correction was verified).
+    verified : VerifiedCorrection
     best : int
-        Index (into the lists above) of the pass returned: 0 is the reference itself.
-    predictions : list of Prediction
-        The prediction of each pass's path (the first: the reference).
+        Index of the accepted path in :attr:`paths` (0: the reference).
     paths : list of CutterLocations
-        The path of each pass (the first: the reference).
+        The reference, then every predicted candidate.
     """
 
     cl: CutterLocations
-    iterations: int = 0
-    largest_change_mm: list[float] = field(default_factory=list)
-    max_error_um: list[float] = field(default_factory=list)
-    rms_error_um: list[float] = field(default_factory=list)
+    verified: VerifiedCorrection
     best: int = 0
-    predictions: list[Prediction] = field(default_factory=list)
-    paths: list[CutterLocations] = field(default_factory=list)
+    paths: list = field(default_factory=list)
 
+    @property
+    def corrected(self) -> bool:
+        return self.verified.corrected
 
-def _rms_um(errors: dict[int, list[BlockError]]) -> float:
-    e = [be.E_mm for v in errors.values() for be in v]
-    return float(np.sqrt(np.mean(np.square(e)))) * 1e3 if e else 0.0
+    @property
+    def iterations(self) -> int:
+        return len({p.index for p in self.verified.passes})
+
+    @property
+    def predictions(self) -> list[Prediction]:
+        return self.verified.predictions
+
+    @property
+    def largest_change_mm(self) -> list[float]:
+        """Largest fitted move of each predicted candidate [mm]."""
+        return [p.largest_move_mm * p.relaxation for p in self.verified.passes]
+
+    @property
+    def max_error_um(self) -> list[float]:
+        """Largest |E| of the reference, then of each candidate, on the dense points [um]."""
+        v = self.verified
+        return [v.before_stats.max_abs_um] + [p.comparison.after.max_abs_um for p in v.passes]
+
+    @property
+    def rms_error_um(self) -> list[float]:
+        v = self.verified
+        return [v.before_stats.rms_um] + [p.comparison.after.rms_um for p in v.passes]
+
+    def reason(self) -> str:
+        return self.verified.reason()
 
 
 def compensate_path(cl: CutterLocations, predict: Callable[[CutterLocations], Prediction], *,
-                    iterate: bool = True, tolerance_mm: float = 1e-4,
-                    max_iterations: int = 3,
+                    iterate: bool = True, tolerance_mm: float = 1e-4, max_iterations: int = 3,
+                    tolerance_um: float = VERIFY_TOLERANCE_UM,
+                    spacing_mm: float = VERIFY_SPACING_MM, reach_mm: float = 0.0,
                     progress: Callable[[int, CutterLocations], None] | None = None
                     ) -> PathCompensation:
-    """Correct a path; with ``iterate``, until a pass changes no tip by ``tolerance_mm``.
+    """Correct a path, verified (see the module docstring).
 
     Parameters
     ----------
     cl : CutterLocations
         The reference path (e.g. the planned one), workpiece frame.
     predict : callable
-        ``predict(path) -> Prediction`` of the program written from ``path``.
+        ``predict(path) -> Prediction`` of the program written from ``path``, dense
+        (:meth:`errpred.geometry.Resolution.dense`).
     iterate : bool
-        One correction (False) or predict-then-correct until converged.
     tolerance_mm : float [mm]
+        Stop when a pass's largest move is below this.
     max_iterations : int
+    tolerance_um : float [um]
+        How much worse than the reference a point may be.
+    spacing_mm : float [mm]
+        The dense spacing of ``predict``.
+    reach_mm : float [mm]
+        Where a candidate is worse, the wanted moves of the points within this distance
+        (at least ``spacing_mm``) of the worse points are scaled back
+        (:func:`errpred.verified.correct_verified`).
     progress : callable, optional
-        ``progress(k, path)`` before predicting pass ``k`` (0: the reference).
-
-    Returns
-    -------
-    PathCompensation
-        The pass with the smallest RMS error is returned (iterating wanders
-        once the prediction's own noise is reached).
+        ``progress(k, path)`` before predicting candidate ``k`` (0: the reference).
     """
-    if not (math.isfinite(tolerance_mm) and tolerance_mm > 0):
-        raise ValueError(f"tolerance_mm: expected a finite value > 0, got {tolerance_mm!r}")
-    if not (isinstance(max_iterations, int) and max_iterations >= 1):
-        raise ValueError(f"max_iterations: expected an integer >= 1, got {max_iterations!r}")
-    out = PathCompensation(cl=cl)
-    current = cl
-    passes = max_iterations if iterate else 1
-    for k in range(passes + 1):
+    paths: list[CutterLocations] = []
+
+    def predict_field(c: CutterLocations) -> tuple[ErrorField, Prediction]:
         if progress is not None:
-            progress(k, current)
-        pred = predict(current)
-        errs = path_errors(current, pred, reference=cl)
-        out.predictions.append(pred)
-        out.paths.append(current)
-        out.max_error_um.append(largest_error_um(errs))
-        out.rms_error_um.append(_rms_um(errs))
-        if k == passes or (k > 0 and out.largest_change_mm[-1] < tolerance_mm):
-            break
-        if k > 1 and out.rms_error_um[-1] > out.rms_error_um[-2]:
-            break  # the prediction's own noise is reached
-        current, largest = corrected_path(current, errs)
-        out.iterations += 1
-        out.largest_change_mm.append(largest)
-    out.best = int(np.argmin(out.rms_error_um))
-    out.cl = out.paths[out.best]
-    return out
+            progress(len(paths), c)
+        paths.append(c)
+        pred = predict(c)
+        return error_field(pred, cl, moved=c is not cl), pred
+
+    def apply(c: CutterLocations, edit: PathEdit, factor: float) -> CutterLocations:
+        return apply_path_edit(c, edit, np.full(edit.n_vertices, factor))[0]
+
+    res = correct_verified(cl, predict_field, fit_path, apply, iterate=iterate,
+                           max_iterations=max_iterations, tolerance_mm=tolerance_mm,
+                           tolerance_um=tolerance_um, spacing_mm=spacing_mm,
+                           reach_mm=reach_mm)
+    best = 0 if res.best_pass < 0 else res.best_pass + 1
+    return PathCompensation(cl=res.best, verified=res, best=best, paths=paths)
+

@@ -31,7 +31,7 @@ from .surface import GenerationPoint, envelope_hits, generation_point, regions, 
 from .sweeps import Sweeps, build_sweeps
 from .tool import MicroEdges, Tool
 
-__all__ = ["Resolution", "PointGeometry", "GeometryModel", "STATUS"]
+__all__ = ["Resolution", "PointGeometry", "GeometryModel", "STATUS", "ERROR_STATUSES"]
 
 #: Status of a prediction point, and what it means.
 STATUS = {
@@ -42,7 +42,12 @@ STATUS = {
                     "normal to the surface, cutting speed ~0, the force model does not hold"),
     "no-finished-surface": "cuts, but later moves remove everything it leaves",
     "spindle-stopped": "cutting move with the spindle stopped",
+    "rapid-into-material": ("rapid move (G0) through material: a crash, not a cut; the "
+                            "program must not be run as it is"),
 }
+#: Statuses that are errors in the program itself (``predict``, ``compensate`` and the
+#: main job refuse the program: exit status 1).
+ERROR_STATUSES = ("rapid-into-material",)
 
 
 @dataclass(frozen=True)
@@ -58,7 +63,14 @@ class Resolution:
     chord_tol_mm : float [mm]
     point_spacing_mm : float [mm]
         Blocks longer than this get several prediction points
-        (``errpred.constants.POINT_SPACING_MM``: one per block).
+        (``errpred.constants.POINT_SPACING_MM``: one per stretch of a block that
+        cuts).
+    point_ends : bool
+        With a finite ``point_spacing_mm``: points at both ends of every block and
+        at most ``point_spacing_mm`` apart between them (a block's start is left
+        out where the block before it ends there, so each corner is predicted
+        once). The dense verification of a correction uses this
+        (:func:`Resolution.dense`).
     """
 
     pixel_mm: float
@@ -66,6 +78,12 @@ class Resolution:
     angle_step_rad: float = K.ANGLE_STEP_RAD
     chord_tol_mm: float = K.CHORD_TOL_MM
     point_spacing_mm: float = K.POINT_SPACING_MM
+    point_ends: bool = False
+
+    def dense(self, spacing_mm: float = K.VERIFY_SPACING_MM) -> "Resolution":
+        """This resolution with points at most ``spacing_mm`` apart on every block,
+        both ends included [mm]."""
+        return dataclasses.replace(self, point_spacing_mm=float(spacing_mm), point_ends=True)
 
     @classmethod
     def default(cls, tool: Tool) -> "Resolution":
@@ -75,7 +93,7 @@ class Resolution:
         """Every discretization refined by ``factor``."""
         return Resolution(self.pixel_mm / factor, int(round(self.micro_edges * factor)),
                           self.angle_step_rad / factor, self.chord_tol_mm / factor,
-                          self.point_spacing_mm)
+                          self.point_spacing_mm, self.point_ends)
 
 
 @dataclass(frozen=True, eq=False)
@@ -194,9 +212,16 @@ class GeometryModel:
             return None
         return int(self._first[k]), int(self._last[k])
 
-    def _at(self, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-        """Tip, axis, feed direction and ending CL index at path length L."""
+    def _at(self, L: float, block: int | None = None
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """Tip, axis, feed direction and ending CL index at path length L (on ``block``'s
+        own segments where given: at a block's start, its first segment, not the end of
+        the move before)."""
         s = int(np.searchsorted(self.path, L, side="left"))
+        if block is not None:
+            rng = self.block_points(block)
+            if rng is not None:
+                s = min(max(s, rng[0]), rng[1])
         s = min(max(s, 1), len(self.cl) - 1)
         L0, L1 = self.path[s - 1], self.path[s]
         t = 0.0 if L1 <= L0 else (L - L0) / (L1 - L0)
@@ -216,38 +241,159 @@ class GeometryModel:
         return tip, u, feed, s
 
     def geometry(self, block: int) -> list[PointGeometry]:
-        """Prediction point(s) of one block, with their stage-1 geometry."""
+        """Prediction point(s) of one block, with their stage-1 geometry.
+
+        The whole block is checked first (the seeds' pre-check: the block's sweep
+        against the stock minus the earlier sweeps), at stations no more than
+        ``PRECHECK_STEP_PER_DIAMETER`` tool diameters apart: prediction points go
+        where it cuts, one in the middle of each stretch that cuts, standing for
+        that stretch's length (its wear); with a finite ``point_spacing_mm``,
+        points every so often along the block (and at its ends with
+        ``point_ends``), each standing for its share of the block. A rapid move
+        is checked the same way: one through material is ``rapid-into-material``.
+        """
         rng = self.block_points(block)
         if rng is None:
             return []
         i0, i1 = rng
         cl = self.cl
-        if bool(np.all(cl.rapid[i0:i1 + 1])):
-            tip = cl.tip[i1]
-            return [PointGeometry(block, "rapid", float(self.path[i1]), tip, cl.axis[i1],
-                                  np.eye(3), math.nan, float(cl.spindle_rpm[i1]), np.zeros(3))]
         start = self.path[i0 - 1] if i0 > 0 else 0.0
         end = self.path[i1]
         length = end - start
+        if bool(np.all(cl.rapid[i0:i1 + 1])):
+            tip = cl.tip[i1]
+            status = "rapid"
+            for L in self._stations(start, end, ends=True):
+                if self._material_at(L, start, rapid=True):
+                    status = "rapid-into-material"
+                    tip = self._at(L)[0]
+                    break
+            return [PointGeometry(block, status, float(self.path[i1]), tip, cl.axis[i1],
+                                  np.eye(3), math.nan, float(cl.spindle_rpm[i1]), np.zeros(3))]
         spacing = self.res.point_spacing_mm
-        pts = max(1, math.ceil(length / spacing - 1e-9)) if math.isfinite(spacing) else 1
-        if pts > 1:
-            # a long block: a point in the middle of each of its equal parts
-            return [self.point(block, start + (k + 0.5) / pts * length, length / pts)
-                    for k in range(pts)]
-        # the midpoint first; the quarters if the midpoint does not cut
-        last = None
-        for frac in (0.5, 0.25, 0.75):
-            g = self.point(block, start + frac * length, length)
-            if g.status != "no-cut":
-                return [g]
-            last = g
-        return [last]
+        if math.isfinite(spacing):
+            return self._spaced_points(block, i0, start, length, spacing)
+        stations = self._stations(start, end)
+        if len(stations) == 1:
+            # a short block: the midpoint first; the quarters if the midpoint does not cut
+            last = None
+            for frac in (0.5, 0.25, 0.75):
+                g = self.point(block, start + frac * length, length)
+                if g.status != "no-cut":
+                    return [g]
+                last = g
+            return [last]
+        step = length / len(stations)
+        cuts = np.array([self._material_at(L, start) for L in stations])
+        out: list[PointGeometry] = []
+        for a, b in _runs(cuts):
+            run = np.arange(a, b)
+            centre = 0.5 * (a + b - 1)
+            for k in run[np.argsort(np.abs(run - centre), kind="stable")]:
+                g = self.point(block, float(stations[k]), (b - a) * step)
+                if g.status != "no-cut":
+                    out.append(g)
+                    break
+        if not out:
+            return [self.point(block, start + 0.5 * length, length)]
+        return out
+
+    def _spaced_points(self, block: int, i0: int, start: float, length: float,
+                       spacing: float) -> list[PointGeometry]:
+        """Points at most ``spacing`` apart along the block, each standing for its share."""
+        n = max(1, math.ceil(length / spacing - 1e-9))
+        if not self.res.point_ends:
+            # a point in the middle of each of n equal parts
+            return [self.point(block, start + (k + 0.5) / n * length, length / n)
+                    for k in range(n)]
+        frac = np.arange(n + 1) / n
+        # a corner between two feed moves is predicted once: as the end of the move
+        # before it, unless that move runs along the tool axis (a plunge: the surface
+        # at the corner is the next move's), or as the start of the move after it when
+        # this one is a plunge
+        cl = self.cl
+        i1 = i0 + int(np.searchsorted(cl.block[i0:], block, side="right")) - 1
+        before = i0 > 1 and not cl.rapid[i0 - 1] and cl.block[i0 - 1] != block
+        after = i1 + 1 < len(cl) and not cl.rapid[i1 + 1]
+        if before and not self._plunge(i0 - 1):
+            frac = frac[1:]
+        if after and self._plunge(i1) and frac.size > 1:
+            frac = frac[:-1]
+        edges = np.concatenate([[0.0], 0.5 * (frac[1:] + frac[:-1]), [1.0]])
+        return [self.point(block, start + float(t) * length, float(hi - lo) * length)
+                for t, lo, hi in zip(frac, edges[:-1], edges[1:], strict=True)]
+
+    def _plunge(self, k: int) -> bool:
+        """Does the segment ending at cutter location ``k`` run within ``PLUNGE_ANGLE_RAD``
+        of the tool axis (a plunge or a retract)?"""
+        d = self.cl.tip[k] - self.cl.tip[k - 1]
+        L = float(np.linalg.norm(d))
+        return L > 0 and abs(float(d @ self.cl.axis[k])) >= L * math.cos(K.PLUNGE_ANGLE_RAD)
+
+    def _stations(self, start: float, end: float, ends: bool = False) -> np.ndarray:
+        """Path lengths of the pre-check's stations on [start, end] [mm]: the middles of
+        equal parts no longer than the pre-check step (with ``ends``, the ends too)."""
+        length = end - start
+        h = K.PRECHECK_STEP_PER_DIAMETER * self.tool.diameter_mm
+        n = max(1, math.ceil(length / h - 1e-9))
+        mids = start + (np.arange(n) + 0.5) / n * length
+        return np.concatenate([[start], mids, [end]]) if ends else mids
+
+    def _material_at(self, L: float, block_start: float, rapid: bool = False) -> bool:
+        """Does the tool at path length ``L`` meet material the moves before left?
+
+        The pre-check of a block (coarse: every micro-edge sample of flute 0 at
+        every ``PRECHECK_ROTATION_STRIDE``-th rotation step). For a feed move, the
+        moves up to one feed per tooth behind the tool count as before; for a rapid,
+        those before the block's start (rapids remove nothing). The tool is shrunk by
+        ``PRECHECK_INSET_MM`` (``RAPID_TOUCH_MM`` for a rapid: positioning onto the
+        stock's surface is no crash).
+        """
+        tool = self.tool
+        tip, u, seg, s = self._at(L)
+        frame = tool_frame(u, seg, tool.rotation_sign)
+        bt = self.bottom
+        interval = None
+        if not getattr(self.stock, "is_box", False):
+            view = View.along_axis(tip, frame, bt.window_mm, bt.pixel_mm, bt.depth_offset_mm)
+            interval = stock_view(self.stock, view,
+                                  (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm))
+        z_top = self._stock_top(tip, frame, interval)
+        if z_top < -tool.radius_mm:
+            return False
+        if rapid:
+            behind = max(L - block_start, 0.0)
+        else:
+            feed, spindle = float(self.cl.feed_mm_min[s]), float(self.cl.spindle_rpm[s])
+            behind = feed / (spindle * tool.flutes) if spindle > 0 and feed > 0 else 0.0
+        t1, _ = self._near_sweeps(tip, u, L, behind, z_top)
+        grid = self._grid(1)
+        n, m = grid.shape
+        rows = np.arange(0, n, K.PRECHECK_ROTATION_STRIDE)
+        edge_ok = self.edges.z <= z_top + self.res.pixel_mm
+        idx = (rows[:, None] * m + np.flatnonzero(edge_ok)[None, :]).ravel()
+        local = grid.samples[idx]
+        # the tool shrunk a little: samples on the boundary of an earlier sweep (a
+        # slot's walls and floor) are no cut, whatever the rounding
+        inset = K.RAPID_TOUCH_MM if rapid else K.PRECHECK_INSET_MM
+        rho = np.hypot(local[:, 0], local[:, 1])
+        shrink = np.maximum(rho - inset, 0.0) / np.maximum(rho, 1e-300)
+        local = np.column_stack([local[:, 0] * shrink, local[:, 1] * shrink,
+                                 local[:, 2] + inset])
+        inside = self.bottom.in_stock_local(self.stock, interval, tip, frame, local)
+        if not inside.any():
+            return False
+        world = tip + local[inside] @ frame
+        removed = inside_any_sweep_clustered(world, np.ones(world.shape[0], dtype=np.bool_),
+                                             *t1, tool.core_radius_mm, tool.corner_radius_mm,
+                                             tool.flute_length_mm, K.MEMBERSHIP_EPS_MM,
+                                             K.CLUSTER_CELL_MM)
+        return bool((~removed).any())
 
     # --- one point ---------------------------------------------------------
     def point(self, block: int, L: float, cut_length: float) -> PointGeometry:
         tool, bt = self.tool, self.bottom
-        tip, u, seg, s = self._at(L)
+        tip, u, seg, s = self._at(L, block)
         feed = float(self.cl.feed_mm_min[s])
         spindle = float(self.cl.spindle_rpm[s])
         frame = tool_frame(u, seg, tool.rotation_sign)
@@ -506,3 +652,12 @@ def _generation(tool: Tool, xyz, phi, kappa, frame, tip) -> GenerationPoint:
     return GenerationPoint(theta_rad=theta, phi_rad=phi_m, kappa_rad=kappa_m, point_tool=pt,
                            point_world=tip + pt @ frame, normal_world=n_tool @ frame,
                            pixels=int(xyz.shape[0]), **strip)
+
+
+def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
+    """Half-open index ranges of the runs of True in a 1-d bool array."""
+    f = np.concatenate([[False], np.asarray(flags, bool), [False]])
+    d = np.diff(f.astype(np.int8))
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(),
+                    strict=True))
+

@@ -17,6 +17,7 @@ import numpy as np
 
 from nc.program import Program
 
+from . import constants as K
 from .correct import Compensation, compensate
 from .geometry import Resolution
 from .physics import ShapeErrorModel
@@ -154,15 +155,54 @@ def write_outputs(scenario: Scenario, prediction: Prediction, report_path=None,
 
 
 def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, workers: int = 1,
-                        progress: Callable[[int], None] | None = None) -> Compensation:
-    """Correct the scenario's program (one pass, or iterated per the scenario)."""
+                        progress: Callable[[str], None] | None = None,
+                        block_progress: Callable[[int, int], None] | None = None,
+                        client=None) -> Compensation:
+    """Correct the scenario's program (one pass, or iterated per the scenario), verified.
+
+    Every candidate and the original are predicted densely
+    (:meth:`errpred.geometry.Resolution.dense`) over the scenario's line range (the
+    same original lines in a corrected program whose blocks were split).
+
+    Raises
+    ------
+    nc.command.Refused
+        The original program has an error-level finding (a rapid move into material).
+    """
+    from nc.command import Refused
+    from nc.path import cutter_locations
+
+    from .findings import error_findings, findings_line
+
     stock = scenario.stock.load()
     program = scenario.read_program()
     opts = scenario.correction
     it = opts.iterate if iterate is None else iterate
+    res = scenario.resolution.dense()
+    machine = _machine(scenario)
 
-    def run(prog: Program) -> Prediction:
-        return predict(scenario, program=prog, workers=workers, progress=progress, stock=stock)
+    def run(prog: Program, origin: np.ndarray) -> Prediction:
+        pred = build_predictor(scenario, prog, res, stock)
+        if scenario.lines is None:
+            blocks = list(range(len(prog)))
+        else:
+            lo, hi = scenario.lines
+            orig = origin[prog.line - 1]
+            blocks = [int(b) for b in np.flatnonzero((orig >= lo) & (orig <= hi))]
+        cb = None if block_progress is None else (lambda d: block_progress(d, len(blocks)))
+        out = pred.run(blocks, workers=workers, progress=cb, client=client)
+        if prog is program:
+            found = error_findings(out)
+            if found:
+                raise Refused(findings_line(found, str(scenario.program_path)))
+        return out
 
-    return compensate(program, run, iterate=it, tolerance_mm=opts.tolerance_um * 1e-3,
-                      max_iterations=opts.max_iterations)
+    def path(prog: Program):
+        return cutter_locations(prog, machine, chord_tol_mm=res.chord_tol_mm)
+
+    return compensate(program, run, path=path, iterate=it,
+                      tolerance_mm=opts.tolerance_um * 1e-3,
+                      max_iterations=opts.max_iterations,
+                      tolerance_um=opts.verify_tolerance_um,
+                      reach_mm=K.FALLBACK_REACH_RADII * scenario.tool.radius_mm,
+                      progress=progress)

@@ -167,11 +167,14 @@ class ShapeError:
 @dataclass(frozen=True)
 class CorrectionOptions:
     """Path correction: one pass, or predict-correct iterations until the
-    largest change of a point is below ``tolerance_um``."""
+    largest change of a point is below ``tolerance_um``; the corrected program is
+    written only if its dense re-prediction is nowhere worse than the original's by
+    more than ``verify_tolerance_um``."""
 
     iterate: bool = False
     tolerance_um: float = 1.0
     max_iterations: int = 5
+    verify_tolerance_um: float = K.VERIFY_TOLERANCE_UM
 
 
 @dataclass(frozen=True, eq=False)
@@ -566,12 +569,14 @@ def _resolution(r: TableReader, d: dict, tool: Tool) -> Resolution:
 
 def _correction(r: TableReader, d: dict) -> CorrectionOptions:
     p = "correction"
-    r.keys(d, p, (), ("iterate", "tolerance_um", "max_iterations"))
+    r.keys(d, p, (), ("iterate", "tolerance_um", "max_iterations", "verify_tolerance_um"))
     it = d.get("iterate", False)
     if not isinstance(it, bool):
         raise r.fail("correction.iterate", f"expected true or false, got {_kind(it)}")
     return CorrectionOptions(it, r.number(d, "tolerance_um", p, default=1.0, sign=">0"),
-                             r.integer(d, "max_iterations", p, default=5))
+                             r.integer(d, "max_iterations", p, default=5),
+                             r.number(d, "verify_tolerance_um", p,
+                                      default=K.VERIFY_TOLERANCE_UM, sign=">=0"))
 
 
 # --------------------------------------------------------------------------- entry point

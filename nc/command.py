@@ -1,5 +1,8 @@
 """How every command line of the project ends (``nc``, ``errpred``, ``orient``, ``sim``).
 
+A result the command refuses (:class:`Refused`: a program that must not be cut)
+ends in one line ``error: ...`` on stderr and exit status 1.
+
 Bad input -- any ``ValueError`` (the packages' input errors all derive from it:
 ``NCParseError``, ``KinematicsError``, ``ScenarioError``, ...) or a file that is
 missing, exists, is a directory or may not be read -- ends in one line
@@ -14,11 +17,18 @@ import os
 import sys
 from collections.abc import Callable
 
-__all__ = ["INPUT_ERRORS", "run_command"]
+__all__ = ["INPUT_ERRORS", "Refused", "run_command"]
 
 #: Exceptions that mean bad input, not a bug.
 INPUT_ERRORS: tuple[type[BaseException], ...] = (
     ValueError, FileNotFoundError, FileExistsError, IsADirectoryError, PermissionError)
+
+
+class Refused(Exception):
+    """The command ran and refuses its result: a program that must not be cut (worse
+    than its original somewhere, a colliding posture, a rapid move into material, a
+    failed check). Ends in one line ``error: ...`` and exit status 1; nothing that
+    would be cut is written."""
 
 
 def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namespace,
@@ -28,10 +38,14 @@ def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namesp
     Returns
     -------
     int
-        ``func``'s exit status; 2 for bad input; 0 when stdout was closed early.
+        ``func``'s exit status; 2 for bad input; 1 when the command refused its
+        result (:class:`Refused`); 0 when stdout was closed early.
     """
     try:
         return func(args)
+    except Refused as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
     except (*INPUT_ERRORS, *extra) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -67,6 +67,7 @@ def rewrite_coordinates(
     ends: Mapping[int, np.ndarray] | None = None,
     *,
     centres: Mapping[int, np.ndarray] | None = None,
+    splits: Mapping[int, np.ndarray] | None = None,
     min_decimals: int | None = None,
 ) -> str:
     """New program text with changed end points and arc centres.
@@ -80,6 +81,12 @@ def rewrite_coordinates(
     centres : mapping of int to ndarray, shape (3,) [mm]
         Arc block index -> new absolute arc centre (in-plane coordinates are
         used). Arcs whose start moved keep their old centre unless given.
+    splits : mapping of int to ndarray, shape (k, 3) [mm]
+        Straight feed block index -> points (absolute X Y Z, program frame) at which
+        the block is split: the block's own line then ends at the first of them,
+        and one line per further point and for the block's end follows it
+        (``G1`` and the coordinates only; the block's other words stay on its own
+        line). Only for ``G1`` blocks that do not move rotary axes.
     min_decimals : int, optional
         Decimals for changed or inserted linear words when the original has
         fewer (default 3 in mm, 4 in inch programs). Rotary words: 4.
@@ -112,8 +119,24 @@ def rewrite_coordinates(
         if c.shape != (3,) or not np.all(np.isfinite(c)):
             raise RewriteError(f"centres[{i}]: expected 3 finite numbers, got {c!r}")
         new_centre[i] = c
+    split_pts: dict[int, np.ndarray] = {}
+    for i, pts in (splits or {}).items():
+        if not 0 <= i < n:
+            raise RewriteError(f"splits: block index {i} out of range (program has {n})")
+        pts = np.asarray(pts, dtype=float).reshape(-1, 3)
+        if not np.all(np.isfinite(pts)):
+            raise RewriteError(f"splits[{i}]: expected finite points")
+        if int(program.motion[i]) != 1 or program.arc_index[i] >= 0:
+            raise RewriteError(f"line {program.line[i]}: block {i} is not a straight feed "
+                               "move (G1); only those can be split")
+        if np.any(np.abs(program.end[i, 3:] - program.start[i, 3:]) > 1e-12):
+            raise RewriteError(f"line {program.line[i]}: block {i} moves rotary axes; it "
+                               "cannot be split")
+        if len(pts):
+            split_pts[i] = pts
 
     lines = list(program.lines)
+    after: dict[int, list[str]] = {}      # source line index -> lines to add after it
     cur = program.initial.astype(float).copy()
     modal_index = program.modal_index
     for i in range(n):
@@ -129,6 +152,10 @@ def rewrite_coordinates(
         inserts: list[tuple[str, str]] = []  # (letter, text) to insert
         reached = cur.copy()
         inc = m.distance == 91
+        pieces = split_pts.get(i)
+        final = target[i].copy()
+        if pieces is not None:
+            target[i, :3] = pieces[0]
         for a, letter in enumerate(_AXES):
             want = target[i, a]
             if a >= 3 and m.tcp == TCP_VECTOR:
@@ -195,10 +222,37 @@ def rewrite_coordinates(
         if edits or inserts:
             lines[li] = _apply(raw, words, edits, inserts)
         cur = reached
+        if pieces is not None:
+            extra = after.setdefault(li, [])
+            for p in list(pieces[1:]) + [final[:3]]:
+                text, cur = _g1_line(p, cur, inc, scale, lin_dec)
+                extra.append(text)
+            target[i] = final
+
+    if after:
+        out_lines = []
+        for li, text in enumerate(lines):
+            out_lines.append(text)
+            out_lines.extend(after.get(li, ()))
+        lines = out_lines
 
     text = program.newline.join(lines) + program.newline
-    _verify(program, text, target)
+    _verify(program, text, target, {i: len(p) for i, p in split_pts.items()})
     return text
+
+
+def _g1_line(point: np.ndarray, cur: np.ndarray, inc: bool, scale: float, dec: int
+             ) -> tuple[str, np.ndarray]:
+    """``G1 X.. Y.. Z..`` to ``point`` [mm] from ``cur`` in the block's units and distance
+    mode; returns the line and the position it reaches (as written)."""
+    reached = cur.copy()
+    words = ["G1"]
+    for a, letter in enumerate("XYZ"):
+        base = cur[a] if inc else 0.0
+        text = _format_like(None, (point[a] - base) / scale, dec)
+        words.append(f"{letter}{text}")
+        reached[a] = base + float(text) * scale
+    return " ".join(words), reached
 
 
 def _apply(raw: str, words, edits, inserts) -> str:
@@ -225,18 +279,24 @@ def _apply(raw: str, words, edits, inserts) -> str:
     return out
 
 
-def _verify(program: Program, text: str, target: np.ndarray) -> None:
+def _verify(program: Program, text: str, target: np.ndarray,
+            inserted: Mapping[int, int] | None = None) -> None:
     try:
         back = parse_program(text, file=program.file, allow=program.allowed,
                              block_delete=program.block_delete)
     except ValueError as exc:
         raise RewriteError(f"the rewritten program does not read back: {exc}") from exc
-    if len(back) != len(program):
-        raise RewriteError(f"the rewritten program has {len(back)} motion blocks; the "
-                           f"original has {len(program)}")
+    extra = np.zeros(len(program), np.int64)
+    for i, k in (inserted or {}).items():
+        extra[i] = k
+    expected = len(program) + int(extra.sum())
+    if len(back) != expected:
+        raise RewriteError(f"the rewritten program has {len(back)} motion blocks; "
+                           f"{expected} were expected")
+    index = np.arange(len(program)) + np.cumsum(extra)   # each original block's last piece
     units = program.modal_column("units")
     res = np.where(units == 20, 0.5e-4 * K.MM_PER_INCH, 0.5e-3) + 1e-9
-    err = np.abs(back.end[:, :3] - target[:, :3]).max(axis=1)
+    err = np.abs(back.end[index, :3] - target[:, :3]).max(axis=1)
     bad = err > res * 6  # a few roundings may add up in incremental mode
     if np.any(bad):
         i = int(np.argmax(bad))

@@ -8,15 +8,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from errpred.correct_path import (
-    compensate_path,
-    corrected_path,
-    error_points,
-    path_errors,
-)
+from errpred.correct_path import apply_path_edit, compensate_path, error_points, fit_path
 from errpred.dynamics import Mode
 from errpred.physics import workpiece_deflection
 from errpred.predict import PointPrediction, Prediction
+from errpred.verification import error_field, locate_on_path
 from nc.path import CutterLocations
 
 
@@ -46,19 +42,23 @@ def _prediction(cl: CutterLocations, E_um) -> Prediction:
 
 def test_a_uniform_error_moves_every_tip_back_along_the_normal():
     cl = _line()
-    errs = path_errors(cl, _prediction(cl, 5.0))
-    assert sorted(errs) == list(range(1, len(cl)))
-    new, largest = corrected_path(cl, errs)
+    field = error_field(_prediction(cl, 5.0), cl, moved=False)
+    assert sorted(set(field.ref_segment.tolist())) == list(range(1, len(cl)))
+    edit = fit_path(cl, field)
+    new, _ = apply_path_edit(cl, edit)
     # 5 um left everywhere: every tip goes 5 um deeper along -Z, axes unchanged
     np.testing.assert_allclose(new.tip - cl.tip, np.tile([0, 0, -5e-3], (len(cl), 1)),
                                atol=1e-7)
     np.testing.assert_array_equal(new.axis, cl.axis)
-    assert largest == pytest.approx(5e-3, rel=1e-4)
+    assert edit.largest_mm == pytest.approx(5e-3, rel=1e-4)
 
 
 def test_iterating_against_a_plant_that_follows_the_path_converges():
     """A plant whose error is 8 um minus 0.3 times how far the tip went down (the cut
-    deepens, the force grows): the fixed point is E = 0 against the reference."""
+    deepens, the force grows): the fixed point is E = 0 against the reference. The
+    first pass (the model's gain is 0: a move of E) overshoots into an overcut of
+    2.4 um, which the verification refuses; halving it is accepted, and the measured
+    slope (1.3) takes the next passes to the fixed point."""
     ref = _line()
 
     def predict(cl):
@@ -68,10 +68,27 @@ def test_iterating_against_a_plant_that_follows_the_path_converges():
 
     comp = compensate_path(ref, predict, iterate=True, tolerance_mm=1e-5, max_iterations=6)
     assert comp.rms_error_um[0] == pytest.approx(8.0)
+    assert comp.corrected and comp.verified.comparison.ok
     assert comp.rms_error_um[comp.best] < 0.05
-    assert comp.best == len(comp.rms_error_um) - 1 and comp.iterations >= 2
+    assert comp.iterations >= 2
+    first = comp.verified.passes[0]
+    assert not first.comparison.ok and first.comparison.after.min_um == pytest.approx(-2.4, abs=1e-3)
     xyz, e = error_points(comp.cl, comp.predictions[comp.best], reference=ref)
     assert xyz.shape == (len(ref) - 1, 3) and np.all(np.abs(e) < 0.05)
+
+
+def test_a_correction_worse_than_the_original_is_never_accepted():
+    """A plant whose error grows with any move of the path (5 um per um moved, either
+    way): no candidate is no worse than the reference, so the reference is kept."""
+    ref = _line()
+
+    def predict(cl):
+        return _prediction(cl, lambda tip, _axis: 3.0 + 5.0 * abs(tip[2]) * 1e3)
+
+    comp = compensate_path(ref, predict, iterate=True, max_iterations=3)
+    assert not comp.corrected and comp.best == 0 and comp.cl is ref
+    assert all(not p.comparison.ok for p in comp.verified.passes)
+    assert "no verified correction" in comp.reason()
 
 
 def test_rapids_break_the_chain_and_get_no_equation():
@@ -80,8 +97,11 @@ def test_rapids_break_the_chain_and_get_no_equation():
     rapid[5] = True
     cl = CutterLocations(cl.tip, cl.axis, np.where(rapid, np.nan, 1000.0), cl.spindle_rpm,
                          cl.block, rapid)
-    errs = path_errors(cl, _prediction(cl, 2.0))
-    assert 5 not in errs and 4 in errs and 6 in errs
+    field = error_field(_prediction(cl, 2.0), cl, moved=False)
+    assert 5 not in field.ref_segment and 4 in field.ref_segment and 6 in field.ref_segment
+    new, _ = apply_path_edit(cl, fit_path(cl, field))
+    np.testing.assert_allclose(new.tip - cl.tip, np.tile([0, 0, -2e-3], (len(cl), 1)),
+                               atol=1e-7)
 
 
 def test_a_pass_over_the_same_tips_with_another_axis_keeps_its_own_errors():
@@ -97,11 +117,13 @@ def test_a_pass_over_the_same_tips_with_another_axis_keeps_its_own_errors():
     rapid[n] = True
     cl = CutterLocations(tip, axis, np.where(rapid, np.nan, 1000.0), np.full(2 * n, 9000.0),
                          np.arange(2 * n), rapid)
-    errs = path_errors(cl, _prediction(cl, lambda _tip, ax: 5.0 if ax[1] < 0 else -3.0))
-    assert sorted(errs) == list(range(1, n)) + list(range(n + 1, 2 * n))
-    for k, v in errs.items():
-        assert len(v) == 1
-        assert v[0].E_mm == pytest.approx(5e-3 if k < n else -3e-3)
+    pred = _prediction(cl, lambda _tip, ax: 5.0 if ax[1] < 0 else -3.0)
+    seg, _ = locate_on_path(cl, np.array([p.geometry.tip for p in pred.points]),
+                            np.array([p.geometry.axis for p in pred.points]))
+    assert seg.tolist() == list(range(1, n)) + list(range(n + 1, 2 * n))
+    new, _ = apply_path_edit(cl, fit_path(cl, error_field(pred, cl, moved=False)))
+    np.testing.assert_allclose(new.tip[:n, 2], -5e-3, atol=1e-7)
+    np.testing.assert_allclose(new.tip[n + 1:, 2], 3e-3, atol=1e-7)
 
 
 def test_workpiece_deflection_static_limit():

@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 from nc import parse_program
+from nc.path import cutter_locations
 from errpred.coefficients import CuttingCoefficients
-from errpred.correct import block_errors, compensate
+from errpred.correct import compensate
+from errpred.verification import error_field
 from errpred.geometry import Resolution
 from errpred.pipeline import load, predict
 from errpred.plots import _lag_deg
@@ -46,20 +48,26 @@ def _plane_case():
     tool = Tool("ball", 10.0, flute_length_mm=15)
     stock = plane_stock(slope, 0.2)
     soft = stiff_tool(k_N_m=1.2e6)  # errors of ~10 um, as an overhung tool leaves
+    res = Resolution.default(tool).dense()
 
-    def run(p):
-        return Predictor(tool, stock, p, STEEL, soft).run()
+    def run(p, origin=None):
+        return Predictor(tool, stock, p, STEEL, soft, resolution=res).run()
 
     return prog, run
 
 
 def test_compensation_one_pass_and_iterated():
+    """Verified on the dense prediction (every block end) of the corrected program."""
     prog, run = _plane_case()
     one = compensate(prog, run, iterate=False)
+    assert one.corrected and one.verified.comparison.ok
     assert one.max_error_um[0] > 8.0  # a case with something to correct
-    assert one.max_error_um[-1] <= 0.10 * one.max_error_um[0], one.max_error_um
-    it = compensate(prog, run, iterate=True, tolerance_mm=5e-5, max_iterations=6)
-    assert it.max_error_um[-1] <= 0.03 * it.max_error_um[0], it.max_error_um
+    b, a = one.verified.before_stats, one.verified.after_stats
+    assert one.verified.comparison.unmatched <= 0.05 * a.points
+    assert a.max_abs_um <= 0.15 * b.max_abs_um, one.max_error_um
+    it = compensate(prog, run, iterate=True, tolerance_mm=5e-5, max_iterations=4)
+    assert it.verified.after_stats.max_abs_um <= 0.05 * b.max_abs_um, it.max_error_um
+    assert it.verified.after_stats.rms_um < a.rms_um
     # the corrected program is the original with numbers changed, line for line
     strip = str.maketrans("", "", "0123456789.-+ ")
     old, new = "\n".join(prog.lines).splitlines(), it.text.splitlines()
@@ -70,16 +78,16 @@ def test_compensation_one_pass_and_iterated():
 
 def test_corrected_program_moves_points_against_the_error():
     prog, run = _plane_case()
-    pred = run(prog)
-    errs = block_errors(prog, pred)
+    field = error_field(run(prog), cutter_locations(prog), prog.line, moved=False)
     res = compensate(prog, run, iterate=False)
     new = parse_program(res.text)
     checked = 0
-    for b, es in errs.items():
-        e = es[-1]
-        if e.E_mm > 1e-3 and b + 1 in errs:
+    for b in np.unique(field.block):
+        sel = field.block == b
+        if field.E_um[sel].min() > 1.0 and b + 1 in field.block:
             move = new.end[b, :3] - prog.end[b, :3]
-            assert float(move @ e.normal) < 0  # material left: the tool goes deeper
+            n = field.normal[sel].mean(axis=0)
+            assert float(move @ n) < 0  # material left: the tool goes deeper
             checked += 1
     assert checked > 20
 
@@ -130,8 +138,9 @@ def test_long_blocks_get_several_points_and_are_corrected_along_their_length():
 
     res = dataclasses.replace(Resolution.default(tool), point_spacing_mm=5.0)
 
-    def run(p):
-        return Predictor(tool, stock, p, STEEL, stiff_tool(k_N_m=1.2e6), resolution=res).run()
+    def run(p, origin=None, resolution=res):
+        return Predictor(tool, stock, p, STEEL, stiff_tool(k_N_m=1.2e6),
+                         resolution=resolution).run()
 
     pred = run(prog)
     long_block = [b for b in range(len(prog)) if prog.line[b] == 9][0]  # pass 2, one G1
@@ -140,8 +149,11 @@ def test_long_blocks_get_several_points_and_are_corrected_along_their_length():
     assert len(pts) == math.ceil(length / 5.0) and all(p.status == "predicted" for p in pts)
     fr = [(p.geometry.path_mm - pts[0].geometry.path_mm) for p in pts]
     np.testing.assert_allclose(np.diff(fr), length / len(pts), rtol=1e-6)  # 5-decimal words
-    res = compensate(prog, run, iterate=False)
-    assert res.max_error_um[-1] <= 0.2 * res.max_error_um[0]
+    # densely (2 mm, ends included) the corrected long blocks are verified along them
+    dense = res.dense()
+    out = compensate(prog, lambda p, o=None: run(p, resolution=dense), iterate=False)
+    assert out.corrected
+    assert out.verified.after_stats.max_abs_um <= 0.2 * out.verified.before_stats.max_abs_um
 
 
 def test_lag_of_a_delayed_response():

@@ -1,0 +1,342 @@
+"""The correction as a smooth offset of a path along the surface normal (``method.md`` §6).
+
+Pure arrays, no I/O: :mod:`errpred.correct` builds the problem from a program's
+blocks, :mod:`errpred.correct_path` from a 5-axis path's cutter locations.
+
+The path is a set of vertices joined by segments. Every vertex moves by a vector
+``m_v`` (3 unknowns); a point at fraction ``t`` of a segment moves by
+
+* a **line**: ``(1 - t) m_0 + t m_1``;
+* an **arc** with the sweep kept: the arc through the moved ends with the same
+  sweep is the image of the old one under the plane similarity that maps the old
+  ends onto the new ones, so in the arc's plane (complex numbers) the point moves
+  by ``(1 - w) m_0 + w m_1`` with ``w = (p(t) - p_0) / (p_1 - p_0)`` (for a line
+  ``w = t``), and along the arc's axis linearly;
+* a **full circle** (start = end, no similarity): by its own centre shift ``dc``
+  and radius change ``dr``: ``dc + dr r(theta)`` in the plane; its start and end
+  vertex is held on the new circle (stiff rows), so a lead-in and lead-out follow.
+
+Each prediction point asks for a move ``target`` along its normal ``n``
+(``n . D = target``). The least-squares fit adds
+
+* rows holding each vertex's move along its surface normal (the mean normal of
+  the points next to it): a component across the normal changes no error and is
+  not wanted (``OFFSET_NORMAL``);
+* a smoothness term on the **second difference** of the moves along each chain
+  of vertices (per unit path length, made dimensionless by the local spacing)
+  where the vertex and both its segments carry points: straight and uniform
+  offsets cost nothing, so a uniform error moves every vertex by the same
+  amount; noise from one point to the next is not chased. Across a segment
+  without points (air inside a chain, the stretch of a split block past its last
+  point) the term is on the first difference: moves there are interpolated
+  between the points on either side, or held constant past the last one, never
+  extrapolated;
+* a small ridge (nothing that no equation asks for).
+
+A chain is trimmed by the caller to the vertices between its first and last
+cutting segment, so lead-ins and lead-outs are not fitted and pull nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .constants import OFFSET_NORMAL, OFFSET_RIDGE, OFFSET_SMOOTH, OFFSET_STIFF
+
+__all__ = ["LINE", "ARC", "CIRCLE", "OffsetProblem", "OffsetSolution", "solve_offsets",
+           "arc_weights", "second_difference"]
+
+#: Segment kinds.
+LINE, ARC, CIRCLE = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class OffsetProblem:
+    """The fit's data.
+
+    Attributes
+    ----------
+    vertices : ndarray, shape (V, 3) [mm]
+    movable : ndarray, shape (V,), bool
+        Vertices that may move (the others stay where they are).
+    seg_v0, seg_v1 : ndarray, shape (S,), int
+        Vertex indices of each segment's start and end.
+    seg_kind : ndarray, shape (S,), int
+        ``LINE``, ``ARC`` or ``CIRCLE``.
+    seg_plane : ndarray, shape (S, 3), int
+        In-plane axes ``a1, a2`` and the plane's axis of arcs and circles.
+    seg_centre : ndarray, shape (S, 3) [mm]
+        Centre of arcs and circles.
+    chains : list of ndarray of int
+        Ordered vertex indices along each chain (for the smoothness term).
+    pt_seg : ndarray, shape (Q,), int
+    pt_t : ndarray, shape (Q,)
+        Fraction along the segment (0 start, 1 end).
+    pt_w : ndarray, shape (Q, 2)
+        Arc weight ``w`` (real, imaginary); ``(t, 0)`` on lines.
+    pt_theta : ndarray, shape (Q,) [rad]
+        Angle of the point on a full circle (about its centre, in its plane).
+    pt_normal : ndarray, shape (Q, 3)
+    pt_target : ndarray, shape (Q,) [mm]
+        Wanted move along the normal.
+    pt_weight : ndarray, shape (Q,)
+        Weight of each equation (the path length it stands for, relative).
+    """
+
+    vertices: np.ndarray
+    movable: np.ndarray
+    seg_v0: np.ndarray
+    seg_v1: np.ndarray
+    seg_kind: np.ndarray
+    seg_plane: np.ndarray
+    seg_centre: np.ndarray
+    chains: list
+    pt_seg: np.ndarray
+    pt_t: np.ndarray
+    pt_w: np.ndarray
+    pt_theta: np.ndarray
+    pt_normal: np.ndarray
+    pt_target: np.ndarray
+    pt_weight: np.ndarray
+
+
+@dataclass(frozen=True)
+class OffsetSolution:
+    """Moves of the vertices and of the full circles.
+
+    Attributes
+    ----------
+    moves : ndarray, shape (V, 3) [mm]
+    circle : dict of int -> (ndarray (3,), float)
+        Segment index -> (centre shift [mm], radius change [mm]) of each full circle.
+    residual_mm : ndarray, shape (Q,) [mm]
+        ``n . D - target`` per point after the fit.
+    """
+
+    moves: np.ndarray
+    circle: dict
+    residual_mm: np.ndarray
+
+
+def arc_weights(p0: np.ndarray, p1: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``w = (p - p0) / (p1 - p0)`` as complex numbers, in-plane 2-d points, (k, 2)."""
+    z0 = p0[0] + 1j * p0[1]
+    z1 = p1[0] + 1j * p1[1]
+    z = p[:, 0] + 1j * p[:, 1]
+    w = (z - z0) / (z1 - z0)
+    return np.column_stack([w.real, w.imag])
+
+
+def second_difference(moves: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """Dimensionless second difference of moves along a chain, (k - 2, 3) [mm].
+
+    ``(m[i+1] - m[i]) h_- / h - (m[i] - m[i-1]) h_+ / h`` with ``h = (h_- + h_+) / 2``
+    and ``h_-``, ``h_+`` the lengths before and after vertex ``i``: for equal spacing
+    the plain ``m[i-1] - 2 m[i] + m[i+1]``; zero for moves linear in path length.
+    """
+    m = np.asarray(moves, float)
+    if len(m) < 3:
+        return np.zeros((0, 3))
+    h = np.linalg.norm(np.diff(positions, axis=0), axis=1)
+    h = np.maximum(h, 1e-9)
+    hm, hp = h[:-1], h[1:]
+    mid = 0.5 * (hm + hp)
+    return ((m[2:] - m[1:-1]) * (hm / mid)[:, None] - (m[1:-1] - m[:-2]) * (hp / mid)[:, None])
+
+
+def solve_offsets(pb: OffsetProblem, *, smooth: float = OFFSET_SMOOTH,
+                  ridge: float = OFFSET_RIDGE) -> OffsetSolution:
+    """Least-squares vertex moves (and full-circle changes) for the wanted normal moves.
+
+    Parameters
+    ----------
+    pb : OffsetProblem
+    smooth : float
+        Weight of the second-difference rows, relative to a point's equation [-].
+    ridge : float
+        Weight of the ridge rows [-].
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.linalg import spsolve
+
+    V = pb.vertices.shape[0]
+    unknown = np.full(V, -1, dtype=np.int64)
+    mov = np.flatnonzero(pb.movable)
+    unknown[mov] = np.arange(mov.size)
+    circles = np.flatnonzero(pb.seg_kind == CIRCLE)
+    circ_col = {int(s): 3 * mov.size + 3 * k for k, s in enumerate(circles)}
+    N = 3 * mov.size + 3 * circles.size
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    vals: list[np.ndarray] = []
+    rhs: list[float] = []
+    r = 0
+
+    def add(cs, vs, b):
+        nonlocal r
+        cs = np.asarray(cs, np.int64)
+        vs = np.asarray(vs, float)
+        keep = cs >= 0
+        rows.append(np.full(int(keep.sum()), r, np.int64))
+        cols.append(cs[keep])
+        vals.append(vs[keep])
+        rhs.append(b)
+        r += 1
+
+    def vcols(v: int) -> np.ndarray:
+        u = unknown[v]
+        return np.array([3 * u, 3 * u + 1, 3 * u + 2]) if u >= 0 else np.full(3, -1)
+
+    # --- the points' equations --------------------------------------------------------
+    Q = pb.pt_seg.size
+    eq_rows = np.zeros(Q, np.int64)
+    for q in range(Q):
+        s = int(pb.pt_seg[q])
+        sw = math.sqrt(max(float(pb.pt_weight[q]), 0.0))
+        n = pb.pt_normal[q]
+        t = float(pb.pt_t[q])
+        c0, c1 = vcols(int(pb.seg_v0[s])), vcols(int(pb.seg_v1[s]))
+        kind = int(pb.seg_kind[s])
+        eq_rows[q] = r
+        if kind == LINE:
+            add(np.r_[c0, c1], sw * np.r_[(1 - t) * n, t * n], sw * float(pb.pt_target[q]))
+        elif kind == ARC:
+            a1, a2, ax = (int(x) for x in pb.seg_plane[s])
+            wr, wi = (float(x) for x in pb.pt_w[q])
+            # in-plane: (1 - w) m0 + w m1, complex; n . D with n = (n1, n2) in plane
+            n1, n2, n3 = n[a1], n[a2], n[ax]
+            coef0 = np.zeros(3)
+            coef1 = np.zeros(3)
+            coef0[a1] = n1 * (1 - wr) + n2 * (-wi)
+            coef0[a2] = n1 * wi + n2 * (1 - wr)
+            coef1[a1] = n1 * wr + n2 * wi
+            coef1[a2] = n1 * (-wi) + n2 * wr
+            coef0[ax] = (1 - t) * n3
+            coef1[ax] = t * n3
+            add(np.r_[c0, c1], sw * np.r_[coef0, coef1], sw * float(pb.pt_target[q]))
+        else:
+            a1, a2, ax = (int(x) for x in pb.seg_plane[s])
+            th = float(pb.pt_theta[q])
+            g = circ_col[s]
+            cax = np.full(3, -1)
+            vax = np.zeros(3)
+            cax[:2] = (c0[ax], c1[ax])
+            vax[:2] = ((1 - t) * n[ax], t * n[ax])
+            add(np.r_[g, g + 1, g + 2, cax[:2]],
+                sw * np.r_[n[a1], n[a2], n[a1] * math.cos(th) + n[a2] * math.sin(th), vax[:2]],
+                sw * float(pb.pt_target[q]))
+    # --- full circles: their start and end vertex stay on the new circle --------------
+    for s in circles:
+        s = int(s)
+        a1, a2, _ = (int(x) for x in pb.seg_plane[s])
+        g = circ_col[s]
+        c = pb.seg_centre[s]
+        for v in (int(pb.seg_v0[s]), int(pb.seg_v1[s])):
+            p = pb.vertices[v]
+            th = math.atan2(p[a2] - c[a2], p[a1] - c[a1])
+            cv = vcols(v)
+            st = OFFSET_STIFF
+            add([cv[a1], g, g + 2], st * np.array([1.0, -1.0, -math.cos(th)]), 0.0)
+            add([cv[a2], g + 1, g + 2], st * np.array([1.0, -1.0, -math.sin(th)]), 0.0)
+    # --- each vertex moves along its surface normal -------------------------------------
+    d, has_data = _vertex_normals(pb)
+    ln = math.sqrt(OFFSET_NORMAL)
+    for v in mov:
+        P = ln * (np.eye(3) - np.outer(d[v], d[v]))
+        cv = vcols(int(v))
+        for a in range(3):
+            add(cv, P[a], 0.0)
+    # --- smoothness along the chains ----------------------------------------------------
+    # second differences where the vertex and both its segments carry points; first
+    # differences across segments without points (air inside a chain, the stretch past
+    # the last point of a split block): those are interpolated, or held constant past
+    # the last point, never extrapolated
+    ls = math.sqrt(smooth)
+    seg_has = np.zeros(pb.seg_v0.size, bool)
+    seg_has[pb.pt_seg] = True
+    pair_has = {}
+    for k in range(pb.seg_v0.size):
+        pair_has[(int(pb.seg_v0[k]), int(pb.seg_v1[k]))] = bool(seg_has[k])
+    for chain in pb.chains:
+        chain = np.asarray(chain, np.int64)
+        if chain.size < 2:
+            continue
+        pos = pb.vertices[chain]
+        h = np.maximum(np.linalg.norm(np.diff(pos, axis=0), axis=1), 1e-9)
+        data = np.array([pair_has.get((int(a), int(b)), False)
+                         for a, b in zip(chain[:-1], chain[1:], strict=True)])
+        for i in range(chain.size - 1):
+            if not data[i]:
+                for a in range(3):
+                    add([vcols(int(chain[i]))[a], vcols(int(chain[i + 1]))[a]],
+                        ls * np.array([1.0, -1.0]), 0.0)
+        for i in range(1, chain.size - 1):
+            if not (data[i - 1] and data[i]):
+                continue
+            hm, hp = h[i - 1], h[i]
+            mid = 0.5 * (hm + hp)
+            wts = np.array([hp / mid, -(hp / mid) - (hm / mid), hm / mid])
+            vs = chain[i - 1:i + 2]
+            for a in range(3):
+                cs = np.array([vcols(int(v))[a] for v in vs])
+                add(cs, ls * wts, 0.0)
+    # --- ridge ---------------------------------------------------------------------------
+    lr = math.sqrt(ridge)
+    R = np.arange(N)
+    rows.append(r + R)
+    cols.append(R)
+    vals.append(np.full(N, lr))
+    rhs.extend([0.0] * N)
+    r += N
+    if N == 0:
+        return OffsetSolution(np.zeros((V, 3)), {}, -np.asarray(pb.pt_target, float))
+    A = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                   shape=(r, N)).tocsr()
+    b = np.asarray(rhs)
+    x = spsolve((A.T @ A).tocsc(), A.T @ b)
+    x = np.atleast_1d(x)
+    moves = np.zeros((V, 3))
+    moves[mov] = x[:3 * mov.size].reshape(-1, 3)
+    circle = {s: (_circle_shift(pb, s, x[g:g + 3]), float(x[g + 2])) for s, g in circ_col.items()}
+    resid = A @ x - b
+    sw = np.sqrt(np.maximum(pb.pt_weight, 0.0))
+    residual = np.where(sw > 0, resid[eq_rows] / np.where(sw > 0, sw, 1.0), np.nan) \
+        if Q else np.zeros(0)
+    return OffsetSolution(moves, circle, residual)
+
+
+def _vertex_normals(pb: OffsetProblem) -> tuple[np.ndarray, np.ndarray]:
+    """Unit surface normal at each vertex (the mean of its segments' points' normals,
+    weighted toward the nearer end; vertices without points take the nearest one's
+    along their chain), and whether a point reached it, (V, 3) and (V,)."""
+    V = pb.vertices.shape[0]
+    acc = np.zeros((V, 3))
+    t = pb.pt_t[:, None]
+    np.add.at(acc, pb.seg_v0[pb.pt_seg], (1 - t) * pb.pt_normal)
+    np.add.at(acc, pb.seg_v1[pb.pt_seg], t * pb.pt_normal)
+    norm = np.linalg.norm(acc, axis=1)
+    has = norm > 1e-9
+    d = np.zeros((V, 3))
+    d[has] = acc[has] / norm[has, None]
+    for chain in pb.chains:
+        chain = np.asarray(chain, np.int64)
+        known = np.flatnonzero(has[chain])
+        if known.size == 0:
+            continue
+        pos = np.arange(chain.size)
+        nearest = known[np.argmin(np.abs(pos[:, None] - known[None, :]), axis=1)]
+        miss = ~has[chain]
+        d[chain[miss]] = d[chain[nearest[miss]]]
+    lost = np.linalg.norm(d, axis=1) < 0.5
+    d[lost] = (0.0, 0.0, 1.0)
+    return d, has
+
+
+def _circle_shift(pb: OffsetProblem, s: int, g: np.ndarray) -> np.ndarray:
+    a1, a2, _ = (int(x) for x in pb.seg_plane[s])
+    d = np.zeros(3)
+    d[a1], d[a2] = g[0], g[1]
+    return d

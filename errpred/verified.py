@@ -1,0 +1,267 @@
+"""Correct, re-predict densely, compare with the original, repeat: the loop that decides
+what may be written (shared by a program's correction, :mod:`errpred.correct`, and a
+5-axis path's, :mod:`errpred.correct_path`).
+
+1. The original is predicted densely (every block, points at most
+   ``VERIFY_SPACING_MM`` apart, both ends included): the reference field.
+2. A pass fits moves to the current candidate's errors (against the original
+   surface) and applies a share of them (``RELAXATION``, halved after a pass that
+   did not improve: under-relaxation). From the second pass on, the error's
+   response to a move is measured at each point between the last two accepted
+   candidates (a secant) instead of taken from the model's first-order gain.
+3. The new candidate is predicted densely and compared with the original point
+   by point (:func:`errpred.verification.compare`). Where it is worse, the moves
+   wanted by the points near there are halved (``FALLBACK_HALVINGS`` times), then
+   dropped, the moves fitted again (so the correction stays smooth) and the
+   candidate predicted again.
+4. A candidate is accepted only when it is no worse than the original anywhere
+   and better than the best so far (RMS, or the largest |E| at no higher RMS):
+   acceptance is monotone, so iterating cannot wander off. The original is the
+   first candidate: if no pass is accepted, nothing is corrected, and the caller
+   says so.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .constants import (
+    FALLBACK_HALVINGS,
+    RELAXATION,
+    SECANT_MIN_SHIFT_UM,
+    SECANT_SLOPE_RANGE,
+    VERIFY_SPACING_MM,
+    VERIFY_TOLERANCE_UM,
+)
+from .verification import Comparison, ErrorField, ErrorStats, compare, error_stats, reference_at
+
+__all__ = ["PassRecord", "VerifiedCorrection", "correct_verified"]
+
+#: An improvement smaller than this does not count (the prediction's noise) [um].
+_IMPROVEMENT_UM = 1.0e-3
+#: Iterating stops once the relaxation has been halved below this [-].
+_MIN_RELAXATION = 0.1
+
+
+@dataclass(frozen=True)
+class PassRecord:
+    """One predicted candidate.
+
+    Attributes
+    ----------
+    index : int
+        Pass number (1, 2, ...).
+    attempt : int
+        0 for the pass's moves as fitted; 1, 2, ... after halving the moves where it
+        was worse.
+    relaxation : float
+        Share of the fitted moves applied.
+    largest_move_mm : float [mm]
+        Largest vertex move of the pass's fit (before relaxation and fallback).
+    comparison : Comparison
+        Against the original.
+    accepted : bool
+    """
+
+    index: int
+    attempt: int
+    relaxation: float
+    largest_move_mm: float
+    comparison: Comparison
+    accepted: bool
+
+
+@dataclass
+class VerifiedCorrection:
+    """Result of :func:`correct_verified`.
+
+    Attributes
+    ----------
+    best : object
+        The accepted candidate (the original if none was).
+    best_pass : int
+        Index into :attr:`passes` of the accepted candidate, -1 for the original.
+    before : ErrorField
+        The original's dense errors.
+    best_field : ErrorField
+        The best candidate's (against the original's surface).
+    comparison : Comparison or None
+        The best candidate against the original (None when it is the original).
+    passes : list of PassRecord
+    predictions : list
+        The prediction of the original, then of every candidate, in order.
+    """
+
+    best: Any
+    best_pass: int
+    before: ErrorField
+    best_field: ErrorField
+    comparison: Comparison | None
+    passes: list = field(default_factory=list)
+    predictions: list = field(default_factory=list)
+
+    @property
+    def corrected(self) -> bool:
+        """Whether a verified correction was found."""
+        return self.best_pass >= 0
+
+    @property
+    def before_stats(self) -> ErrorStats:
+        return error_stats(self.before.E_um)
+
+    @property
+    def after_stats(self) -> ErrorStats:
+        return error_stats(self.best_field.E_um)
+
+    def reason(self) -> str:
+        """One line: the verified result, or why nothing may be written."""
+        if self.corrected:
+            return self.comparison.reason()
+        if not self.passes:
+            b = self.before_stats
+            return (f"nothing to correct: max |E| {b.max_abs_um:.2f} um on {b.points} "
+                    f"points" if b.points else "nothing to correct: no predicted point")
+        last = self.passes[-1].comparison
+        if last.ok:
+            return ("no correction improved on the original program: " + last.reason())
+        return "no verified correction: the best candidate was " + last.reason()
+
+
+def _improved(after: ErrorStats, best: ErrorStats) -> bool:
+    if after.points == 0:
+        return False
+    if after.rms_um < best.rms_um - _IMPROVEMENT_UM:
+        return True
+    return (after.max_abs_um < best.max_abs_um - _IMPROVEMENT_UM
+            and after.rms_um <= best.rms_um + _IMPROVEMENT_UM)
+
+
+def _secant_slope(prev: ErrorField | None, cur: ErrorField, spacing_mm: float
+                  ) -> np.ndarray | None:
+    """``dE/dshift`` at each point of ``cur`` measured between two predicted candidates
+    (the error against the original's surface over the path's normal displacement,
+    both at the same place on the original path), NaN where the path hardly moved
+    there or the earlier candidate has no point; clipped to ``SECANT_SLOPE_RANGE``.
+    The model's first-order value is ``1 - gain``; near a wall's end or where another
+    pass finishes the surface the measured one is the better guide."""
+    if prev is None:
+        return None
+    E0 = reference_at(prev, cur, spacing_mm, prev.E_um)
+    s0 = reference_at(prev, cur, spacing_mm, prev.shift_um)
+    dE, ds = cur.E_um - E0, cur.shift_um - s0
+    slope = np.full(len(cur), np.nan)
+    ok = np.isfinite(dE) & np.isfinite(ds) & (np.abs(ds) >= SECANT_MIN_SHIFT_UM)
+    slope[ok] = np.clip(dE[ok] / ds[ok], *SECANT_SLOPE_RANGE)
+    return slope
+
+
+def _near(field_: ErrorField, tips: np.ndarray, reach_mm: float) -> np.ndarray:
+    """Points of ``field_`` whose tool tip lies within ``reach_mm`` of any of ``tips``."""
+    from scipy.spatial import cKDTree
+
+    if len(field_) == 0 or len(tips) == 0:
+        return np.zeros(0, np.int64)
+    hits = cKDTree(field_.tip_mm).query_ball_point(np.asarray(tips).reshape(-1, 3), reach_mm)
+    return np.unique(np.concatenate([np.asarray(h, np.int64) for h in hits]))
+
+
+def correct_verified(original: Any,
+                     predict: Callable[[Any], tuple[ErrorField, Any]],
+                     fit: Callable[..., Any],
+                     apply: Callable[[Any, Any, float], Any],
+                     *, iterate: bool = True, max_iterations: int = 5,
+                     tolerance_mm: float = 1e-4, tolerance_um: float = VERIFY_TOLERANCE_UM,
+                     spacing_mm: float = VERIFY_SPACING_MM, reach_mm: float = 0.0,
+                     lines: dict | None = None,
+                     progress: Callable[[str], None] | None = None) -> VerifiedCorrection:
+    """The verified correction loop (see the module docstring).
+
+    Parameters
+    ----------
+    original : object
+        The program or path to correct.
+    predict : callable
+        ``predict(candidate) -> (ErrorField against the original, prediction)``, dense.
+    fit : callable
+        ``fit(candidate, field, slope, weight) -> edit``: ``slope`` (one per point of
+        the field, or None) is the measured ``dE/dshift`` between the last two accepted
+        candidates (NaN: not measured; use the model's); ``weight`` (one per point)
+        scales each point's wanted move (1; halved, then 0, near the places where a
+        candidate was worse). The edit has ``largest_mm`` (largest vertex move [mm]).
+    apply : callable
+        ``apply(candidate, edit, factor) -> new candidate``: the edit's moves times
+        ``factor`` (the relaxation).
+    iterate : bool
+        One pass (False) or up to ``max_iterations``.
+    tolerance_mm : float [mm]
+        Stop when a pass's largest move is below this.
+    tolerance_um : float [um]
+        How much worse than the original a point may be.
+    spacing_mm : float [mm]
+        The dense spacing ``predict`` uses.
+    reach_mm : float [mm]
+        Where a candidate is worse than the original, the wanted moves of the points
+        within this distance (at least ``spacing_mm``) of the worse ones are halved
+        and the moves fitted again (a neighbouring vertex's move, or a neighbouring
+        pass's, can overcut a surface that its own point did not ask for).
+    lines : dict, optional
+        Block of the original -> source line, for the comparisons' reasons.
+    progress : callable, optional
+        ``progress(stage)`` before each prediction.
+    """
+    if not (math.isfinite(tolerance_mm) and tolerance_mm > 0):
+        raise ValueError(f"tolerance_mm: expected a finite value > 0, got {tolerance_mm!r}")
+    if not (isinstance(max_iterations, int) and max_iterations >= 1):
+        raise ValueError(f"max_iterations: expected an integer >= 1, got {max_iterations!r}")
+    say = progress or (lambda stage: None)
+    say("original")
+    F0, P0 = predict(original)
+    out = VerifiedCorrection(best=original, best_pass=-1, before=F0, best_field=F0,
+                             comparison=None, predictions=[P0])
+    if len(F0) == 0:
+        return out
+    best_stats = error_stats(F0.E_um)
+    current, Fc = original, F0
+    omega = RELAXATION
+    passes = max_iterations if iterate else 1
+    F_prev = None
+    for k in range(1, passes + 1):
+        slope = _secant_slope(F_prev, Fc, spacing_mm)
+        weight = np.ones(len(Fc))
+        edit = fit(current, Fc, slope, weight)
+        if edit.largest_mm * omega < tolerance_mm:
+            break
+        largest = float(edit.largest_mm)
+        for attempt in range(FALLBACK_HALVINGS + 2):
+            say(f"pass {k}" + (f", fallback {attempt}" if attempt else ""))
+            if attempt:
+                edit = fit(current, Fc, slope, weight)
+            cand = apply(current, edit, omega)
+            Fk, Pk = predict(cand)
+            out.predictions.append(Pk)
+            cmp = compare(F0, Fk, tolerance_um=tolerance_um, spacing_mm=spacing_mm,
+                          lines=lines)
+            ok = cmp.ok and _improved(cmp.after, best_stats)
+            out.passes.append(PassRecord(k, attempt, omega, largest, cmp, ok))
+            if cmp.ok:
+                break
+            near = _near(Fc, Fk.tip_mm[cmp.worse], max(reach_mm, spacing_mm))
+            if near.size == 0:
+                break
+            weight[near] = 0.0 if attempt == FALLBACK_HALVINGS else 0.5 * weight[near]
+        if out.passes[-1].accepted:
+            out.best, out.best_pass, out.best_field, out.comparison = (
+                cand, len(out.passes) - 1, Fk, cmp)
+            best_stats = cmp.after
+            F_prev, current, Fc = Fc, cand, Fk
+            omega = min(RELAXATION, 2.0 * omega)
+        else:
+            omega *= 0.5
+            if omega < _MIN_RELAXATION:
+                break
+    return out
