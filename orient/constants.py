@@ -94,6 +94,10 @@ CLEARANCE_MM = 1.0
 #: tolerance of CAM meshes (1-10 um; 4 um in errpred's bundled mold) plus the
 #: float32 rounding of binary STL coordinates (up to 4 um at 60-120 mm).
 GOUGE_TOL_MM = 0.01
+#: Points without a feasible posture named (CAM program lines, indices) in the
+#: one-line refusal or warning of ``python -m orient plan -o`` (a line, not a
+#: listing: the plan report has them all when written) [-].
+INFEASIBLE_LISTED = 5
 #: Spindle speeds tried when the spindle speed is chosen from the lobes [-].
 SPINDLE_STEPS = 120
 #: Default damping ratio of a thin wall's modes (monolithic steel, clamped) [-].
