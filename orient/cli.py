@@ -122,7 +122,8 @@ def _cmd_plan(args) -> int:
 
 def infeasible_summary(res, listed: int = INFEASIBLE_LISTED) -> str:
     """One line: how many points of a plan have no feasible posture, the first
-    ``listed`` of them (CAM program lines and point indices) and the first one's reason.
+    ``listed`` of them (CAM program lines and point indices) and the reason of the
+    first cutting point among them (of the first point if none cuts).
 
     Parameters
     ----------
@@ -133,10 +134,12 @@ def infeasible_summary(res, listed: int = INFEASIBLE_LISTED) -> str:
     inf = res.infeasible
     lines = res.stats.get("infeasible_lines", [])
     more = ", ..." if len(inf) > listed else ""
+    cutting = inf[np.isin(inf, res.touching_index)]
+    first = int(cutting[0]) if len(cutting) else int(inf[0])
     return (f"{len(inf)} of {len(res.cl)} points have no feasible posture, at CAM program "
             f"lines {', '.join(map(str, lines[:listed]))}{', ...' if len(lines) > listed else ''}"
             f" (points {', '.join(map(str, inf[:listed].tolist()))}{more}); point "
-            f"{int(inf[0])}: {res.reason[int(inf[0])].removeprefix('infeasible: ')}")
+            f"{first}: {res.reason[first].removeprefix('infeasible: ')}")
 
 
 def _job(args) -> int:

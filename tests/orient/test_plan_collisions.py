@@ -145,6 +145,8 @@ def test_pocket_without_feasible_postures_is_refused_unless_fallback_allowed(tmp
     lines = res.stats["infeasible_lines"]
     assert err[0].startswith(f"error: {len(res.infeasible)} of {len(res.cl)} points have no "
                              f"feasible posture, at CAM program lines {lines[0]}, ")
+    first = int(idx[flagged][0])
+    assert f"point {first}: no feasible posture: all " in err[0]
     assert list(out.parent.iterdir()) == []
     # allowed: the CAM posture kept there, one warning line, status 0, flagged in the report
     assert main(["plan", str(scn_path), "-o", str(out), "--allow-fallback"]) == 0
