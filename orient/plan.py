@@ -441,10 +441,13 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
         margin = _margins(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm,
                           None if progress is None else (lambda d, n: progress("margins", d, n)),
                           cap=cap, systems=systems)
+    cam_margin = None
     if rpm != rpm_program:        # the CAM's posture at the CAM's speed, for the report
+        # (its column keeps the margin at the planned speed: the choice and the
+        # reasons are about the planned path)
         cam_col = np.zeros_like(ok)
         cam_col[:, -1] = True
-        margin[:, -1] = _margins(scn, tool_sys, wp, contacts, idx, axes, cam_col, P,
+        cam_margin = _margins(scn, tool_sys, wp, contacts, idx, axes, cam_col, P,
                                  rpm_program)[:, -1]
     ok[:, -1] = cam_ok
     t3 = time.perf_counter()
@@ -473,8 +476,10 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     rows = np.arange(len(idx))
     # the score needed only min(margin, target): the chosen and the CAM postures'
     # margins are made exact again for the report
-    cam_col = np.full(len(idx), S1 - 1) if rpm == rpm_program else choice
-    _uncap(scn, systems, axes, P, rpm, margin, np.stack([choice, cam_col], axis=1), cap)
+    _uncap(scn, systems, axes, P, rpm, margin,
+           np.stack([choice, np.full(len(idx), S1 - 1)], axis=1), cap)
+    if cam_margin is None:
+        cam_margin = margin[:, -1]
     t4 = time.perf_counter()
     u_new = axes[rows, choice]
     n_all = len(cam)
@@ -485,7 +490,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     m_all = np.full(n_all, np.inf)
     mc_all = np.full(n_all, np.inf)
     m_all[idx] = margin[rows, choice]
-    mc_all[idx] = margin[:, -1]
+    mc_all[idx] = cam_margin
     cs = np.zeros(n_all)
     csc = np.zeros(n_all)
     cs[idx], csc[idx] = sense[rows, choice], sense[:, -1]
@@ -508,7 +513,8 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     infeasible = np.flatnonzero(infeasible_mask)
     labels = _cause_labels(checker.part_names)
     reasons = _reasons(cam, idx, inh, choice, S1, none, cause, final_cause, labels,
-                       margin, sense, lead, tilt, cam_lead, cam_tilt, opt.margin_target)
+                       margin, sense, lead, tilt, cam_lead, cam_tilt, opt.margin_target,
+                       cam_margin, None if rpm == rpm_program else rpm_program)
     checks = _sdm_checks(scn, tool_sys, wp, contacts, idx, u_new, cuts, rpm,
                          m_all[idx], run_id) if opt.verify_sdm else []
     t5 = time.perf_counter()
@@ -779,15 +785,16 @@ def _place_all(cam: CutterLocations, contacts: Contacts, idx: np.ndarray, u_new:
 def _reasons(cam: CutterLocations, idx: np.ndarray, inh: _Inherited, choice: np.ndarray,
              S1: int, none: np.ndarray, cause: np.ndarray, final_cause: np.ndarray,
              labels: list[str], margin: np.ndarray, sense: np.ndarray, lead: np.ndarray,
-             tilt: np.ndarray, cam_lead: np.ndarray, cam_tilt: np.ndarray, target: float
-             ) -> list[str]:
+             tilt: np.ndarray, cam_lead: np.ndarray, cam_tilt: np.ndarray, target: float,
+             cam_margin: np.ndarray, cam_rpm: float | None) -> list[str]:
     """Why each point has its posture (one line each, true to the checks made).
 
     ``cause`` (t, S1): rejection codes of the candidates (``labels``);
     ``final_cause`` (n,): code of the planned posture in the final check of the path
     (0 free or not checked). The reasons of infeasible points (touching points without
     a feasible candidate, points whose planned posture collides) start with
-    ``"infeasible: "``.
+    ``"infeasible: "``. ``margin`` is at the planned speed; ``cam_margin`` (t,) the CAM
+    posture's at the program's speed ``cam_rpm`` [rev/min] (None: the same speed).
     """
     n = len(cam)
     row_of = np.full(n, -1)
@@ -808,11 +815,12 @@ def _reasons(cam: CutterLocations, idx: np.ndarray, inh: _Inherited, choice: np.
         out.append(txt)
     for r, i in enumerate(idx):
         j = choice[r]
-        m, mc = margin[r, j], margin[r, -1]
+        m, mc = margin[r, j], cam_margin[r]
         where = (f"lead {math.degrees(lead[i]):+.1f} tilt {math.degrees(tilt[i]):+.1f} deg, "
                  f"{'up' if sense[r, j] > 0 else 'down'}-cut {sense[r, j]:+.2f}")
         cam_txt = (f"CAM posture (lead {math.degrees(cam_lead[i]):+.1f} tilt "
                    f"{math.degrees(cam_tilt[i]):+.1f}) margin {mc:.2f}"
+                   + ("" if cam_rpm is None else f" at {cam_rpm:g} rev/min")
                    + ("" if cause[r, -1] == _FEASIBLE else
                       f", infeasible: {labels[cause[r, -1]]}"))
         if none[r]:
