@@ -20,12 +20,16 @@ import math
 import os
 import sys
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from errpred.cluster import dask_client
 
 from .constants import INFEASIBLE_LISTED
+
+if TYPE_CHECKING:
+    from .plan import PlanResult
 
 __all__ = ["build_parser", "infeasible_summary", "main"]
 
@@ -120,7 +124,7 @@ def _cmd_plan(args) -> int:
     return 0
 
 
-def infeasible_summary(res, listed: int = INFEASIBLE_LISTED) -> str:
+def infeasible_summary(res: PlanResult, listed: int = INFEASIBLE_LISTED) -> str:
     """One line: how many points of a plan have no feasible posture, the first
     ``listed`` of them (CAM program lines and point indices) and the reason of the
     first cutting point among them (of the first point if none cuts).
@@ -128,8 +132,14 @@ def infeasible_summary(res, listed: int = INFEASIBLE_LISTED) -> str:
     Parameters
     ----------
     res : orient.plan.PlanResult
+        A plan with at least one point in ``res.infeasible``.
     listed : int
         Points named.
+
+    Returns
+    -------
+    str
+        Without a line break.
     """
     inf = res.infeasible
     lines = res.stats.get("infeasible_lines", [])
