@@ -5,7 +5,12 @@
 machine, report); ``-o OUT.nc`` plans only and writes the planned program.
 
 Units at the command line: mm, degrees, rev/min. Bad input ends in one line
-naming the file and the key, exit status 2, and nothing written.
+naming the file and the key, exit status 2, and nothing written. A plan with
+points that have no feasible posture (:attr:`orient.plan.PlanResult.infeasible`)
+ends in one line saying how many and where, exit status 1, and nothing
+written, unless a fallback is allowed (``--allow-fallback`` or ``[orient]
+allow_fallback = true``): then the CAM posture is kept there, one warning line
+is printed and the status is 0.
 """
 
 from __future__ import annotations
@@ -15,12 +20,18 @@ import math
 import os
 import sys
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from errpred.cluster import dask_client
 
-__all__ = ["build_parser", "main"]
+from .constants import INFEASIBLE_LISTED
+
+if TYPE_CHECKING:
+    from .plan import PlanResult
+
+__all__ = ["build_parser", "infeasible_summary", "main"]
 
 
 def _console():
@@ -61,6 +72,14 @@ def _cmd_plan(args) -> int:
         with dask_client(args.scheduler, args.dask or 0) as client:
             res = plan(scn, machine=machine, spindle_rpm=args.spindle_rpm, progress=progress,
                        client=client)
+    if len(res.infeasible):
+        what = infeasible_summary(res)
+        if not (args.allow_fallback or scn.options.allow_fallback):
+            print(f"error: {what}; nothing written (--allow-fallback, or allow_fallback = "
+                  f"true in [orient], keeps the CAM posture there)", file=sys.stderr)
+            return 1
+        print(f"warning: {what}; the CAM posture is kept there (fallback allowed), flagged "
+              f"'infeasible' in the plan report", file=sys.stderr)
     opts = PostOptions(dialect=args.dialect or scn.options.dialect, spindle_rpm=res.spindle_rpm,
                        source=f"orient plan of {scn.name}")
     post = write_program(out, res.cl, res.machine, opts)
@@ -105,12 +124,41 @@ def _cmd_plan(args) -> int:
     return 0
 
 
+def infeasible_summary(res: PlanResult, listed: int = INFEASIBLE_LISTED) -> str:
+    """One line: how many points of a plan have no feasible posture, the first
+    ``listed`` of them (CAM program lines and point indices) and the reason of the
+    first cutting point among them (of the first point if none cuts).
+
+    Parameters
+    ----------
+    res : orient.plan.PlanResult
+        A plan with at least one point in ``res.infeasible``.
+    listed : int
+        Points named.
+
+    Returns
+    -------
+    str
+        Without a line break.
+    """
+    inf = res.infeasible
+    lines = res.stats.get("infeasible_lines", [])
+    more = ", ..." if len(inf) > listed else ""
+    cutting = inf[np.isin(inf, res.touching_index)]
+    first = int(cutting[0]) if len(cutting) else int(inf[0])
+    return (f"{len(inf)} of {len(res.cl)} points have no feasible posture, at CAM program "
+            f"lines {', '.join(map(str, lines[:listed]))}{', ...' if len(lines) > listed else ''}"
+            f" (points {', '.join(map(str, inf[:listed].tolist()))}{more}); point "
+            f"{first}: {res.reason[first].removeprefix('infeasible: ')}")
+
+
 def _job(args) -> int:
     """The main job (:mod:`sim.job_cli`; sim sits above orient, so it is imported here,
     when the job runs, and orient's modules never import it)."""
     only = [f for f, v in (("--machine", args.machine), ("--dialect", args.dialect),
                            ("--spindle-rpm", args.spindle_rpm), ("--report", args.report),
-                           ("--plots", args.plots)) if v is not None]
+                           ("--plots", args.plots),
+                           ("--allow-fallback", args.allow_fallback or None)) if v is not None]
     if only:
         raise ValueError(f"{', '.join(only)}: options of the plan-only run; give -o OUT.nc "
                          f"(the job takes the scenario's machine, dialect and speed)")
@@ -165,6 +213,9 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--spindle-rpm", type=float, help="plan at this speed [rev/min]")
     a.add_argument("--report", help="JSON report (default: OUT-plan.json)")
     a.add_argument("--plots", help="folder for the PNG plots")
+    a.add_argument("--allow-fallback", action="store_true",
+                   help="plan only: where no posture is feasible keep the CAM posture "
+                        "(flagged, a warning) instead of refusing with status 1")
     a.add_argument("--scheduler", metavar="ADDRESS",
                    help="compute gains and margins on an existing Dask scheduler")
     a.add_argument("--dask", type=int, default=None, metavar="N",

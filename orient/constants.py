@@ -80,10 +80,24 @@ MAX_RATE_DEG_PER_MM = 2.0
 #: Margin above which postures count as equally good; the planner then
 #: prefers the posture nearest the CAM's [-].
 MARGIN_TARGET = 1.5
-#: Clearance kept between shank/holder and the workpiece [mm].
+
+# --- interference (orient/interference.py; the planner's [orient] defaults) ---------
+#: Clearance kept between shank/holder and the workpiece [mm]: the default of
+#: ``[orient] clearance_mm``, of :class:`orient.interference.ToolAssembly` and of
+#: :class:`orient.interference.InterferenceChecker` (one value: the check the
+#: planner makes is the one every other caller makes). 1 mm, the usual CAM holder
+#: clearance for finishing, and what the bundled scenarios state.
 CLEARANCE_MM = 1.0
-#: Least distance of the flute part above the ball from the design surface [mm].
-GOUGE_TOL_MM = 0.005
+#: Penetration of the flute part above the ball into the design surface tolerated
+#: as a touch [mm] (on a steep wall the flank is tangent to the surface by design).
+#: It must exceed the design mesh's deviation from the true surface: the chord
+#: tolerance of CAM meshes (1-10 um; 4 um in errpred's bundled mold) plus the
+#: float32 rounding of binary STL coordinates (up to 4 um at 60-120 mm).
+GOUGE_TOL_MM = 0.01
+#: Points without a feasible posture named (CAM program lines, indices) in the
+#: one-line refusal or warning of ``python -m orient plan -o`` (a line, not a
+#: listing: the plan report has them all when written) [-].
+INFEASIBLE_LISTED = 5
 #: Spindle speeds tried when the spindle speed is chosen from the lobes [-].
 SPINDLE_STEPS = 120
 #: Default damping ratio of a thin wall's modes (monolithic steel, clamped) [-].

@@ -65,6 +65,8 @@ from scipy.ndimage import distance_transform_edt
 
 from errpred.tool import Tool
 
+from . import constants as K
+
 __all__ = [
     "DEFAULT_CLEARANCE_MM",
     "DISTANCE_ACCURACY_MM",
@@ -79,11 +81,12 @@ __all__ = [
 ]
 
 # --- defaults and tolerances ---------------------------------------------------
-#: Clearance kept between shank/holder and the workpiece [mm].
-DEFAULT_CLEARANCE_MM = 0.5
+#: Clearance kept between shank/holder and the workpiece [mm]
+#: (:data:`orient.constants.CLEARANCE_MM`, the one source of the value).
+DEFAULT_CLEARANCE_MM = K.CLEARANCE_MM
 #: Penetration of the flank into the design surface tolerated as a touch [mm]
-#: (above the chord tolerance of design meshes, ~1-10 um).
-GOUGE_TOL_MM = 0.01
+#: (:data:`orient.constants.GOUGE_TOL_MM`: above the design mesh's deviation).
+GOUGE_TOL_MM = K.GOUGE_TOL_MM
 #: Exact (FCL) distances are computed for parts whose distance lower bound is
 #: at most this; farther parts report the lower bound [mm].
 DISTANCE_HORIZON_MM = 2.0

@@ -18,8 +18,14 @@ For each cutter location of the CAM program where the ball touches the design:
    good; ties go to the one nearest the CAM's), with the axis turning at most
    ``max_rate`` per mm;
 5. interference: the chosen postures are checked with FCL (shank and holder
-   against the stock, the flute part above the ball against the design);
-   colliding ones are removed from the candidates and step 4 repeats;
+   against the stock, the flute part above the ball against the design),
+   each together with the points that take it over (below); where one
+   collides, every candidate of that point -- and, each further time its pass
+   has a colliding choice, of a window around it twice as wide -- is checked
+   and the colliding ones removed, and step 4 repeats. A point whose
+   candidates are all infeasible is *infeasible*; the loop ends when no
+   chosen posture collides, within a bound it provably stays under (the
+   windows reach the ends of their pass);
 6. the time-periodic (full-discretization) margin of the planned posture at
    the points with the lowest zero-order margin, where the average can be
    wrong for intermittent ball-end cuts.
@@ -28,9 +34,19 @@ With ``[orient.spindle]`` the spindle speed is first chosen from the lobes
 (zero-order, at a sample of the cutter locations, each at its best posture)
 and the feed scaled to keep the feed per tooth.
 
-Points where the ball does not touch the design (air moves inside a pass)
-take the posture of the nearest touching point of their pass; rapid moves
-break the smoothness limit (the rotary axes move during the rapid).
+Points where the ball does not touch the design (air moves, approach and
+retract inside a pass) take the posture of the nearest touching point of their
+pass; rapid moves break the smoothness limit (the rotary axes move during the
+rapid).
+
+**Infeasible points.** The planned path is checked once more as a whole (every
+feed point and every point the planner moved). Where no feasible posture
+exists -- every candidate outside the inclination range or the axis limits,
+or colliding at the point or at a point that takes its posture -- or the
+planned path still collides, the point is listed in
+:attr:`PlanResult.infeasible` with the true cause in its reason, and keeps the
+CAM posture. :func:`plan` raises nothing for it: callers must look
+(``python -m orient plan`` refuses to write unless a fallback is allowed).
 """
 
 from __future__ import annotations
@@ -70,8 +86,15 @@ DASK_CHUNK_POINTS = 256
 #: A previous pass counts if an earlier contact lies within this fraction of the
 #: pick feed of where it should be [-].
 FIRST_PASS_TOLERANCE = 0.5
-#: Rounds of "choose, check interference, drop colliding postures" [-].
-MAX_INTERFERENCE_ROUNDS = 12
+#: Score of the CAM posture where no candidate is feasible (below any margin, so it
+#: is only taken where nothing else is left) [-].
+FALLBACK_SCORE = -1.0e6
+
+# why a candidate posture was rejected (PlanResult.reason): codes
+_FEASIBLE, _OUTSIDE_INCLINATION, _OUTSIDE_LIMITS = 0, 1, 2
+#: the first interference code: part p of the tool assembly violates at the cutting
+#: point (code _PART + p) or at a point that takes the posture (_PART + n_parts + p)
+_PART = 3
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,6 +102,12 @@ class PlanResult:
     """A planned path and why each posture was chosen.
 
     Arrays have one entry per cutter location of the CAM path (``n``).
+
+    ``infeasible`` lists the points (indices into ``cl``) where no feasible
+    posture exists or the planned path collides; they keep the CAM posture and
+    their ``reason`` says why. A non-empty ``infeasible`` means ``cl`` must not
+    be run as it is: check it (``stats["infeasible_points"]`` is its length,
+    ``stats["infeasible_lines"]`` the CAM program's source lines).
     """
 
     cl: CutterLocations
@@ -101,13 +130,19 @@ class PlanResult:
     sdm_checks: list = field(default_factory=list)
     stats: dict = field(default_factory=dict)
     #: margin (capped at ``margin_target``: values equal to it mean "at least") and
-    #: feasibility over the grid at the touching points, (t, nl, nt)
+    #: feasibility over the grid at the touching points, (t, nl, nt); feasibility as
+    #: far as checked: interference is checked where a chosen posture collided (every
+    #: candidate there) and for the chosen postures, elsewhere True means within the
+    #: inclination range and the axis limits
     grid_margin: np.ndarray | None = None
     grid_feasible: np.ndarray | None = None
     touching_index: np.ndarray | None = None
     #: the workpiece's modes along the touching points, as the margins used them
     #: (its finite elements take seconds: later stages reuse it)
     workpiece: WorkpieceModel | None = None
+    #: points (indices into ``cl``, ascending) without a feasible posture, or whose
+    #: planned posture collides: the CAM posture is kept there, flagged in ``reason``
+    infeasible: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
 def candidate_grid(options) -> tuple[np.ndarray, np.ndarray]:
@@ -321,6 +356,20 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     Returns
     -------
     PlanResult
+        **Check** ``result.infeasible`` **before using** ``result.cl``: points
+        where no candidate posture is feasible (all outside the inclination
+        range or the axis limits, or colliding -- shank or holder against the
+        stock, the flank gouging the design -- at the point or at a point that
+        takes its posture) or where the planned path collides keep the CAM
+        posture, which may collide. Nothing is raised for them; the caller
+        decides (refuse, or accept the fallback knowingly). Their reasons name
+        the cause; ``stats["infeasible_points"]`` counts them and
+        ``stats["infeasible_lines"]`` gives the CAM program's source lines.
+
+    Raises
+    ------
+    ValueError
+        No spindle speed in the program, or the ball never touches the design.
     """
     t0 = time.perf_counter()
     opt = scn.options
@@ -353,8 +402,11 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     centres = contacts.centre[idx][:, None, :]
     tips = centres - R * axes
     incl = inclination(axes, normal[:, None, :])
-    ok = (incl >= opt.min_inclination_rad - 1e-9) & (incl <= opt.max_inclination_rad + 1e-9)
-    ok &= _reachable(machine, tips, axes)
+    incl_ok = (incl >= opt.min_inclination_rad - 1e-9) & (incl <= opt.max_inclination_rad
+                                                           + 1e-9)
+    ok = incl_ok & _reachable(machine, tips, axes)
+    cause = np.where(incl_ok, np.where(ok, _FEASIBLE, _OUTSIDE_LIMITS),
+                     _OUTSIDE_INCLINATION).astype(np.int16)
     cam_ok = ok[:, -1].copy()
     ok[:, -1] = True            # the CAM posture is always evaluated (for the report)
     t1 = time.perf_counter()
@@ -389,10 +441,13 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
         margin = _margins(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm,
                           None if progress is None else (lambda d, n: progress("margins", d, n)),
                           cap=cap, systems=systems)
+    cam_margin = None
     if rpm != rpm_program:        # the CAM's posture at the CAM's speed, for the report
+        # (its column keeps the margin at the planned speed: the choice and the
+        # reasons are about the planned path)
         cam_col = np.zeros_like(ok)
         cam_col[:, -1] = True
-        margin[:, -1] = _margins(scn, tool_sys, wp, contacts, idx, axes, cam_col, P,
+        cam_margin = _margins(scn, tool_sys, wp, contacts, idx, axes, cam_col, P,
                                  rpm_program)[:, -1]
     ok[:, -1] = cam_ok
     t3 = time.perf_counter()
@@ -400,36 +455,31 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     checker = InterferenceChecker(stock_mesh(scn, design), ToolAssembly.from_tool(
         tool, clearance_mm=opt.clearance_mm), design_mesh=design,
         gouge_tol_mm=opt.gouge_tol_mm)
+    n_parts = len(checker.part_names)
     cam_interf = checker.check(cam.tip[idx], cam.axis[idx])
     cam_ok &= ~cam_interf.collides & ~cam_interf.gouges
+    cause[:, -1] = np.where((cause[:, -1] == _FEASIBLE) & (cam_interf.part >= 0),
+                            _PART + cam_interf.part, cause[:, -1])
     ok[:, -1] = cam_ok
     pref = CAM_PREFERENCE_PER_RAD * np.arccos(np.clip(np.sum(axes * cam.axis[idx][:, None, :],
                                                              axis=-1), -1, 1))
     base_score = np.minimum(margin, opt.margin_target) - pref
-    dropped = 0
-    choice = None
     run_id = np.cumsum(cam.rapid)[idx]                 # passes: rapids separate them
     breaks = np.zeros(len(idx), bool)
     breaks[1:] = run_id[1:] != run_id[:-1]
     step = np.zeros(len(idx))
     step[1:] = np.linalg.norm(np.diff(cam.tip[idx], axis=0), axis=1)
-    for _round in range(MAX_INTERFERENCE_ROUNDS):
-        score = np.where(ok, base_score, -np.inf)
-        none = ~ok.any(axis=1)
-        score[none, -1] = -1e6                         # nothing feasible: CAM posture, flagged
-        choice = best_smooth_path(score, axes, step, opt.max_rate_rad_per_mm, breaks)
-        rows = np.arange(len(idx))
-        res = checker.check(tips[rows, choice], axes[rows, choice])
-        bad = (res.collides | res.gouges) & ~none
-        if not bad.any():
-            break
-        ok[rows[bad], choice[bad]] = False
-        dropped += int(bad.sum())
+    inh = _inherited(cam, contacts, idx)
+    choice, interf = _choose_collision_free(checker, tips, axes, inh, ok, cause, base_score,
+                                            step, opt.max_rate_rad_per_mm, breaks, n_parts)
+    none = ~ok.any(axis=1)
     rows = np.arange(len(idx))
     # the score needed only min(margin, target): the chosen and the CAM postures'
     # margins are made exact again for the report
-    cam_col = np.full(len(idx), S1 - 1) if rpm == rpm_program else choice
-    _uncap(scn, systems, axes, P, rpm, margin, np.stack([choice, cam_col], axis=1), cap)
+    _uncap(scn, systems, axes, P, rpm, margin,
+           np.stack([choice, np.full(len(idx), S1 - 1)], axis=1), cap)
+    if cam_margin is None:
+        cam_margin = margin[:, -1]
     t4 = time.perf_counter()
     u_new = axes[rows, choice]
     n_all = len(cam)
@@ -440,38 +490,268 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     m_all = np.full(n_all, np.inf)
     mc_all = np.full(n_all, np.inf)
     m_all[idx] = margin[rows, choice]
-    mc_all[idx] = margin[:, -1]
+    mc_all[idx] = cam_margin
     cs = np.zeros(n_all)
     csc = np.zeros(n_all)
     cs[idx], csc[idx] = sense[rows, choice], sense[:, -1]
     cam_feasible = np.ones(n_all, bool)
     cam_feasible[idx] = cam_ok
-    new_tip, new_axis = _place_all(cam, contacts, idx, u_new, R)
+    new_tip, new_axis = _place_all(cam, contacts, idx, u_new, R, inh)
     # a changed spindle speed keeps the feed per tooth: the feed scales with it
     planned = CutterLocations(new_tip, new_axis, cam.feed_mm_min * (rpm / rpm_program),
                               np.full(n_all, rpm), cam.block, cam.rapid)
-    final = checker.check(planned.tip[feed_pts], planned.axis[feed_pts])
-    reasons = _reasons(cam, contacts, idx, choice, S1, ok, margin, sense, lead, tilt,
-                       cam_lead, cam_tilt, opt.margin_target, cam_ok)
+    # the planned path as a whole: every feed point and every point the planner moved
+    checked = feed_pts.copy()
+    checked[idx] = True
+    checked[inh.point] = True
+    pts = np.flatnonzero(checked)
+    final = checker.check(planned.tip[pts], planned.axis[pts])
+    final_cause = np.zeros(n_all, np.int16)
+    final_cause[pts] = np.where(final.part >= 0, _PART + final.part, _FEASIBLE)
+    infeasible_mask = final_cause != _FEASIBLE
+    infeasible_mask[idx[none]] = True
+    infeasible = np.flatnonzero(infeasible_mask)
+    labels = _cause_labels(checker.part_names)
+    reasons = _reasons(cam, idx, inh, choice, S1, none, cause, final_cause, labels,
+                       margin, sense, lead, tilt, cam_lead, cam_tilt, opt.margin_target,
+                       cam_margin, None if rpm == rpm_program else rpm_program)
     checks = _sdm_checks(scn, tool_sys, wp, contacts, idx, u_new, cuts, rpm,
                          m_all[idx], run_id) if opt.verify_sdm else []
     t5 = time.perf_counter()
     nlg = nl * nt
+    blk = cam.block[infeasible]
+    lines = np.where(blk >= 0, program.line[np.clip(blk, 0, None)], -1) if len(program) \
+        else np.full(len(blk), -1)
     return PlanResult(
         cl=planned, cam=cam, contacts=contacts, lead_rad=lead, tilt_rad=tilt,
         cam_lead_rad=cam_lead, cam_tilt_rad=cam_tilt, margin=m_all, cam_margin=mc_all,
         cut_sense=cs, cam_cut_sense=csc, cam_feasible=cam_feasible, reason=tuple(reasons),
         spindle_rpm=rpm, machine=machine, grid_lead_rad=lead_g, grid_tilt_rad=tilt_g,
         sdm_checks=checks,
-        stats={"program_spindle_rpm": rpm_program, "points": n_all, "touching": len(idx), "postures": int(len(idx) * S1),
-               "interference_dropped": dropped,
-               "planned_collisions": int(np.sum(final.collides | final.gouges)),
+        stats={"program_spindle_rpm": rpm_program, "points": n_all, "touching": len(idx),
+               "postures": int(len(idx) * S1),
+               "interference_dropped": interf["dropped"],
+               "interference_checks": interf["checks"],
+               "interference_rounds": interf["rounds"],
+               "planned_collisions": int(np.count_nonzero(final_cause)),
+               "infeasible_points": int(len(infeasible)),
+               "infeasible_lines": sorted({int(x) for x in lines}),
                "wall_first_frequencies_hz": wp.first_frequencies_hz() if wp.levels else [],
                "seconds": {"candidates": t1 - t0, "setup": t2 - t1, "margins": t3 - t2,
                            "choice_and_interference": t4 - t3, "finish": t5 - t4,
                            "total": t5 - t0}},
         grid_margin=margin[:, :nlg].reshape(-1, nl, nt),
-        grid_feasible=ok[:, :nlg].reshape(-1, nl, nt), touching_index=idx, workpiece=wp)
+        grid_feasible=ok[:, :nlg].reshape(-1, nl, nt), touching_index=idx, workpiece=wp,
+        infeasible=infeasible)
+
+
+def _choose_collision_free(checker: InterferenceChecker, tips: np.ndarray, axes: np.ndarray,
+                           inh: _Inherited, ok: np.ndarray, cause: np.ndarray,
+                           base_score: np.ndarray, step: np.ndarray, max_rate: float,
+                           breaks: np.ndarray, n_parts: int) -> tuple[np.ndarray, dict]:
+    """The smooth choice (:func:`best_smooth_path`) among collision-free candidates.
+
+    Each round chooses, then checks the chosen postures not known to be free (each
+    with the points that take it over, :func:`_check_candidates`). Where one
+    collides, every still-feasible candidate of that touching point is checked and
+    the colliding ones are removed; the k-th time (k >= 2) a pass has a colliding
+    choice, every candidate within ``2**(k - 2)`` points of it is checked as well,
+    so that the smoothing limit cannot push the choice onto untested neighbours
+    one point per round. Points left without a feasible candidate take
+    the CAM posture (the last column) with :data:`FALLBACK_SCORE` and break the
+    smoothness limit on both sides (they must not drag their neighbours along).
+
+    Termination: a pass's choice depends only on its own candidates (rapids
+    break the limit); a round goes on only if some pass had a colliding choice
+    (every candidate of a completely checked pass is free, so it never has one
+    again); by its ``2 + ceil(log2(length))``-th such round a pass's window
+    covers it. So there are at most ``1 + passes * (2 + ceil(log2(longest)))``
+    rounds (in practice 2: the passes are independent, so all those with a
+    colliding choice show in the first round). A round beyond that bound is a
+    bug: RuntimeError, never a colliding choice kept silently.
+
+    Parameters
+    ----------
+    checker : InterferenceChecker
+    tips, axes : ndarray, shape (t, s, 3) [mm], [-]
+        Candidate postures at the touching points (last column: the CAM's).
+    inh : _Inherited
+        The points that take a touching point's posture.
+    ok : ndarray of bool, shape (t, s)
+        Feasible candidates; updated in place (colliding ones become False).
+    cause : ndarray of int, shape (t, s)
+        Why a candidate is infeasible (codes of :func:`_cause_labels`); updated
+        in place.
+    base_score : ndarray, shape (t, s)
+    step : ndarray, shape (t,) [mm]
+    max_rate : float [rad/mm]
+    breaks : ndarray of bool, shape (t,)
+        Starts of passes.
+    n_parts : int
+        Parts of the tool assembly.
+
+    Returns
+    -------
+    choice : ndarray of int, shape (t,)
+    stats : dict
+        ``rounds``, ``checks`` (postures checked, inherited points included) and
+        ``dropped`` (candidates removed for interference).
+    """
+    t, s = ok.shape
+    rows = np.arange(t)
+    known = np.zeros((t, s), bool)          # checked (with inherited points): free
+    verified = np.zeros(t, bool)            # every candidate checked
+    run = np.cumsum(breaks) - (1 if t and breaks[0] else 0)
+    start = np.flatnonzero(np.r_[True, breaks[1:]]) if t else np.zeros(0, np.int64)
+    length = np.diff(np.r_[start, t])
+    strikes = np.zeros(len(start), np.int64)
+    bound = 1 + len(start) * (2 + math.ceil(math.log2(max(2, int(length.max(initial=1))))))
+    stats = {"rounds": 0, "checks": 0, "dropped": 0}
+
+    def check(r: np.ndarray, c: np.ndarray) -> np.ndarray:
+        code, n_checks = _check_candidates(checker, tips, axes, inh, r, c, n_parts)
+        stats["checks"] += n_checks
+        free = code == _FEASIBLE
+        known[r[free], c[free]] = True
+        ok[r[~free], c[~free]] = False
+        cause[r[~free], c[~free]] = code[~free]
+        stats["dropped"] += int(np.count_nonzero(~free))
+        return ~free
+
+    while True:
+        stats["rounds"] += 1
+        if stats["rounds"] > bound:
+            raise RuntimeError(f"orient.plan: the interference loop did not end within its "
+                               f"bound of {bound} rounds (a bug)")
+        none = ~ok.any(axis=1)
+        score = np.where(ok, base_score, -np.inf)
+        score[none, -1] = FALLBACK_SCORE
+        brk = breaks | none
+        brk[1:] |= none[:-1]
+        choice = best_smooth_path(score, axes, step, max_rate, brk)
+        todo = rows[~none & ~known[rows, choice]]
+        if len(todo) == 0:
+            break
+        bad = todo[check(todo, choice[todo])]
+        if len(bad) == 0:
+            break
+        sel = np.zeros(t, bool)
+        for g in np.unique(run[bad]):
+            w = 0 if strikes[g] == 0 else 2 ** int(strikes[g] - 1)
+            strikes[g] += 1
+            pos = bad[run[bad] == g]
+            lo = np.maximum(pos - w, start[g])
+            hi = np.minimum(pos + w, start[g] + length[g] - 1)
+            for a_, b_ in zip(lo, hi):
+                sel[a_:b_ + 1] = True
+        sel &= ~verified
+        pr, pc = np.nonzero(ok[sel] & ~known[sel])
+        if len(pr):
+            check(rows[sel][pr], pc)
+        verified |= sel
+    return choice, stats
+
+
+@dataclass(frozen=True, eq=False)
+class _Inherited:
+    """The points that take the posture of a touching point: every point of a pass
+    (rapids start passes) that does not touch the design, from its nearest touching
+    point of the pass, keeping its offset from the ball centre along the axis.
+
+    Attributes
+    ----------
+    point : ndarray of int, shape (m,)
+        Index into the path.
+    row : ndarray of int, shape (m,)
+        Row (index into the touching points) whose posture it takes.
+    base : ndarray, shape (m, 3) [mm]
+        Ball centre of that touching point plus the point's offset from it normal
+        to the CAM axis.
+    along : ndarray, shape (m,) [mm]
+        The offset along the CAM axis (kept along the new axis).
+    order, start : ndarray of int
+        ``point[order[start[r]:start[r + 1]]]`` are the points of row ``r``.
+    """
+
+    point: np.ndarray
+    row: np.ndarray
+    base: np.ndarray
+    along: np.ndarray
+    order: np.ndarray
+    start: np.ndarray
+
+    def tips(self, k: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Tips [mm] of inherited points ``k`` (indices into ``point``) at axes ``u``."""
+        return self.base[k] + self.along[k][:, None] * u
+
+
+def _inherited(cam: CutterLocations, contacts: Contacts, idx: np.ndarray) -> _Inherited:
+    """:class:`_Inherited` of the path (``idx``: the touching points, ascending)."""
+    n = len(cam)
+    run = np.cumsum(cam.rapid)          # a rapid starts a new run (it leads into a pass)
+    pos = np.arange(n)
+    touching = np.zeros(n, bool)
+    touching[idx] = True
+    pts, nears = [], []
+    for r in np.unique(run):
+        members = np.flatnonzero(run == r)
+        t_in = members[touching[members]]
+        if len(t_in) == 0:
+            continue
+        others = members[~touching[members]]
+        pts.append(others)
+        nears.append(t_in[np.argmin(np.abs(pos[others][:, None] - t_in[None, :]), axis=1)])
+    point = np.concatenate(pts) if pts else np.zeros(0, np.int64)
+    near = np.concatenate(nears) if nears else np.zeros(0, np.int64)
+    row = np.searchsorted(idx, near)
+    centre_old = contacts.centre[near]
+    rel = cam.tip[point] - centre_old
+    along = np.sum(rel * cam.axis[near], axis=1)
+    perp = rel - along[:, None] * cam.axis[near]
+    order = np.argsort(row, kind="stable")
+    start = np.searchsorted(row[order], np.arange(len(idx) + 1))
+    return _Inherited(point, row, centre_old + perp, along, order, start)
+
+
+def _check_candidates(checker: InterferenceChecker, tips: np.ndarray, axes: np.ndarray,
+                      inh: _Inherited, rows: np.ndarray, cols: np.ndarray, n_parts: int
+                      ) -> tuple[np.ndarray, int]:
+    """Interference of candidates ``(rows[k], cols[k])`` at their touching point and at
+    every point that would take them over (:class:`_Inherited`), in one batch.
+
+    Returns
+    -------
+    code : ndarray of int, shape (k,)
+        ``_FEASIBLE``, ``_PART + p`` (part p violates at the touching point) or
+        ``_PART + n_parts + p`` (at an inherited point; the part nearest the tip).
+    checks : int
+        Postures checked.
+    """
+    res = checker.check(tips[rows, cols], axes[rows, cols])
+    code = np.where(res.part >= 0, _PART + res.part, _FEASIBLE).astype(np.int16)
+    cnt = np.diff(inh.start)[rows]
+    total = int(cnt.sum())
+    if total:
+        pair = np.repeat(np.arange(len(rows)), cnt)
+        off = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        k = inh.order[np.repeat(inh.start[rows], cnt) + off]
+        u = axes[rows[pair], cols[pair]]
+        rd = checker.check(inh.tips(k, u), u)
+        hit = rd.part >= 0
+        dep = np.full(len(rows), np.iinfo(np.int16).max, np.int16)
+        np.minimum.at(dep, pair[hit], (_PART + n_parts + rd.part[hit]).astype(np.int16))
+        code = np.where((code == _FEASIBLE) & (dep < np.iinfo(np.int16).max), dep, code)
+    return code, len(rows) + total
+
+
+def _cause_labels(part_names: tuple[str, ...]) -> list[str]:
+    """Text of each rejection code (index = code)."""
+    what = {"flank": "flank gouges the design", "shank": "shank against the stock",
+            "holder": "holder against the stock"}
+    at_point = [what.get(p, f"{p} collides") for p in part_names]
+    return (["feasible", "outside the inclination range", "outside the axis limits"]
+            + at_point + [f"{w} at a non-cutting point taking this posture"
+                          for w in at_point])
 
 
 def stock_mesh(scn: PlanScenario, design: Any) -> Any:
@@ -488,56 +768,84 @@ def stock_mesh(scn: PlanScenario, design: Any) -> Any:
 
 
 def _place_all(cam: CutterLocations, contacts: Contacts, idx: np.ndarray, u_new: np.ndarray,
-               R: float) -> tuple[np.ndarray, np.ndarray]:
+               R: float, inh: _Inherited | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Tips and axes of every point: touching ones about their ball centre, the others
-    (air moves, approach, retract) moved with the nearest touching point of their pass."""
-    n = len(cam)
+    (air moves, approach, retract) moved with the nearest touching point of their pass
+    (:class:`_Inherited`); points of passes without a touching point are kept."""
+    inh = _inherited(cam, contacts, idx) if inh is None else inh
     tip = cam.tip.copy()
     axis = cam.axis.copy()
     tip[idx], axis[idx] = contacts.centre[idx] - R * u_new, u_new
-    run = np.cumsum(cam.rapid)          # a rapid starts a new run (it leads into a pass)
-    pos = np.arange(n)
-    touching = np.zeros(n, bool)
-    touching[idx] = True
-    for r in np.unique(run):
-        members = np.flatnonzero(run == r)
-        t_in = members[touching[members]]
-        if len(t_in) == 0:
-            continue
-        others = members[~touching[members]]
-        near = t_in[np.argmin(np.abs(pos[others][:, None] - t_in[None, :]), axis=1)]
-        k = np.searchsorted(idx, near)
-        # a point off the wall keeps its offset from the ball centre along the CAM axis
-        centre_old = contacts.centre[near]
-        rel = cam.tip[others] - centre_old
-        along = np.sum(rel * cam.axis[near], axis=1)
-        perp = rel - along[:, None] * cam.axis[near]
-        tip[others] = centre_old + perp + along[:, None] * u_new[k]
-        axis[others] = u_new[k]
+    k = np.arange(len(inh.point))
+    tip[inh.point] = inh.tips(k, u_new[inh.row])
+    axis[inh.point] = u_new[inh.row]
     return tip, axis
 
 
-def _reasons(cam, contacts, idx, choice, S1, ok, margin, sense, lead, tilt, cam_lead,
-             cam_tilt, target, cam_ok) -> list[str]:
+def _reasons(cam: CutterLocations, idx: np.ndarray, inh: _Inherited, choice: np.ndarray,
+             S1: int, none: np.ndarray, cause: np.ndarray, final_cause: np.ndarray,
+             labels: list[str], margin: np.ndarray, sense: np.ndarray, lead: np.ndarray,
+             tilt: np.ndarray, cam_lead: np.ndarray, cam_tilt: np.ndarray, target: float,
+             cam_margin: np.ndarray, cam_rpm: float | None) -> list[str]:
+    """Why each point has its posture (one line each, true to the checks made).
+
+    ``cause`` (t, S1): rejection codes of the candidates (``labels``);
+    ``final_cause`` (n,): code of the planned posture in the final check of the path
+    (0 free or not checked). The reasons of infeasible points (touching points without
+    a feasible candidate, points whose planned posture collides) start with
+    ``"infeasible: "``. ``margin`` is at the planned speed; ``cam_margin`` (t,) the CAM
+    posture's at the program's speed ``cam_rpm`` [rev/min] (None: the same speed).
+    """
     n = len(cam)
-    out = ["rapid move" if cam.rapid[i] else "not touching the design: posture of the "
-           "nearest cutting point of the pass" for i in range(n)]
+    row_of = np.full(n, -1)
+    row_of[inh.point] = inh.row
+    out = []
+    for i in range(n):
+        r = row_of[i]
+        if r < 0:
+            txt = ("rapid move" if cam.rapid[i] else "not touching the design") + \
+                ": CAM posture (no cutting point in the pass)"
+        elif none[r]:
+            txt = ("rapid move" if cam.rapid[i] else "not touching the design") + \
+                (f": CAM posture, as at point {idx[r]} of the pass, which has no feasible "
+                 f"posture")
+        else:
+            txt = ("rapid move" if cam.rapid[i] else "not touching the design") + \
+                f": posture of the nearest cutting point of the pass ({idx[r]})"
+        out.append(txt)
     for r, i in enumerate(idx):
         j = choice[r]
-        m, mc = margin[r, j], margin[r, -1]
+        m, mc = margin[r, j], cam_margin[r]
         where = (f"lead {math.degrees(lead[i]):+.1f} tilt {math.degrees(tilt[i]):+.1f} deg, "
                  f"{'up' if sense[r, j] > 0 else 'down'}-cut {sense[r, j]:+.2f}")
         cam_txt = (f"CAM posture (lead {math.degrees(cam_lead[i]):+.1f} tilt "
                    f"{math.degrees(cam_tilt[i]):+.1f}) margin {mc:.2f}"
-                   + ("" if cam_ok[r] else ", infeasible"))
-        if not ok[r].any():
-            out[i] = f"no feasible posture: CAM posture kept (margin {mc:.2f})"
+                   + ("" if cam_rpm is None else f" at {cam_rpm:g} rev/min")
+                   + ("" if cause[r, -1] == _FEASIBLE else
+                      f", infeasible: {labels[cause[r, -1]]}"))
+        if none[r]:
+            codes, counts = np.unique(cause[r], return_counts=True)
+            why = ", ".join(f"{c} {labels[k]}" for k, c in
+                            sorted(zip(codes, counts), key=lambda kc: -kc[1]))
+            cam_state = ("" if final_cause[i] == 0 else
+                         f", which collides ({labels[final_cause[i]]})")
+            out[i] = (f"no feasible posture: all {S1} candidates rejected ({why}); CAM "
+                      f"posture kept{cam_state}, margin {m:.2f}")
         elif j == S1 - 1:
             out[i] = f"CAM posture kept: margin {m:.2f} ({where})"
         elif m >= target:
             out[i] = f"margin {m:.2f} >= target {target:g} at {where}; {cam_txt}"
         else:
-            out[i] = f"best smooth margin {m:.2f} at {where}; {cam_txt}"
+            out[i] = (f"margin {m:.2f} below target {target:g}, the best of a smooth path, "
+                      f"at {where}; {cam_txt}")
+    for i in np.flatnonzero(final_cause):
+        if not out[i].startswith("no feasible posture"):
+            out[i] = f"planned posture collides ({labels[final_cause[i]]}); {out[i]}"
+    for i in np.flatnonzero(final_cause != 0):
+        out[i] = "infeasible: " + out[i]
+    for i in idx[none]:
+        if not out[i].startswith("infeasible: "):
+            out[i] = "infeasible: " + out[i]
     return out
 
 

@@ -22,7 +22,8 @@ def _f(x: float, nd: int = 4):
 
 
 def summary(res: PlanResult) -> dict:
-    """Smallest and median margins before and after, postures, checks."""
+    """Smallest and median margins before and after, postures, checks, and the points
+    without a feasible posture (``infeasible``: indices; their CAM posture was kept)."""
     idx = res.touching_index
     m, mc = res.margin[idx], res.cam_margin[idx]
     worst = int(idx[np.argmin(m)])
@@ -39,6 +40,9 @@ def summary(res: PlanResult) -> dict:
         "points_below_1_after": int(np.sum(m < 1.0)),
         "cam_infeasible_points": int(np.sum(~res.cam_feasible[idx])),
         "planned_collisions": res.stats.get("planned_collisions"),
+        "infeasible_points": int(len(res.infeasible)),
+        "infeasible": [int(i) for i in res.infeasible],
+        "infeasible_lines": res.stats.get("infeasible_lines", []),
         "interference_dropped": res.stats.get("interference_dropped"),
         "inclination_deg_range": [_f(np.degrees(np.nanmin(_incl(res)))),
                                   _f(np.degrees(np.nanmax(_incl(res))))],
@@ -59,8 +63,11 @@ def plan_report(res: PlanResult, *, scenario: str = "", program: str = "") -> di
     pts = []
     touching = np.zeros(len(res.cl), bool)
     touching[res.touching_index] = True
+    infeasible = np.zeros(len(res.cl), bool)
+    infeasible[res.infeasible] = True
     for i in range(len(res.cl)):
         rec = {"point": i, "block": int(res.cl.block[i]), "cutting": bool(touching[i]),
+               "infeasible": bool(infeasible[i]),
                "tip_mm": [round(float(v), 5) for v in res.cl.tip[i]],
                "axis": [round(float(v), 7) for v in res.cl.axis[i]],
                "reason": res.reason[i]}

@@ -6,7 +6,9 @@ with two more tables:
 
 ``[orient]`` -- the search: lead and tilt ranges and grid, inclination
 limits, the smoothness limit, the margin aimed at, interference
-clearances, the machine dialect of the written program; ``[orient.cut]`` the
+clearances, whether points without a feasible posture may keep the CAM
+posture (``allow_fallback``, default false: the plan is refused), the machine
+dialect of the written program; ``[orient.cut]`` the
 local cut of the finishing passes (depth, pick feed, on which side the
 previous pass lies); ``[orient.spindle]`` optionally a spindle speed chosen
 from the lobes.
@@ -103,6 +105,8 @@ class OrientOptions:
     max_rate_rad_per_mm: float = math.radians(K.MAX_RATE_DEG_PER_MM)
     margin_target: float = K.MARGIN_TARGET
     verify_sdm: bool = True
+    #: keep the CAM posture where no posture is feasible (flagged) instead of refusing
+    allow_fallback: bool = False
     clearance_mm: float = K.CLEARANCE_MM
     gouge_tol_mm: float = K.GOUGE_TOL_MM
     safety_factor: float = 1.0
@@ -211,8 +215,8 @@ def _options(r: TableReader, d: dict) -> OrientOptions:
     p = "orient"
     r.keys(d, p, (), ("lead_deg", "tilt_deg", "grid", "min_inclination_deg",
                       "max_inclination_deg", "max_rate_deg_per_mm", "margin_target",
-                      "verify_sdm", "clearance_mm", "gouge_tol_mm", "safety_factor", "dialect",
-                      "cut", "spindle"))
+                      "verify_sdm", "allow_fallback", "clearance_mm", "gouge_tol_mm",
+                      "safety_factor", "dialect", "cut", "spindle"))
     grid = (K.GRID_STEPS, K.GRID_STEPS)
     if "grid" in d:
         g = d["grid"]
@@ -230,6 +234,9 @@ def _options(r: TableReader, d: dict) -> OrientOptions:
     verify = d.get("verify_sdm", True)
     if not isinstance(verify, bool):
         raise r.fail("orient.verify_sdm", f"expected true or false, got {verify!r}")
+    fallback = d.get("allow_fallback", False)
+    if not isinstance(fallback, bool):
+        raise r.fail("orient.allow_fallback", f"expected true or false, got {fallback!r}")
     from nc.writer import DIALECTS
 
     safety = r.number(d, "safety_factor", p, default=1.0, sign=">0")
@@ -245,7 +252,7 @@ def _options(r: TableReader, d: dict) -> OrientOptions:
         max_rate_rad_per_mm=math.radians(r.number(d, "max_rate_deg_per_mm", p,
                                                   default=K.MAX_RATE_DEG_PER_MM, sign=">0")),
         margin_target=r.number(d, "margin_target", p, default=K.MARGIN_TARGET, sign=">0"),
-        verify_sdm=verify,
+        verify_sdm=verify, allow_fallback=fallback,
         clearance_mm=r.number(d, "clearance_mm", p, default=K.CLEARANCE_MM, sign=">=0"),
         gouge_tol_mm=r.number(d, "gouge_tol_mm", p, default=K.GOUGE_TOL_MM, sign=">=0"),
         safety_factor=safety,

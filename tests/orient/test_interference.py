@@ -219,8 +219,10 @@ def test_flank_on_a_steep_wall_gouges_only_beyond_the_tolerance():
     flank is tangent to the wall. Pushed in by more than the tolerance it gouges."""
     tol = 0.01
     wall = block(0, 20, -30, 30, -30, 30)
-    # necked shank (r 2): a straight shank would rub the wall, a collision
-    ch = InterferenceChecker(wall, ToolAssembly.from_tool(ball(4.0)), gouge_tol_mm=tol)
+    # necked shank (r 2, 1 mm from the wall): a straight shank would rub the wall, a
+    # collision; the clearance is below that 1 mm (the test is about the flank)
+    ch = InterferenceChecker(wall, ToolAssembly.from_tool(ball(4.0), clearance_mm=0.5),
+                             gouge_tol_mm=tol)
     push = np.array([-5.0, 0.0, 0.5, 0.9, 1.1, 1.5, 5.0]) * tol   # into the wall
     tips = np.column_stack([-R + push, np.zeros(7), np.zeros(7)])
     res = ch.check(tips, np.tile([0.0, 0.0, 1.0], (7, 1)), distances=True)
