@@ -254,6 +254,8 @@ def correct_verified(original: Any,
             if near.size == 0:
                 break
             weight[near] = 0.0 if attempt == FALLBACK_HALVINGS else 0.5 * weight[near]
+            if not weight.any():
+                break                 # nothing left to move: the candidate is the current
         if out.passes[-1].accepted:
             out.best, out.best_pass, out.best_field, out.comparison = (
                 cand, len(out.passes) - 1, Fk, cmp)
