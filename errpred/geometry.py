@@ -247,7 +247,8 @@ class GeometryModel:
         against the stock minus the earlier sweeps), at stations no more than
         ``PRECHECK_STEP_PER_DIAMETER`` tool diameters apart: prediction points go
         where it cuts, one in the middle of each stretch that cuts, standing for
-        that stretch's length (its wear); with a finite ``point_spacing_mm``,
+        that stretch's length (its wear; the stretch's ends found between stations
+        by bisection); with a finite ``point_spacing_mm``,
         points every so often along the block (and at its ends with
         ``point_ends``), each standing for its share of the block. A rapid move
         is checked the same way: one through material is ``rapid-into-material``.
@@ -284,13 +285,21 @@ class GeometryModel:
                 last = g
             return [last]
         step = length / len(stations)
-        cuts = np.array([self._material_at(L, start) for L in stations])
+        counts = np.array([self._material_at(L, start) for L in stations])
         out: list[PointGeometry] = []
-        for a, b in _runs(cuts):
-            run = np.arange(a, b)
-            centre = 0.5 * (a + b - 1)
-            for k in run[np.argsort(np.abs(run - centre), kind="stable")]:
-                g = self.point(block, float(stations[k]), (b - a) * step)
+        for a, b in _runs(counts > 0):
+            # where the cut begins and ends between stations, to a fraction of a step
+            lo = self._edge(start, stations[a - 1], stations[a]) if a > 0 else start
+            hi = self._edge(start, stations[b], stations[b - 1]) if b < len(stations) \
+                else start + length
+            mid = 0.5 * (lo + hi)
+            # the stretch's wear: the point's engagement times a length that makes its
+            # coarse sample count integrate like the stations' counts over the stretch
+            c_mid = self._material_at(mid, start)
+            share = (float(counts[a:b].sum()) * step / c_mid) if c_mid else hi - lo
+            tries = [mid] + sorted(stations[a:b].tolist(), key=lambda x: abs(x - mid))
+            for L in tries:
+                g = self.point(block, float(L), share)
                 if g.status != "no-cut":
                     out.append(g)
                     break
@@ -323,6 +332,18 @@ class GeometryModel:
         return [self.point(block, start + float(t) * length, float(hi - lo) * length)
                 for t, lo, hi in zip(frac, edges[:-1], edges[1:], strict=True)]
 
+    def _edge(self, block_start: float, outside: float, inside: float) -> float:
+        """Where between a station that does not cut (``outside``) and one that does
+        (``inside``) the cut begins [mm path length], by ``PRECHECK_BISECTIONS``
+        halvings."""
+        for _ in range(K.PRECHECK_BISECTIONS):
+            mid = 0.5 * (outside + inside)
+            if self._material_at(mid, block_start):
+                inside = mid
+            else:
+                outside = mid
+        return 0.5 * (outside + inside)
+
     def _plunge(self, k: int) -> bool:
         """Does the segment ending at cutter location ``k`` run within ``PLUNGE_ANGLE_RAD``
         of the tool axis (a plunge or a retract)?"""
@@ -339,8 +360,9 @@ class GeometryModel:
         mids = start + (np.arange(n) + 0.5) / n * length
         return np.concatenate([[start], mids, [end]]) if ends else mids
 
-    def _material_at(self, L: float, block_start: float, rapid: bool = False) -> bool:
-        """Does the tool at path length ``L`` meet material the moves before left?
+    def _material_at(self, L: float, block_start: float, rapid: bool = False) -> int:
+        """How many of the tool's samples at path length ``L`` meet material the moves
+        before left (0: none)?
 
         The pre-check of a block (coarse: every micro-edge sample of flute 0 at
         every ``PRECHECK_ROTATION_STRIDE``-th rotation step). For a feed move, the
@@ -360,7 +382,7 @@ class GeometryModel:
                                   (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm))
         z_top = self._stock_top(tip, frame, interval)
         if z_top < -tool.radius_mm:
-            return False
+            return 0
         if rapid:
             behind = max(L - block_start, 0.0)
         else:
@@ -382,13 +404,13 @@ class GeometryModel:
                                  local[:, 2] + inset])
         inside = self.bottom.in_stock_local(self.stock, interval, tip, frame, local)
         if not inside.any():
-            return False
+            return 0
         world = tip + local[inside] @ frame
         removed = inside_any_sweep_clustered(world, np.ones(world.shape[0], dtype=np.bool_),
                                              *t1, tool.core_radius_mm, tool.corner_radius_mm,
                                              tool.flute_length_mm, K.MEMBERSHIP_EPS_MM,
                                              K.CLUSTER_CELL_MM)
-        return bool((~removed).any())
+        return int((~removed).sum())
 
     # --- one point ---------------------------------------------------------
     def point(self, block: int, L: float, cut_length: float) -> PointGeometry:

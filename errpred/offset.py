@@ -314,9 +314,37 @@ def _vertex_normals(pb: OffsetProblem) -> tuple[np.ndarray, np.ndarray]:
     along their chain), and whether a point reached it, (V, 3) and (V,)."""
     V = pb.vertices.shape[0]
     acc = np.zeros((V, 3))
-    t = pb.pt_t[:, None]
-    np.add.at(acc, pb.seg_v0[pb.pt_seg], (1 - t) * pb.pt_normal)
-    np.add.at(acc, pb.seg_v1[pb.pt_seg], t * pb.pt_normal)
+    kind = pb.seg_kind[pb.pt_seg]
+    on = kind == LINE
+    t = pb.pt_t[on, None]
+    # the points next to the vertex count most (a long block's far end, little)
+    np.add.at(acc, pb.seg_v0[pb.pt_seg[on]], (1 - t) ** 4 * pb.pt_normal[on])
+    np.add.at(acc, pb.seg_v1[pb.pt_seg[on]], t ** 4 * pb.pt_normal[on])
+    # an arc's or a full circle's ends: its own normal there (radial, on the side its
+    # points' normals are)
+    for s in np.flatnonzero(pb.seg_kind != LINE):
+        q = np.flatnonzero(pb.pt_seg == s)
+        if q.size == 0:
+            continue
+        a1, a2, _ = (int(x) for x in pb.seg_plane[s])
+        c = pb.seg_centre[s]
+        rel = pb.vertices[pb.seg_v0[s]] + np.zeros((q.size, 3))
+        radial = np.zeros((q.size, 3))
+        if pb.seg_kind[s] == CIRCLE:
+            radial[:, a1], radial[:, a2] = np.cos(pb.pt_theta[q]), np.sin(pb.pt_theta[q])
+        else:
+            # the points on the arc: between its ends by the similarity weights
+            p0, p1 = pb.vertices[pb.seg_v0[s]], pb.vertices[pb.seg_v1[s]]
+            w = pb.pt_w[q, 0] + 1j * pb.pt_w[q, 1]
+            z = complex(p0[a1], p0[a2]) + w * complex(p1[a1] - p0[a1], p1[a2] - p0[a2])
+            rel = z - complex(c[a1], c[a2])
+            radial[:, a1], radial[:, a2] = rel.real / np.abs(rel), rel.imag / np.abs(rel)
+        side = 1.0 if np.sum(radial * pb.pt_normal[q]) >= 0 else -1.0
+        for v in (int(pb.seg_v0[s]), int(pb.seg_v1[s])):
+            p = pb.vertices[v]
+            r = np.zeros(3)
+            r[a1], r[a2] = p[a1] - c[a1], p[a2] - c[a2]
+            acc[v] += side * r / max(float(np.linalg.norm(r)), 1e-12)
     norm = np.linalg.norm(acc, axis=1)
     has = norm > 1e-9
     d = np.zeros((V, 3))

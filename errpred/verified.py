@@ -261,7 +261,7 @@ def correct_verified(original: Any,
                 cand, len(out.passes) - 1, Fk, cmp)
             best_stats = cmp.after
             F_prev, current, Fc = Fc, cand, Fk
-            omega = min(RELAXATION, 2.0 * omega)
+            omega = min(1.0, 2.0 * omega)
         else:
             omega *= 0.5
             if omega < _MIN_RELAXATION:

@@ -157,8 +157,7 @@ def _job(args) -> int:
     when the job runs, and orient's modules never import it)."""
     only = [f for f, v in (("--machine", args.machine), ("--dialect", args.dialect),
                            ("--spindle-rpm", args.spindle_rpm), ("--report", args.report),
-                           ("--plots", args.plots),
-                           ("--allow-fallback", args.allow_fallback or None)) if v is not None]
+                           ("--plots", args.plots)) if v is not None]
     if only:
         raise ValueError(f"{', '.join(only)}: options of the plan-only run; give -o OUT.nc "
                          f"(the job takes the scenario's machine, dialect and speed)")
@@ -214,8 +213,8 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--report", help="JSON report (default: OUT-plan.json)")
     a.add_argument("--plots", help="folder for the PNG plots")
     a.add_argument("--allow-fallback", action="store_true",
-                   help="plan only: where no posture is feasible keep the CAM posture "
-                        "(flagged, a warning) instead of refusing with status 1")
+                   help="where no posture is feasible keep the CAM posture (flagged, a "
+                        "warning) instead of refusing with status 1")
     a.add_argument("--scheduler", metavar="ADDRESS",
                    help="compute gains and margins on an existing Dask scheduler")
     a.add_argument("--dask", type=int, default=None, metavar="N",

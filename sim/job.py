@@ -33,11 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
+from errpred.constants import FALLBACK_REACH_RADII
 from errpred.correct_path import PathCompensation, compensate_path
+from errpred.findings import error_findings, findings_line
 from errpred.physics import ShapeErrorModel
 from errpred.pipeline import build_predictor
 from errpred.predict import Prediction, Predictor
 from nc.atomic import atomic_write
+from nc.command import Refused
 from nc.gcode import parse_program
 from nc.path import CutterLocations, cutter_locations
 from nc.writer import PostOptions, PostResult, post, round_trip_error
@@ -77,6 +80,9 @@ class JobResult:
         The program written from the planned path and from the corrected one.
     planned_path, final_path : Path
         Where they were written (the working folder).
+    findings : list of dict
+        Error-level findings of the planned program's prediction (rapid moves into
+        material, :func:`errpred.findings.error_findings`).
     round_trip : tuple (float [mm], float [rad])
         Largest tip and axis difference between the final path and the final program
         read back through nc's reader and the machine.
@@ -103,6 +109,7 @@ class JobResult:
     final_path: Path
     round_trip: tuple[float, float]
     collisions: int
+    findings: list
     verify_planned: Verification
     verify_final: Verification
     verify_cam: Verification
@@ -120,9 +127,14 @@ class JobResult:
     def checks(self) -> dict[str, bool]:
         """The job's acceptance checks, each True when it holds."""
         idx = self.plan.touching_index
+        v = self.compensation.verified
         return {
             "margin_above_1_where_cutting": bool(np.all(self.plan.margin[idx] > 1.0)),
-            "no_collisions": self.collisions == 0,
+            "no_collisions": self.collisions == 0 and self.plan.infeasible.size == 0,
+            "no_rapid_into_material": not self.findings,
+            "correction_verified_nowhere_worse": bool(self.compensation.corrected
+                                                      and v.comparison is not None
+                                                      and v.comparison.ok),
             "round_trip_within_1um": self.round_trip[0] <= 1e-3,
             "no_chatter_in_simulation": self.verify_final.sustained_chatter == 0,
             "surface_error_reduced_to_25pct": self.surface_ratio <= JOB_SURFACE_RATIO,
@@ -193,7 +205,8 @@ def _lobes(scn: PlanScenario, res: PlanResult, planned_scn: PlanScenario) -> lis
 
 
 def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
-            progress: Progress | None = None) -> JobResult:
+            progress: Progress | None = None, allow_fallback: bool | None = None
+            ) -> JobResult:
     """Plan, correct, write and verify the scenario's CAM program.
 
     Parameters
@@ -206,10 +219,19 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     progress : callable, optional
         ``progress(stage, done, total)``; stages ``plan``, ``predict k`` (pass k,
         blocks), ``verify`` (runs), ``lobes``.
+    allow_fallback : bool, optional
+        Keep the CAM posture where no posture is feasible (default: the scenario's
+        ``[orient] allow_fallback``); otherwise such points end the job.
 
     Returns
     -------
     JobResult
+
+    Raises
+    ------
+    nc.command.Refused
+        Points without a feasible posture (unless allowed), or a rapid move into
+        material in the planned program: nothing is corrected or written.
     """
     say = progress or (lambda stage, done, total: None)
     work = Path(workdir)
@@ -230,6 +252,12 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
 
     # 1-2: plan
     res = plan(scn, progress=lambda stage, d, t: say(f"plan: {stage}", d, t), client=client)
+    allow = scn.options.allow_fallback if allow_fallback is None else allow_fallback
+    if res.infeasible.size and not allow:
+        from orient.cli import infeasible_summary
+
+        raise Refused(f"{scn.path}: {infeasible_summary(res)}; nothing written (allow the "
+                      "CAM posture there with --allow-fallback or [orient] allow_fallback)")
     machine = res.machine
     base = scn.base
     wp = res.workpiece
@@ -242,18 +270,24 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     shape = ShapeErrorModel(deviation=base.shape_error.radius_deviation_mm,
                             wear_rate=base.shape_error.wear_rate_mm_per_mm)
     state = {"pass": 0}
+    dense = base.resolution.dense()
+    found: list = []
 
     def predict(cl: CutterLocations) -> Prediction:
         text = post(cl, machine, opts).text
         prog = parse_program(text, file=f"<{scn.name}: correction pass {state['pass']}>")
         pred = Predictor(base.tool, stock, prog, base.coefficients, base.compliance,
-                         shape_error=shape, resolution=base.resolution, machine=machine,
+                         shape_error=shape, resolution=dense, machine=machine,
                          workpiece=wp.modes_at)
         blocks = list(range(len(prog)))
         stage = f"predict {state['pass']}"
         out = pred.run(blocks, client=client,
                        progress=lambda d: say(stage, d, len(blocks)) if d % 25 == 0 else None)
         say(stage, len(blocks), len(blocks))
+        if state["pass"] == 0:
+            found.extend(error_findings(out))
+            if found:
+                raise Refused(f"{scn.path}: the planned program: {findings_line(found)}")
         return out
 
     def on_pass(k: int, _cl) -> None:
@@ -266,7 +300,10 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
         del warm
     comp = compensate_path(res.cl, predict, iterate=True,
                            tolerance_mm=base.correction.tolerance_um * 1e-3,
-                           max_iterations=JOB_CORRECTION_PASSES, progress=on_pass)
+                           max_iterations=JOB_CORRECTION_PASSES, progress=on_pass,
+                           tolerance_um=base.correction.verify_tolerance_um,
+                           spacing_mm=dense.point_spacing_mm,
+                           reach_mm=FALLBACK_REACH_RADII * base.tool.radius_mm)
     lap("predict_and_correct")
 
     # 4: write both programs and read the final one back
@@ -325,6 +362,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     seconds["total"] = round(time.perf_counter() - t_start, 2)
     return JobResult(scenario=scn, plan=res, compensation=comp, planned=planned_post,
                      final=final_post, planned_path=planned_path, final_path=final_path,
-                     round_trip=rt, collisions=collisions, verify_planned=verified[0],
+                     round_trip=rt, collisions=collisions, findings=found,
+                     verify_planned=verified[0],
                      verify_final=verified[1], verify_cam=verified[2], cam_points=cam_points,
                      lobes=lobes, seconds=seconds)

@@ -7,7 +7,11 @@ written into one folder (default ``./NAME-job``): the final program
 ``report.html`` (self-contained) and ``report.json``. The folder is filled
 from a staging folder beside it only when the whole run has succeeded, so a
 failed run leaves nothing behind. Bad input ends in one line naming the file
-and the key, exit status 2.
+and the key, exit status 2. A run whose checks do not all hold writes its report
+and its programs renamed ``NAME.NOT-FOR-CUTTING.nc`` (with a comment at their top
+saying which checks failed) and ends with one line and exit status 1; so does a
+plan with points that have no feasible posture (unless ``--allow-fallback``) and a
+rapid move into material, which write nothing.
 """
 
 from __future__ import annotations
@@ -20,7 +24,10 @@ import tempfile
 import time
 from pathlib import Path
 
-__all__ = ["add_job_arguments", "run"]
+from nc.atomic import atomic_write
+from nc.command import Refused
+
+__all__ = ["NOT_FOR_CUTTING_SUFFIX", "add_job_arguments", "run"]
 
 
 def add_job_arguments(a: argparse.ArgumentParser) -> None:
@@ -29,6 +36,9 @@ def add_job_arguments(a: argparse.ArgumentParser) -> None:
                                                "thin wall)")
     a.add_argument("--out", metavar="DIR", help="folder for the program and the report "
                                                 "(default: ./NAME-job)")
+    a.add_argument("--allow-fallback", action="store_true",
+                   help="where no posture is feasible keep the CAM posture (flagged) instead "
+                        "of ending the job with status 1")
     g = a.add_mutually_exclusive_group()
     g.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the parallel stages on an existing Dask scheduler")
@@ -80,8 +90,13 @@ def run(args: argparse.Namespace) -> int:
                     tasks[name] = bar.add_task(name, total=total)
                 bar.update(tasks[name], completed=done, total=total)
 
-            res = run_job(scn, stage, client=client, progress=progress)
+            res = run_job(scn, stage, client=client, progress=progress,
+                          allow_fallback=True if getattr(args, "allow_fallback", False)
+                          else None)
             rep = write_job_report(res, stage)
+            failed = [k for k, v in rep["checks"].items() if not v]
+            if failed:
+                _not_for_cutting(stage, (res.final_path, res.planned_path), failed)
         out.mkdir(exist_ok=True)
         for f in sorted(stage.iterdir()):
             os.replace(f, out / f.name)
@@ -96,7 +111,30 @@ def run(args: argparse.Namespace) -> int:
           f"simulated {sim['planned']['surface_rms_um']} -> "
           f"{sim['corrected']['surface_rms_um']} um (ratio {sim['surface_rms_ratio']})")
     print("checks: " + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in rep["checks"].items()))
+    if failed:
+        raise Refused(f"{scn.name}: check(s) failed: {', '.join(failed)}; the programs are "
+                      f"written as {out}/*{NOT_FOR_CUTTING_SUFFIX} and must not be cut (see "
+                      f"{out / 'report.html'})")
     print(f"wrote {out / res.final_path.name}, {out / 'report.html'}, {out / 'report.json'} "
           f"in {time.perf_counter() - t0:.0f} s")
     return 0
+
+
+#: What a program of a job whose checks failed is renamed to end with.
+NOT_FOR_CUTTING_SUFFIX = ".NOT-FOR-CUTTING.nc"
+
+
+def _not_for_cutting(folder: Path, programs, failed: list[str]) -> None:
+    """Rename the job's programs to ``NAME.NOT-FOR-CUTTING.nc`` and put a comment saying
+    so (and which checks failed) at their top (after a leading ``%``)."""
+    note = f"(NOT FOR CUTTING: the job's checks failed: {', '.join(failed)})"
+    for path in programs:
+        path = Path(path)
+        lines = path.read_text().splitlines()
+        at = 1 if lines and lines[0].strip() == "%" else 0
+        lines.insert(at, note)
+        target = path.with_name(path.stem + NOT_FOR_CUTTING_SUFFIX)
+        with atomic_write(target) as fh:
+            fh.write("\n".join(lines) + "\n")
+        path.unlink()
 

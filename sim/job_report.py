@@ -21,7 +21,12 @@ __all__ = ["job_page", "job_report", "write_job_report"]
 
 _CHECK_TEXT = {
     "margin_above_1_where_cutting": "stability margin above 1 at every cutting point (plan)",
-    "no_collisions": "no collision or gouge of the final program (FCL)",
+    "no_collisions": "no collision or gouge of the final program (FCL), and a feasible "
+                     "posture at every point of the plan",
+    "no_rapid_into_material": "no rapid move (G0) into material in the planned program",
+    "correction_verified_nowhere_worse": "the corrected program, re-predicted at points "
+                                         "2 mm apart (block ends included), is nowhere "
+                                         "worse than the planned one",
     "round_trip_within_1um": "final program read back within 1 um of the corrected path",
     "no_chatter_in_simulation": "no sustained chatter (a detector call outliving its "
                                 "window) in the simulated run of the final program",
@@ -95,6 +100,10 @@ def job_report(res: JobResult, errors: tuple | None = None) -> dict[str, Any]:
             "largest_change_um": [_r(x * 1e3) for x in comp.largest_change_mm],
             "predicted_max_abs_um": [_r(x) for x in comp.max_error_um],
             "predicted_rms_um": [_r(x) for x in comp.rms_error_um],
+            "verified": comp.corrected,
+            "verification": (comp.verified.comparison.as_dict()
+                             if comp.verified.comparison is not None else None),
+            "reason": comp.reason(),
         },
         "program": {
             "dialect": scn.options.dialect,

@@ -3,8 +3,8 @@
 Each builder writes a complete errpred scenario (stock and design STL, program,
 ``scenario.toml``) into a folder and returns the scenario file. The tool, the
 cutting coefficients and the dynamics are the bundled wall-radius scenario's
-(JP5804367's worked example: D20 corner R1, 2 inserts, helix 0); the geometry
-is what changes:
+(JP5804367's worked example: D20 corner R1, 2 inserts, helix 0; ``stiffness_scale``
+softens the tool, as a longer overhang does); the geometry is what changes:
 
 * :func:`steep_wall`: a straight wall inclined 89.5 deg, six waterline levels
   0.5 mm apart in 10 mm G1 blocks, the tool entering and leaving the wall inside
@@ -88,7 +88,7 @@ ALLOWANCE_MM = 0.2
 
 
 def _write(folder: Path, name: str, stock: trimesh.Trimesh, design: trimesh.Trimesh | None,
-           gcode: str, extra: str = "") -> Path:
+           gcode: str, extra: str = "", stiffness_scale: float = 1.0) -> Path:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     assert stock.is_watertight, "stock must be closed"
@@ -98,8 +98,12 @@ def _write(folder: Path, name: str, stock: trimesh.Trimesh, design: trimesh.Trim
         design.export(folder / "design.stl")
         design_key = 'design_stl = "design.stl"\n'
     (folder / "program.nc").write_text(gcode)
+    common = _COMMON
+    for k in ("4.000e+06", "1.800e+07", "4.400e+06", "2.000e+07"):
+        common = common.replace(f"stiffness_N_m = {k}",
+                                f"stiffness_N_m = {float(k) * stiffness_scale:.4e}")
     toml = (f'name = "{name}"\n\n[stock]\nstl = "stock.stl"\n{design_key}\n'
-            f'[program]\ngcode = "program.nc"\n{_COMMON}{extra}')
+            f'[program]\ngcode = "program.nc"\n{common}{extra}')
     path = folder / "scenario.toml"
     path.write_text(toml)
     return path
@@ -126,7 +130,8 @@ def steep_wall_tip_y(z_tip: float, height: float = 20.0, deg: float = WALL_DEG,
 
 def steep_wall(folder: Path, *, levels: int = 6, pitch: float = 0.5, block: float = 10.0,
                feed: float = 1350.0, spindle: float = 2700.0, zigzag: bool = False,
-               up_milling: bool = False, length: float = 60.0, extra: str = "") -> Path:
+               up_milling: bool = False, length: float = 60.0, stiffness_scale: float = 1.0,
+               extra: str = "") -> Path:
     """A straight wall along X (0..``length`` mm) inclined ``WALL_DEG``, in waterline levels.
 
     Material at +Y; the design wall is y = (z - 20) tan(0.5 deg), the stock leaves
@@ -159,11 +164,13 @@ def steep_wall(folder: Path, *, levels: int = 6, pitch: float = 0.5, block: floa
         if not zigzag:
             lines.append(f"G0 Z{H + 5:.4f}")
     lines += ["G0 Z30", "M30", "%"]
-    return _write(folder, "steep-wall", stock, design, "\n".join(lines) + "\n", extra)
+    return _write(folder, "steep-wall", stock, design, "\n".join(lines) + "\n", extra,
+                  stiffness_scale)
 
 
 def full_circle(folder: Path, *, radius: float = 30.0, levels: int = 2, pitch: float = 0.5,
-                feed: float = 1350.0, spindle: float = 2700.0, extra: str = "") -> Path:
+                feed: float = 1350.0, spindle: float = 2700.0, stiffness_scale: float = 1.0,
+                extra: str = "") -> Path:
     """A round boss (radius ``radius``, vertical wall) finished by one full ``G2`` per level.
 
     Fanuc style: the circle starts and ends at the same point (``G2 X.. Y.. I..``),
@@ -185,7 +192,8 @@ def full_circle(folder: Path, *, radius: float = 30.0, levels: int = 2, pitch: f
         lines += [f"G1 Z{z:.4f} F{feed:g}", f"G1 X{-rc:.4f}",
                   f"G2 X{-rc:.4f} Y0 I{rc:.4f} J0", f"G1 X{-rc - 15:.4f}"]
     lines += ["G0 Z30", "M30", "%"]
-    return _write(folder, "full-circle", stock, design, "\n".join(lines) + "\n", extra)
+    return _write(folder, "full-circle", stock, design, "\n".join(lines) + "\n", extra,
+                  stiffness_scale)
 
 
 def two_islands(folder: Path, *, feed: float = 1350.0, spindle: float = 2700.0,
