@@ -37,6 +37,7 @@ Usage: python benchmarks/bench_plan.py [--points N] [--sdm-speeds N] [--repeats 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import re
@@ -209,18 +210,17 @@ def make_long_path(tmp: str, points: int) -> tuple[str, str, dict]:
     """Thin-wall scenario copies with about ``points`` cutting points: (flexible, rigid)."""
     import make_orient_scenarios as M
 
-    passes = len(np.arange(M.Z_TOP, M.Z_LOW - 1e-9, -M.PICK))
-    # cutting (touching) points have their contact on the wall: x in [0, LENGTH]
+    rib = M.THIN_WALL
+    passes = len(rib.pass_heights())
+    # cutting (touching) points have their contact on the wall: x in [0, length]
     per_pass = max(2, round(points / passes))
-    old = M.STEP
-    M.STEP = M.LENGTH / (per_pass - 1)
-    try:
-        t0 = time.perf_counter()
-        info = M.build(tmp)
-        info["seconds"] = time.perf_counter() - t0
-        info["step_mm"] = M.STEP
-    finally:
-        M.STEP = old
+    rib = dataclasses.replace(rib, step=rib.length / (per_pass - 1))
+    t0 = time.perf_counter()
+    info = M.write_rib(os.path.join(tmp, "thin-wall"), rib, design_title="thin-wall design",
+                       stock_title="thin-wall stock", source="thin-wall CAM default, "
+                       f"{rib.step:.3f} mm steps")
+    info["seconds"] = time.perf_counter() - t0
+    info["step_mm"] = rib.step
     folder = os.path.join(tmp, "thin-wall")
     flex = os.path.join(folder, "scenario.toml")
     shutil.copyfile(bundled_scenario("thin-wall"), flex)

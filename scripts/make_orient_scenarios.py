@@ -14,6 +14,10 @@ the plate). One-way passes along +X, 0.5 mm apart in Z, from the top down
 allowance 0.2 mm. The wall is the flexible side (its first bending mode,
 clamped at the plate, is a few kHz with little damping); the tool is a stiff
 short carbide ball end mill.
+
+Other ribs: :class:`Rib` holds the geometry and the program's layout (its
+defaults are the bundled thin wall) and :func:`write_rib` writes a rib's files,
+e.g. the tests' flexible wall (``tests/sim/flexible_wall.py``).
 """
 
 from __future__ import annotations
@@ -22,29 +26,80 @@ import math
 import os
 import struct
 import sys
+from dataclasses import dataclass
 
 import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 OUT = os.path.join(ROOT, "orient", "scenarios")
 
-# ----------------------------------------------------------------- thin-wall geometry [mm]
-LENGTH, PLATE_W, PLATE_T = 60.0, 40.0, 10.0     # plate: X 0..60, Y 0..40, Z -10..0
-WALL_Y0, WALL_T, WALL_H = 18.5, 3.5, 30.0      # finished wall: Y 18.5..22, Z 0..30
-ALLOWANCE = 0.2                                  # stock on the +Y face
-R_BALL = 5.0
-INCLINATION_DEG = 30.0                           # CAM default: from the normal toward +Z
-PICK, Z_TOP, Z_LOW = 0.5, 29.5, 6.0              # contact heights of the passes
-X_START, X_END, STEP = -6.0, 66.0, 2.0           # contact x of a pass (ball clear at both ends)
-SPINDLE, FEED = 9000.0, 1800.0                   # fz = 0.1 mm
-CLEAR_Y = 12.0                                   # retract along +Y between passes
+
+@dataclass(frozen=True)
+class Rib:
+    """A rib standing on a plate and the CAM program that finishes its +Y face.
+
+    The defaults are the bundled thin wall; other ribs (tests, benchmarks) are
+    the same geometry and program with other values.
+
+    Attributes
+    ----------
+    length, plate_w, plate_t : float [mm]
+        Plate X 0..length, Y 0..plate_w, Z -plate_t..0 (the rib is as long).
+    wall_y0, wall_t, wall_h : float [mm]
+        Finished wall Y wall_y0..wall_y0 + wall_t, Z 0..wall_h.
+    allowance : float [mm]
+        Stock left on the +Y face.
+    r_ball : float [mm]
+        Ball radius of the tool.
+    inclination_deg : float [deg]
+        CAM default posture: tool axis in the plane normal to the feed, inclined
+        this much from the wall normal toward +Z (away from the plate).
+    pick, z_top, z_low : float [mm]
+        Contact heights of the one-way passes: z_top down to z_low, pick apart.
+    x_start, x_end, step : float [mm]
+        Contact x along a pass (the ball clear of the rib at both ends).
+    spindle_rpm, feed_mm_min : float [rev/min], [mm/min]
+    clear_y : float [mm]
+        Approach and retract distance along the tool axis.
+    machine : str
+        Named machine the program is written for (``nc.kinematics.MACHINES``).
+    """
+
+    length: float = 60.0
+    plate_w: float = 40.0
+    plate_t: float = 10.0
+    wall_y0: float = 18.5
+    wall_t: float = 3.5
+    wall_h: float = 30.0
+    allowance: float = 0.2
+    r_ball: float = 5.0
+    inclination_deg: float = 30.0
+    pick: float = 0.5
+    z_top: float = 29.5
+    z_low: float = 6.0
+    x_start: float = -6.0
+    x_end: float = 66.0
+    step: float = 2.0
+    spindle_rpm: float = 9000.0          # fz = 0.1 mm with 1800 mm/min and two flutes
+    feed_mm_min: float = 1800.0
+    clear_y: float = 12.0
+    machine: str = "xyzac-trt"
+
+    def pass_heights(self) -> np.ndarray:
+        """Contact Z of the passes, top down [mm]."""
+        return np.arange(self.z_top, self.z_low - 1e-9, -self.pick)
 
 
-def t_profile(thickness: float) -> np.ndarray:
+#: The bundled thin wall: a steel rib 60 mm long, 30 mm high, 3.5 mm thick.
+THIN_WALL = Rib()
+
+
+def t_profile(thickness: float, rib: Rib = THIN_WALL) -> np.ndarray:
     """The rib's cross-section (Y, Z), counter-clockwise, shape (8, 2) [mm]."""
-    y1 = WALL_Y0 + thickness
-    return np.array([(0.0, -PLATE_T), (PLATE_W, -PLATE_T), (PLATE_W, 0.0), (y1, 0.0),
-                     (y1, WALL_H), (WALL_Y0, WALL_H), (WALL_Y0, 0.0), (0.0, 0.0)])
+    y0, h, pw, pt = rib.wall_y0, rib.wall_h, rib.plate_w, rib.plate_t
+    y1 = y0 + thickness
+    return np.array([(0.0, -pt), (pw, -pt), (pw, 0.0), (y1, 0.0),
+                     (y1, h), (y0, h), (y0, 0.0), (0.0, 0.0)])
 
 
 #: Triangles of the T profile (indices into :func:`t_profile`), counter-clockwise.
@@ -77,7 +132,7 @@ def write_stl(path: str, tris: np.ndarray, title: str) -> None:
         fh.writelines(struct.pack("<12fH", *nn, *t.ravel(), 0) for nn, t in zip(n, tris))
 
 
-def cam_cutter_locations():
+def cam_cutter_locations(rib: Rib = THIN_WALL):
     """The CAM default path: contacts on the finished +Y face, ball centres, tips, axes.
 
     Returns
@@ -86,44 +141,50 @@ def cam_cutter_locations():
     axis : ndarray, shape (n, 3)
     rapid : ndarray of bool, shape (n,)
     """
-    incl = math.radians(INCLINATION_DEG)
+    incl = math.radians(rib.inclination_deg)
     u = np.array([0.0, math.cos(incl), math.sin(incl)])
-    y_face = WALL_Y0 + WALL_T
-    xs = np.arange(X_START, X_END + 1e-9, STEP)
-    zs = np.arange(Z_TOP, Z_LOW - 1e-9, -PICK)
+    y_face = rib.wall_y0 + rib.wall_t
+    xs = np.arange(rib.x_start, rib.x_end + 1e-9, rib.step)
     tips, rapid = [], []
-    for z in zs:
-        centres = np.column_stack([xs, np.full_like(xs, y_face + R_BALL), np.full_like(xs, z)])
-        t = centres - R_BALL * u
-        approach = t[0] + CLEAR_Y * u
-        retract = t[-1] + CLEAR_Y * u
+    for z in rib.pass_heights():
+        centres = np.column_stack([xs, np.full_like(xs, y_face + rib.r_ball),
+                                   np.full_like(xs, z)])
+        t = centres - rib.r_ball * u
+        approach = t[0] + rib.clear_y * u
+        retract = t[-1] + rib.clear_y * u
         tips += [approach, *t, retract]
         rapid += [True, *([False] * len(t)), False]
     tips = np.array(tips)
     return tips, np.tile(u, (len(tips), 1)), np.array(rapid)
 
 
-def build(out_root: str) -> dict:
+def write_rib(out: str, rib: Rib, *, design_title: str, stock_title: str, source: str) -> dict:
+    """Write a rib's ``design.stl``, ``stock.stl`` and ``cam.nc`` into the folder ``out``
+    (created); the scenario file is not written. Returns a few facts of the program."""
     sys.path.insert(0, ROOT)
     from nc.kinematics import get_machine
     from nc.path import CutterLocations
     from nc.writer import PostOptions, write_program
 
-    out = os.path.join(out_root, "thin-wall")
     os.makedirs(out, exist_ok=True)
-    write_stl(os.path.join(out, "design.stl"), extrude(t_profile(WALL_T), LENGTH),
-              "thin-wall design: rib 60 x 30 x 3 mm on a plate")
-    write_stl(os.path.join(out, "stock.stl"), extrude(t_profile(WALL_T + ALLOWANCE), LENGTH),
-              "thin-wall stock: rib with 0.2 mm on the +Y face")
-    tip, axis, rapid = cam_cutter_locations()
-    feed = np.where(rapid, np.nan, FEED)
-    cl = CutterLocations.from_arrays(tip, axis, feed, SPINDLE, rapid=rapid)
-    machine = get_machine("xyzac-trt")
-    res = write_program(os.path.join(out, "cam.nc"), cl, machine,
-                        PostOptions(dialect="linuxcnc", source="thin-wall CAM default "
-                                    "(inclination 30 deg toward +Z)"))
+    write_stl(os.path.join(out, "design.stl"), extrude(t_profile(rib.wall_t, rib), rib.length),
+              design_title)
+    write_stl(os.path.join(out, "stock.stl"),
+              extrude(t_profile(rib.wall_t + rib.allowance, rib), rib.length), stock_title)
+    tip, axis, rapid = cam_cutter_locations(rib)
+    feed = np.where(rapid, np.nan, rib.feed_mm_min)
+    cl = CutterLocations.from_arrays(tip, axis, feed, rib.spindle_rpm, rapid=rapid)
+    res = write_program(os.path.join(out, "cam.nc"), cl, get_machine(rib.machine),
+                        PostOptions(dialect="linuxcnc", source=source))
     return {"points": len(tip), "passes": int(np.sum(rapid)), "program_lines":
             res.text.count("\n")}
+
+
+def build(out_root: str) -> dict:
+    return write_rib(os.path.join(out_root, "thin-wall"), THIN_WALL,
+                     design_title="thin-wall design: rib 60 x 30 x 3 mm on a plate",
+                     stock_title="thin-wall stock: rib with 0.2 mm on the +Y face",
+                     source="thin-wall CAM default (inclination 30 deg toward +Z)")
 
 
 def main(argv=None):

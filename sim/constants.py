@@ -146,7 +146,13 @@ JOB_LOBE_SPEEDS = 300
 #: share of the uncorrected one's [-].
 JOB_SURFACE_RATIO = 0.25
 #: The simulated machine cuts at a feed move whose ball is within this of the design
-#: (a corrected program stands up to tens of micrometres off it) [mm].
+#: (a corrected program stands up to tens of micrometres off it) [mm], or deeper in it:
+#: a gouge cuts whatever its depth (``sim.program.PartProgram``). Issue 16: with
+#: ``|gap| <= 0.1 mm`` a bump up to 455 um into the flexible wall's three top passes
+#: (tests/sim/flexible_wall.py) left 18 of their 93 cutting cutter locations cut.
 CUTTING_GAP_MM = 0.1
+#: A verification's reason for an incomplete run lists at most this many cutter
+#: locations (and program lines) of a kind, then their count [-].
+COVERAGE_LISTED = 8
 #: Upper end of the job page's spectrum plot (above the tool and wall modes) [Hz].
 SPECTRUM_MAX_HZ = 8000.0

@@ -7,10 +7,12 @@ the feed override, one interpolation period (``TICK_S``) at a time. An orientati
 ball centre kept) is taken only after it is checked at the current and the
 next ``LOOKAHEAD_POINTS`` cutter locations against the axis limits (nc's
 kinematics) and shank/holder interference (orient's FCL checker); otherwise it
-is refused and the offset in effect stays. Where the ball touches the design,
-the cutting simulation (:mod:`sim.cutting`) runs with the local cut and the
-posture in effect: along the segment into a cutter location the force goes
-linearly from the previous cutter location's engagement to this one's (the
+is refused and the offset in effect stays. Where the ball touches the design
+(a feed move within ``CUTTING_GAP_MM`` of it or deeper in it, a gouge included:
+:class:`sim.program.PartProgram`), the cutting simulation (:mod:`sim.cutting`)
+runs with the local cut and the posture in effect: along the segment into a
+cutter location the force goes linearly from the previous cutter location's
+engagement to this one's (the
 posture changes continuously, :class:`sim.cutter.Cut`; a tick is split where
 it passes a cutter location), with the dynamics at the cutter location (the
 wall's modes there); the vibration and the surface memory carry on across
@@ -153,6 +155,12 @@ class SimulatedNC:
     workpiece : orient.workpiece.WorkpieceModel, optional
         A workpiece model already built for this scenario (its finite elements
         take seconds); default: built here.
+
+    Attributes
+    ----------
+    cut_at : ndarray of bool, shape (n,)
+        Per cutter location of the program: the cutting simulation ran on the
+        segment into it (what :func:`sim.verify.verify_program` counts as covered).
     """
 
     def __init__(self, scn: PlanScenario, *, sensors: Accelerometers | None = None,
@@ -193,6 +201,7 @@ class SimulatedNC:
         self.s = self.arc[first]
         self.state = NCState(spindle_rpm=self.rpm)
         self.surface = SurfaceRecord()
+        self.cut_at = np.zeros(len(self.cam), bool)
         self._models: OrderedDict = OrderedDict()
         self._current, self._current_key, self._current_at = None, None, None
         self._shapes: dict[int, tuple] = {}
@@ -388,6 +397,7 @@ class SimulatedNC:
             cut = Cut(model, start, w0)
         self._switch(i, cut)
         if cut is not None:
+            self.cut_at[i] = True
             run = self.cutter.advance(cut.model, n, previous=cut.previous, weight=(w0, w1),
                                       variation=self._variation(n))
             if run.surface_offset_mm.size:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from nc.path import cutter_locations
@@ -29,10 +31,21 @@ class PartProgram:
     ----------
     machine, cam
         The machine and the program's cutter locations.
+    cam_line : ndarray of int, shape (n,)
+        Source line (1-based) of each cutter location's block (0: none).
     contacts : orient.contacts.Contacts
-        Ball contacts with the design surface.
+        Ball contacts with the design surface; ``touching`` here is where the simulated
+        machine cuts: a feed move whose ball is within ``CUTTING_GAP_MM`` of the design
+        or deeper in it (orient's contacts take ``|gap| <= tol``, which made a gouging
+        program's deepest points air to the simulation). A ball standing off the design
+        by more than the tolerance is still air, even where it reaches into the stock's
+        allowance: the local cut assumes the ball on the design.
     touch : ndarray of int
-        Cutter locations where the ball touches.
+        Cutter locations where the ball touches (cuts).
+    rapid_in_material : ndarray of bool
+        Rapid moves whose ball ends inside the design (a crash on a machine; the
+        simulation does not cut at rapid moves, :class:`sim.verify.Verification` reports
+        them as not covered).
     cuts : dict of int -> orient.engagement.LocalCut
         The local cut at each touching cutter location.
     cam_lead, cam_tilt : ndarray [rad]
@@ -47,16 +60,24 @@ class PartProgram:
         base = scn.base
         self.scn = scn
         self.machine = scn.machine()
-        self.cam = cutter_locations(base.read_program(), self.machine)
+        program = base.read_program()
+        self.cam = cutter_locations(program, self.machine)
+        self.cam_line = np.where(self.cam.block >= 0,
+                                 program.line[np.maximum(self.cam.block, 0)], 0)
         n = len(self.cam)
         first, last = (0, n - 1) if points is None else (int(points[0]), int(points[1]))
         if not 0 <= first < last < n:
             raise ValueError(f"points: expected 0 <= first < last < {n}, got {points!r}")
         self.first, self.last = first, last
         self.design = base.stock.load_design()
-        # a corrected program's ball stands micrometres off the design and still cuts
-        self.contacts = ball_contacts(self.cam, base.tool.radius_mm, self.design,
-                                      tol_mm=CUTTING_GAP_MM)
+        # a corrected program's ball stands micrometres off the design and still cuts; a
+        # ball deeper in the design (a gouge) cuts all the more
+        contacts = ball_contacts(self.cam, base.tool.radius_mm, self.design,
+                                 tol_mm=CUTTING_GAP_MM)
+        gap = contacts.gap_mm
+        self.contacts = dataclasses.replace(contacts,
+                                            touching=~self.cam.rapid & (gap <= CUTTING_GAP_MM))
+        self.rapid_in_material = self.cam.rapid & (gap < 0.0)
         self.touch = np.flatnonzero(self.contacts.touching)
         self.rpm = float(np.nanmax(self.cam.spindle_rpm[first:last + 1]))
         cuts = local_cuts(scn, self.contacts, self.touch, self.cam, self.rpm) \

@@ -13,6 +13,15 @@ orientation offsets. Per cutter location where the ball cuts:
 * *chatter marks* [um]: the standard deviation of that displacement over the
   teeth at the cutter location.
 
+Coverage: the run is asked to cut every cutter location of its stretch where the
+ball is in the material (:attr:`Verification.asked`: a feed move whose ball is
+within ``CUTTING_GAP_MM`` of the design or deeper in it, and a rapid move whose
+ball ends inside the design); :attr:`Verification.covered` are those the cutting
+simulation ran on. A run that leaves any out is not complete
+(:attr:`Verification.complete`) and says why (:attr:`Verification.stopped_reason`):
+the NC stopped before the end of the stretch, or a rapid move goes into the
+material (a crash on a machine; the simulation cuts at feed moves only).
+
 The accelerometer stream is judged window by window with the controller's
 detector (:func:`sim.report.summarize_run`, only windows that end while the
 tool cuts; chatter is a sustained episode, a call that outlives its window),
@@ -31,7 +40,7 @@ import numpy as np
 from orient.detect import ChatterDetector
 from orient.scenario import PlanScenario
 
-from .constants import SPECTRUM_SEGMENT
+from .constants import COVERAGE_LISTED, SPECTRUM_SEGMENT
 from .machine import SimulatedNC
 from .report import summarize_run
 from .sensors import detector_settings
@@ -60,6 +69,23 @@ class Verification:
     spindle_rpm : float [rev/min]
     machining_s : float [s]
         Simulated time of the run.
+    stretch : tuple (int, int)
+        First and last cutter location of the run (indices into the program read
+        through the machine); the NC starts at the first, so the moves run are those
+        into ``first + 1 .. last``.
+    asked : ndarray of int, shape (a,)
+        Cutter locations of the stretch (``first + 1 .. last``) where the ball is in the
+        material: the ones the run must cut (a cutter location at the same place as the
+        one before it, a move of zero length, is left out: there is nothing to run).
+    covered : ndarray of int, shape (c,)
+        Those of ``asked`` the cutting simulation ran on (the segment into each). A
+        cutter location can be covered and still miss from ``points``: no tooth
+        generated its surface on a segment shorter than a feed per tooth.
+    reached : int
+        The cutter location the NC was moving toward when the run ended (``last``
+        when it ran to the end).
+    stopped_reason : str or None
+        Why the run did not cover every cutter location asked for; None when it did.
     """
 
     points: np.ndarray
@@ -71,6 +97,29 @@ class Verification:
     spectrum_m_s2: np.ndarray
     spindle_rpm: float
     machining_s: float
+    stretch: tuple[int, int] = (0, 0)
+    asked: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int64))
+    covered: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int64))
+    reached: int = 0
+    stopped_reason: str | None = None
+
+    @property
+    def complete(self) -> bool:
+        """The run cut every cutter location asked for (and no reason says otherwise):
+        False is a failed verification, whatever its surface and chatter figures say."""
+        return self.stopped_reason is None and self.missed.size == 0
+
+    @property
+    def missed(self) -> np.ndarray:
+        """Cutter locations asked for that the run did not cut (indices, ascending)."""
+        return np.setdiff1d(self.asked, self.covered)
+
+    @property
+    def coverage(self) -> str:
+        """One line: how much of what was asked the run cut, and why not all."""
+        head = (f"{self.covered.size} of {self.asked.size} cutter locations in the material "
+                f"cut (stretch {self.stretch[0]}-{self.stretch[1]})")
+        return head if self.complete else f"{head}: {self.stopped_reason}"
 
     @property
     def chatter_windows(self) -> int:
@@ -106,7 +155,7 @@ def welch_spectrum(accel_m_s2: np.ndarray, fs_hz: float, segment: int = SPECTRUM
 
 def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
                    workpiece=None, progress: Callable[[int, int], None] | None = None,
-                   seed: int = 0) -> Verification:
+                   seed: int = 0, max_machining_s: float | None = None) -> Verification:
     """Run the scenario's program in the simulated machine and judge it.
 
     Parameters
@@ -121,12 +170,27 @@ def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
         ``progress(done, total)`` in cutter locations.
     seed : int
         Sensor noise seed.
+    max_machining_s : float, optional
+        Time budget of the run in simulated seconds [s]: the NC stops when its clock
+        passes it (the verification is then not complete and says so); default none.
+
+    Returns
+    -------
+    Verification
+        Its ``complete`` is False, with ``stopped_reason``, when the run did not cut every
+        cutter location of the stretch where the ball is in the material.
     """
+    if max_machining_s is not None and not max_machining_s > 0:
+        raise ValueError(f"max_machining_s: expected a time > 0 s, got {max_machining_s!r}")
     nc = SimulatedNC(scn, points=points, seed=seed, workpiece=workpiece)
     times, accel, cutting = [], [], []
     total = nc.last - nc.first
     k = 0
+    stop = None
     while not nc.done:
+        if max_machining_s is not None and nc.state.time_s >= max_machining_s:
+            stop = f"the run's time budget ({max_machining_s:g} s simulated) ran out"
+            break
         sig = nc.tick()
         if sig.time_s.size:
             times.append(sig.time_s)
@@ -136,7 +200,7 @@ def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
         if progress is not None and k % 200 == 0:
             progress(nc.point_index() - nc.first, total)
     if progress is not None:
-        progress(total, total)
+        progress(nc.point_index() - nc.first if stop else total, total)
     t = np.concatenate(times) if times else np.zeros(0)
     acc = np.concatenate(accel) if accel else np.zeros((0, 2))
     cut = np.concatenate(cutting) if cutting else np.zeros(0, bool)
@@ -151,7 +215,50 @@ def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
     var = np.maximum(np.bincount(inv, off * off) / cnt - mean * mean, 0.0)
     gap = nc.contacts.gap_mm[u]
     f, a = welch_spectrum(acc[cut], nc.sensors.sample_rate_hz)
+    asked, covered, reached, reason = _coverage(nc, stop)
     return Verification(points=u, contact_mm=nc.contacts.point[u], surface_um=(mean + gap) * 1e3,
                         marks_um=np.sqrt(var) * 1e3, summary=summ, spectrum_hz=f,
-                        spectrum_m_s2=a, spindle_rpm=nc.rpm, machining_s=float(nc.state.time_s))
+                        spectrum_m_s2=a, spindle_rpm=nc.rpm, machining_s=float(nc.state.time_s),
+                        stretch=(nc.first, nc.last), asked=asked, covered=covered,
+                        reached=reached, stopped_reason=reason)
+
+
+def _listed(idx: np.ndarray, most: int = COVERAGE_LISTED) -> str:
+    """``'3, 4, 9'`` or ``'3, 4, 9, ... (12 in all)'``."""
+    head = ", ".join(str(int(i)) for i in idx[:most])
+    return head if idx.size <= most else f"{head}, ... ({idx.size} in all)"
+
+
+def _coverage(nc: SimulatedNC, stop: str | None = None
+              ) -> tuple[np.ndarray, np.ndarray, int, str | None]:
+    """What the run was asked to cut, what it cut, where the NC got to, and why not all
+    (:class:`Verification`'s ``asked``, ``covered``, ``reached``, ``stopped_reason``);
+    ``stop``: why the run was ended before the NC finished."""
+    first, last = nc.first, nc.last
+    rows = np.arange(first + 1, last + 1)
+    moves = nc.arc[rows] > nc.arc[rows - 1]
+    material = nc.contacts.touching[rows] | nc.part.rapid_in_material[rows]
+    asked = rows[moves & material]
+    covered = asked[nc.cut_at[asked]]
+    reached = last if nc.done else nc.point_index()
+    if not nc.done:                 # the move into ``reached`` was cut short
+        covered = covered[covered < reached]
+    missed = np.setdiff1d(asked, covered)
+    if missed.size == 0 and stop is None:
+        return asked, covered, reached, None
+    why = []
+    if not nc.done:
+        why.append(f"{stop or 'the NC stopped'} on the move into cutter location {reached} "
+                   f"(stretch {first}-{last})")
+    rapid = missed[nc.cam.rapid[missed]]
+    if rapid.size:
+        why.append(f"{rapid.size} rapid move(s) into the material, not simulated (a crash on "
+                   f"a machine): cutter locations {_listed(rapid)}, program lines "
+                   f"{_listed(nc.part.cam_line[rapid])}")
+    other = missed[~nc.cam.rapid[missed]]
+    if nc.done and other.size:
+        why.append(f"{other.size} feed move(s) in the material not cut: cutter locations "
+                   f"{_listed(other)}")
+    return asked, covered, reached, (f"{missed.size} of {asked.size} cutter locations in "
+                                     f"the material not cut: " + "; ".join(why))
 
