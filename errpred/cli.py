@@ -109,6 +109,13 @@ def _cmd_predict(args) -> int:
             print(f"report: {args.output}")
         for p in rep.get("plots", []):
             print(f"plot: {p}")
+    errors = rep["summary"]["errors"]
+    if errors:
+        from nc.command import Refused
+
+        from .findings import findings_line
+
+        raise Refused(findings_line(errors, str(scenario.program_path)))
     return 0
 
 

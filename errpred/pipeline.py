@@ -125,6 +125,9 @@ def scenario_report(scenario: Scenario, prediction: Prediction,
         "sources": scenario.sources,
     }
     rep = report(prediction, meta, scenario.tool_change_tolerance_um)
+    from .findings import error_findings
+
+    rep["summary"]["errors"] = error_findings(prediction)
     if design:
         for i, v in design.items():
             rep["points"][i]["E_design_um"] = round(v, 4)

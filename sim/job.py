@@ -136,6 +136,8 @@ class JobResult:
                                                       and v.comparison is not None
                                                       and v.comparison.ok),
             "round_trip_within_1um": self.round_trip[0] <= 1e-3,
+            "simulation_covered_the_program": all(
+                v.complete for v in (self.verify_planned, self.verify_final, self.verify_cam)),
             "no_chatter_in_simulation": self.verify_final.sustained_chatter == 0,
             "surface_error_reduced_to_25pct": self.surface_ratio <= JOB_SURFACE_RATIO,
         }

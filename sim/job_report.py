@@ -28,6 +28,9 @@ _CHECK_TEXT = {
                                          "2 mm apart (block ends included), is nowhere "
                                          "worse than the planned one",
     "round_trip_within_1um": "final program read back within 1 um of the corrected path",
+    "simulation_covered_the_program": "the simulated machine cut every cutter location in "
+                                      "the material of the three runs (planned, corrected, "
+                                      "the CAM program's worst pass)",
     "no_chatter_in_simulation": "no sustained chatter (a detector call outliving its "
                                 "window) in the simulated run of the final program",
     "surface_error_reduced_to_25pct": f"simulated surface error (RMS) after correction at most "
@@ -45,6 +48,7 @@ def _rms(x: np.ndarray) -> float:
 
 def _verification(v) -> dict[str, Any]:
     return {"cutter_locations": int(v.points.size),
+            "coverage": v.coverage, "complete": v.complete,
             "machining_s": _r(v.machining_s, 2),
             "spindle_rpm": _r(v.spindle_rpm, 1),
             "surface_rms_um": _r(_rms(v.surface_um)),

@@ -1,0 +1,146 @@
+"""The output never harms (issue 16), on parts unlike the bundled ones
+(tests/errpred/adversarial.py): what ``errpred compensate`` writes is re-predicted densely
+here, from the written file, independently of the loop that made it; a program the
+verification refuses is not written and the command ends with exit status 1; a block that
+cuts only between its quarter points is cut, with its wear; a rapid move into material is
+an error."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from errpred.cli import main as errpred_main
+from errpred.pipeline import _machine, build_predictor, load
+from errpred.verification import compare, error_field
+from nc import parse_program
+from nc.path import cutter_locations
+
+from . import adversarial as adv
+
+
+def _dense_fields(scenario_path, corrected_path):
+    """The original's and the written program's dense errors against the original."""
+    s = load(scenario_path)
+    orig = s.read_program()
+    res = s.resolution.dense()
+    stock = s.stock.load()
+    ref = cutter_locations(orig, _machine(s), chord_tol_mm=res.chord_tol_mm)
+    before = error_field(build_predictor(s, orig, res, stock).run(), ref, orig.line,
+                         moved=False)
+    prog = parse_program(corrected_path.read_text(), file=str(corrected_path))
+    after = error_field(build_predictor(s, prog, res, stock).run(), ref, orig.line)
+    return orig, prog, before, after
+
+
+def test_a_steep_wall_is_corrected_to_3um_everywhere_ends_included(tmp_path, capsys):
+    """A wall inclined 89.5 deg, three waterline levels in 10 mm blocks whose ends lie in
+    air: the written program, re-predicted every 2 mm (block ends included), is within
+    +-3 um everywhere and nowhere worse than the original."""
+    scn = adv.steep_wall(tmp_path / "wall", levels=3, length=30.0, stiffness_scale=0.3,
+                         extra="\n[correction]\nmax_iterations = 4\n")
+    out = tmp_path / "corrected.nc"
+    assert errpred_main(["compensate", str(scn), "--iterate", "-q", "-o", str(out),
+                         "--report", str(tmp_path / "v.json")]) == 0
+    orig, prog, before, after = _dense_fields(scn, out)
+    assert before.E_um.max() > 8.0                       # a case with something to correct
+    assert len(after) >= 0.9 * len(before)
+    assert np.all(np.abs(after.E_um) <= 3.0), after.E_um
+    assert after.E_um.min() >= -3.0
+    assert compare(before, after).ok
+    rep = json.loads((tmp_path / "v.json").read_text())
+    assert rep["corrected"] and rep["verification"]["ok"]
+    assert rep["verification"]["after"]["max_abs_um"] <= 3.0
+    # each block's end is a vertex moved once: the lines of the original are all there
+    # (words and comments kept), split blocks add G1 lines after their own
+    assert len(prog) >= len(orig)
+
+
+def test_a_full_circle_stays_a_full_circle(tmp_path):
+    """A Fanuc-style full circle (G2 with equal start and end) corrected: still a full
+    circle, the path length within 0.1 mm of the original's, nowhere worse densely."""
+    scn = adv.full_circle(tmp_path / "boss", radius=15.0, levels=1, stiffness_scale=0.3,
+                          extra="\n[correction]\nmax_iterations = 2\n")
+    out = tmp_path / "corrected.nc"
+    assert errpred_main(["compensate", str(scn), "--iterate", "-q", "-o", str(out)]) == 0
+    orig, prog, before, after = _dense_fields(scn, out)
+    circles = [b for b in range(len(prog)) if prog.arc_index[b] >= 0]
+    assert len(circles) == 1
+    b = circles[0]
+    k = int(prog.arc_index[b])
+    assert abs(abs(prog.arc_sweep[k]) - 2 * math.pi) < 1e-9
+    np.testing.assert_allclose(prog.start[b, :3], prog.end[b, :3], atol=1e-3)
+    length = [float(np.sum(np.linalg.norm(np.diff(cutter_locations(p).tip, axis=0),
+                                          axis=1))) for p in (orig, prog)]
+    assert abs(length[1] - length[0]) < 0.1
+    assert compare(before, after).ok
+    assert np.abs(after.E_um).max() < np.abs(before.E_um).max()
+
+
+def test_a_line_across_two_islands_cuts_both_and_wears_the_tool(tmp_path):
+    """One G1 from X10 to X90 beside two islands that only its middle stretches reach
+    (its quarter points cut nothing): two stretches are found, and the wear they add is
+    within 15 % of the same cut programmed as 0.5 mm blocks (each block its own point)."""
+    scn = adv.two_islands(tmp_path / "islands")
+    s = load(scn)
+    pred = build_predictor(s).run()
+    line = [p for p in pred.points if p.line == 8]
+    assert len(line) == 2 and all(p.geometry.cuts for p in line)
+    x = sorted(float(p.geometry.tip[0]) for p in line)
+    assert 30.0 < x[0] < 48.0 and 50.0 < x[1] < 68.0
+    text = (tmp_path / "islands" / "program.nc").read_text().splitlines()
+    i = text.index("G1 X90")
+    fine = text[:i] + [f"G1 X{v:.2f}" for v in np.arange(10.5, 90.01, 0.5)] + text[i + 1:]
+    ref = build_predictor(s, parse_program("\n".join(fine) + "\n")).run()
+    assert pred.wear_mm.sum() == pytest.approx(ref.wear_mm.sum(), rel=0.15)
+    assert pred.wear_mm.max() == pytest.approx(ref.wear_mm.max(), rel=0.2)
+
+
+def test_a_rapid_into_material_is_an_error_in_predict_and_compensate(tmp_path, capsys):
+    scn = adv.rapid_into_stock(tmp_path / "rapid")
+    rep = tmp_path / "report.json"
+    assert errpred_main(["predict", str(scn), "-q", "-o", str(rep)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "rapid move (G0) into material at line 6" in err[0], err
+    data = json.loads(rep.read_text())            # the report is written: it says where
+    assert [f["line"] for f in data["summary"]["errors"]] == [6]
+    assert data["points"][1]["status"] == "rapid-into-material"
+    out = tmp_path / "corrected.nc"
+    assert errpred_main(["compensate", str(scn), "-q", "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "line 6" in err[0], err
+    assert not out.exists()
+
+
+def test_compensate_writes_nothing_when_no_correction_is_verified(tmp_path, capsys,
+                                                                  monkeypatch):
+    """The command's end of the contract: a correction the loop could not verify is not
+    written, one line says why, exit status 1 (the loop itself: test_correct_path)."""
+    import errpred.pipeline as pipeline
+    from errpred.correct import compensate
+
+    scn = adv.steep_wall(tmp_path / "wall", levels=2, length=20.0)
+
+    def refused(scenario, **kwargs):
+        prog = scenario.read_program()
+        ref = cutter_locations(prog)
+
+        def predict(p, origin):            # a plant whose error grows with any move
+            pred = build_predictor(scenario, prog).run()
+            moved = float(np.abs(p.end[:, :3] - prog.end[:, :3]).max()) * 1e3 \
+                if len(p) == len(prog) else 50.0
+            for q in pred.predicted():
+                object.__setattr__(q.result, "E_um", q.result.E_um + 5.0 * moved)
+            return pred
+
+        return compensate(prog, predict, path=lambda p: ref, iterate=False)
+
+    monkeypatch.setattr(pipeline, "compensate_scenario", refused)
+    out = tmp_path / "corrected.nc"
+    assert errpred_main(["compensate", str(scn), "-q", "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "nothing written" in err[0] and "worse" in err[0], err
+    assert not out.exists()
