@@ -102,11 +102,14 @@ def _cmd_predict(args) -> int:
                               series_lines=[args.revolution_line] if args.revolution_line else ())
     elapsed = time.perf_counter() - t0
     design = design_deviation_um(scenario, prediction) if not args.no_design else None
-    rep = write_outputs(scenario, prediction, args.output, args.plots, design)
+    rep = write_outputs(scenario, prediction, args.output, args.plots, design,
+                        tool_state_path=args.tool_state_out)
     if not args.quiet:
         _print_summary(rep, elapsed, len(blocks))
         if args.output:
             print(f"report: {args.output}")
+        if args.tool_state_out:
+            print(f"tool state at the end: {args.tool_state_out}")
         for p in rep.get("plots", []):
             print(f"plot: {p}")
     return 0
@@ -135,12 +138,14 @@ def _cmd_compensate(args) -> int:
         scenario = _with_lines(scenario, args.lines)
     t0 = time.perf_counter()
     res = compensate_scenario(scenario, iterate=True if args.iterate else None,
-                              workers=args.workers)
+                              workers=args.workers, tool_state_out=args.tool_state_out)
     with atomic_write(args.output) as fh:
         fh.write(res.text)
     if not args.quiet:
         print(f"wrote {args.output}: {res.iterations} pass(es) in "
               f"{time.perf_counter() - t0:.1f} s")
+        if args.tool_state_out:
+            print(f"wrote {args.tool_state_out}: the tool's state after the corrected program")
         for k, (err, chg) in enumerate(zip(res.max_error_um, res.largest_change_mm,
                                            strict=False)):
             print(f"  pass {k + 1}: largest |error| {err:.2f} um -> largest point move "
@@ -148,6 +153,10 @@ def _cmd_compensate(args) -> int:
         print(f"  re-predicted on the corrected program: largest |error| "
               f"{res.max_error_um[-1]:.2f} um (from {res.max_error_um[0]:.2f} um)")
     return 0
+
+
+_TOOL_STATE_HELP = ("write the tool's wear at the end (JSON: each micro edge's cutting "
+                    "distance) for the next scenario's [tool] state")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -171,6 +180,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default: where |E| is largest)")
     p.add_argument("--no-design", action="store_true",
                    help="skip the comparison with the design surface")
+    p.add_argument("--tool-state-out", metavar="FILE",
+                   help=_TOOL_STATE_HELP)
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=_cmd_predict)
     p = sub.add_parser("compensate", help="write the program corrected against its error")
@@ -180,6 +191,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="predict-correct until the largest change is below the tolerance")
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--lines", type=int, nargs=2, metavar=("FIRST", "LAST"))
+    p.add_argument("--tool-state-out", metavar="FILE",
+                   help=_TOOL_STATE_HELP + " (of the corrected program)")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=_cmd_compensate)
     return ap

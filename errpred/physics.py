@@ -17,6 +17,32 @@ point: with ``workpiece(point_mm) -> [(Mode, direction)]`` the deflection is
 the relative one, tool minus workpiece. The workpiece carries the reaction
 ``-F``, so its modes add to the tool's: ``q = (G_tool + sum_m d_m G_m d_m^T) F``
 (the same sum as orient's stability analysis and sim's time-domain model).
+
+**The wear part of the error** (what a tool change removes). At a prediction
+point the error is ``E(cl) = E_d(cl) + E_p(cl)``, ``cl`` the actual cutting
+distances of the micro edges (mid-block, as the force uses them). Its wear
+part is::
+
+    W = E(cl) - E(0)          (same point, same engagement, a fresh tool)
+      = [E_d(cl) - E_d(0)]  +  [E_p(cl) - E_p(0)]
+      =  W_d (edge forces)  +  W_p (radius loss)
+
+``W_p`` is the shape model's wear term: the radius lost by the micro edges
+that generate the surface, ``wear_rate * cl`` averaged over the generation
+strip. ``W_d`` is the deflection the edge forces' growth ``Kxe1 cl db``
+adds: force is linear in the coefficients and deflection linear in force,
+so ``W_d`` is exactly the deflection of the wear-grown edge forces alone,
+and it is computed as the difference of two revolutions (with ``cl`` and
+with ``cl = 0``), so that no linearity is assumed; without a wear
+coefficient (``Kxe1 = 0``) it is 0 and the second revolution is skipped.
+
+Why this and not ``|E|``: the rest of ``E``, ``E(0)``, is what a fresh tool
+leaves at the same point (its deflection and its form error); a new tool
+leaves it again, and the path correction, not a tool change, is what takes
+it out. ``W`` is what the same cut would not have with a new tool. Both
+terms are linear and homogeneous in ``cl`` (``W = 0`` at ``cl = 0``, ``W``
+doubles when every ``cl`` doubles), which is what lets the report
+extrapolate the distance left to a tolerance (:func:`errpred.report.tool_change`).
 """
 
 from __future__ import annotations
@@ -27,7 +53,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .coefficients import CuttingCoefficients
+from .coefficients import WEAR_NAMES, CuttingCoefficients
 from .dynamics import Compliance
 from .engagement import expand_flutes
 from .force import chip_thickness, tool_forces
@@ -80,7 +106,37 @@ class WearState:
 
     @classmethod
     def new(cls, edges: MicroEdges) -> "WearState":
+        """A fresh tool: every micro edge at 0."""
         return cls(np.zeros(len(edges)))
+
+    @classmethod
+    def start(cls, edges: MicroEdges, cl_mm=None) -> "WearState":
+        """A used tool's state.
+
+        Parameters
+        ----------
+        edges : MicroEdges
+        cl_mm : None, float or ndarray of shape (m,) [mm]
+            None: a fresh tool; a number: every micro edge has cut this far;
+            an array: each micro edge's actual cutting distance.
+
+        Raises
+        ------
+        ValueError
+            Wrong length, a non-finite or negative distance.
+        """
+        if cl_mm is None:
+            return cls.new(edges)
+        cl = np.asarray(cl_mm, dtype=float)
+        if cl.ndim == 0:
+            cl = np.full(len(edges), float(cl))
+        if cl.shape != (len(edges),):
+            raise ValueError(f"initial wear: {cl.shape[0] if cl.ndim == 1 else cl.shape} "
+                             f"cutting distances for {len(edges)} micro edges (a tool state "
+                             "made for another tool or resolution.micro_edges)")
+        if not (np.all(np.isfinite(cl)) and np.all(cl >= 0)):
+            raise ValueError("initial wear: cutting distances must be finite and >= 0")
+        return cls(cl.copy())
 
 
 @dataclass(frozen=True)
@@ -103,6 +159,17 @@ class PointResult:
     gain : float
         ``dE/dx``: how much the error grows per unit the tool cuts deeper
         along the normal (from the stock-thickened engagement); 0 if unknown.
+    E_wear_d_um, E_wear_p_um : float
+        The wear part of the error (:func:`evaluate`, module docstring), from
+        the edge forces' growth (deflection) and from the radius loss: ``E``
+        with the tool's wear minus ``E`` of a fresh tool at the same point.
+        NaN where ``E`` is.
+    cl_wear_mm : float
+        Actual cutting distance of the most-worn micro edge among those that
+        cut at this point or generate its surface [mm] (the distance the wear
+        part grows with).
+    wear_edge : int
+        Index of that micro edge (-1 if none).
     """
 
     peak_force_N: float
@@ -114,6 +181,15 @@ class PointResult:
     cl_max_mm: float
     cl_gen_mm: float
     gain: float = 0.0
+    E_wear_d_um: float = math.nan
+    E_wear_p_um: float = math.nan
+    cl_wear_mm: float = math.nan
+    wear_edge: int = -1
+
+    @property
+    def E_wear_um(self) -> float:
+        """The wear part of the error, ``E_wear_d_um + E_wear_p_um`` [um]."""
+        return self.E_wear_d_um + self.E_wear_p_um
 
 
 def workpiece_deflection(modes, force_N: np.ndarray, spindle_rpm: float) -> np.ndarray:
@@ -228,6 +304,12 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     their forces and wear, and NaN errors. If ``series`` is a list,
     ``(theta, force_N, deflection_mm)`` over the revolution (world frame) is
     appended to it for points with an error. ``workpiece``: see :func:`revolution`.
+
+    The wear part of the error (module docstring) is ``E`` minus ``E`` of
+    the same point with every micro edge at zero cutting distance: the
+    radius loss from the shape model at ``cl = 0``, and, when a wear
+    coefficient ``Kxe1`` is not zero, the deflection from a second
+    revolution with ``cl = 0`` (one more force and FFT evaluation).
     """
     if g.cutting0 is None:
         return None
@@ -242,6 +324,8 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     d_gen = np.full(3, nan)
     gain = 0.0
     j = int(np.argmax(cl_mid)) if cl_mid.size else 0
+    W_d = W_p = cl_w = nan
+    j_w = -1
     if gen is not None and g.status in ("predicted", "axis-normal"):
         if series is not None:
             series.append((theta, force, defl))
@@ -250,12 +334,24 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
         if gen.samples_theta is not None and gen.samples_theta.size:
             js = _nearest_edges(edges, gen.samples_kappa, gen.samples_z)
             E_p = float(np.mean(shape.error_mm(gen.samples_kappa, gen.samples_z, cl_mid[js])))
+            E_p0 = float(np.mean(shape.error_mm(gen.samples_kappa, gen.samples_z, 0.0)))
         else:
-            j0 = _nearest_edges(edges, np.array([gen.kappa_rad]),
-                                np.array([gen.point_tool[2]]))[0]
+            js = _nearest_edges(edges, np.array([gen.kappa_rad]),
+                                np.array([gen.point_tool[2]]))
             E_p = float(shape.error_mm(gen.kappa_rad, float(gen.point_tool[2]),
-                                       float(cl_mid[j0])))
+                                       float(cl_mid[js[0]])))
+            E_p0 = float(shape.error_mm(gen.kappa_rad, float(gen.point_tool[2]), 0.0))
         j = _nearest_edges(edges, np.array([gen.kappa_rad]), np.array([gen.point_tool[2]]))[0]
+        # the wear part: E minus E of a fresh tool at the same point
+        W_p = E_p - E_p0
+        W_d = 0.0
+        if _edge_wear(coeffs) and np.any(cl_mid > 0):
+            th0, _, defl0 = revolution(tool, edges, coeffs, compliance, g,
+                                       cl_mm=np.zeros_like(cl_mid), workpiece=workpiece)
+            W_d = E_d - _strip_error(gen, defl0, th0)
+        shaping = np.union1d(np.flatnonzero(g.cutting0.any(axis=0)), js)
+        j_w = int(shaping[np.argmax(cl_mid[shaping])])
+        cl_w = float(cl_mid[j_w])
         if g.sensitivity is not None:
             delta, c_b, w_b, s_b = g.sensitivity
             g_b = dataclasses.replace(g, cutting0=c_b, weight0=w_b, shift0=s_b)
@@ -267,6 +363,12 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
         mean_force_N=force.mean(axis=0),
         deflection_um=d_gen * 1e3,
         E_d_um=E_d * 1e3, E_p_um=E_p * 1e3, E_um=(E_d + E_p) * 1e3,
-        cl_max_mm=float(cl_mid.max()), cl_gen_mm=float(cl_mid[j]), gain=gain)
+        cl_max_mm=float(cl_mid.max()), cl_gen_mm=float(cl_mid[j]), gain=gain,
+        E_wear_d_um=W_d * 1e3, E_wear_p_um=W_p * 1e3, cl_wear_mm=cl_w, wear_edge=j_w)
     wear.cl_mm = wear.cl_mm + increment
     return result
+
+
+def _edge_wear(coeffs: CuttingCoefficients) -> bool:
+    """True if the edge forces grow with the cutting distance (a ``Kxe1`` is not 0)."""
+    return any(getattr(coeffs, n) != 0.0 for n in WEAR_NAMES)

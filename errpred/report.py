@@ -15,6 +15,7 @@ import numpy as np
 
 from nc.atomic import atomic_write
 
+from . import constants as K
 from .geometry import STATUS
 from .predict import Prediction
 
@@ -63,8 +64,10 @@ def point_record(p) -> dict[str, Any]:
             "E_d_um": _r(r.E_d_um),
             "E_p_um": _r(r.E_p_um),
             "E_um": _r(r.E_um),
+            "E_wear_um": _r(r.E_wear_um),
             "cutting_distance_mm": {"max_edge": _r(r.cl_max_mm, 3),
-                                    "generating_edge": _r(r.cl_gen_mm, 3)},
+                                    "generating_edge": _r(r.cl_gen_mm, 3),
+                                    "most_worn_shaping_edge": _r(r.cl_wear_mm, 3)},
         })
     if g.notes:
         rec["notes"] = list(g.notes)
@@ -85,22 +88,146 @@ def _numbered(records: list[dict]) -> list[dict]:
 
 
 def tool_change(prediction: Prediction, tolerance_um: float | None) -> dict | None:
-    """The first predicted point whose |E| (with wear) exceeds the tolerance."""
+    """When to change the tool: decided on the wear part of the error only.
+
+    The wear part ``W`` of a point (:mod:`errpred.physics`, module docstring)
+    is its error with the tool's wear minus the error a fresh tool leaves at
+    the same point: the deflection added by the edge forces' growth plus the
+    radius lost. What a fresh tool leaves (its deflection, its form error) a
+    new tool leaves again; the path correction takes it out, a tool change
+    does not. So a 29.5 um deflection error with 2.8 um of wear is no reason
+    to change the tool; 30 um of wear is.
+
+    **Where.** The first predicted point (program order) with ``|W|`` above
+    the tolerance: change the tool before its line.
+
+    **How far the tool can still cut.** ``W`` is linear and homogeneous in
+    the cutting distances of the micro edges that shape the point, so while
+    those edges keep wearing in the proportions they have, ``W`` grows in
+    proportion to the distance ``c`` of the most-worn of them:
+    ``W(c) = k c`` with ``k = |W_i| / c_i`` at point ``i`` [um/mm]. That
+    point reaches the tolerance when its edge has cut ``tol / k``; the edge
+    has cut ``c_end`` by the end of the program, so the tool can still cut
+    ``max(0, tol / k - c_end)`` (the edge's actual cutting distance, mm)
+    before the cut at that point leaves more than ``tol`` from wear. The
+    smallest of these over the points is reported, with the point and the
+    edge it refers to, and as runs of this program (the distance divided by
+    what the edge cut in this run). For a linear radius loss alone (``Kxe1
+    = 0``) on an edge that generates the surface, ``k`` is the wear rate and
+    this is ``(tol - rate c_end) / rate``. The proportions hold exactly for a
+    fresh tool repeating the same kind of cut; a tool that wore other edges
+    in another program gets an estimate.
+
+    Parameters
+    ----------
+    prediction : Prediction
+    tolerance_um : float or None [um]
+        ``[tool_change] tolerance_um``; None: no finding (returns None).
+
+    Returns
+    -------
+    dict or None
+        Keys (units in the names; None where there is no such point):
+        ``tolerance_um``, ``criterion``; ``line``, ``block``,
+        ``wear_error_um``, ``E_um``, ``cutting_distance_mm`` of the first point
+        over the tolerance; ``max_wear_error_um`` (signed, largest ``|W|``),
+        ``max_wear_error_at`` (``line``, ``block``, ``edge_force_um``,
+        ``radius_loss_um``); ``remaining_cutting_distance_mm``,
+        ``cutting_distance_at_tolerance_mm``, ``wear_growth_um_per_m`` (``k``),
+        ``remaining_at`` (``line``, ``block``, ``micro_edge``, ``kappa_deg``,
+        ``z_mm``, ``cutting_distance_mm`` at the end and ``this_run_mm``),
+        ``remaining_program_runs``; ``advice``, in words.
+    """
     if tolerance_um is None:
         return None
-    for p in prediction.predicted():
-        if abs(p.result.E_um) > tolerance_um:
-            return {"tolerance_um": tolerance_um, "line": p.line, "block": p.block,
-                    "E_um": _r(p.result.E_um),
-                    "cutting_distance_mm": _r(p.result.cl_max_mm, 3),
-                    "advice": f"change the tool before line {p.line}: the predicted error "
-                              f"with wear exceeds {tolerance_um:g} um there"}
-    return {"tolerance_um": tolerance_um, "line": None,
-            "advice": f"the predicted error stays within {tolerance_um:g} um: no tool change"}
+    tol = float(tolerance_um)
+    pts = [p for p in prediction.predicted() if math.isfinite(p.result.E_wear_um)]
+    out: dict[str, Any] = {
+        "tolerance_um": tol,
+        "criterion": "wear part of the error: E with the tool's wear minus E of a fresh "
+                     "tool at the same point (edge-force growth and radius loss)",
+        "line": None, "block": None, "wear_error_um": None, "E_um": None,
+        "cutting_distance_mm": None, "max_wear_error_um": None, "max_wear_error_at": None,
+        "remaining_cutting_distance_mm": None, "cutting_distance_at_tolerance_mm": None,
+        "wear_growth_um_per_m": None, "remaining_at": None, "remaining_program_runs": None,
+    }
+    if not pts:
+        out["advice"] = "no predicted point: nothing to decide a tool change on"
+        return out
+    W = np.array([p.result.E_wear_um for p in pts])
+    first = next((p for p, w in zip(pts, W, strict=True) if abs(w) > tol), None)
+    if first is not None:
+        r = first.result
+        out.update({"line": first.line, "block": first.block,
+                    "wear_error_um": _r(r.E_wear_um), "E_um": _r(r.E_um),
+                    "cutting_distance_mm": _r(r.cl_wear_mm, 3)})
+    k = int(np.argmax(np.abs(W)))
+    worst = pts[k].result
+    out["max_wear_error_um"] = _r(W[k])
+    out["max_wear_error_at"] = {"line": pts[k].line, "block": pts[k].block,
+                                "edge_force_um": _r(worst.E_wear_d_um),
+                                "radius_loss_um": _r(worst.E_wear_p_um)}
+    end = prediction.wear_mm
+    start = prediction.initial_wear_mm if prediction.initial_wear_mm is not None \
+        else np.zeros_like(end)
+    best = None
+    for p, w in zip(pts, W, strict=True):
+        r = p.result
+        if r.wear_edge < 0 or w == 0 or not r.cl_wear_mm >= K.WEAR_RATE_MIN_CL_MM:
+            continue
+        rate = abs(w) / r.cl_wear_mm                      # [um/mm]
+        at_tol = tol / rate
+        left = max(0.0, at_tol - float(end[r.wear_edge]))
+        if best is None or left < best[0]:
+            best = (left, rate, at_tol, p)
+    if best is not None:
+        left, rate, at_tol, p = best
+        j = p.result.wear_edge
+        grown = float(end[j] - start[j])
+        runs = left / grown if grown > 0 else None
+        out.update({
+            "remaining_cutting_distance_mm": _r(left, 3),
+            "cutting_distance_at_tolerance_mm": _r(at_tol, 3),
+            "wear_growth_um_per_m": _r(rate * 1e3, 6),
+            "remaining_at": {"line": p.line, "block": p.block, "micro_edge": j,
+                             "kappa_deg": _r(math.degrees(prediction.edges_kappa_rad[j]), 3),
+                             "z_mm": _r(prediction.edges_z_mm[j], 4),
+                             "cutting_distance_mm": _r(float(end[j]), 3),
+                             "this_run_mm": _r(grown, 3)},
+            "remaining_program_runs": _r(runs, 3) if runs is not None else None,
+        })
+    if first is not None:
+        r = first.result
+        out["advice"] = (
+            f"change the tool before line {first.line}: from there on wear alone (edge forces "
+            f"{r.E_wear_d_um:+.1f} um, radius loss {r.E_wear_p_um:+.1f} um) moves the surface "
+            f"by {r.E_wear_um:+.1f} um, more than the {tol:g} um tolerance; the most-worn "
+            f"cutting edge there has cut {r.cl_wear_mm / 1e3:.2f} m")
+    elif not np.any(W):
+        out["advice"] = (f"no wear in the scenario's models (wear coefficients Kxe1 and "
+                         f"wear_rate_um_per_m are 0): the wear part is 0 and the {tol:g} um "
+                         "tool-change tolerance is never reached; the error that remains is "
+                         "for the path correction")
+    elif best is None:
+        out["advice"] = (f"no tool change needed in this program; the tool has cut too little "
+                         f"(under {K.WEAR_RATE_MIN_CL_MM:g} mm on every edge) to tell how fast "
+                         "its wear grows")
+    else:
+        where = (f"its cutting edge {prediction.edges_z_mm[j]:.2f} mm above the tip, the "
+                 f"most-worn one at line {p.line}")
+        runs_txt = (f", about {runs:.1f} more run(s) of this program" if runs is not None
+                    else "")
+        out["advice"] = (
+            f"no tool change needed in this program: wear moves the surface by at most "
+            f"{W[k]:+.1f} um (line {pts[k].line}; tolerance {tol:g} um). The tool can cut "
+            f"about {left / 1e3:.2f} m more{runs_txt} (actual cutting distance of {where}) "
+            f"before wear alone reaches {tol:g} um")
+    return out
 
 
 def summary(prediction: Prediction, tool_change_um: float | None = None) -> dict[str, Any]:
-    """Largest and mean error and where, counts per status, wear at the end."""
+    """Largest and mean error and where, counts per status, wear at the start and the
+    end, and the tool-change finding (:func:`tool_change`) with a tolerance."""
     pts = prediction.points
     counts: dict[str, int] = {}
     for p in pts:
@@ -122,9 +249,12 @@ def summary(prediction: Prediction, tool_change_um: float | None = None) -> dict
             "max_undercut_um": _r(float(E.max())),
             "max_overcut_um": _r(float(E.min())),
         })
+    start = prediction.initial_wear_mm
     out["wear"] = {"max_cutting_distance_mm": _r(float(prediction.wear_mm.max(initial=0.0)), 3),
                    "mean_cutting_distance_mm": _r(float(prediction.wear_mm.mean()), 3)
-                   if prediction.wear_mm.size else 0.0}
+                   if prediction.wear_mm.size else 0.0,
+                   "start_max_cutting_distance_mm": _r(float(start.max(initial=0.0)), 3)
+                   if start is not None else 0.0}
     tc = tool_change(prediction, tool_change_um)
     if tc is not None:
         out["tool_change"] = tc
