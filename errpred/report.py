@@ -213,15 +213,14 @@ def tool_change(prediction: Prediction, tolerance_um: float | None) -> dict | No
                          f"(under {K.WEAR_RATE_MIN_CL_MM:g} mm on every edge) to tell how fast "
                          "its wear grows")
     else:
-        where = (f"its cutting edge {prediction.edges_z_mm[j]:.2f} mm above the tip, the "
-                 f"most-worn one at line {p.line}")
-        runs_txt = (f", about {runs:.1f} more run(s) of this program" if runs is not None
+        runs_txt = (f", about {runs:.1f} more run(s) of this program," if runs is not None
                     else "")
         out["advice"] = (
             f"no tool change needed in this program: wear moves the surface by at most "
-            f"{W[k]:+.1f} um (line {pts[k].line}; tolerance {tol:g} um). The tool can cut "
-            f"about {left / 1e3:.2f} m more{runs_txt} (actual cutting distance of {where}) "
-            f"before wear alone reaches {tol:g} um")
+            f"{W[k]:+.1f} um (line {pts[k].line}), within the {tol:g} um tolerance. The tool "
+            f"can cut about {left / 1e3:.2f} m more (actual cutting distance of its most-worn "
+            f"cutting edge, {prediction.edges_z_mm[j]:.2f} mm above the tip){runs_txt} before "
+            f"wear alone reaches {tol:g} um (first at line {p.line})")
     return out
 
 
