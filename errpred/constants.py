@@ -84,16 +84,10 @@ VIEW_ZOOM = 8.0
 WORKER_MALLOC_TRIM_BYTES = 128 << 20
 WORKER_MALLOC_MMAP_BYTES = 32 << 20
 
-# --- tool wear and tool change (errpred/physics.py, errpred/report.py) --------
+# --- tool wear (errpred/tool_state.py) -----------------------------------------
 #: A tool-state file matches the scenario's tool when its diameter, corner
 #: radius and micro-edge positions agree within this [mm]: the file stores
 #: them with every digit, so only another tool or another resolution differs
 #: by more (the micro edges of neighbouring ``resolution.micro_edges``
 #: settings are hundredths of a millimetre apart).
 TOOL_STATE_MATCH_MM = 1.0e-6
-#: A prediction point's most-worn cutting micro edge must have cut at least
-#: this far for the point's wear part to give a growth rate (wear part per mm
-#: of cutting distance) to extrapolate from [mm]: below it the ratio is a
-#: quotient of rounding errors. A micrometre of arc is far below one block's
-#: increment (a revolution on the bundled scenarios cuts tenths of a mm).
-WEAR_RATE_MIN_CL_MM = 1.0e-3

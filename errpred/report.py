@@ -15,7 +15,6 @@ import numpy as np
 
 from nc.atomic import atomic_write
 
-from . import constants as K
 from .geometry import STATUS
 from .predict import Prediction
 
@@ -101,22 +100,21 @@ def tool_change(prediction: Prediction, tolerance_um: float | None) -> dict | No
     **Where.** The first predicted point (program order) with ``|W|`` above
     the tolerance: change the tool before its line.
 
-    **How far the tool can still cut.** ``W`` is linear and homogeneous in
-    the cutting distances of the micro edges that shape the point, so while
-    those edges keep wearing in the proportions they have, ``W`` grows in
-    proportion to the distance ``c`` of the most-worn of them:
-    ``W(c) = k c`` with ``k = |W_i| / c_i`` at point ``i`` [um/mm]. That
-    point reaches the tolerance when its edge has cut ``tol / k``; the edge
-    has cut ``c_end`` by the end of the program, so the tool can still cut
-    ``max(0, tol / k - c_end)`` (the edge's actual cutting distance, mm)
-    before the cut at that point leaves more than ``tol`` from wear. The
-    smallest of these over the points is reported, with the point and the
-    edge it refers to, and as runs of this program (the distance divided by
-    what the edge cut in this run). For a linear radius loss alone (``Kxe1
-    = 0``) on an edge that generates the surface, ``k`` is the wear rate and
-    this is ``(tol - rate c_end) / rate``. The proportions hold exactly for a
-    fresh tool repeating the same kind of cut; a tool that wore other edges
-    in another program gets an estimate.
+    **How far the tool can still cut.** ``W`` is linear in the cutting
+    distances of the micro edges that shape the point, ``W_i(cl) = w_i . cl``
+    (:meth:`errpred.physics.PointResult.wear_part_um`), so it is known for
+    any state of the tool, not only the one the point was cut with. The
+    tool is assumed to go on wearing as in this run: after ``x`` more runs of
+    the program its state is ``cl_end + x D``, ``D`` what each micro edge cut
+    in this run, and point ``i`` would then have ``W_i(cl_end) + x W_i(D)``.
+    It reaches the tolerance at ``x_i = (tol - |W_i(cl_end)|) / |W_i(D)|``
+    (0 if already over, no limit if it does not grow); the smallest ``x_i``
+    over the points is reported, as runs and as the cutting distance of the
+    tool's most-worn micro edge among those the program cuts (``x D_j``),
+    with the point it comes from and its wear part with the tool as it is
+    now (``W_i(cl_end)``: what cutting that line again would leave). For a
+    linear radius loss alone (``Kxe1 = 0``) on micro edges that all cut
+    alike this is ``(tol - rate cl_end) / rate``.
 
     Parameters
     ----------
@@ -129,27 +127,32 @@ def tool_change(prediction: Prediction, tolerance_um: float | None) -> dict | No
     dict or None
         Keys (units in the names; None where there is no such point):
         ``tolerance_um``, ``criterion``; ``line``, ``block``,
-        ``wear_error_um``, ``E_um``, ``cutting_distance_mm`` of the first point
-        over the tolerance; ``max_wear_error_um`` (signed, largest ``|W|``),
+        ``wear_error_um``, ``E_um``, ``cutting_distance_mm`` (its most-worn
+        shaping edge) of the first point over the tolerance;
+        ``max_wear_error_um`` (signed, largest ``|W|``) and
         ``max_wear_error_at`` (``line``, ``block``, ``edge_force_um``,
-        ``radius_loss_um``); ``remaining_cutting_distance_mm``,
-        ``cutting_distance_at_tolerance_mm``, ``wear_growth_um_per_m`` (``k``),
-        ``remaining_at`` (``line``, ``block``, ``micro_edge``, ``kappa_deg``,
-        ``z_mm``, ``cutting_distance_mm`` at the end and ``this_run_mm``),
-        ``remaining_program_runs``; ``advice``, in words.
+        ``radius_loss_um``); ``max_wear_error_now_um`` (largest ``|W_i(cl_end)|``);
+        ``remaining_cutting_distance_mm``, ``remaining_program_runs``,
+        ``cutting_distance_at_tolerance_mm``, ``wear_growth_um_per_m`` (of the
+        binding point's wear part per m the edge cuts), ``remaining_at``
+        (``line``, ``block``, ``wear_error_now_um``, and the edge:
+        ``micro_edge``, ``kappa_deg``, ``z_mm``, ``cutting_distance_mm`` now,
+        ``this_run_mm``); ``advice``, in words.
     """
     if tolerance_um is None:
         return None
     tol = float(tolerance_um)
-    pts = [p for p in prediction.predicted() if math.isfinite(p.result.E_wear_um)]
+    pts = [p for p in prediction.predicted()
+           if math.isfinite(p.result.E_wear_um) and p.result.wear_edges is not None]
     out: dict[str, Any] = {
         "tolerance_um": tol,
         "criterion": "wear part of the error: E with the tool's wear minus E of a fresh "
                      "tool at the same point (edge-force growth and radius loss)",
         "line": None, "block": None, "wear_error_um": None, "E_um": None,
         "cutting_distance_mm": None, "max_wear_error_um": None, "max_wear_error_at": None,
-        "remaining_cutting_distance_mm": None, "cutting_distance_at_tolerance_mm": None,
-        "wear_growth_um_per_m": None, "remaining_at": None, "remaining_program_runs": None,
+        "max_wear_error_now_um": None, "remaining_cutting_distance_mm": None,
+        "remaining_program_runs": None, "cutting_distance_at_tolerance_mm": None,
+        "wear_growth_um_per_m": None, "remaining_at": None,
     }
     if not pts:
         out["advice"] = "no predicted point: nothing to decide a tool change on"
@@ -170,31 +173,30 @@ def tool_change(prediction: Prediction, tolerance_um: float | None) -> dict | No
     end = prediction.wear_mm
     start = prediction.initial_wear_mm if prediction.initial_wear_mm is not None \
         else np.zeros_like(end)
-    best = None
-    for p, w in zip(pts, W, strict=True):
-        r = p.result
-        if r.wear_edge < 0 or w == 0 or not r.cl_wear_mm >= K.WEAR_RATE_MIN_CL_MM:
-            continue
-        rate = abs(w) / r.cl_wear_mm                      # [um/mm]
-        at_tol = tol / rate
-        left = max(0.0, at_tol - float(end[r.wear_edge]))
-        if best is None or left < best[0]:
-            best = (left, rate, at_tol, p)
-    if best is not None:
-        left, rate, at_tol, p = best
-        j = p.result.wear_edge
-        grown = float(end[j] - start[j])
-        runs = left / grown if grown > 0 else None
+    run = end - start
+    now = np.array([p.result.wear_part_um(end) for p in pts])
+    per_run = np.array([p.result.wear_part_um(run) for p in pts])
+    out["max_wear_error_now_um"] = _r(now[np.argmax(np.abs(now))])
+    x = np.full(len(pts), math.inf)
+    x[np.abs(now) >= tol] = 0.0
+    grows = (np.abs(now) < tol) & (per_run != 0.0)
+    x[grows] = (np.sign(per_run[grows]) * tol - now[grows]) / per_run[grows]
+    cut = np.flatnonzero(run > 0)
+    i = int(np.argmin(x))
+    if math.isfinite(x[i]) and cut.size:
+        j = int(cut[np.argmax(end[cut])])   # the most-worn micro edge this program cuts
+        p = pts[i]
         out.update({
-            "remaining_cutting_distance_mm": _r(left, 3),
-            "cutting_distance_at_tolerance_mm": _r(at_tol, 3),
-            "wear_growth_um_per_m": _r(rate * 1e3, 6),
-            "remaining_at": {"line": p.line, "block": p.block, "micro_edge": j,
+            "remaining_cutting_distance_mm": _r(x[i] * run[j], 3),
+            "remaining_program_runs": _r(x[i], 4),
+            "cutting_distance_at_tolerance_mm": _r(end[j] + x[i] * run[j], 3),
+            "wear_growth_um_per_m": _r(abs(per_run[i]) / run[j] * 1e3, 6),
+            "remaining_at": {"line": p.line, "block": p.block,
+                             "wear_error_now_um": _r(now[i]), "micro_edge": j,
                              "kappa_deg": _r(math.degrees(prediction.edges_kappa_rad[j]), 3),
                              "z_mm": _r(prediction.edges_z_mm[j], 4),
                              "cutting_distance_mm": _r(float(end[j]), 3),
-                             "this_run_mm": _r(grown, 3)},
-            "remaining_program_runs": _r(runs, 3) if runs is not None else None,
+                             "this_run_mm": _r(float(run[j]), 3)},
         })
     if first is not None:
         r = first.result
@@ -208,19 +210,19 @@ def tool_change(prediction: Prediction, tolerance_um: float | None) -> dict | No
                          f"wear_rate_um_per_m are 0): the wear part is 0 and the {tol:g} um "
                          "tool-change tolerance is never reached; the error that remains is "
                          "for the path correction")
-    elif best is None:
-        out["advice"] = (f"no tool change needed in this program; the tool has cut too little "
-                         f"(under {K.WEAR_RATE_MIN_CL_MM:g} mm on every edge) to tell how fast "
-                         "its wear grows")
+    elif out["remaining_program_runs"] is None:
+        out["advice"] = (f"no tool change needed in this program: wear moves the surface by at "
+                         f"most {W[k]:+.1f} um (line {pts[k].line}), within the {tol:g} um "
+                         "tolerance, and it does not grow further")
     else:
-        runs_txt = (f", about {runs:.1f} more run(s) of this program," if runs is not None
-                    else "")
+        j, p = out["remaining_at"]["micro_edge"], pts[i]
         out["advice"] = (
             f"no tool change needed in this program: wear moves the surface by at most "
             f"{W[k]:+.1f} um (line {pts[k].line}), within the {tol:g} um tolerance. The tool "
-            f"can cut about {left / 1e3:.2f} m more (actual cutting distance of its most-worn "
-            f"cutting edge, {prediction.edges_z_mm[j]:.2f} mm above the tip){runs_txt} before "
-            f"wear alone reaches {tol:g} um (first at line {p.line})")
+            f"can cut about {x[i] * run[j] / 1e3:.2f} m more (actual cutting distance of its "
+            f"most-worn cutting edge, {prediction.edges_z_mm[j]:.2f} mm above the tip), about "
+            f"{x[i]:.2f} more run(s) of this program, before wear alone reaches {tol:g} um "
+            f"(first at line {p.line}; cut again now it would be {now[i]:+.1f} um)")
     return out
 
 

@@ -203,6 +203,30 @@ def test_report_carries_the_finding_with_units(folder, state_a):
     assert rep["tool_start"] == "new tool"
 
 
+def test_wear_part_for_another_state_of_the_tool_is_exact(folder, state_a):
+    """W is linear in the edges' cutting distances: program A cut again from its own end
+    state has, at every point, the wear part run 1's weights give for the end state plus
+    run 1's own; and the projected runs left follow from those two numbers."""
+    p1 = predict(load(folder / "progA.toml"))
+    again = write_wall_scenario(folder, "progA2", PROG_A + ["M30"],
+                                tool_extra='state = "after-A.json"')
+    p2 = predict(load(again))
+    pts1, pts2 = p1.predicted(), p2.predicted()
+    assert len(pts1) == len(pts2) >= 2
+    now = np.array([p.result.wear_part_um(p1.wear_mm) for p in pts1])
+    W1 = np.array([p.result.E_wear_um for p in pts1])
+    W2 = np.array([p.result.E_wear_um for p in pts2])
+    np.testing.assert_allclose(W2, now + W1, rtol=1e-10, atol=1e-9)
+    assert np.all(W2 > 1.5 * W1)
+    # a fresh tool: the end state is this run's cut, so per run the wear part grows by
+    # `now`, and x runs more take it to now (1 + x)
+    tol = 5.0
+    tc = tool_change(p1, tol)
+    i = int(np.argmax(now))
+    assert tc["remaining_program_runs"] == pytest.approx(tol / now[i] - 1.0, rel=1e-6)
+    assert tc["remaining_at"]["wear_error_now_um"] == pytest.approx(now[i], abs=1e-4)
+
+
 def _write_state(folder, name, edit):
     src = json.loads((folder / "after-A.json").read_text())
     edit(src)
