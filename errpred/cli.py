@@ -102,11 +102,14 @@ def _cmd_predict(args) -> int:
                               series_lines=[args.revolution_line] if args.revolution_line else ())
     elapsed = time.perf_counter() - t0
     design = design_deviation_um(scenario, prediction) if not args.no_design else None
-    rep = write_outputs(scenario, prediction, args.output, args.plots, design)
+    rep = write_outputs(scenario, prediction, args.output, args.plots, design,
+                        tool_state_path=args.tool_state_out)
     if not args.quiet:
         _print_summary(rep, elapsed, len(blocks))
         if args.output:
             print(f"report: {args.output}")
+        if args.tool_state_out:
+            print(f"tool state at the end: {args.tool_state_out}")
         for p in rep.get("plots", []):
             print(f"plot: {p}")
     errors = rep["summary"]["errors"]
@@ -163,7 +166,8 @@ def _cmd_compensate(args) -> int:
 
     with _dask_client(args) as client:
         res = compensate_scenario(scenario, iterate=True if args.iterate else None,
-                                  workers=args.workers, progress=stage, client=client)
+                                  workers=args.workers, progress=stage, client=client,
+                                  tool_state_out=args.tool_state_out)
     v = res.verified
     if args.report:
         rep = {"scenario": scenario.name, "program": str(scenario.program_path),
@@ -197,11 +201,17 @@ def _cmd_compensate(args) -> int:
               f"{b.min_um:+.2f} -> {a.min_um:+.2f} um, RMS {b.rms_um:.2f} -> "
               f"{a.rms_um:.2f} um; no point worse than the original by more than "
               f"{v.comparison.tolerance_um:g} um")
+        if args.tool_state_out:
+            print(f"wrote {args.tool_state_out}: the tool's state after the corrected program")
     return 0
 
 
 def _spacing(scenario) -> float:
     return scenario.resolution.dense().point_spacing_mm
+
+
+_TOOL_STATE_HELP = ("write the tool's wear at the end (JSON: each micro edge's cutting "
+                    "distance) for the next scenario's [tool] state")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -225,6 +235,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default: where |E| is largest)")
     p.add_argument("--no-design", action="store_true",
                    help="skip the comparison with the design surface")
+    p.add_argument("--tool-state-out", metavar="FILE",
+                   help=_TOOL_STATE_HELP)
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=_cmd_predict)
     p = sub.add_parser("compensate", help=(
@@ -246,6 +258,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "anywhere (default: [correction] verify_tolerance_um, 1 um)")
     p.add_argument("--report", metavar="JSON",
                    help="write the verification (before/after per block, every pass)")
+    p.add_argument("--tool-state-out", metavar="FILE",
+                   help=_TOOL_STATE_HELP + " (of the corrected program)")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=_cmd_compensate)
     return ap

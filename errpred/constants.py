@@ -168,3 +168,11 @@ VIEW_ZOOM = 8.0
 #: with these, at the same peak memory (260 MB).
 WORKER_MALLOC_TRIM_BYTES = 128 << 20
 WORKER_MALLOC_MMAP_BYTES = 32 << 20
+
+# --- tool wear (errpred/tool_state.py) -----------------------------------------
+#: A tool-state file matches the scenario's tool when its diameter, corner
+#: radius and micro-edge positions agree within this [mm]: the file stores
+#: them with every digit, so only another tool or another resolution differs
+#: by more (the micro edges of neighbouring ``resolution.micro_edges``
+#: settings are hundredths of a millimetre apart).
+TOOL_STATE_MATCH_MM = 1.0e-6

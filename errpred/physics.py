@@ -17,6 +17,37 @@ point: with ``workpiece(point_mm) -> [(Mode, direction)]`` the deflection is
 the relative one, tool minus workpiece. The workpiece carries the reaction
 ``-F``, so its modes add to the tool's: ``q = (G_tool + sum_m d_m G_m d_m^T) F``
 (the same sum as orient's stability analysis and sim's time-domain model).
+
+**The wear part of the error** (what a tool change removes). At a prediction
+point the error is ``E(cl) = E_d(cl) + E_p(cl)``, ``cl`` the actual cutting
+distances of the micro edges (mid-block, as the force uses them). Its wear
+part is::
+
+    W = E(cl) - E(0)          (same point, same engagement, a fresh tool)
+      = [E_d(cl) - E_d(0)]  +  [E_p(cl) - E_p(0)]
+      =  W_d (edge forces)  +  W_p (radius loss)
+
+``W_p`` is the shape model's wear term: the radius lost by the micro edges
+that generate the surface, ``wear_rate * cl`` averaged over the generation
+strip. ``W_d`` is the deflection the edge forces' growth ``Kxe1 cl db``
+adds: force is linear in the coefficients and in each ``cl_j``, deflection
+is linear in force (FFT with the compliance, workpiece modes included), and
+``E_d`` is linear in the deflection, so ``W_d`` is exactly the ``E_d`` of
+the wear-grown edge forces alone: ``W_d = sum_j a_j cl_j``, ``a_j`` the
+``E_d`` of micro edge ``j``'s growth per mm of its cutting distance
+(:func:`wear_influence`, one batched evaluation per point; the tests check
+the sum against a second prediction with the wear models off). Without a
+wear coefficient (``Kxe1 = 0``) it is 0 and not computed.
+
+Why this and not ``|E|``: the rest of ``E``, ``E(0)``, is what a fresh tool
+leaves at the same point (its deflection and its form error); a new tool
+leaves it again, and the path correction, not a tool change, is what takes
+it out. ``W`` is what the same cut would not have with a new tool. Both
+terms are linear in the ``cl_j`` and 0 at ``cl = 0``: ``W = w . cl`` with
+per-point weights ``w`` (:attr:`PointResult.wear_influence_um_mm`), which is
+what lets the report say what the point's wear part would be with the tool
+as it is at the end, and how far the tool can cut before it reaches a
+tolerance (:func:`errpred.report.tool_change`).
 """
 
 from __future__ import annotations
@@ -27,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .coefficients import CuttingCoefficients
+from .coefficients import WEAR_NAMES, CuttingCoefficients
 from .dynamics import Compliance
 from .engagement import expand_flutes
 from .force import chip_thickness, tool_forces
@@ -35,7 +66,7 @@ from .geometry import PointGeometry
 from .tool import MicroEdges, Tool
 
 __all__ = ["PointResult", "ShapeErrorModel", "WearState", "bending_basis", "evaluate",
-           "revolution", "workpiece_deflection"]
+           "revolution", "wear_influence", "workpiece_deflection"]
 
 
 def bending_basis(axis: np.ndarray) -> dict[str, np.ndarray]:
@@ -80,7 +111,37 @@ class WearState:
 
     @classmethod
     def new(cls, edges: MicroEdges) -> "WearState":
+        """A fresh tool: every micro edge at 0."""
         return cls(np.zeros(len(edges)))
+
+    @classmethod
+    def start(cls, edges: MicroEdges, cl_mm=None) -> "WearState":
+        """A used tool's state.
+
+        Parameters
+        ----------
+        edges : MicroEdges
+        cl_mm : None, float or ndarray of shape (m,) [mm]
+            None: a fresh tool; a number: every micro edge has cut this far;
+            an array: each micro edge's actual cutting distance.
+
+        Raises
+        ------
+        ValueError
+            Wrong length, a non-finite or negative distance.
+        """
+        if cl_mm is None:
+            return cls.new(edges)
+        cl = np.asarray(cl_mm, dtype=float)
+        if cl.ndim == 0:
+            cl = np.full(len(edges), float(cl))
+        if cl.shape != (len(edges),):
+            raise ValueError(f"initial wear: {cl.shape[0] if cl.ndim == 1 else cl.shape} "
+                             f"cutting distances for {len(edges)} micro edges (a tool state "
+                             "made for another tool or resolution.micro_edges)")
+        if not (np.all(np.isfinite(cl)) and np.all(cl >= 0)):
+            raise ValueError("initial wear: cutting distances must be finite and >= 0")
+        return cls(cl.copy())
 
 
 @dataclass(frozen=True)
@@ -103,6 +164,23 @@ class PointResult:
     gain : float
         ``dE/dx``: how much the error grows per unit the tool cuts deeper
         along the normal (from the stock-thickened engagement); 0 if unknown.
+    E_wear_d_um, E_wear_p_um : float
+        The wear part of the error (:func:`evaluate`, module docstring), from
+        the edge forces' growth (deflection) and from the radius loss: ``E``
+        with the tool's wear minus ``E`` of a fresh tool at the same point.
+        NaN where ``E`` is.
+    cl_wear_mm : float
+        Actual cutting distance of the most-worn micro edge among those that
+        cut at this point or generate its surface [mm].
+    wear_edge : int
+        Index of that micro edge (-1 if none).
+    wear_edges : ndarray of int, shape (k,), or None
+        The micro edges whose wear moves this point's surface (those that cut
+        or generate it).
+    wear_influence_um_mm : ndarray, shape (k,), or None [um per mm]
+        The wear part is linear in their cutting distances:
+        ``W = wear_influence_um_mm @ cl[wear_edges]`` (:meth:`wear_part_um`),
+        for the tool's state at this point or any other.
     """
 
     peak_force_N: float
@@ -114,6 +192,27 @@ class PointResult:
     cl_max_mm: float
     cl_gen_mm: float
     gain: float = 0.0
+    E_wear_d_um: float = math.nan
+    E_wear_p_um: float = math.nan
+    cl_wear_mm: float = math.nan
+    wear_edge: int = -1
+    wear_edges: np.ndarray | None = None
+    wear_influence_um_mm: np.ndarray | None = None
+
+    @property
+    def E_wear_um(self) -> float:
+        """The wear part of the error, ``E_wear_d_um + E_wear_p_um`` [um]."""
+        return self.E_wear_d_um + self.E_wear_p_um
+
+    def wear_part_um(self, cl_mm: np.ndarray) -> float:
+        """The wear part this point would have with the tool in state ``cl_mm`` [um].
+
+        ``cl_mm``: every micro edge's actual cutting distance [mm], shape (m,).
+        NaN for a point without an error.
+        """
+        if self.wear_edges is None:
+            return math.nan
+        return float(self.wear_influence_um_mm @ np.asarray(cl_mm, float)[self.wear_edges])
 
 
 def workpiece_deflection(modes, force_N: np.ndarray, spindle_rpm: float) -> np.ndarray:
@@ -123,22 +222,71 @@ def workpiece_deflection(modes, force_N: np.ndarray, spindle_rpm: float) -> np.n
     ----------
     modes : list of (Mode, ndarray shape (3,))
         Workpiece modes at the cutting point, each along a unit direction.
-    force_N : ndarray, shape (n, 3) [N]
+    force_N : ndarray, shape (..., n, 3) [N]
         Force on the tool over a revolution, world frame.
     spindle_rpm : float [rev/min]
 
     Returns
     -------
-    ndarray, shape (n, 3) [mm]
+    ndarray, shape (..., n, 3) [mm]
         ``sum_m d_m (G_m * (F . d_m))`` per harmonic, as :meth:`Compliance.deflection`.
     """
     out = np.zeros_like(force_N, dtype=float)
     for mode, d in modes:
         d = np.asarray(d, dtype=float)
-        part = Compliance.from_modes({"x": (mode,)}).deflection((force_N @ d)[:, None],
+        part = Compliance.from_modes({"x": (mode,)}).deflection((force_N @ d)[..., None],
                                                                 spindle_rpm)
-        out += part[:, :1] * d[None, :]
+        out += part[..., :1] * d
     return out
+
+
+def _engagement(tool: Tool, edges: MicroEdges, g: PointGeometry) -> tuple:
+    """The micro edges that cut at a point, over one revolution of every flute.
+
+    Returns
+    -------
+    theta : ndarray, shape (n,) [rad]
+    cols : ndarray of int, shape (c,)
+        Indices of the micro edges that cut.
+    edges : MicroEdges
+        Those micro edges.
+    phi : ndarray, shape (n, flutes, c) [rad]
+        Their angular positions (within-step shifts applied).
+    cutting : ndarray of bool, shape (n, flutes, c)
+    weight : ndarray, shape (n, flutes, c), or None
+        Share of each step spent cutting.
+    """
+    n = g.cutting0.shape[0]
+    theta = np.arange(n) * (2 * math.pi / n)
+    cols = np.flatnonzero(g.cutting0.any(axis=0))  # only the micro edges that cut
+    edges = edges.take(cols)
+    phi, cutting = expand_flutes(theta, g.cutting0[:, cols], edges, tool.flutes)
+    weight = None
+    if g.weight0 is not None:
+        _, weight = expand_flutes(theta, g.weight0[:, cols].astype(float), edges, tool.flutes)
+    if g.shift0 is not None:
+        _, shift = expand_flutes(theta, g.shift0[:, cols].astype(float), edges, tool.flutes)
+        phi = phi + shift
+    return theta, cols, edges, phi, cutting, weight
+
+
+def _deflection(compliance: Compliance, g: PointGeometry, force: np.ndarray,
+                workpiece=None) -> np.ndarray:
+    """Deflection over a revolution from forces on the tool, world frame [mm].
+
+    ``force`` has shape (..., n, 3) [N]; the result the same shape [mm]. With
+    ``workpiece`` and a generation point the deflection is tool minus workpiece.
+    """
+    basis = bending_basis(g.axis)
+    dirs = compliance.directions
+    comp = np.stack([force @ basis[d] for d in dirs], axis=-1)
+    defl = compliance.deflection(comp, g.spindle_rpm)  # (..., n, ndir) [mm]
+    deflection = defl @ np.stack([basis[d] for d in dirs])
+    if workpiece is not None and g.gen is not None:
+        modes = workpiece(g.gen.point_world)
+        if modes:
+            deflection = deflection + workpiece_deflection(modes, force, g.spindle_rpm)
+    return deflection
 
 
 def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
@@ -156,32 +304,70 @@ def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     force_N : ndarray, shape (n, 3)
     deflection_mm : ndarray, shape (n, 3)
     """
-    n = g.cutting0.shape[0]
-    theta = np.arange(n) * (2 * math.pi / n)
-    cols = np.flatnonzero(g.cutting0.any(axis=0))  # only the micro edges that cut
-    edges = edges.take(cols)
+    return _revolution(tool, edges, coeffs, compliance, g, cl_mm, workpiece)[:3]
+
+
+def _revolution(tool, edges, coeffs, compliance, g, cl_mm, workpiece=None) -> tuple:
+    """:func:`revolution`, and the engagement it used (:func:`_engagement`) last."""
+    eng = _engagement(tool, edges, g)
+    theta, cols, edges, phi, cutting, weight = eng
     cl_mm = np.asarray(cl_mm)[..., cols]
-    phi, cutting = expand_flutes(theta, g.cutting0[:, cols], edges, tool.flutes)
-    weight = None
-    if g.weight0 is not None:
-        _, weight = expand_flutes(theta, g.weight0[:, cols].astype(float), edges, tool.flutes)
-    if g.shift0 is not None:
-        _, shift = expand_flutes(theta, g.shift0[:, cols].astype(float), edges, tool.flutes)
-        phi = phi + shift
     f_tool = g.frame @ g.feed_per_tooth_world
     h = np.where(cutting, chip_thickness(edges, phi, f_tool), 0.0)
     f_tool_frame = tool_forces(edges, coeffs, phi, h, cutting, cl_mm, weight=weight)
     force = f_tool_frame @ g.frame  # rows: tool frame -> world
-    basis = bending_basis(g.axis)
-    dirs = compliance.directions
-    comp = np.stack([force @ basis[d] for d in dirs], axis=1)
-    defl = compliance.deflection(comp, g.spindle_rpm)  # (n, ndir) [mm]
-    deflection = sum(defl[:, k:k + 1] * basis[d][None, :] for k, d in enumerate(dirs))
-    if workpiece is not None and g.gen is not None:
-        modes = workpiece(g.gen.point_world)
-        if modes:
-            deflection = deflection + workpiece_deflection(modes, force, g.spindle_rpm)
-    return theta, force, deflection
+    return theta, force, _deflection(compliance, g, force, workpiece), eng
+
+
+def wear_influence(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
+                   compliance: Compliance, g: PointGeometry, workpiece=None,
+                   engagement: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """How the deflection error grows with each micro edge's cutting distance.
+
+    The edge forces grow by ``Kxe1 cl_j db_j`` (method.md §4), linearly in
+    each micro edge's ``cl_j``, and the deflection and ``E_d`` are linear in
+    the force, so ``E_d(cl) - E_d(0) = sum_j a_j cl_j`` exactly. This returns
+    the ``a_j``: the deflection error along the normal, averaged over the
+    generation strip as ``E_d`` is, caused by the edge-force growth of one
+    micro edge (on every flute) per mm of its cutting distance. The forces
+    are those of :func:`errpred.force.tool_forces` with only the ``Kxe1``
+    terms, kept per micro edge instead of summed; their deflections are one
+    batched FFT.
+
+    Parameters
+    ----------
+    tool, edges, coeffs, compliance, g, workpiece
+        As :func:`revolution`; ``g`` needs a generation point.
+    engagement : tuple, optional
+        The point's engagement if already expanded (``_engagement``).
+
+    Returns
+    -------
+    cols : ndarray of int, shape (c,)
+        The micro edges that cut at the point.
+    a : ndarray, shape (c,) [mm per mm]
+        ``dE_d / dcl_j``.
+    """
+    theta, cols, e, phi, cutting, weight = engagement or _engagement(tool, edges, g)
+    n, c = theta.shape[0], cols.shape[0]
+    i, k, j = np.nonzero(cutting)
+    w = e.db[j] * (weight[i, k, j] if weight is not None else 1.0)   # [mm]
+    p = phi[i, k, j]
+    sp, cp = np.sin(p), np.cos(p)
+    sk, ck = np.sin(e.kappa)[j], np.cos(e.kappa)[j]
+    kt, kr, ka = coeffs.Kte1_N_mm2, coeffs.Kre1_N_mm2, coeffs.Kae1_N_mm2
+    a_in = kr * sk + ka * ck   # in-plane part of the radial and axial growth (to_tool_frame)
+    parts = (-w * (kt * cp + a_in * sp), w * (kt * sp - a_in * cp), w * (kr * ck - ka * sk))
+    at = j * n + i
+    f = np.stack([np.bincount(at, v, minlength=c * n) for v in parts], axis=-1)
+    force = f.reshape(c, n, 3) @ g.frame                              # (c, n, 3) world [N/mm]
+    defl = _deflection(compliance, g, force, workpiece)               # (c, n, 3) [mm/mm]
+    gen = g.gen
+    series = np.moveaxis(defl, 1, 0)                                  # (n, c, 3)
+    if gen.samples_theta is None or not gen.samples_theta.size:
+        return cols, _at_angles(series, theta, np.array([gen.theta_rad]))[0] @ gen.normal_world
+    d_s = _at_angles(series, theta, gen.samples_theta)                # (k, c, 3)
+    return cols, np.mean(np.sum(d_s * gen.samples_normal[:, None, :], axis=2), axis=0)
 
 
 def _strip_error(gen, defl: np.ndarray, theta: np.ndarray) -> float:
@@ -200,11 +386,11 @@ def _nearest_edges(edges: MicroEdges, kappa: np.ndarray, z: np.ndarray) -> np.nd
 
 
 def _at_angles(series: np.ndarray, theta: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """:func:`_at_angle` for many angles, shape (k, 3)."""
+    """:func:`_at_angle` for many angles: shape (k,) + series.shape[1:]."""
     n = theta.shape[0]
     x = (np.asarray(angles) % (2 * math.pi)) / (2 * math.pi) * n
     i = np.floor(x).astype(int) % n
-    t = (x - np.floor(x))[:, None]
+    t = (x - np.floor(x)).reshape((-1,) + (1,) * (series.ndim - 1))
     return (1 - t) * series[i] + t * series[(i + 1) % n]
 
 
@@ -228,20 +414,32 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     their forces and wear, and NaN errors. If ``series`` is a list,
     ``(theta, force_N, deflection_mm)`` over the revolution (world frame) is
     appended to it for points with an error. ``workpiece``: see :func:`revolution`.
+
+    The wear part of the error (module docstring) is ``E`` minus ``E`` of
+    the same point with every micro edge at zero cutting distance: the
+    radius loss from the shape model at ``cl = 0``, and, when a wear
+    coefficient ``Kxe1`` is not zero, the deflection of the edge forces'
+    growth, from each cutting micro edge's influence (:func:`wear_influence`:
+    its forces per unit ``cl`` over the revolution and their FFT deflection,
+    one batch). The influences are kept (``PointResult.wear_influence_um_mm``)
+    so that the wear part for any other state of the tool is a dot product.
     """
     if g.cutting0 is None:
         return None
     revs = g.spindle_rpm * g.cut_length_mm / g.feed_mm_min if g.feed_mm_min > 0 else 0.0
     increment = g.cl_per_rev * revs
     cl_mid = wear.cl_mm + 0.5 * increment
-    theta, force, defl = revolution(tool, edges, coeffs, compliance, g, cl_mm=cl_mid,
-                                    workpiece=workpiece)
+    theta, force, defl, eng = _revolution(tool, edges, coeffs, compliance, g, cl_mid,
+                                          workpiece=workpiece)
     gen = g.gen
     nan = math.nan
     E_d = E_p = nan
     d_gen = np.full(3, nan)
     gain = 0.0
     j = int(np.argmax(cl_mid)) if cl_mid.size else 0
+    W_d = W_p = cl_w = nan
+    j_w = -1
+    infl = (None, None)
     if gen is not None and g.status in ("predicted", "axis-normal"):
         if series is not None:
             series.append((theta, force, defl))
@@ -250,12 +448,30 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
         if gen.samples_theta is not None and gen.samples_theta.size:
             js = _nearest_edges(edges, gen.samples_kappa, gen.samples_z)
             E_p = float(np.mean(shape.error_mm(gen.samples_kappa, gen.samples_z, cl_mid[js])))
+            E_p0 = float(np.mean(shape.error_mm(gen.samples_kappa, gen.samples_z, 0.0)))
         else:
-            j0 = _nearest_edges(edges, np.array([gen.kappa_rad]),
-                                np.array([gen.point_tool[2]]))[0]
+            js = _nearest_edges(edges, np.array([gen.kappa_rad]),
+                                np.array([gen.point_tool[2]]))
             E_p = float(shape.error_mm(gen.kappa_rad, float(gen.point_tool[2]),
-                                       float(cl_mid[j0])))
+                                       float(cl_mid[js[0]])))
+            E_p0 = float(shape.error_mm(gen.kappa_rad, float(gen.point_tool[2]), 0.0))
         j = _nearest_edges(edges, np.array([gen.kappa_rad]), np.array([gen.point_tool[2]]))[0]
+        # the wear part: E minus E of a fresh tool at the same point, linear in cl
+        cols = np.flatnonzero(g.cutting0.any(axis=0))
+        wear_edges = np.union1d(cols, js)
+        influence = np.zeros(wear_edges.shape)  # [mm of error per mm of cl]
+        W_p = E_p - E_p0
+        idx, count = np.unique(js, return_counts=True)
+        influence[np.searchsorted(wear_edges, idx)] += shape.wear_rate * count / js.size
+        W_d = 0.0
+        if _edge_wear(coeffs):
+            cols, a_d = wear_influence(tool, edges, coeffs, compliance, g, workpiece=workpiece,
+                                       engagement=eng)
+            W_d = float(a_d @ cl_mid[cols])
+            influence[np.searchsorted(wear_edges, cols)] += a_d
+        j_w = int(wear_edges[np.argmax(cl_mid[wear_edges])])
+        cl_w = float(cl_mid[j_w])
+        infl = (wear_edges.astype(np.int32), influence * 1e3)
         if g.sensitivity is not None:
             delta, c_b, w_b, s_b = g.sensitivity
             g_b = dataclasses.replace(g, cutting0=c_b, weight0=w_b, shift0=s_b)
@@ -267,6 +483,13 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
         mean_force_N=force.mean(axis=0),
         deflection_um=d_gen * 1e3,
         E_d_um=E_d * 1e3, E_p_um=E_p * 1e3, E_um=(E_d + E_p) * 1e3,
-        cl_max_mm=float(cl_mid.max()), cl_gen_mm=float(cl_mid[j]), gain=gain)
+        cl_max_mm=float(cl_mid.max()), cl_gen_mm=float(cl_mid[j]), gain=gain,
+        E_wear_d_um=W_d * 1e3, E_wear_p_um=W_p * 1e3, cl_wear_mm=cl_w, wear_edge=j_w,
+        wear_edges=infl[0], wear_influence_um_mm=infl[1])
     wear.cl_mm = wear.cl_mm + increment
     return result
+
+
+def _edge_wear(coeffs: CuttingCoefficients) -> bool:
+    """True if the edge forces grow with the cutting distance (a ``Kxe1`` is not 0)."""
+    return any(getattr(coeffs, n) != 0.0 for n in WEAR_NAMES)

@@ -24,9 +24,10 @@ from .physics import ShapeErrorModel
 from .predict import Prediction, Predictor
 from .report import report, write_report
 from .scenario import Scenario, load_scenario
+from .tool_state import write_tool_state
 
 __all__ = ["load", "build_predictor", "blocks_in_scope", "predict", "scenario_report",
-           "write_outputs", "compensate_scenario", "design_deviation_um"]
+           "write_outputs", "compensate_scenario", "design_deviation_um", "write_end_state"]
 
 
 def load(path: str | os.PathLike) -> Scenario:
@@ -51,6 +52,7 @@ def build_predictor(scenario: Scenario, program: Program | None = None,
     """A :class:`Predictor` for the scenario (or another program, e.g. corrected).
 
     ``workpiece``: the workpiece's modes at a cutting point (see :class:`Predictor`).
+    The wear starts from the scenario's tool state (:attr:`Scenario.initial_wear_mm`).
     """
     prog = program if program is not None else scenario.read_program()
     res = resolution or scenario.resolution
@@ -58,7 +60,8 @@ def build_predictor(scenario: Scenario, program: Program | None = None,
     shape = ShapeErrorModel(deviation=se.radius_deviation_mm, wear_rate=se.wear_rate_mm_per_mm)
     return Predictor(scenario.tool, stock if stock is not None else scenario.stock.load(), prog,
                      scenario.coefficients, scenario.compliance, shape_error=shape,
-                     resolution=res, machine=_machine(scenario), workpiece=workpiece)
+                     resolution=res, machine=_machine(scenario), workpiece=workpiece,
+                     initial_wear_mm=scenario.initial_wear_mm)
 
 
 def blocks_in_scope(scenario: Scenario, program: Program) -> list[int]:
@@ -123,6 +126,7 @@ def scenario_report(scenario: Scenario, prediction: Prediction,
                        "chord_tol_mm": scenario.resolution.chord_tol_mm},
         "sign": "E > 0: material left (undercut); E < 0: overcut",
         "sources": scenario.sources,
+        "tool_start": scenario.tool_start,
     }
     rep = report(prediction, meta, scenario.tool_change_tolerance_um)
     from .findings import error_findings
@@ -138,12 +142,33 @@ def scenario_report(scenario: Scenario, prediction: Prediction,
     return rep
 
 
+def write_end_state(scenario: Scenario, prediction: Prediction, path: str | os.PathLike,
+                    command: str = "predict") -> None:
+    """Write the tool's wear at the end of ``prediction`` as a tool-state file.
+
+    The next scenario starts from it with ``[tool] state = "FILE"``
+    (:mod:`errpred.tool_state`). ``command`` is recorded as provenance.
+    """
+    write_tool_state(path, scenario.tool, prediction.edges_kappa_rad, prediction.edges_z_mm,
+                     prediction.wear_mm,
+                     written_by={"command": command, "scenario": str(scenario.path),
+                                 "program": str(scenario.program_path),
+                                 "lines": list(scenario.lines) if scenario.lines else None,
+                                 "tool_start": scenario.tool_start})
+
+
 def write_outputs(scenario: Scenario, prediction: Prediction, report_path=None,
-                  plots_dir=None, design: dict[int, float] | None = None) -> dict[str, Any]:
-    """Write the report (JSON) and the plots (PNG); returns the report."""
+                  plots_dir=None, design: dict[int, float] | None = None,
+                  tool_state_path=None) -> dict[str, Any]:
+    """Write the report (JSON), the plots (PNG) and the tool's end state; returns the report.
+
+    ``tool_state_path``: where to write the wear at the end (:func:`write_end_state`).
+    """
     rep = scenario_report(scenario, prediction, design)
     if report_path is not None:
         write_report(report_path, rep)
+    if tool_state_path is not None:
+        write_end_state(scenario, prediction, tool_state_path, "predict")
     if plots_dir is not None:
         from .plots import write_all
 
@@ -160,12 +185,17 @@ def write_outputs(scenario: Scenario, prediction: Prediction, report_path=None,
 def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, workers: int = 1,
                         progress: Callable[[str], None] | None = None,
                         block_progress: Callable[[int, int], None] | None = None,
-                        client=None) -> Compensation:
+                        client=None, tool_state_out: str | os.PathLike | None = None
+                        ) -> Compensation:
     """Correct the scenario's program (one pass, or iterated per the scenario), verified.
 
     Every candidate and the original are predicted densely
     (:meth:`errpred.geometry.Resolution.dense`) over the scenario's line range (the
     same original lines in a corrected program whose blocks were split).
+    ``tool_state_out``: write the tool's wear at the end of the program that will be
+    written (the corrected one; the original when there was nothing to correct) there
+    (:func:`write_end_state`), from its own dense prediction; nothing when no
+    correction was verified (nothing will be cut).
 
     Raises
     ------
@@ -203,9 +233,13 @@ def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, work
     def path(prog: Program):
         return cutter_locations(prog, machine, chord_tol_mm=res.chord_tol_mm)
 
-    return compensate(program, run, path=path, iterate=it,
+    comp = compensate(program, run, path=path, iterate=it,
                       tolerance_mm=opts.tolerance_um * 1e-3,
                       max_iterations=opts.max_iterations,
                       tolerance_um=opts.verify_tolerance_um,
                       reach_mm=K.FALLBACK_REACH_RADII * scenario.tool.radius_mm,
                       progress=progress)
+    if tool_state_out is not None and (comp.corrected or not comp.verified.passes):
+        cut = comp.predictions[comp.verified.best_pass + 1]
+        write_end_state(scenario, cut, tool_state_out, "compensate")
+    return comp

@@ -70,6 +70,9 @@ class Prediction:
         Program line -> ``(force_N (n, 3), deflection_mm (n, 3), theta_m,
         theta (n,))`` over one revolution, kept for the lines asked for and
         for the point with the largest |E| (key ``-1``, with its line last).
+    initial_wear_mm : ndarray, shape (m,) or None
+        Actual cutting distance of each micro edge at the start [mm] (None:
+        a fresh tool).
     """
 
     points: list[PointPrediction]
@@ -79,6 +82,7 @@ class Prediction:
     theta: np.ndarray = field(default_factory=lambda: np.zeros(0))
     series: dict[int, tuple[np.ndarray, np.ndarray, float]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    initial_wear_mm: np.ndarray | None = None
 
     def errors_um(self) -> np.ndarray:
         return np.array([p.E_um for p in self.points])
@@ -126,13 +130,19 @@ class Predictor:
         ``workpiece(point_mm) -> [(Mode, direction)]``: the workpiece's modes at
         a cutting point (a thin wall); the deflection is then tool minus
         workpiece (:func:`errpred.physics.revolution`). Default: rigid.
+    initial_wear_mm : float or ndarray of shape (m,), optional
+        The tool's state at the start of :meth:`run` [mm]: each micro edge's
+        actual cutting distance so far (an array, e.g. from a tool-state file,
+        :mod:`errpred.tool_state`), or one distance for every micro edge.
+        Default: a fresh tool (0).
     """
 
     def __init__(self, tool: Tool, stock, program: Program,
                  coefficients: CuttingCoefficients, compliance: Compliance,
                  shape_error: ShapeErrorModel | None = None,
                  resolution: Resolution | None = None, machine=None,
-                 cl: CutterLocations | None = None, workpiece=None) -> None:
+                 cl: CutterLocations | None = None, workpiece=None,
+                 initial_wear_mm=None) -> None:
         self.tool = tool
         self.workpiece = workpiece
         self.program = program
@@ -143,6 +153,7 @@ class Predictor:
         self.cl = cl if cl is not None else cutter_locations(
             program, machine, chord_tol_mm=self.resolution.chord_tol_mm)
         self.model = GeometryModel(tool, stock, self.cl, self.resolution)
+        self.initial_wear_mm = WearState.start(self.edges, initial_wear_mm).cl_mm
 
     @property
     def edges(self):
@@ -206,9 +217,12 @@ class Predictor:
             kept (:attr:`Prediction.series`); the largest-|E| point's always is.
         client : dask.distributed.Client, optional
             Run stage 1 on a Dask cluster instead (``workers`` is then unused).
+
+        The wear starts from :attr:`initial_wear_mm` (a fresh tool unless the
+        predictor was given a used tool's state).
         """
         blocks = list(range(len(self.program))) if blocks is None else list(blocks)
-        wear = WearState.new(self.edges)
+        wear = WearState(self.initial_wear_mm.copy())
         out: list[PointPrediction] = []
         keep = set(int(x) for x in series_lines)
         kept: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
@@ -233,7 +247,8 @@ class Predictor:
             if progress is not None:
                 progress(done)
         return Prediction(points=out, wear_mm=wear.cl_mm, edges_kappa_rad=self.edges.kappa,
-                          edges_z_mm=self.edges.z, theta=self.theta, series=kept)
+                          edges_z_mm=self.edges.z, theta=self.theta, series=kept,
+                          initial_wear_mm=self.initial_wear_mm.copy())
 
 
 def predict_points(predictor: Predictor, blocks=None, **kwargs) -> Prediction:

@@ -63,8 +63,10 @@ def point_record(p) -> dict[str, Any]:
             "E_d_um": _r(r.E_d_um),
             "E_p_um": _r(r.E_p_um),
             "E_um": _r(r.E_um),
+            "E_wear_um": _r(r.E_wear_um),
             "cutting_distance_mm": {"max_edge": _r(r.cl_max_mm, 3),
-                                    "generating_edge": _r(r.cl_gen_mm, 3)},
+                                    "generating_edge": _r(r.cl_gen_mm, 3),
+                                    "most_worn_shaping_edge": _r(r.cl_wear_mm, 3)},
         })
     if g.notes:
         rec["notes"] = list(g.notes)
@@ -85,22 +87,148 @@ def _numbered(records: list[dict]) -> list[dict]:
 
 
 def tool_change(prediction: Prediction, tolerance_um: float | None) -> dict | None:
-    """The first predicted point whose |E| (with wear) exceeds the tolerance."""
+    """When to change the tool: decided on the wear part of the error only.
+
+    The wear part ``W`` of a point (:mod:`errpred.physics`, module docstring)
+    is its error with the tool's wear minus the error a fresh tool leaves at
+    the same point: the deflection added by the edge forces' growth plus the
+    radius lost. What a fresh tool leaves (its deflection, its form error) a
+    new tool leaves again; the path correction takes it out, a tool change
+    does not. So a 29.5 um deflection error with 2.8 um of wear is no reason
+    to change the tool; 30 um of wear is.
+
+    **Where.** The first predicted point (program order) with ``|W|`` above
+    the tolerance: change the tool before its line.
+
+    **How far the tool can still cut.** ``W`` is linear in the cutting
+    distances of the micro edges that shape the point, ``W_i(cl) = w_i . cl``
+    (:meth:`errpred.physics.PointResult.wear_part_um`), so it is known for
+    any state of the tool, not only the one the point was cut with. The
+    tool is assumed to go on wearing as in this run: after ``x`` more runs of
+    the program its state is ``cl_end + x D``, ``D`` what each micro edge cut
+    in this run, and point ``i`` would then have ``W_i(cl_end) + x W_i(D)``.
+    It reaches the tolerance at ``x_i = (tol - |W_i(cl_end)|) / |W_i(D)|``
+    (0 if already over, no limit if it does not grow); the smallest ``x_i``
+    over the points is reported, as runs and as the cutting distance of the
+    tool's most-worn micro edge among those the program cuts (``x D_j``),
+    with the point it comes from and its wear part with the tool as it is
+    now (``W_i(cl_end)``: what cutting that line again would leave). For a
+    linear radius loss alone (``Kxe1 = 0``) on micro edges that all cut
+    alike this is ``(tol - rate cl_end) / rate``.
+
+    Parameters
+    ----------
+    prediction : Prediction
+    tolerance_um : float or None [um]
+        ``[tool_change] tolerance_um``; None: no finding (returns None).
+
+    Returns
+    -------
+    dict or None
+        Keys (units in the names; None where there is no such point):
+        ``tolerance_um``, ``criterion``; ``line``, ``block``,
+        ``wear_error_um``, ``E_um``, ``cutting_distance_mm`` (its most-worn
+        shaping edge) of the first point over the tolerance;
+        ``max_wear_error_um`` (signed, largest ``|W|``) and
+        ``max_wear_error_at`` (``line``, ``block``, ``edge_force_um``,
+        ``radius_loss_um``); ``max_wear_error_now_um`` (largest ``|W_i(cl_end)|``);
+        ``remaining_cutting_distance_mm``, ``remaining_program_runs``,
+        ``cutting_distance_at_tolerance_mm``, ``wear_growth_um_per_m`` (of the
+        binding point's wear part per m the edge cuts), ``remaining_at``
+        (``line``, ``block``, ``wear_error_now_um``, and the edge:
+        ``micro_edge``, ``kappa_deg``, ``z_mm``, ``cutting_distance_mm`` now,
+        ``this_run_mm``); ``advice``, in words.
+    """
     if tolerance_um is None:
         return None
-    for p in prediction.predicted():
-        if abs(p.result.E_um) > tolerance_um:
-            return {"tolerance_um": tolerance_um, "line": p.line, "block": p.block,
-                    "E_um": _r(p.result.E_um),
-                    "cutting_distance_mm": _r(p.result.cl_max_mm, 3),
-                    "advice": f"change the tool before line {p.line}: the predicted error "
-                              f"with wear exceeds {tolerance_um:g} um there"}
-    return {"tolerance_um": tolerance_um, "line": None,
-            "advice": f"the predicted error stays within {tolerance_um:g} um: no tool change"}
+    tol = float(tolerance_um)
+    pts = [p for p in prediction.predicted()
+           if math.isfinite(p.result.E_wear_um) and p.result.wear_edges is not None]
+    out: dict[str, Any] = {
+        "tolerance_um": tol,
+        "criterion": "wear part of the error: E with the tool's wear minus E of a fresh "
+                     "tool at the same point (edge-force growth and radius loss)",
+        "line": None, "block": None, "wear_error_um": None, "E_um": None,
+        "cutting_distance_mm": None, "max_wear_error_um": None, "max_wear_error_at": None,
+        "max_wear_error_now_um": None, "remaining_cutting_distance_mm": None,
+        "remaining_program_runs": None, "cutting_distance_at_tolerance_mm": None,
+        "wear_growth_um_per_m": None, "remaining_at": None,
+    }
+    if not pts:
+        out["advice"] = "no predicted point: nothing to decide a tool change on"
+        return out
+    W = np.array([p.result.E_wear_um for p in pts])
+    first = next((p for p, w in zip(pts, W, strict=True) if abs(w) > tol), None)
+    if first is not None:
+        r = first.result
+        out.update({"line": first.line, "block": first.block,
+                    "wear_error_um": _r(r.E_wear_um), "E_um": _r(r.E_um),
+                    "cutting_distance_mm": _r(r.cl_wear_mm, 3)})
+    k = int(np.argmax(np.abs(W)))
+    worst = pts[k].result
+    out["max_wear_error_um"] = _r(W[k])
+    out["max_wear_error_at"] = {"line": pts[k].line, "block": pts[k].block,
+                                "edge_force_um": _r(worst.E_wear_d_um),
+                                "radius_loss_um": _r(worst.E_wear_p_um)}
+    end = prediction.wear_mm
+    start = prediction.initial_wear_mm if prediction.initial_wear_mm is not None \
+        else np.zeros_like(end)
+    run = end - start
+    now = np.array([p.result.wear_part_um(end) for p in pts])
+    per_run = np.array([p.result.wear_part_um(run) for p in pts])
+    out["max_wear_error_now_um"] = _r(now[np.argmax(np.abs(now))])
+    x = np.full(len(pts), math.inf)
+    x[np.abs(now) >= tol] = 0.0
+    grows = (np.abs(now) < tol) & (per_run != 0.0)
+    x[grows] = (np.sign(per_run[grows]) * tol - now[grows]) / per_run[grows]
+    cut = np.flatnonzero(run > 0)
+    i = int(np.argmin(x))
+    if math.isfinite(x[i]) and cut.size:
+        j = int(cut[np.argmax(end[cut])])   # the most-worn micro edge this program cuts
+        p = pts[i]
+        out.update({
+            "remaining_cutting_distance_mm": _r(x[i] * run[j], 3),
+            "remaining_program_runs": _r(x[i], 4),
+            "cutting_distance_at_tolerance_mm": _r(end[j] + x[i] * run[j], 3),
+            "wear_growth_um_per_m": _r(abs(per_run[i]) / run[j] * 1e3, 6),
+            "remaining_at": {"line": p.line, "block": p.block,
+                             "wear_error_now_um": _r(now[i]), "micro_edge": j,
+                             "kappa_deg": _r(math.degrees(prediction.edges_kappa_rad[j]), 3),
+                             "z_mm": _r(prediction.edges_z_mm[j], 4),
+                             "cutting_distance_mm": _r(float(end[j]), 3),
+                             "this_run_mm": _r(float(run[j]), 3)},
+        })
+    if first is not None:
+        r = first.result
+        out["advice"] = (
+            f"change the tool before line {first.line}: from there on wear alone (edge forces "
+            f"{r.E_wear_d_um:+.1f} um, radius loss {r.E_wear_p_um:+.1f} um) moves the surface "
+            f"by {r.E_wear_um:+.1f} um, more than the {tol:g} um tolerance; the most-worn "
+            f"cutting edge there has cut {r.cl_wear_mm / 1e3:.2f} m")
+    elif not np.any(W):
+        out["advice"] = (f"no wear in the scenario's models (wear coefficients Kxe1 and "
+                         f"wear_rate_um_per_m are 0): the wear part is 0 and the {tol:g} um "
+                         "tool-change tolerance is never reached; the error that remains is "
+                         "for the path correction")
+    elif out["remaining_program_runs"] is None:
+        out["advice"] = (f"no tool change needed in this program: wear moves the surface by at "
+                         f"most {W[k]:+.1f} um (line {pts[k].line}), within the {tol:g} um "
+                         "tolerance, and it does not grow further")
+    else:
+        j, p = out["remaining_at"]["micro_edge"], pts[i]
+        out["advice"] = (
+            f"no tool change needed in this program: wear moves the surface by at most "
+            f"{W[k]:+.1f} um (line {pts[k].line}), within the {tol:g} um tolerance. The tool "
+            f"can cut about {x[i] * run[j] / 1e3:.2f} m more (actual cutting distance of its "
+            f"most-worn cutting edge, {prediction.edges_z_mm[j]:.2f} mm above the tip), about "
+            f"{x[i]:.2f} more run(s) of this program, before wear alone reaches {tol:g} um "
+            f"(first at line {p.line}; cut again now it would be {now[i]:+.1f} um)")
+    return out
 
 
 def summary(prediction: Prediction, tool_change_um: float | None = None) -> dict[str, Any]:
-    """Largest and mean error and where, counts per status, wear at the end."""
+    """Largest and mean error and where, counts per status, wear at the start and the
+    end, and the tool-change finding (:func:`tool_change`) with a tolerance."""
     pts = prediction.points
     counts: dict[str, int] = {}
     for p in pts:
@@ -122,9 +250,12 @@ def summary(prediction: Prediction, tool_change_um: float | None = None) -> dict
             "max_undercut_um": _r(float(E.max())),
             "max_overcut_um": _r(float(E.min())),
         })
+    start = prediction.initial_wear_mm
     out["wear"] = {"max_cutting_distance_mm": _r(float(prediction.wear_mm.max(initial=0.0)), 3),
                    "mean_cutting_distance_mm": _r(float(prediction.wear_mm.mean()), 3)
-                   if prediction.wear_mm.size else 0.0}
+                   if prediction.wear_mm.size else 0.0,
+                   "start_max_cutting_distance_mm": _r(float(start.max(initial=0.0)), 3)
+                   if start is not None else 0.0}
     tc = tool_change(prediction, tool_change_um)
     if tc is not None:
         out["tool_change"] = tc

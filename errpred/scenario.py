@@ -16,6 +16,11 @@ and ``inf`` literals), zero or negative values where a positive one is
 needed, unknown tool types, files that do not exist (with the resolved path),
 and both or neither of ``stock.stl`` and ``stock.box_*``.
 
+A used tool starts from its wear state: ``[tool] state = "tool-state.json"``
+(a file written by ``--tool-state-out``, :mod:`errpred.tool_state`; read and
+checked against the scenario's tool and micro edges here) or ``[tool]
+used_cutting_distance_m = 12.5`` (every micro edge has cut that far).
+
 Two scenarios are bundled (:data:`BUNDLED`, :func:`bundled_scenario`); they
 are made by ``scripts/make_errpred_scenarios.py``.
 """
@@ -200,6 +205,13 @@ class Scenario:
     #: Tables of the sections named in ``load_scenario(extra_sections=...)``,
     #: unchecked: the package that asked for them reads them.
     extra: dict = field(default_factory=dict)
+    #: The tool's wear at the start [mm]: None (a fresh tool), one actual
+    #: cutting distance for every micro edge (``tool.used_cutting_distance_m``),
+    #: or one per micro edge (``tool.state``, checked against this tool and
+    #: its micro edges at the scenario's resolution).
+    initial_wear_mm: Any = None
+    #: Where :attr:`initial_wear_mm` comes from, in words (for the report).
+    tool_start: str = "new tool"
 
     def read_program(self):
         """The NC program (``nc.read_program`` with the scenario's allow list)."""
@@ -354,7 +366,7 @@ def _tool(r: TableReader, d: dict) -> Tool:
     p = "tool"
     r.keys(d, p, ("type", "diameter_mm", "flutes", "helix_deg"),
            ("corner_radius_mm", "flute_length_mm", "overhang_mm", "rotation",
-            "shank_diameter_mm", "holder"))
+            "shank_diameter_mm", "holder", "state", "used_cutting_distance_m"))
     kind = r.string(d, "type", p)
     if kind not in TOOL_KINDS:
         raise r.fail("tool.type", f"unknown tool type {kind!r}; expected one of "
@@ -390,6 +402,28 @@ def _tool(r: TableReader, d: dict) -> Tool:
         return Tool(kind, dia, corner, flutes, helix, rotation=rotation, holder=holder, **opt)
     except ValueError as exc:
         raise r.fail("tool", str(exc)) from None
+
+
+def _tool_start(r: TableReader, d: dict, tool: Tool, res: Resolution) -> tuple[Any, str]:
+    """``tool.state`` or ``tool.used_cutting_distance_m``: the wear at the start [mm]."""
+    from .tool_state import check_compatible, read_tool_state
+
+    given = [k for k in ("state", "used_cutting_distance_m") if k in d]
+    if len(given) > 1:
+        raise r.fail("tool.used_cutting_distance_m", "give state or used_cutting_distance_m, "
+                                                     "not both")
+    if "used_cutting_distance_m" in d:
+        v = r.number(d, "used_cutting_distance_m", "tool", sign=">=0")
+        return v * 1e3, f"used tool: every micro edge has cut {v:g} m"
+    if "state" in d:
+        path = r.path(d, "state", "tool")
+        try:
+            state = read_tool_state(path)
+            check_compatible(state, tool, tool.micro_edges(res.micro_edges))
+        except ValueError as exc:
+            raise r.fail("tool.state", str(exc)) from None
+        return state.cl_mm, f"used tool: state from {path}"
+    return None, "new tool"
 
 
 def _program(r: TableReader, d: dict) -> tuple:
@@ -626,6 +660,8 @@ def load_scenario(path: str | os.PathLike, *, extra_sections: tuple[str, ...] = 
     coeffs, cut_src = _cutting(r, sec["cutting"])
     compliance, dyn_src = _dynamics(r, sec["dynamics"])
     shape = _shape_error(r, sec["shape_error"]) if "shape_error" in sec else ShapeError()
+    resolution = _resolution(r, sec.get("resolution", {}), tool)
+    wear0, start = _tool_start(r, sec["tool"], tool, resolution)
     tol = None
     if "tool_change" in sec:
         r.keys(sec["tool_change"], "tool_change", ("tolerance_um",))
@@ -635,6 +671,7 @@ def load_scenario(path: str | os.PathLike, *, extra_sections: tuple[str, ...] = 
     return Scenario(
         name=name, path=Path(r.file).resolve(), stock=stock, tool=tool, program_path=gcode,
         allow=allow, lines=lines, machine=machine, coefficients=coeffs, compliance=compliance,
-        shape_error=shape, resolution=_resolution(r, sec.get("resolution", {}), tool),
+        shape_error=shape, resolution=resolution,
         correction=_correction(r, sec.get("correction", {})), tool_change_tolerance_um=tol,
-        sources=sources, description=description, extra=extra)
+        sources=sources, description=description, extra=extra, initial_wear_mm=wear0,
+        tool_start=start)

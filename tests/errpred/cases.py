@@ -91,3 +91,100 @@ def plane_stock(slope_deg: float, allowance: float) -> Stock:
     t = math.tan(math.radians(slope_deg))
     lift = allowance / math.cos(math.radians(slope_deg))
     return heightfield_stock(lambda X, Y: -t * X + lift, (-8, 26), (-8, 12), 1.0, -30.0)
+
+
+# --- a wall side-milled by a straight-flute flat end mill (tool wear tests) ---------------
+#: The wall: a box whose bottom and top (z 2 and 8 mm above the tip) fall on micro-edge
+#: boundaries of the D10 flat end mill (flank micro edges 0.0625 mm long from z = 0), so
+#: every flank micro edge between them cuts the whole of its length: all the edges that
+#: shape the wall have the same actual cutting distance.
+WALL_BOX_MM = ((0.0, -60.0, 2.0), (20.0, 60.0, 8.0))
+#: Radial depth of cut into the wall's x = 0 face [mm].
+WALL_AE_MM = 0.3
+
+
+def wall_tool():
+    from errpred.tool import Tool
+
+    return Tool("flat", 10.0, flutes=2, helix_deg=0.0, flute_length_mm=12.0)
+
+
+def wall_passes(y_from: float, y_to: float, step: float = 10.0, *, header: bool = True,
+                end: bool = True, feed: float = 600.0, spindle: float = 6000.0) -> list[str]:
+    """G-code lines: one pass along Y at depth WALL_AE_MM, entering from outside the wall.
+
+    The tool comes down outside the stock (beyond its Y end), cuts from ``y_from`` to
+    ``y_to`` in blocks of ``step`` mm and goes up again (within its own slot: no cut).
+    """
+    x = -5.0 + WALL_AE_MM
+    out = ["G21 G90 G94", f"S{spindle:g} M3"] if header else []
+    out += [f"G0 X{x:g} Y{y_from:g} Z20", "G0 Z0"]
+    n = int(round(abs(y_to - y_from) / step))
+    sign = 1.0 if y_to > y_from else -1.0
+    out += [f"G1 Y{y_from + sign * step * k:g} F{feed:g}" for k in range(1, n + 1)]
+    out.append("G0 Z20")
+    if end:
+        out.append("M30")
+    return out
+
+
+def write_wall_scenario(folder, name: str, program_lines: list[str], *, wear_rate_um_per_m=0.2,
+                        edge_wear: bool = True, tool_extra: str = "",
+                        tolerance_um: float | None = 30.0) -> str:
+    """A scenario file (and its program) for the wall case in ``folder``; returns its path.
+
+    Cutting coefficients :data:`STEEL`, with the wall-radius scenario's wear growth
+    (edge force doubling after 100 m) when ``edge_wear``; the tool's dynamics those of
+    :func:`stiff_tool`. ``tool_extra``: more lines in ``[tool]`` (a start state).
+    """
+    import os
+
+    (folder / f"{name}.nc").write_text("\n".join(program_lines) + "\n")
+    lo, hi = WALL_BOX_MM
+    wear = ("Kte1_N_mm2 = 2.0e-4\nKre1_N_mm2 = 2.5e-4\nKae1_N_mm2 = 5.0e-5\n"
+            if edge_wear else "")
+    tc = f"[tool_change]\ntolerance_um = {tolerance_um!r}\n" if tolerance_um else ""
+    text = f"""name = "{name}"
+
+[stock]
+box_min_mm = {list(lo)}
+box_max_mm = {list(hi)}
+
+[tool]
+type = "flat"
+diameter_mm = 10.0
+flutes = 2
+helix_deg = 0.0
+flute_length_mm = 12.0
+{tool_extra}
+
+[program]
+gcode = "{name}.nc"
+
+[cutting]
+Ktc_N_mm2 = {STEEL.Ktc_N_mm2!r}
+Krc_N_mm2 = {STEEL.Krc_N_mm2!r}
+Kac_N_mm2 = {STEEL.Kac_N_mm2!r}
+Kte0_N_mm = {STEEL.Kte0_N_mm!r}
+Kre0_N_mm = {STEEL.Kre0_N_mm!r}
+Kae0_N_mm = {STEEL.Kae0_N_mm!r}
+{wear}
+[[dynamics.modes]]
+direction = "x"
+frequency_hz = 2500.0
+damping_ratio = 0.03
+stiffness_N_m = 5.0e6
+
+[[dynamics.modes]]
+direction = "y"
+frequency_hz = 2600.0
+damping_ratio = 0.03
+stiffness_N_m = 5.0e6
+
+[shape_error]
+wear_rate_um_per_m = {wear_rate_um_per_m!r}
+
+{tc}"""
+    path = folder / f"{name}.toml"
+    path.write_text(text)
+    return os.fspath(path)

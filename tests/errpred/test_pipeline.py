@@ -15,6 +15,7 @@ from errpred.correct import compensate
 from errpred.verification import error_field
 from errpred.geometry import Resolution
 from errpred.pipeline import load, predict
+from errpred.physics import ShapeErrorModel
 from errpred.plots import _lag_deg
 from errpred.predict import Predictor
 from errpred.raster.meshes import Stock
@@ -116,17 +117,33 @@ def test_edge_forces_grow_linearly_with_cutting_distance():
     assert np.ptp(f0) <= 1e-9 * np.abs(f0).max()
 
 
-def test_tool_change_suggestion_is_the_first_block_over_tolerance():
-    prog, run = _plane_case()
-    pred = run(prog)
-    E = [abs(p.result.E_um) for p in pred.predicted()]
-    tol = float(np.percentile(E, 50))
+def test_tool_change_suggestion_is_the_first_block_whose_wear_part_is_over_tolerance():
+    """A ball end mill, worn 40 m before, with edge-force growth and radius loss: the
+    finding is the first point whose wear part (not its error) exceeds the tolerance."""
+    prog = parse_program(plane_raster(25.0, 5.0, passes=3, length=12.0))
+    coeffs = dataclasses.replace(STEEL, Kte1_N_mm2=2e-4, Kre1_N_mm2=2.5e-4, Kae1_N_mm2=5e-5)
+    pred = Predictor(Tool("ball", 10.0, flute_length_mm=15), plane_stock(25.0, 0.2), prog,
+                     coeffs, stiff_tool(k_N_m=1.2e6),
+                     shape_error=ShapeErrorModel(wear_rate=2e-7), initial_wear_mm=40e3).run()
+    pts = pred.predicted()
+    W = np.array([p.result.E_wear_um for p in pts])
+    E = np.array([p.result.E_um for p in pts])
+    assert W.max() - W[0] > 0.01 and np.all(W > 0)
+    tol = 0.5 * (W[0] + W.max())
+    assert np.abs(E).min() > tol          # the error is over it everywhere, the wear part not
     tc = tool_change(pred, tol)
-    first = next(p for p in pred.predicted() if abs(p.result.E_um) > tol)
-    assert tc["line"] == first.line and tc["E_um"] == pytest.approx(first.result.E_um, abs=1e-3)
-    assert tool_change(pred, 1e6)["line"] is None
+    first = next(p for p in pts if abs(p.result.E_wear_um) > tol)
+    assert first is not pts[0]
+    assert tc["line"] == first.line
+    assert tc["wear_error_um"] == pytest.approx(first.result.E_wear_um, abs=1e-3)
+    assert tc["E_um"] == pytest.approx(first.result.E_um, abs=1e-3)
+    assert tc["remaining_cutting_distance_mm"] == 0.0
+    no = tool_change(pred, 1e6)
+    assert no["line"] is None and no["remaining_cutting_distance_mm"] > 0
     s = summary(pred, tol)
-    assert s["max_abs_error_um"] == pytest.approx(max(E), abs=1e-3)
+    assert s["max_abs_error_um"] == pytest.approx(np.abs(E).max(), abs=1e-3)
+    assert s["tool_change"]["max_wear_error_um"] == pytest.approx(W.max(), abs=1e-3)
+    assert s["wear"]["start_max_cutting_distance_mm"] == 40e3
 
 
 def test_long_blocks_get_several_points_and_are_corrected_along_their_length():
