@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -38,17 +38,14 @@ from nc.path import CutterLocations, cutter_locations
 from nc.program import LINEAR, PLANE_AXES, RAPID, TCP_OFF, Program
 from nc.rewrite import rewrite_coordinates
 
-from .constants import MAX_GAIN, SPLIT_TOL_MM, VERIFY_SPACING_MM, VERIFY_TOLERANCE_UM
-from .offset import ARC, CIRCLE, LINE, OffsetProblem, arc_weights, solve_offsets
+from .constants import MAX_GAIN, VERIFY_SPACING_MM, VERIFY_TOLERANCE_UM
+from .offset import ARC, CIRCLE, LINE, OffsetEdit, Units, fit_units
 from .predict import Prediction
 from .verification import ErrorField, error_field
-from .verified import VerifiedCorrection, correct_verified
+from .verified import VerifiedCorrection, VerifiedResult, correct_verified
 
-__all__ = ["ProgramEdit", "wanted_moves", "split_fractions", "fit_program", "apply_edit",
+__all__ = ["ProgramEdit", "program_units", "wanted_moves", "fit_program", "apply_edit",
            "Compensation", "compensate"]
-
-#: Pieces of a split block shorter than this are merged with their neighbour [mm].
-_MIN_PIECE_MM = 0.05
 
 
 def wanted_moves(field_: ErrorField, slope: np.ndarray | None = None) -> np.ndarray:
@@ -87,22 +84,6 @@ def _fraction_on_block(program: Program, b: int, tip: np.ndarray) -> float:
     return float(np.clip(np.dot(tip - a, e - a) / length ** 2, 0, 1)) if length > 0 else 1.0
 
 
-def _point_on_block(program: Program, b: int, t: float) -> np.ndarray:
-    """The point at fraction t along block b [mm], on the arc for arcs."""
-    a, e = program.start[b, :3], program.end[b, :3]
-    p = a + t * (e - a)
-    k = int(program.arc_index[b])
-    if k >= 0:
-        a1, a2, _ = PLANE_AXES[int(program.arc_plane[k])]
-        c = program.arc_centre[k]
-        r0, r1 = program.arc_radius[k]
-        ang = math.atan2(a[a2] - c[a2], a[a1] - c[a1]) + t * float(program.arc_sweep[k])
-        r = r0 + t * (r1 - r0)
-        p[a1] = c[a1] + r * math.cos(ang)
-        p[a2] = c[a2] + r * math.sin(ang)
-    return p
-
-
 def _splittable(program: Program, b: int) -> bool:
     """A straight feed block that moves no rotary axis and is not under TCP control."""
     if int(program.motion[b]) != LINEAR or program.arc_index[b] >= 0:
@@ -112,41 +93,32 @@ def _splittable(program: Program, b: int) -> bool:
                                            > 1e-12)
 
 
-@dataclass(frozen=True, eq=False)
-class ProgramEdit:
-    """A fitted correction of a program.
+#: A fitted correction of a program (units: its blocks).
+ProgramEdit = OffsetEdit
 
-    Attributes
-    ----------
-    moves : ndarray, shape (V, 3) [mm]
-        Vertex moves: vertex ``b < n`` is the end of block ``b``; then the split
-        points (:attr:`split_vertices`).
-    split_fractions : dict of int -> ndarray
-        Block -> fractions (0..1, ascending) at which it is split.
-    split_vertices : dict of int -> ndarray of int
-        Block -> the vertices at those fractions.
-    circles : dict of int -> (ndarray (3,), float)
-        Full-circle block -> (centre shift [mm], radius change [mm]).
-    movable : ndarray, shape (V,), bool
-    vertices : ndarray, shape (V, 3) [mm]
-        Where the vertices are before the moves.
-    """
 
-    moves: np.ndarray
-    split_fractions: dict
-    split_vertices: dict
-    circles: dict
-    movable: np.ndarray
-    vertices: np.ndarray | None = None
-
-    @property
-    def n_vertices(self) -> int:
-        return int(self.moves.shape[0])
-
-    @property
-    def largest_mm(self) -> float:
-        """Largest vertex move [mm]."""
-        return float(np.linalg.norm(self.moves, axis=1).max(initial=0.0))
+def program_units(program: Program) -> Units:
+    """A program's blocks as the fit's :class:`errpred.offset.Units`."""
+    n = len(program)
+    kind = np.full(n, LINE, np.int64)
+    plane = np.tile([0, 1, 2], (n, 1))
+    centre = np.zeros((n, 3))
+    radius = np.zeros((n, 2))
+    sweep = np.zeros(n)
+    arcs = np.flatnonzero(program.arc_index >= 0)
+    k = program.arc_index[arcs]
+    if arcs.size:
+        plane[arcs] = [PLANE_AXES[int(x)] for x in program.arc_plane[k]]
+        centre[arcs] = program.arc_centre[k]
+        radius[arcs] = program.arc_radius[k]
+        sweep[arcs] = program.arc_sweep[k]
+        kind[arcs] = np.where(np.abs(sweep[arcs]) >= 2 * math.pi - 1e-9, CIRCLE, ARC)
+    joined = np.zeros(n, bool)
+    joined[1:] = (program.motion[1:] != RAPID) & (program.motion[:-1] != RAPID)
+    return Units(start=program.start[:, :3], end=program.end[:, :3], kind=kind, plane=plane,
+                 centre=centre, radius=radius, sweep=sweep,
+                 splittable=np.array([_splittable(program, b) for b in range(n)], bool),
+                 joined=joined)
 
 
 def _chains(program: Program, cut: np.ndarray) -> list[list[int]]:
@@ -193,140 +165,16 @@ def fit_program(program: Program, field_: ErrorField, slope: np.ndarray | None =
     split : bool
         Split straight blocks whose points ask for more than a straight move.
     """
-    n = len(program)
     target = wanted_moves(field_, slope)
     if weight is not None:
         target = target * np.asarray(weight, float)
     pblock = field_.block
     t = np.array([_fraction_on_block(program, int(b), tip)
                   for b, tip in zip(pblock, field_.tip_mm, strict=True)])
-    cut = np.zeros(n, bool)
+    cut = np.zeros(len(program), bool)
     cut[pblock] = True
-    chains = _chains(program, cut)
-    ends = program.end[:, :3]
-    starts = program.start[:, :3]
-    vertices = [ends, starts[:1]]          # vertex n: the start of block 0 (never moves)
-    V = n + 1
-    split_frac: dict[int, np.ndarray] = {}
-    split_vtx: dict[int, np.ndarray] = {}
-    movable = np.zeros(n + 1, bool)
-    seg_v0, seg_v1, seg_kind, seg_plane, seg_centre, seg_block = [], [], [], [], [], []
-    seg_lo, seg_hi = [], []
-    chain_vertices = []
-    for chain in chains:
-        first = chain[0]
-        v_start = first - 1 if first > 0 else n
-        cv = [v_start]
-        if v_start < n:
-            movable[v_start] = True
-        for b in chain:
-            movable[b] = True
-            sel = np.flatnonzero(pblock == b)
-            fr = np.zeros(0)
-            if split and sel.size >= 2 and _splittable(program, b):
-                tt, tg, nn = t[sel], target[sel], field_.normal[sel]
-                prev = np.flatnonzero((pblock == b - 1) & (t >= 1.0 - 1e-9))
-                if prev.size and not np.any(tt <= 1e-9) and program.motion[b - 1] != RAPID:
-                    # the corner is predicted once, as the end of the block before
-                    tt, tg = np.r_[0.0, tt], np.r_[target[prev[0]], tg]
-                    nn = np.vstack([field_.normal[prev[0]], nn])
-                fr = split_fractions(float(np.linalg.norm(ends[b] - starts[b])), tt, tg, nn)
-            pieces = np.concatenate([[0.0], fr, [1.0]])
-            vs = [cv[-1]]
-            if fr.size:
-                ids = np.arange(V, V + fr.size)
-                V += fr.size
-                split_frac[b], split_vtx[b] = fr, ids
-                vertices.append(starts[b] + fr[:, None] * (ends[b] - starts[b]))
-                vs += ids.tolist()
-            vs.append(b)
-            k = int(program.arc_index[b])
-            kind, plane, centre = LINE, (0, 1, 2), np.zeros(3)
-            if k >= 0:
-                plane = PLANE_AXES[int(program.arc_plane[k])]
-                centre = program.arc_centre[k]
-                kind = CIRCLE if _full_circle(program, b) else ARC
-            for j in range(len(vs) - 1):
-                seg_v0.append(vs[j])
-                seg_v1.append(vs[j + 1])
-                seg_kind.append(kind)
-                seg_plane.append(plane)
-                seg_centre.append(centre)
-                seg_block.append(b)
-                seg_lo.append(pieces[j])
-                seg_hi.append(pieces[j + 1])
-            cv += vs[1:]
-        chain_vertices.append(np.asarray(cv, np.int64))
-    verts = np.vstack(vertices)
-    mov = np.zeros(V, bool)
-    mov[:n + 1] = movable
-    mov[n + 1:] = True
-    mov[n] = False
-    seg_block = np.asarray(seg_block, np.int64)
-    seg_lo, seg_hi = np.asarray(seg_lo), np.asarray(seg_hi)
-    # each point on its piece
-    first_seg = {}
-    for s, b in enumerate(seg_block):
-        first_seg.setdefault(int(b), s)
-    keep = np.array([int(b) in first_seg for b in pblock], bool)
-    q_seg = np.zeros(pblock.size, np.int64)
-    q_t = np.zeros(pblock.size)
-    q_w = np.zeros((pblock.size, 2))
-    q_th = np.zeros(pblock.size)
-    for q in np.flatnonzero(keep):
-        b = int(pblock[q])
-        s = first_seg[b]
-        while s + 1 < seg_block.size and seg_block[s + 1] == b and seg_lo[s + 1] < t[q]:
-            s += 1
-        span = seg_hi[s] - seg_lo[s]
-        tt = float(np.clip((t[q] - seg_lo[s]) / span, 0.0, 1.0)) if span > 0 else 0.0
-        q_seg[q], q_t[q] = s, tt
-        q_w[q] = (tt, 0.0)
-        kind = seg_kind[s]
-        if kind != LINE:
-            a1, a2, _ = seg_plane[s]
-            k = int(program.arc_index[b])
-            c = program.arc_centre[k]
-            p0, p1 = starts[b], ends[b]
-            p = _point_on_block(program, b, float(t[q]))
-            if kind == ARC:
-                q_w[q] = arc_weights(p0[[a1, a2]], p1[[a1, a2]], p[None, [a1, a2]])[0]
-            q_th[q] = math.atan2(p[a2] - c[a2], p[a1] - c[a1])
-    pb = OffsetProblem(
-        vertices=verts, movable=mov, seg_v0=np.asarray(seg_v0, np.int64),
-        seg_v1=np.asarray(seg_v1, np.int64), seg_kind=np.asarray(seg_kind, np.int64),
-        seg_plane=np.asarray(seg_plane, np.int64).reshape(-1, 3),
-        seg_centre=np.asarray(seg_centre, float).reshape(-1, 3), chains=chain_vertices,
-        pt_seg=q_seg[keep], pt_t=q_t[keep], pt_w=q_w[keep], pt_theta=q_th[keep],
-        pt_normal=field_.normal[keep], pt_target=target[keep],
-        pt_weight=np.ones(int(keep.sum())))
-    sol = solve_offsets(pb)
-    circles = {int(seg_block[s]): v for s, v in sol.circle.items()}
-    return ProgramEdit(moves=sol.moves, split_fractions=split_frac, split_vertices=split_vtx,
-                       circles=circles, movable=mov, vertices=verts)
-
-
-def split_fractions(length_mm: float, t: np.ndarray, target: np.ndarray,
-                    normal: np.ndarray) -> np.ndarray:
-    """Fractions at which a straight piece of ``length_mm`` must be split so that
-    straight pieces can follow the wanted moves ``target`` [mm] along ``normal`` of its
-    points at fractions ``t`` (empty if a straight move of its ends can)."""
-    # the wanted moves as vectors along the normals, fitted by a straight move
-    want = target[:, None] * normal
-    A = np.column_stack([1 - t, t])
-    coef, *_ = np.linalg.lstsq(A, want, rcond=None)
-    resid = np.abs(np.einsum("ij,ij->i", A @ coef - want, normal))
-    if resid.max(initial=0.0) <= SPLIT_TOL_MM:
-        return np.zeros(0)
-    length = float(length_mm)
-    inner = np.unique(t[(t > 0) & (t < 1)])
-    out: list[float] = []
-    last = 0.0
-    for x in inner:
-        if (x - last) * length >= _MIN_PIECE_MM and (1 - x) * length >= _MIN_PIECE_MM:
-            out.append(float(x))
-            last = float(x)
-    return np.asarray(out)
+    return fit_units(program_units(program), _chains(program, cut), pblock, t, target,
+                     field_.normal, split=split)
 
 
 def apply_edit(program: Program, edit: ProgramEdit, scale: np.ndarray | None = None, *,
@@ -390,8 +238,8 @@ def apply_edit(program: Program, edit: ProgramEdit, scale: np.ndarray | None = N
 
 
 @dataclass
-class Compensation:
-    """Result of :func:`compensate`.
+class Compensation(VerifiedResult):
+    """Result of :func:`compensate` (the loop's figures: :class:`errpred.verified.VerifiedResult`).
 
     Attributes
     ----------
@@ -399,35 +247,14 @@ class Compensation:
         The corrected program (the original's text when no correction was verified).
     verified : VerifiedCorrection
         The loop's record: the original's and every candidate's dense comparison.
+    original, program : Program
+        The original and the program returned.
     """
 
     text: str
     verified: VerifiedCorrection
     original: Program | None = None
     program: Program | None = None
-    notes: list = field(default_factory=list)
-
-    @property
-    def corrected(self) -> bool:
-        """A correction no worse than the original anywhere was found."""
-        return self.verified.corrected
-
-    @property
-    def iterations(self) -> int:
-        return len({p.index for p in self.verified.passes})
-
-    @property
-    def max_error_um(self) -> list[float]:
-        """Largest |E| of the original, then of each predicted candidate [um]."""
-        v = self.verified
-        return [v.before_stats.max_abs_um] + [p.comparison.after.max_abs_um for p in v.passes]
-
-    @property
-    def predictions(self) -> list[Prediction]:
-        return self.verified.predictions
-
-    def reason(self) -> str:
-        return self.verified.reason()
 
 
 @dataclass(frozen=True, eq=False)

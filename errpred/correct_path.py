@@ -27,14 +27,14 @@ import numpy as np
 from nc.path import CutterLocations
 
 from .constants import VERIFY_SPACING_MM, VERIFY_TOLERANCE_UM
-from .correct import split_fractions, wanted_moves
-from .offset import LINE, OffsetProblem, solve_offsets
+from .correct import wanted_moves
+from .offset import LINE, OffsetEdit, Units, fit_units
 from .predict import Prediction
 from .verification import ErrorField, error_field, locate_on_path
-from .verified import VerifiedCorrection, correct_verified
+from .verified import VerifiedCorrection, VerifiedResult, correct_verified
 
-__all__ = ["PathEdit", "PathCompensation", "compensate_path", "fit_path", "apply_path_edit",
-           "error_points"]
+__all__ = ["PathEdit", "PathCompensation", "path_units", "compensate_path", "fit_path",
+           "apply_path_edit", "error_points"]
 
 
 def error_points(cl: CutterLocations, prediction: Prediction,
@@ -47,41 +47,28 @@ def error_points(cl: CutterLocations, prediction: Prediction,
     return f.point_mm[keep], f.E_um[keep]
 
 
-@dataclass(frozen=True, eq=False)
-class PathEdit:
-    """A fitted correction of a path: moves of its cutter locations and of the cutter
-    locations to insert.
+#: A fitted correction of a path (units: its segments; vertex k is cutter location k).
+PathEdit = OffsetEdit
 
-    Attributes
-    ----------
-    moves : ndarray, shape (V, 3) [mm]
-        Vertex ``k < n``: cutter location ``k``; then the inserted ones.
-    insert_fractions : dict of int -> ndarray
-        Segment (ending at cutter location k) -> fractions at which points are inserted.
-    insert_vertices : dict of int -> ndarray of int
-    movable : ndarray, shape (V,), bool
-    vertices : ndarray, shape (V, 3) [mm]
-    """
 
-    moves: np.ndarray
-    insert_fractions: dict
-    insert_vertices: dict
-    movable: np.ndarray
-    vertices: np.ndarray
-
-    @property
-    def n_vertices(self) -> int:
-        return int(self.moves.shape[0])
-
-    @property
-    def largest_mm(self) -> float:
-        return float(np.linalg.norm(self.moves, axis=1).max(initial=0.0))
+def path_units(cl: CutterLocations) -> Units:
+    """A path's segments as the fit's :class:`errpred.offset.Units`: unit ``k`` runs
+    from cutter location ``k - 1`` to ``k``; straight, splittable; joined unless one
+    of the two is a rapid."""
+    n = len(cl)
+    joined = np.zeros(n, bool)
+    joined[1:] = ~cl.rapid[1:] & ~cl.rapid[:-1]
+    return Units(start=np.vstack([cl.tip[:1], cl.tip[:-1]]), end=cl.tip,
+                 kind=np.full(n, LINE, np.int64), plane=np.tile([0, 1, 2], (n, 1)),
+                 centre=np.zeros((n, 3)), radius=np.zeros((n, 2)), sweep=np.zeros(n),
+                 splittable=np.ones(n, bool), joined=joined)
 
 
 def fit_path(cl: CutterLocations, field_: ErrorField, slope: np.ndarray | None = None,
              weight: np.ndarray | None = None, *, split: bool = True) -> PathEdit:
     """The correction of path ``cl`` for the errors ``field_`` (its own dense
-    prediction, against the reference surface): see :mod:`errpred.correct`."""
+    prediction, against the reference surface): see :mod:`errpred.correct`; segments
+    whose points ask for more than a straight move get cutter locations inserted."""
     n = len(cl)
     target = wanted_moves(field_, slope)
     if weight is not None:
@@ -103,76 +90,8 @@ def fit_path(cl: CutterLocations, field_: ErrorField, slope: np.ndarray | None =
         if idx:
             chains.append(run[idx[0]:idx[-1] + 1])
         run = []
-    vertices = [cl.tip]
-    V = n
-    movable = np.zeros(n, bool)
-    ins_frac: dict[int, np.ndarray] = {}
-    ins_vtx: dict[int, np.ndarray] = {}
-    seg_v0, seg_v1, seg_k, seg_lo, seg_hi = [], [], [], [], []
-    chain_vertices = []
-    for chain in chains:
-        cv = [chain[0] - 1]
-        movable[chain[0] - 1] = True
-        for k in chain:
-            movable[k] = True
-            sel = np.flatnonzero(ok & (seg == k))
-            fr = np.zeros(0)
-            if split and sel.size >= 2:
-                tt, tg, nn = t[sel], target[sel], field_.normal[sel]
-                prev = np.flatnonzero(ok & (seg == k - 1) & (t >= 1.0 - 1e-9))
-                if prev.size and not np.any(tt <= 1e-9):
-                    tt, tg = np.r_[0.0, tt], np.r_[target[prev[0]], tg]
-                    nn = np.vstack([field_.normal[prev[0]], nn])
-                fr = split_fractions(float(np.linalg.norm(cl.tip[k] - cl.tip[k - 1])), tt,
-                                     tg, nn)
-            pieces = np.concatenate([[0.0], fr, [1.0]])
-            vs = [cv[-1]]
-            if fr.size:
-                ids = np.arange(V, V + fr.size)
-                V += fr.size
-                ins_frac[k], ins_vtx[k] = fr, ids
-                vertices.append(cl.tip[k - 1] + fr[:, None] * (cl.tip[k] - cl.tip[k - 1]))
-                vs += ids.tolist()
-            vs.append(k)
-            for j in range(len(vs) - 1):
-                seg_v0.append(vs[j])
-                seg_v1.append(vs[j + 1])
-                seg_k.append(k)
-                seg_lo.append(pieces[j])
-                seg_hi.append(pieces[j + 1])
-            cv += vs[1:]
-        chain_vertices.append(np.asarray(cv, np.int64))
-    verts = np.vstack(vertices)
-    mov = np.ones(V, bool)
-    mov[:n] = movable
-    seg_k = np.asarray(seg_k, np.int64)
-    seg_lo, seg_hi = np.asarray(seg_lo), np.asarray(seg_hi)
-    first = {}
-    for s, k in enumerate(seg_k):
-        first.setdefault(int(k), s)
-    keep = np.array([ok[q] and int(seg[q]) in first for q in range(seg.size)], bool)
-    q_seg = np.zeros(seg.size, np.int64)
-    q_t = np.zeros(seg.size)
-    for q in np.flatnonzero(keep):
-        k = int(seg[q])
-        s = first[k]
-        while s + 1 < seg_k.size and seg_k[s + 1] == k and seg_lo[s + 1] < t[q]:
-            s += 1
-        span = seg_hi[s] - seg_lo[s]
-        q_seg[q] = s
-        q_t[q] = float(np.clip((t[q] - seg_lo[s]) / span, 0.0, 1.0)) if span > 0 else 0.0
-    m = int(keep.sum())
-    S = seg_k.size
-    pb = OffsetProblem(
-        vertices=verts, movable=mov, seg_v0=np.asarray(seg_v0, np.int64),
-        seg_v1=np.asarray(seg_v1, np.int64), seg_kind=np.full(S, LINE, np.int64),
-        seg_plane=np.tile([0, 1, 2], (S, 1)), seg_centre=np.zeros((S, 3)),
-        chains=chain_vertices, pt_seg=q_seg[keep], pt_t=q_t[keep],
-        pt_w=np.column_stack([q_t[keep], np.zeros(m)]), pt_theta=np.zeros(m),
-        pt_normal=field_.normal[keep], pt_target=target[keep], pt_weight=np.ones(m))
-    sol = solve_offsets(pb)
-    return PathEdit(moves=sol.moves, insert_fractions=ins_frac, insert_vertices=ins_vtx,
-                    movable=mov, vertices=verts)
+    return fit_units(path_units(cl), chains, seg[ok], t[ok], target[ok], field_.normal[ok],
+                     split=split)
 
 
 def apply_path_edit(cl: CutterLocations, edit: PathEdit, scale: np.ndarray | None = None
@@ -192,9 +111,9 @@ def apply_path_edit(cl: CutterLocations, edit: PathEdit, scale: np.ndarray | Non
     moves = edit.moves * s[:, None]
     tips, axes, feed, rpm, block, rapid, vid = [], [], [], [], [], [], []
     for k in range(n):
-        fr = edit.insert_fractions.get(k)
+        fr = edit.split_fractions.get(k)
         if fr is not None:
-            ids = edit.insert_vertices[k]
+            ids = edit.split_vertices[k]
             a, b = cl.tip[k - 1], cl.tip[k]
             u = (1 - fr[:, None]) * cl.axis[k - 1] + fr[:, None] * cl.axis[k]
             u /= np.linalg.norm(u, axis=1, keepdims=True)
@@ -220,8 +139,9 @@ def apply_path_edit(cl: CutterLocations, edit: PathEdit, scale: np.ndarray | Non
 
 
 @dataclass
-class PathCompensation:
-    """Result of :func:`compensate_path`.
+class PathCompensation(VerifiedResult):
+    """Result of :func:`compensate_path` (the loop's figures:
+    :class:`errpred.verified.VerifiedResult`).
 
     Attributes
     ----------
@@ -238,37 +158,6 @@ class PathCompensation:
     verified: VerifiedCorrection
     best: int = 0
     paths: list = field(default_factory=list)
-
-    @property
-    def corrected(self) -> bool:
-        return self.verified.corrected
-
-    @property
-    def iterations(self) -> int:
-        return len({p.index for p in self.verified.passes})
-
-    @property
-    def predictions(self) -> list[Prediction]:
-        return self.verified.predictions
-
-    @property
-    def largest_change_mm(self) -> list[float]:
-        """Largest fitted move of each predicted candidate [mm]."""
-        return [p.largest_move_mm * p.relaxation for p in self.verified.passes]
-
-    @property
-    def max_error_um(self) -> list[float]:
-        """Largest |E| of the reference, then of each candidate, on the dense points [um]."""
-        v = self.verified
-        return [v.before_stats.max_abs_um] + [p.comparison.after.max_abs_um for p in v.passes]
-
-    @property
-    def rms_error_um(self) -> list[float]:
-        v = self.verified
-        return [v.before_stats.rms_um] + [p.comparison.after.rms_um for p in v.passes]
-
-    def reason(self) -> str:
-        return self.verified.reason()
 
 
 def compensate_path(cl: CutterLocations, predict: Callable[[CutterLocations], Prediction], *,

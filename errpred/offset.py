@@ -44,10 +44,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constants import OFFSET_NORMAL, OFFSET_RIDGE, OFFSET_SMOOTH, OFFSET_STIFF
+from .constants import OFFSET_NORMAL, OFFSET_RIDGE, OFFSET_SMOOTH, OFFSET_STIFF, SPLIT_TOL_MM
+
+#: Pieces of a split segment shorter than this are merged with their neighbour [mm].
+_MIN_PIECE_MM = 0.05
 
 __all__ = ["LINE", "ARC", "CIRCLE", "OffsetProblem", "OffsetSolution", "solve_offsets",
-           "arc_weights", "second_difference"]
+           "arc_weights", "second_difference", "Units", "OffsetEdit", "fit_units",
+           "split_fractions"]
 
 #: Segment kinds.
 LINE, ARC, CIRCLE = 0, 1, 2
@@ -368,3 +372,214 @@ def _circle_shift(pb: OffsetProblem, s: int, g: np.ndarray) -> np.ndarray:
     d = np.zeros(3)
     d[a1], d[a2] = g[0], g[1]
     return d
+
+
+@dataclass(frozen=True, eq=False)
+class Units:
+    """The moves a path is made of, as the fit needs them (a program's blocks, or a 5-axis
+    path's segments between cutter locations). Unit ``u`` runs from the end of unit
+    ``u - 1`` (for ``u = 0``: a fixed start) to its own end.
+
+    Attributes
+    ----------
+    start, end : ndarray, shape (n, 3) [mm]
+    kind : ndarray, shape (n,), int
+        ``LINE``, ``ARC`` or ``CIRCLE``.
+    plane : ndarray, shape (n, 3), int
+        In-plane axes and the plane's axis (arcs).
+    centre : ndarray, shape (n, 3) [mm]
+    radius : ndarray, shape (n, 2) [mm]
+        Start and end radius (arcs).
+    sweep : ndarray, shape (n,) [rad]
+    splittable : ndarray, shape (n,), bool
+        Straight units that may be split into pieces.
+    joined : ndarray, shape (n,), bool
+        Unit ``u`` continues from unit ``u - 1`` (a feed move after a feed move).
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    kind: np.ndarray
+    plane: np.ndarray
+    centre: np.ndarray
+    radius: np.ndarray
+    sweep: np.ndarray
+    splittable: np.ndarray
+    joined: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.kind.shape[0])
+
+    def point(self, u: int, t: float) -> np.ndarray:
+        """The point at fraction ``t`` of unit ``u`` [mm] (on the arc for arcs)."""
+        a, e = self.start[u], self.end[u]
+        p = a + t * (e - a)
+        if self.kind[u] != LINE:
+            a1, a2, _ = (int(x) for x in self.plane[u])
+            c = self.centre[u]
+            r0, r1 = self.radius[u]
+            ang = math.atan2(a[a2] - c[a2], a[a1] - c[a1]) + t * float(self.sweep[u])
+            r = r0 + t * (r1 - r0)
+            p[a1] = c[a1] + r * math.cos(ang)
+            p[a2] = c[a2] + r * math.sin(ang)
+        return p
+
+
+@dataclass(frozen=True, eq=False)
+class OffsetEdit:
+    """A fitted correction: moves of the units' ends and of the points they are split at.
+
+    Attributes
+    ----------
+    moves : ndarray, shape (V, 3) [mm]
+        Vertex ``u < n``: the end of unit ``u``; vertex ``n``: the fixed start of unit
+        0 (never moves); then the split points (:attr:`split_vertices`).
+    split_fractions : dict of int -> ndarray
+        Unit -> fractions (0..1, ascending) at which it is split.
+    split_vertices : dict of int -> ndarray of int
+        Unit -> the vertices at those fractions.
+    circles : dict of int -> (ndarray (3,), float)
+        Full-circle unit -> (centre shift [mm], radius change [mm]).
+    movable : ndarray, shape (V,), bool
+    vertices : ndarray, shape (V, 3) [mm]
+        Where the vertices are before the moves.
+    """
+
+    moves: np.ndarray
+    split_fractions: dict
+    split_vertices: dict
+    circles: dict
+    movable: np.ndarray
+    vertices: np.ndarray
+
+    @property
+    def n_vertices(self) -> int:
+        return int(self.moves.shape[0])
+
+    @property
+    def largest_mm(self) -> float:
+        """Largest vertex move [mm]."""
+        return float(np.linalg.norm(self.moves, axis=1).max(initial=0.0))
+
+
+def split_fractions(length_mm: float, t: np.ndarray, target: np.ndarray,
+                    normal: np.ndarray) -> np.ndarray:
+    """Fractions at which a straight piece of ``length_mm`` must be split so that
+    straight pieces can follow the wanted moves ``target`` [mm] along ``normal`` of its
+    points at fractions ``t`` (empty if a straight move of its ends can, within
+    ``SPLIT_TOL_MM``)."""
+    want = target[:, None] * normal
+    A = np.column_stack([1 - t, t])
+    coef, *_ = np.linalg.lstsq(A, want, rcond=None)
+    resid = np.abs(np.einsum("ij,ij->i", A @ coef - want, normal))
+    if resid.max(initial=0.0) <= SPLIT_TOL_MM:
+        return np.zeros(0)
+    inner = np.unique(t[(t > 0) & (t < 1)])
+    out: list[float] = []
+    last = 0.0
+    for x in inner:
+        if (x - last) * length_mm >= _MIN_PIECE_MM and (1 - x) * length_mm >= _MIN_PIECE_MM:
+            out.append(float(x))
+            last = float(x)
+    return np.asarray(out)
+
+
+def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
+              target: np.ndarray, normal: np.ndarray, *, split: bool = True) -> OffsetEdit:
+    """The correction of a path of ``units`` for points asking for moves.
+
+    Parameters
+    ----------
+    units : Units
+    chains : list of list of int
+        Runs of joined units to fit (trimmed by the caller to where they cut).
+    unit, t : ndarray, shape (q,)
+        Each point's unit and fraction along it.
+    target : ndarray, shape (q,) [mm]
+        The move each point asks for along its ``normal`` (q, 3).
+    split : bool
+        Split straight units whose points ask for more than a straight move.
+    """
+    n = len(units)
+    vertices = [units.end, units.start[:1]]          # vertex n: the start of unit 0
+    V = n + 1
+    split_frac: dict[int, np.ndarray] = {}
+    split_vtx: dict[int, np.ndarray] = {}
+    movable = np.zeros(n + 1, bool)
+    seg_v0, seg_v1, seg_unit, seg_lo, seg_hi = [], [], [], [], []
+    chain_vertices = []
+    for chain in chains:
+        first = chain[0]
+        cv = [first - 1 if first > 0 else n]
+        movable[cv[0]] = cv[0] < n
+        for u in chain:
+            movable[u] = True
+            sel = np.flatnonzero(unit == u)
+            fr = np.zeros(0)
+            if split and sel.size >= 2 and units.splittable[u]:
+                tt, tg, nn = t[sel], target[sel], normal[sel]
+                prev = np.flatnonzero((unit == u - 1) & (t >= 1.0 - 1e-9))
+                if prev.size and not np.any(tt <= 1e-9) and units.joined[u]:
+                    # the corner is predicted once, as the end of the unit before
+                    tt, tg = np.r_[0.0, tt], np.r_[target[prev[0]], tg]
+                    nn = np.vstack([normal[prev[0]], nn])
+                fr = split_fractions(float(np.linalg.norm(units.end[u] - units.start[u])),
+                                     tt, tg, nn)
+            pieces = np.concatenate([[0.0], fr, [1.0]])
+            vs = [cv[-1]]
+            if fr.size:
+                ids = np.arange(V, V + fr.size)
+                V += fr.size
+                split_frac[u], split_vtx[u] = fr, ids
+                vertices.append(units.start[u] + fr[:, None] * (units.end[u] - units.start[u]))
+                vs += ids.tolist()
+            vs.append(u)
+            for j in range(len(vs) - 1):
+                seg_v0.append(vs[j])
+                seg_v1.append(vs[j + 1])
+                seg_unit.append(u)
+                seg_lo.append(pieces[j])
+                seg_hi.append(pieces[j + 1])
+            cv += vs[1:]
+        chain_vertices.append(np.asarray(cv, np.int64))
+    verts = np.vstack(vertices)
+    mov = np.ones(V, bool)
+    mov[:n + 1] = movable
+    seg_unit = np.asarray(seg_unit, np.int64)
+    seg_lo, seg_hi = np.asarray(seg_lo), np.asarray(seg_hi)
+    # each point on its piece
+    first_seg: dict[int, int] = {}
+    for s_, u in enumerate(seg_unit):
+        first_seg.setdefault(int(u), s_)
+    keep = np.array([int(u) in first_seg for u in unit], bool)
+    Q = unit.size
+    q_seg = np.zeros(Q, np.int64)
+    q_t, q_th = np.zeros(Q), np.zeros(Q)
+    q_w = np.zeros((Q, 2))
+    for q in np.flatnonzero(keep):
+        u = int(unit[q])
+        s_ = first_seg[u]
+        while s_ + 1 < seg_unit.size and seg_unit[s_ + 1] == u and seg_lo[s_ + 1] < t[q]:
+            s_ += 1
+        span = seg_hi[s_] - seg_lo[s_]
+        tt = float(np.clip((t[q] - seg_lo[s_]) / span, 0.0, 1.0)) if span > 0 else 0.0
+        q_seg[q], q_t[q], q_w[q] = s_, tt, (tt, 0.0)
+        if units.kind[u] != LINE:
+            a1, a2, _ = (int(x) for x in units.plane[u])
+            c = units.centre[u]
+            p = units.point(u, float(t[q]))
+            if units.kind[u] == ARC:
+                p0, p1 = units.start[u], units.end[u]
+                q_w[q] = arc_weights(p0[[a1, a2]], p1[[a1, a2]], p[None, [a1, a2]])[0]
+            q_th[q] = math.atan2(p[a2] - c[a2], p[a1] - c[a1])
+    pb = OffsetProblem(
+        vertices=verts, movable=mov, seg_v0=np.asarray(seg_v0, np.int64),
+        seg_v1=np.asarray(seg_v1, np.int64), seg_kind=units.kind[seg_unit].astype(np.int64),
+        seg_plane=units.plane[seg_unit].astype(np.int64).reshape(-1, 3),
+        seg_centre=units.centre[seg_unit].reshape(-1, 3), chains=chain_vertices,
+        pt_seg=q_seg[keep], pt_t=q_t[keep], pt_w=q_w[keep], pt_theta=q_th[keep],
+        pt_normal=normal[keep], pt_target=target[keep], pt_weight=np.ones(int(keep.sum())))
+    sol = solve_offsets(pb)
+    circles = {int(seg_unit[s_]): v for s_, v in sol.circle.items()}
+    return OffsetEdit(moves=sol.moves, split_fractions=split_frac, split_vertices=split_vtx,
+                      circles=circles, movable=mov, vertices=verts)

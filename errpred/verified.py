@@ -40,7 +40,7 @@ from .constants import (
 )
 from .verification import Comparison, ErrorField, ErrorStats, compare, error_stats, reference_at
 
-__all__ = ["PassRecord", "VerifiedCorrection", "correct_verified"]
+__all__ = ["PassRecord", "VerifiedCorrection", "VerifiedResult", "correct_verified"]
 
 #: An improvement smaller than this does not count (the prediction's noise) [um].
 _IMPROVEMENT_UM = 1.0e-3
@@ -130,6 +130,49 @@ class VerifiedCorrection:
         if last.ok:
             return ("no correction improved on the original program: " + last.reason())
         return "no verified correction: the best candidate was " + last.reason()
+
+
+class VerifiedResult:
+    """What a correction's result says of its loop (``self.verified``), for the results of
+    :func:`errpred.correct.compensate` and :func:`errpred.correct_path.compensate_path`."""
+
+    verified: VerifiedCorrection
+
+    @property
+    def corrected(self) -> bool:
+        """A correction no worse than the original anywhere was found."""
+        return self.verified.corrected
+
+    @property
+    def iterations(self) -> int:
+        """Correction passes made."""
+        return len({p.index for p in self.verified.passes})
+
+    @property
+    def predictions(self) -> list:
+        """The dense prediction of the original, then of every candidate."""
+        return self.verified.predictions
+
+    @property
+    def largest_change_mm(self) -> list[float]:
+        """Largest move of each predicted candidate (fitted times relaxation) [mm]."""
+        return [p.largest_move_mm * p.relaxation for p in self.verified.passes]
+
+    @property
+    def max_error_um(self) -> list[float]:
+        """Largest |E| of the original, then of each candidate, on the dense points [um]."""
+        v = self.verified
+        return [v.before_stats.max_abs_um] + [p.comparison.after.max_abs_um for p in v.passes]
+
+    @property
+    def rms_error_um(self) -> list[float]:
+        """RMS of E of the original, then of each candidate, on the dense points [um]."""
+        v = self.verified
+        return [v.before_stats.rms_um] + [p.comparison.after.rms_um for p in v.passes]
+
+    def reason(self) -> str:
+        """One line: the verified result, or why nothing may be written."""
+        return self.verified.reason()
 
 
 def _improved(after: ErrorStats, best: ErrorStats) -> bool:

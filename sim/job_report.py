@@ -166,7 +166,7 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
     sim_rows = (("simulated run", "cutter locations", "surface RMS [um]", "largest |E| [um]",
                  "chatter marks max [um]", "chatter windows",
                  "chatter episodes: sustained, transient"),) + tuple(
-        (name, str(v["cutter_locations"]), str(v["surface_rms_um"]),
+        (name, str(v["coverage"]), str(v["surface_rms_um"]),
          str(v["surface_max_abs_um"]), str(v["chatter_marks_max_um"]),
          f"{v['chatter_windows']} of {v['detector_windows']}",
          f"{v['sustained_chatter_episodes']}, {len(v['transient_chatter_episodes'])}")
@@ -188,6 +188,8 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
             f" um in {corr['passes']} correction passes; in the simulated machine from "
             f"{sim['planned']['surface_rms_um']} um to {sim['corrected']['surface_rms_um']} um "
             f"(ratio {sim['surface_rms_ratio']})."),
+            (f"Verification of the correction, re-predicted at both ends of every block and "
+             f"at most 2 mm apart, against the planned program: {corr['reason']}."),
             f"Run time: {rep['seconds']['total']:.0f} s."),
             tables=(check_rows, sim_rows)),
         Section("Stability margin along the path", figures=(Figure(

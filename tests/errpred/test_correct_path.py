@@ -56,9 +56,9 @@ def test_a_uniform_error_moves_every_tip_back_along_the_normal():
 def test_iterating_against_a_plant_that_follows_the_path_converges():
     """A plant whose error is 8 um minus 0.3 times how far the tip went down (the cut
     deepens, the force grows): the fixed point is E = 0 against the reference. The
-    first pass (the model's gain is 0: a move of E) overshoots into an overcut of
-    2.4 um, which the verification refuses; halving it is accepted, and the measured
-    slope (1.3) takes the next passes to the fixed point."""
+    first pass moves 0.7 of the error (under-relaxed: the model's gain is 0, the plant's
+    slope 1.3), leaving 8 - 1.3 x 5.6 = 0.72 um; the measured slope takes the next
+    passes to the fixed point."""
     ref = _line()
 
     def predict(cl):
@@ -72,7 +72,8 @@ def test_iterating_against_a_plant_that_follows_the_path_converges():
     assert comp.rms_error_um[comp.best] < 0.05
     assert comp.iterations >= 2
     first = comp.verified.passes[0]
-    assert not first.comparison.ok and first.comparison.after.min_um == pytest.approx(-2.4, abs=1e-3)
+    assert first.accepted and first.relaxation == pytest.approx(0.7)
+    assert first.comparison.after.max_um == pytest.approx(8.0 - 1.3 * 0.7 * 8.0, abs=1e-3)
     xyz, e = error_points(comp.cl, comp.predictions[comp.best], reference=ref)
     assert xyz.shape == (len(ref) - 1, 3) and np.all(np.abs(e) < 0.05)
 

@@ -223,7 +223,7 @@ def test_wear_part_for_another_state_of_the_tool_is_exact(folder, state_a):
     tol = 5.0
     tc = tool_change(p1, tol)
     i = int(np.argmax(now))
-    assert tc["remaining_program_runs"] == pytest.approx(tol / now[i] - 1.0, rel=1e-6)
+    assert tc["remaining_program_runs"] == pytest.approx(tol / now[i] - 1.0, abs=1e-4)  # 4 decimals
     assert tc["remaining_at"]["wear_error_now_um"] == pytest.approx(now[i], abs=1e-4)
 
 
@@ -305,7 +305,8 @@ def test_cli_bad_state_exits_2_and_compensate_writes_the_corrected_programs_stat
     scn = load(good)
     from nc import read_program
 
-    again = predict(scn, program=read_program(prog))
+    # the corrected program's own dense prediction (the one its verification made)
+    again = predict(scn, program=read_program(prog), resolution=scn.resolution.dense())
     state = read_tool_state(st)
     np.testing.assert_allclose(state.cl_mm, again.wear_mm, rtol=1e-12)
     # ... not that of the program as given: the corrected one cuts 0.06 mm deeper
