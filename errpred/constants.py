@@ -111,6 +111,10 @@ OFFSET_SMOOTH = 0.5
 #: component across it changes no error: without them the few points whose normals
 #: tilt would buy tiny improvements with large slides along the wall).
 OFFSET_NORMAL = 1.0
+#: ... and of a held point's equation (no move there: the fallback's last resort where a
+#: candidate was worse; the smoothing would otherwise carry the neighbours' moves
+#: across a point that asks for none) [-].
+OFFSET_HOLD = 100.0
 #: ... and of the ridge on every move [-] (no component that no equation asks for).
 OFFSET_RIDGE = 1.0e-6
 #: ... and of the rows holding a full circle's start on the moved circle [-].
@@ -132,11 +136,11 @@ SECANT_MIN_SHIFT_UM = 0.3
 #: ... and clipped to this range [-] (1 - gain of the model: 1 where the error
 #: follows the path exactly; 0.5 where deeper cutting bends the tool back half).
 SECANT_SLOPE_RANGE = (0.25, 2.0)
-#: A pass whose moves make some block worse than the original keeps that block's
-#: moves scaled by 1/2, 1/4, ... this many times, then zero (verified each time) [-].
+#: Where a candidate is worse than the original, the moves wanted by the points near
+#: there are halved this many times, then those points held (verified each time) [-].
 FALLBACK_HALVINGS = 2
-#: ... the moves of vertices within this many tool radii of a worse point too (the
-#: pass beside or below can finish the same surface) [-].
+#: ... "near": within this many tool radii of a worse point (at least one dense
+#: spacing; the pass beside or below can finish the same surface) [-].
 FALLBACK_REACH_RADII = 0.25
 #: Extra stock thickness along the normal with which the error's sensitivity
 #: to the correction is evaluated (a finite difference) [mm].

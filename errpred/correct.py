@@ -161,20 +161,23 @@ def fit_program(program: Program, field_: ErrorField, slope: np.ndarray | None =
     slope : ndarray, shape (points,), optional
         Measured ``dE/dshift`` per point (:func:`wanted_moves`).
     weight : ndarray, shape (points,), optional
-        Factor on each point's wanted move (the verified loop's fallback).
+        Factor on each point's wanted move (the verified loop's fallback); 0: the
+        point must not move (held where it is).
     split : bool
         Split straight blocks whose points ask for more than a straight move.
     """
     target = wanted_moves(field_, slope)
+    hold = None
     if weight is not None:
         target = target * np.asarray(weight, float)
+        hold = np.asarray(weight) == 0
     pblock = field_.block
     t = np.array([_fraction_on_block(program, int(b), tip)
                   for b, tip in zip(pblock, field_.tip_mm, strict=True)])
     cut = np.zeros(len(program), bool)
     cut[pblock] = True
     return fit_units(program_units(program), _chains(program, cut), pblock, t, target,
-                     field_.normal, split=split)
+                     field_.normal, hold=hold, split=split)
 
 
 def apply_edit(program: Program, edit: ProgramEdit, scale: np.ndarray | None = None, *,

@@ -71,8 +71,10 @@ def fit_path(cl: CutterLocations, field_: ErrorField, slope: np.ndarray | None =
     whose points ask for more than a straight move get cutter locations inserted."""
     n = len(cl)
     target = wanted_moves(field_, slope)
+    hold = np.zeros(len(field_), bool)
     if weight is not None:
         target = target * np.asarray(weight, float)
+        hold = np.asarray(weight) == 0
     seg, t = locate_on_path(cl, field_.tip_mm, field_.axis)
     ok = seg >= 1
     cut = np.zeros(n, bool)
@@ -91,7 +93,7 @@ def fit_path(cl: CutterLocations, field_: ErrorField, slope: np.ndarray | None =
             chains.append(run[idx[0]:idx[-1] + 1])
         run = []
     return fit_units(path_units(cl), chains, seg[ok], t[ok], target[ok], field_.normal[ok],
-                     split=split)
+                     hold=hold[ok], split=split)
 
 
 def apply_path_edit(cl: CutterLocations, edit: PathEdit, scale: np.ndarray | None = None

@@ -44,7 +44,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constants import OFFSET_NORMAL, OFFSET_RIDGE, OFFSET_SMOOTH, OFFSET_STIFF, SPLIT_TOL_MM
+from .constants import (
+    OFFSET_HOLD,
+    OFFSET_NORMAL,
+    OFFSET_RIDGE,
+    OFFSET_SMOOTH,
+    OFFSET_STIFF,
+    SPLIT_TOL_MM,
+)
 
 #: Pieces of a split segment shorter than this are merged with their neighbour [mm].
 _MIN_PIECE_MM = 0.05
@@ -485,7 +492,8 @@ def split_fractions(length_mm: float, t: np.ndarray, target: np.ndarray,
 
 
 def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
-              target: np.ndarray, normal: np.ndarray, *, split: bool = True) -> OffsetEdit:
+              target: np.ndarray, normal: np.ndarray, *, hold: np.ndarray | None = None,
+              split: bool = True) -> OffsetEdit:
     """The correction of a path of ``units`` for points asking for moves.
 
     Parameters
@@ -497,10 +505,15 @@ def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
         Each point's unit and fraction along it.
     target : ndarray, shape (q,) [mm]
         The move each point asks for along its ``normal`` (q, 3).
+    hold : ndarray, shape (q,), bool, optional
+        Points that must not move (their equations ask for no move, weighted
+        ``OFFSET_HOLD``): where a correction made the surface worse, the original
+        coordinates there.
     split : bool
         Split straight units whose points ask for more than a straight move.
     """
     n = len(units)
+    held = np.zeros(unit.size, bool) if hold is None else np.asarray(hold, bool)
     vertices = [units.end, units.start[:1]]          # vertex n: the start of unit 0
     V = n + 1
     split_frac: dict[int, np.ndarray] = {}
@@ -578,7 +591,8 @@ def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
         seg_plane=units.plane[seg_unit].astype(np.int64).reshape(-1, 3),
         seg_centre=units.centre[seg_unit].reshape(-1, 3), chains=chain_vertices,
         pt_seg=q_seg[keep], pt_t=q_t[keep], pt_w=q_w[keep], pt_theta=q_th[keep],
-        pt_normal=normal[keep], pt_target=target[keep], pt_weight=np.ones(int(keep.sum())))
+        pt_normal=normal[keep], pt_target=np.where(held[keep], 0.0, target[keep]),
+        pt_weight=np.where(held[keep], OFFSET_HOLD, 1.0))
     sol = solve_offsets(pb)
     circles = {int(seg_unit[s_]): v for s_, v in sol.circle.items()}
     return OffsetEdit(moves=sol.moves, split_fractions=split_frac, split_vertices=split_vtx,

@@ -12,8 +12,9 @@ what may be written (shared by a program's correction, :mod:`errpred.correct`, a
 3. The new candidate is predicted densely and compared with the original point
    by point (:func:`errpred.verification.compare`). Where it is worse, the moves
    wanted by the points near there are halved (``FALLBACK_HALVINGS`` times), then
-   dropped, the moves fitted again (so the correction stays smooth) and the
-   candidate predicted again.
+   those points are held where they are (their original coordinates), the moves
+   fitted again each time (so the correction stays smooth) and the candidate
+   predicted again.
 4. A candidate is accepted only when it is no worse than the original anywhere
    and better than the best so far (RMS, or the largest |E| at no higher RMS):
    acceptance is monotone, so iterating cannot wander off. The original is the
@@ -234,8 +235,8 @@ def correct_verified(original: Any,
         ``fit(candidate, field, slope, weight) -> edit``: ``slope`` (one per point of
         the field, or None) is the measured ``dE/dshift`` between the last two accepted
         candidates (NaN: not measured; use the model's); ``weight`` (one per point)
-        scales each point's wanted move (1; halved, then 0, near the places where a
-        candidate was worse). The edit has ``largest_mm`` (largest vertex move [mm]).
+        scales each point's wanted move (1; halved near the places where a candidate
+        was worse; 0 at last: those points are held where they are). The edit has ``largest_mm`` (largest vertex move [mm]).
     apply : callable
         ``apply(candidate, edit, factor) -> new candidate``: the edit's moves times
         ``factor`` (the relaxation).

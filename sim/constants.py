@@ -132,10 +132,11 @@ CONTROLLER_CONFIRM = 2
 #: Samples per segment of the averaged acceleration spectrum of a verification run
 #: (0.32 s at 25.6 kHz: 3 Hz resolution) [-].
 SPECTRUM_SEGMENT = 8192
-#: Correction passes of the main job (predict, correct, predict again...) [-]:
-#: on the bundled thin wall the second pass reaches the prediction's own noise
-#: (RMS 7.73 -> 0.89 -> 0.30 um; a third pass gave 0.30 again).
-JOB_CORRECTION_PASSES = 2
+#: Correction passes of the main job (predict, correct, predict again...) [-]. The
+#: first is under-relaxed (errpred.constants.RELAXATION, 0.7), each is verified on the
+#: dense points: on the job's light copy of the thin wall the dense RMS goes 5.25 ->
+#: 1.7 -> 0.33 um in two, the third reaches the prediction's noise.
+JOB_CORRECTION_PASSES = 3
 #: The Dask job's warm-up (``sim.job._warm_kernels``): blocks of the CAM program
 #: predicted and cutter locations simulated while the planner chooses the speed [-].
 JOB_WARM_BLOCKS = 40

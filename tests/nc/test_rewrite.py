@@ -112,3 +112,40 @@ def test_write_is_atomic(tmp_path):
     write_rewritten(out, prog, {2: [10.51, 0, -1]})
     assert "N40 X10.510" in out.read_text()
     assert [p.name for p in tmp_path.iterdir()] == ["corrected.nc"]
+
+
+#: Splits of a straight block: (program, block, points, the block's lines written, the
+#: pieces' ends read back). Absolute, incremental (the pieces written incrementally too),
+#: inch (words in inch).
+SPLITS = [
+    ("G21 G90\nG0 X0 Y0 Z0\nG1 X10 F100\nX20\nM2\n", 1, [[2.5, 0, 0], [5.0, 0.001, 0]],
+     ["G1 X2.500 F100", "G1 X5.000 Y0.001 Z0.000", "G1 X10.000 Y0.000 Z0.000", "X20"],
+     [[2.5, 0, 0], [5.0, 0.001, 0], [10, 0, 0], [20, 0, 0]]),
+    ("G21 G91\nG1 X10 F100\nX10\nM2\n", 0, [[4.0, 0, 0]],
+     ["G1 X4.000 F100", "G1 X6.000 Y0.000 Z0.000", "X10"],
+     [[4, 0, 0], [10, 0, 0], [20, 0, 0]]),
+    ("G20 G90\nG1 X1. F10\nM2\n", 0, [[12.7, 0, 0]],
+     ["G1 X0.5000 F10", "G1 X1.0000 Y0.0000 Z0.0000"],
+     [[12.7, 0, 0], [25.4, 0, 0]]),
+]
+
+
+@pytest.mark.parametrize("src,block,points,written,ends", SPLITS,
+                         ids=["absolute", "incremental", "inch"])
+def test_a_straight_block_is_split_into_g1_pieces(src, block, points, written, ends):
+    prog = parse_program(src)
+    out = rewrite_coordinates(prog, {}, splits={block: np.array(points, float)})
+    lines = out.splitlines()
+    first = int(prog.line[block]) - 1
+    assert lines[first:first + len(written)] == written
+    back = parse_program(out)
+    assert len(back) == len(prog) + len(points)
+    np.testing.assert_allclose(back.end[block:block + len(ends), :3], ends, atol=1e-6)
+
+
+def test_only_straight_feed_blocks_split():
+    prog = parse_program(SRC)
+    with pytest.raises(RewriteError, match="not a straight feed"):
+        rewrite_coordinates(prog, {}, splits={4: [[8.0, 8.0, -1.0]]})      # the G3
+    with pytest.raises(RewriteError, match="not a straight feed"):
+        rewrite_coordinates(prog, {}, splits={0: [[0.0, 0.0, 1.0]]})       # the G0
