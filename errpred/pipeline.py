@@ -48,11 +48,13 @@ def _machine(scenario: Scenario):
 
 def build_predictor(scenario: Scenario, program: Program | None = None,
                     resolution: Resolution | None = None, stock=None,
-                    workpiece=None) -> Predictor:
+                    workpiece=None, machine=None) -> Predictor:
     """A :class:`Predictor` for the scenario (or another program, e.g. corrected).
 
-    ``workpiece``: the workpiece's modes at a cutting point (see :class:`Predictor`).
-    The wear starts from the scenario's tool state (:attr:`Scenario.initial_wear_mm`).
+    ``workpiece``: the workpiece's modes at a cutting point (see :class:`Predictor`);
+    ``machine``: the machine the program is written for (default: the scenario's, with
+    the tool's overhang as its tool length). The wear starts from the scenario's tool
+    state (:attr:`Scenario.initial_wear_mm`).
     """
     prog = program if program is not None else scenario.read_program()
     res = resolution or scenario.resolution
@@ -60,7 +62,9 @@ def build_predictor(scenario: Scenario, program: Program | None = None,
     shape = ShapeErrorModel(deviation=se.radius_deviation_mm, wear_rate=se.wear_rate_mm_per_mm)
     return Predictor(scenario.tool, stock if stock is not None else scenario.stock.load(), prog,
                      scenario.coefficients, scenario.compliance, shape_error=shape,
-                     resolution=res, machine=_machine(scenario), workpiece=workpiece,
+                     resolution=res,
+                     machine=machine if machine is not None else _machine(scenario),
+                     workpiece=workpiece,
                      initial_wear_mm=scenario.initial_wear_mm)
 
 

@@ -36,9 +36,8 @@ import numpy as np
 from errpred.constants import FALLBACK_REACH_RADII
 from errpred.correct_path import PathCompensation, compensate_path
 from errpred.findings import error_findings, findings_line
-from errpred.physics import ShapeErrorModel
 from errpred.pipeline import build_predictor
-from errpred.predict import Prediction, Predictor
+from errpred.predict import Prediction
 from nc.atomic import atomic_write
 from nc.command import Refused
 from nc.gcode import parse_program
@@ -269,8 +268,6 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
 
     # 3: predict and correct, iterated
     stock = base.stock.load()
-    shape = ShapeErrorModel(deviation=base.shape_error.radius_deviation_mm,
-                            wear_rate=base.shape_error.wear_rate_mm_per_mm)
     state = {"pass": 0}
     dense = base.resolution.dense()
     found: list = []
@@ -278,9 +275,8 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     def predict(cl: CutterLocations) -> Prediction:
         text = post(cl, machine, opts).text
         prog = parse_program(text, file=f"<{scn.name}: correction pass {state['pass']}>")
-        pred = Predictor(base.tool, stock, prog, base.coefficients, base.compliance,
-                         shape_error=shape, resolution=dense, machine=machine,
-                         workpiece=wp.modes_at)
+        pred = build_predictor(base, prog, dense, stock, workpiece=wp.modes_at,
+                               machine=machine)
         blocks = list(range(len(prog)))
         stage = f"predict {state['pass']}"
         out = pred.run(blocks, client=client,

@@ -65,10 +65,11 @@ def test_local_cluster_gives_the_same_report_and_program(jobs):
 
 @pytest.mark.xfail(strict=True, reason=(
     "known gap: on the light copy (its first three passes) the simulated RMS after "
-    "correction is 25.3 % of before (1.79 of 7.06 um); the top pass, a third of its "
-    "points, keeps a 5 um difference between the simulated surface and errpred's "
-    "prediction. The bundled default, where the top pass is 5 % of the points, meets "
-    "the check (22.8 %)."))
+    "correction is 30.0 % of before (2.12 of 7.06 um; 25.3 % before the correction was "
+    "verified: the verified one holds the points where a candidate made the predicted "
+    "surface worse); the top pass, a third of its points, keeps a 5 um difference "
+    "between the simulated surface and errpred's prediction. The bundled default, "
+    "where the top pass is 5 % of the points, meets the check."))
 def test_the_simulated_surface_error_after_correction_is_a_quarter_of_before(jobs):
     _, one, _ = jobs
     s = json.loads((one / "report.json").read_text())["simulation"]
@@ -92,7 +93,10 @@ def test_the_job_plans_corrects_and_verifies(jobs, lcnc_agrees):
     # nowhere worse), and the simulated one's
     assert c["verified"] and c["verification"]["ok"]
     assert rep["checks"]["correction_verified_nowhere_worse"]
-    assert c["predicted_rms_um"][c["best_pass"]] < 0.05 * c["predicted_rms_um"][0]
+    # (the bound was 5 % before the verification: a correction that holds the points
+    # where a candidate made the surface worse ends at 6.4 % on this copy)
+    assert c["predicted_rms_um"][c["best_pass"]] < 0.1 * c["predicted_rms_um"][0]
+    assert c["predicted_max_abs_um"][c["best_pass"]] < 0.5 * c["predicted_max_abs_um"][0]
     # the simulated surface error comes down too (the job's own 25 % check: below)
     assert s["corrected"]["surface_rms_um"] <= 0.5 * s["planned"]["surface_rms_um"]
     assert s["corrected"]["cutter_locations"] == s["planned"]["cutter_locations"]
