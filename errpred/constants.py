@@ -146,7 +146,7 @@ SECANT_MIN_SHIFT_UM = 0.3
 SECANT_SLOPE_RANGE = (0.25, 2.0)
 #: Where a candidate is worse than the original, the moves wanted by the points near
 #: there are halved this many times, then those points held (verified each time) [-].
-FALLBACK_HALVINGS = 2
+FALLBACK_HALVINGS = 1
 #: ... "near": within this many tool radii of a worse point (at least one dense
 #: spacing; the pass beside or below can finish the same surface) [-].
 FALLBACK_REACH_RADII = 0.25

@@ -67,7 +67,16 @@ from .gain import process_gain, process_gain_batch
 from .geometry import inclination, lead_tilt_of, local_frame, posture_axis
 from .interference import InterferenceChecker, ToolAssembly
 from .scenario import PlanScenario
-from .smoothing import best_smooth_path
+from .choice import (
+    _FEASIBLE,
+    _OUTSIDE_INCLINATION,
+    _OUTSIDE_LIMITS,
+    _PART,
+    _cause_labels,
+    _choose_collision_free,
+    _Inherited,
+    _inherited,
+)
 from .stability import sdm_margin, zoa_margin_batch
 from .workpiece import WorkpieceModel
 
@@ -86,17 +95,6 @@ DASK_CHUNK_POINTS = 256
 #: A previous pass counts if an earlier contact lies within this fraction of the
 #: pick feed of where it should be [-].
 FIRST_PASS_TOLERANCE = 0.5
-#: Score of the CAM posture where no candidate is feasible (below any margin, so it
-#: is only taken where nothing else is left) [-].
-FALLBACK_SCORE = -1.0e6
-
-# why a candidate posture was rejected (PlanResult.reason): codes
-_FEASIBLE, _OUTSIDE_INCLINATION, _OUTSIDE_LIMITS = 0, 1, 2
-#: the first interference code: part p of the tool assembly violates at the cutting
-#: point (code _PART + p) or at a point that takes the posture (_PART + n_parts + p)
-_PART = 3
-
-
 @dataclass(frozen=True, eq=False)
 class PlanResult:
     """A planned path and why each posture was chosen.
@@ -543,215 +541,6 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
         grid_margin=margin[:, :nlg].reshape(-1, nl, nt),
         grid_feasible=ok[:, :nlg].reshape(-1, nl, nt), touching_index=idx, workpiece=wp,
         infeasible=infeasible)
-
-
-def _choose_collision_free(checker: InterferenceChecker, tips: np.ndarray, axes: np.ndarray,
-                           inh: _Inherited, ok: np.ndarray, cause: np.ndarray,
-                           base_score: np.ndarray, step: np.ndarray, max_rate: float,
-                           breaks: np.ndarray, n_parts: int) -> tuple[np.ndarray, dict]:
-    """The smooth choice (:func:`best_smooth_path`) among collision-free candidates.
-
-    Each round chooses, then checks the chosen postures not known to be free (each
-    with the points that take it over, :func:`_check_candidates`). Where one
-    collides, every still-feasible candidate of that touching point is checked and
-    the colliding ones are removed; the k-th time (k >= 2) a pass has a colliding
-    choice, every candidate within ``2**(k - 2)`` points of it is checked as well,
-    so that the smoothing limit cannot push the choice onto untested neighbours
-    one point per round. Points left without a feasible candidate take
-    the CAM posture (the last column) with :data:`FALLBACK_SCORE` and break the
-    smoothness limit on both sides (they must not drag their neighbours along).
-
-    Termination: a pass's choice depends only on its own candidates (rapids
-    break the limit); a round goes on only if some pass had a colliding choice
-    (every candidate of a completely checked pass is free, so it never has one
-    again); by its ``2 + ceil(log2(length))``-th such round a pass's window
-    covers it. So there are at most ``1 + passes * (2 + ceil(log2(longest)))``
-    rounds (in practice 2: the passes are independent, so all those with a
-    colliding choice show in the first round). A round beyond that bound is a
-    bug: RuntimeError, never a colliding choice kept silently.
-
-    Parameters
-    ----------
-    checker : InterferenceChecker
-    tips, axes : ndarray, shape (t, s, 3) [mm], [-]
-        Candidate postures at the touching points (last column: the CAM's).
-    inh : _Inherited
-        The points that take a touching point's posture.
-    ok : ndarray of bool, shape (t, s)
-        Feasible candidates; updated in place (colliding ones become False).
-    cause : ndarray of int, shape (t, s)
-        Why a candidate is infeasible (codes of :func:`_cause_labels`); updated
-        in place.
-    base_score : ndarray, shape (t, s)
-    step : ndarray, shape (t,) [mm]
-    max_rate : float [rad/mm]
-    breaks : ndarray of bool, shape (t,)
-        Starts of passes.
-    n_parts : int
-        Parts of the tool assembly.
-
-    Returns
-    -------
-    choice : ndarray of int, shape (t,)
-    stats : dict
-        ``rounds``, ``checks`` (postures checked, inherited points included) and
-        ``dropped`` (candidates removed for interference).
-    """
-    t, s = ok.shape
-    rows = np.arange(t)
-    known = np.zeros((t, s), bool)          # checked (with inherited points): free
-    verified = np.zeros(t, bool)            # every candidate checked
-    run = np.cumsum(breaks) - (1 if t and breaks[0] else 0)
-    start = np.flatnonzero(np.r_[True, breaks[1:]]) if t else np.zeros(0, np.int64)
-    length = np.diff(np.r_[start, t])
-    strikes = np.zeros(len(start), np.int64)
-    bound = 1 + len(start) * (2 + math.ceil(math.log2(max(2, int(length.max(initial=1))))))
-    stats = {"rounds": 0, "checks": 0, "dropped": 0}
-
-    def check(r: np.ndarray, c: np.ndarray) -> np.ndarray:
-        code, n_checks = _check_candidates(checker, tips, axes, inh, r, c, n_parts)
-        stats["checks"] += n_checks
-        free = code == _FEASIBLE
-        known[r[free], c[free]] = True
-        ok[r[~free], c[~free]] = False
-        cause[r[~free], c[~free]] = code[~free]
-        stats["dropped"] += int(np.count_nonzero(~free))
-        return ~free
-
-    while True:
-        stats["rounds"] += 1
-        if stats["rounds"] > bound:
-            raise RuntimeError(f"orient.plan: the interference loop did not end within its "
-                               f"bound of {bound} rounds (a bug)")
-        none = ~ok.any(axis=1)
-        score = np.where(ok, base_score, -np.inf)
-        score[none, -1] = FALLBACK_SCORE
-        brk = breaks | none
-        brk[1:] |= none[:-1]
-        choice = best_smooth_path(score, axes, step, max_rate, brk)
-        todo = rows[~none & ~known[rows, choice]]
-        if len(todo) == 0:
-            break
-        bad = todo[check(todo, choice[todo])]
-        if len(bad) == 0:
-            break
-        sel = np.zeros(t, bool)
-        for g in np.unique(run[bad]):
-            w = 0 if strikes[g] == 0 else 2 ** int(strikes[g] - 1)
-            strikes[g] += 1
-            pos = bad[run[bad] == g]
-            lo = np.maximum(pos - w, start[g])
-            hi = np.minimum(pos + w, start[g] + length[g] - 1)
-            for a_, b_ in zip(lo, hi):
-                sel[a_:b_ + 1] = True
-        sel &= ~verified
-        pr, pc = np.nonzero(ok[sel] & ~known[sel])
-        if len(pr):
-            check(rows[sel][pr], pc)
-        verified |= sel
-    return choice, stats
-
-
-@dataclass(frozen=True, eq=False)
-class _Inherited:
-    """The points that take the posture of a touching point: every point of a pass
-    (rapids start passes) that does not touch the design, from its nearest touching
-    point of the pass, keeping its offset from the ball centre along the axis.
-
-    Attributes
-    ----------
-    point : ndarray of int, shape (m,)
-        Index into the path.
-    row : ndarray of int, shape (m,)
-        Row (index into the touching points) whose posture it takes.
-    base : ndarray, shape (m, 3) [mm]
-        Ball centre of that touching point plus the point's offset from it normal
-        to the CAM axis.
-    along : ndarray, shape (m,) [mm]
-        The offset along the CAM axis (kept along the new axis).
-    order, start : ndarray of int
-        ``point[order[start[r]:start[r + 1]]]`` are the points of row ``r``.
-    """
-
-    point: np.ndarray
-    row: np.ndarray
-    base: np.ndarray
-    along: np.ndarray
-    order: np.ndarray
-    start: np.ndarray
-
-    def tips(self, k: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Tips [mm] of inherited points ``k`` (indices into ``point``) at axes ``u``."""
-        return self.base[k] + self.along[k][:, None] * u
-
-
-def _inherited(cam: CutterLocations, contacts: Contacts, idx: np.ndarray) -> _Inherited:
-    """:class:`_Inherited` of the path (``idx``: the touching points, ascending)."""
-    n = len(cam)
-    run = np.cumsum(cam.rapid)          # a rapid starts a new run (it leads into a pass)
-    pos = np.arange(n)
-    touching = np.zeros(n, bool)
-    touching[idx] = True
-    pts, nears = [], []
-    for r in np.unique(run):
-        members = np.flatnonzero(run == r)
-        t_in = members[touching[members]]
-        if len(t_in) == 0:
-            continue
-        others = members[~touching[members]]
-        pts.append(others)
-        nears.append(t_in[np.argmin(np.abs(pos[others][:, None] - t_in[None, :]), axis=1)])
-    point = np.concatenate(pts) if pts else np.zeros(0, np.int64)
-    near = np.concatenate(nears) if nears else np.zeros(0, np.int64)
-    row = np.searchsorted(idx, near)
-    centre_old = contacts.centre[near]
-    rel = cam.tip[point] - centre_old
-    along = np.sum(rel * cam.axis[near], axis=1)
-    perp = rel - along[:, None] * cam.axis[near]
-    order = np.argsort(row, kind="stable")
-    start = np.searchsorted(row[order], np.arange(len(idx) + 1))
-    return _Inherited(point, row, centre_old + perp, along, order, start)
-
-
-def _check_candidates(checker: InterferenceChecker, tips: np.ndarray, axes: np.ndarray,
-                      inh: _Inherited, rows: np.ndarray, cols: np.ndarray, n_parts: int
-                      ) -> tuple[np.ndarray, int]:
-    """Interference of candidates ``(rows[k], cols[k])`` at their touching point and at
-    every point that would take them over (:class:`_Inherited`), in one batch.
-
-    Returns
-    -------
-    code : ndarray of int, shape (k,)
-        ``_FEASIBLE``, ``_PART + p`` (part p violates at the touching point) or
-        ``_PART + n_parts + p`` (at an inherited point; the part nearest the tip).
-    checks : int
-        Postures checked.
-    """
-    res = checker.check(tips[rows, cols], axes[rows, cols])
-    code = np.where(res.part >= 0, _PART + res.part, _FEASIBLE).astype(np.int16)
-    cnt = np.diff(inh.start)[rows]
-    total = int(cnt.sum())
-    if total:
-        pair = np.repeat(np.arange(len(rows)), cnt)
-        off = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        k = inh.order[np.repeat(inh.start[rows], cnt) + off]
-        u = axes[rows[pair], cols[pair]]
-        rd = checker.check(inh.tips(k, u), u)
-        hit = rd.part >= 0
-        dep = np.full(len(rows), np.iinfo(np.int16).max, np.int16)
-        np.minimum.at(dep, pair[hit], (_PART + n_parts + rd.part[hit]).astype(np.int16))
-        code = np.where((code == _FEASIBLE) & (dep < np.iinfo(np.int16).max), dep, code)
-    return code, len(rows) + total
-
-
-def _cause_labels(part_names: tuple[str, ...]) -> list[str]:
-    """Text of each rejection code (index = code)."""
-    what = {"flank": "flank gouges the design", "shank": "shank against the stock",
-            "holder": "holder against the stock"}
-    at_point = [what.get(p, f"{p} collides") for p in part_names]
-    return (["feasible", "outside the inclination range", "outside the axis limits"]
-            + at_point + [f"{w} at a non-cutting point taking this posture"
-                          for w in at_point])
 
 
 def stock_mesh(scn: PlanScenario, design: Any) -> Any:

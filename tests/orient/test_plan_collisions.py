@@ -23,8 +23,8 @@ from nc.path import cutter_locations
 from orient.cli import main
 from orient.geometry import posture_axis
 from orient.interference import InterferenceChecker, ToolAssembly
-from orient.plan import (FALLBACK_SCORE, _choose_collision_free, _Inherited, candidate_grid,
-                         plan)
+from orient.choice import FALLBACK_SCORE, _choose_collision_free, _Inherited
+from orient.plan import candidate_grid, plan
 from orient.scenario import ScenarioError, load_plan_scenario
 from orient.smoothing import best_smooth_path
 from tests.orient.pocket import pocket_scenario
