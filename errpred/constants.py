@@ -98,6 +98,9 @@ VERIFY_OVERCUT_UM = 2.0
 #: interpolated along the path between its two nearest points, if they are at most
 #: this many dense spacings apart (else the nearest within one spacing) [-].
 VERIFY_BRACKET_SPACINGS = 2.5
+#: ... and a point within this many spacings of one of the original's is at the same
+#: place: compared with that one alone [-].
+VERIFY_SAME_PLACE = 0.05
 #: Sensitivities dE/dx beyond this are not trusted for the correction's size [-]
 #: (a move of E / (1 - gain) cancels E to first order).
 MAX_GAIN = 0.5

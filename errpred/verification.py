@@ -10,11 +10,12 @@ onto the original path, :func:`locate_on_path`).
 
 :func:`compare` puts the two fields side by side along the original path: each
 point of the corrected program is compared with the original's error at the
-same place on the same pass (interpolated along the path between the
-original's two nearest points). It is *worse* there when its ``|E|`` exceeds
-the original's by more than the tolerance (1 um by default), or when it cuts
-deeper (``E`` more negative than both the original's and zero) by more than
-``VERIFY_OVERCUT_UM``: an overcut cannot be mended. The result carries max ``|E|``, most negative ``E``
+same place on the same pass (the original's point there, or the two it lies
+between: the original's error there is known only to lie between theirs). It is
+*worse* there when its ``|E|`` exceeds the original's (the larger of the two) by
+more than the tolerance (1 um by default), or when it cuts deeper (``E`` more
+negative than both the original's and zero) by more than ``VERIFY_OVERCUT_UM``:
+an overcut cannot be mended. The result carries max ``|E|``, most negative ``E``
 and RMS before and after, overall and per block of the original, the worse
 points and blocks, and a one-line reason.
 """
@@ -32,8 +33,9 @@ from .constants import (
     LOCATE_AXIS_MM,
     LOCATE_SAMPLE_MM,
     VERIFY_BRACKET_SPACINGS,
-    VERIFY_SPACING_MM,
     VERIFY_OVERCUT_UM,
+    VERIFY_SAME_PLACE,
+    VERIFY_SPACING_MM,
     VERIFY_TOLERANCE_UM,
 )
 from .predict import Prediction
@@ -296,15 +298,20 @@ def _f(v: float) -> str:
 
 
 def reference_at(before: ErrorField, after: ErrorField,
-                 spacing_mm: float = VERIFY_SPACING_MM, values: np.ndarray | None = None
-                 ) -> np.ndarray:
+                 spacing_mm: float = VERIFY_SPACING_MM, values: np.ndarray | None = None,
+                 envelope: bool = False):
     """The original's error (or ``values``, one per point of ``before``) at each point
     of ``after`` [um]: interpolated along the reference path between the two nearest
     points of ``before`` on the same pass when they are at most
-    ``VERIFY_BRACKET_SPACINGS`` spacings apart, else the nearest one within a spacing;
-    NaN where there is none."""
+    ``VERIFY_BRACKET_SPACINGS`` spacings apart, else the nearest one within a spacing
+    (or where ``after``'s point is at one of ``before``'s, that one's); NaN where there
+    is none. With ``envelope``, also the smaller and the larger of the two values it
+    lies between (both the one value where there is one): the original's error between
+    two predicted points is known only to lie between them, a step included."""
     vals = before.E_um if values is None else np.asarray(values, float)
     out = np.full(len(after), np.nan)
+    env_lo = np.full(len(after), np.nan)
+    env_hi = np.full(len(after), np.nan)
     gap = VERIFY_BRACKET_SPACINGS * spacing_mm
     for c in np.unique(after.chain[after.chain >= 0]):
         ia = np.flatnonzero(after.chain == c)
@@ -323,10 +330,15 @@ def reference_at(before: ErrorField, after: ErrorField,
         t = np.where(span > 0, (sa - sb[lo]) / np.where(span > 0, span, 1.0), 0.0)
         val = np.where(inside, (1 - t) * Eb[lo] + t * Eb[hi], np.nan)
         nearest = np.where(d_lo <= d_hi, lo, hi)
-        near_ok = np.minimum(d_lo, d_hi) <= spacing_mm
-        val = np.where(~inside & near_ok, Eb[nearest], val)
+        near = np.minimum(d_lo, d_hi)
+        single = (~inside & (near <= spacing_mm)) | (near <= VERIFY_SAME_PLACE * spacing_mm)
+        val = np.where(single, Eb[nearest], val)
         out[ia] = val
-    return out
+        env_lo[ia] = np.where(single, Eb[nearest],
+                              np.where(inside, np.minimum(Eb[lo], Eb[hi]), np.nan))
+        env_hi[ia] = np.where(single, Eb[nearest],
+                              np.where(inside, np.maximum(Eb[lo], Eb[hi]), np.nan))
+    return (out, env_lo, env_hi) if envelope else out
 
 
 def compare(before: ErrorField, after: ErrorField, *,
@@ -352,13 +364,15 @@ def compare(before: ErrorField, after: ErrorField, *,
     """
     if not (math.isfinite(tolerance_um) and tolerance_um >= 0):
         raise ValueError(f"tolerance_um: expected a finite value >= 0, got {tolerance_um!r}")
-    ref = reference_at(before, after, spacing_mm)
+    ref, lo, hi = reference_at(before, after, spacing_mm, envelope=True)
     Ea = after.E_um
     known = np.isfinite(ref)
     worse = np.zeros(len(after), bool)
     over = max(tolerance_um, overcut_um)
-    worse[known] = ((np.abs(Ea[known]) > np.abs(ref[known]) + tolerance_um)
-                    | (Ea[known] < np.minimum(ref[known], 0.0) - over))
+    k = known
+    largest = np.maximum(np.abs(lo[k]), np.abs(hi[k]))
+    worse[k] = ((np.abs(Ea[k]) > largest + tolerance_um)
+                | (Ea[k] < np.minimum(lo[k], 0.0) - over))
     per_block: dict[int, tuple[ErrorStats, ErrorStats]] = {}
     blocks = np.union1d(before.ref_block[before.ref_block >= 0],
                         after.ref_block[after.ref_block >= 0])
