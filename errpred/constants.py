@@ -148,8 +148,13 @@ SECANT_MIN_SHIFT_UM = 0.3
 #: follows the path exactly; 0.5 where deeper cutting bends the tool back half).
 SECANT_SLOPE_RANGE = (0.25, 2.0)
 #: Where a candidate is worse than the original, the moves wanted by the points near
-#: there are halved this many times, then those points held (verified each time) [-].
-FALLBACK_HALVINGS = 1
+#: there are scaled down this many times, then those points held (verified each time)
+#: [-]. The share kept is the one that would bring the worse point half a tolerance
+#: inside its band were the error linear in the move ...
+FALLBACK_SCALINGS = 1
+#: ... at most this [-]: a step the linear estimate calls nearly harmless is still cut
+#: by a tenth (the response is not linear near a wall's end).
+FALLBACK_SCALE_MAX = 0.9
 #: ... "near": within this many tool radii of a worse point (at least one dense
 #: spacing; the pass beside or below can finish the same surface) [-].
 FALLBACK_REACH_RADII = 0.25

@@ -281,6 +281,9 @@ def solve_offsets(pb: OffsetProblem, *, smooth: float = OFFSET_SMOOTH,
     pair_has = {}
     for k in range(pb.seg_v0.size):
         pair_has[(int(pb.seg_v0[k]), int(pb.seg_v1[k]))] = bool(seg_has[k])
+    on_vertex = np.zeros(V)
+    np.add.at(on_vertex, pb.seg_v0[pb.pt_seg], 1.0 - np.asarray(pb.pt_t, float))
+    np.add.at(on_vertex, pb.seg_v1[pb.pt_seg], np.asarray(pb.pt_t, float))
     for chain in pb.chains:
         chain = np.asarray(chain, np.int64)
         if chain.size < 2:
@@ -289,6 +292,12 @@ def solve_offsets(pb: OffsetProblem, *, smooth: float = OFFSET_SMOOTH,
         h = np.maximum(np.linalg.norm(np.diff(pos, axis=0), axis=1), 1e-9)
         data = np.array([pair_has.get((int(a), int(b)), False)
                          for a, b in zip(chain[:-1], chain[1:], strict=True)])
+        # a chain's end vertex that no point weighs on (the corner where a lead-in
+        # without points ends) follows its neighbour instead of extending the slope
+        if on_vertex[chain[0]] <= 1e-9:
+            data[0] = False
+        if on_vertex[chain[-1]] <= 1e-9:
+            data[-1] = False
         for i in range(chain.size - 1):
             if not data[i]:
                 for a in range(3):

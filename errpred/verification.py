@@ -236,6 +236,9 @@ class Comparison:
         Points of the corrected program worse than the original there.
     worse_blocks : ndarray of int
         Blocks of the original holding a worse point.
+    allowed_um : ndarray, shape (n_after, 2)
+        The band of E each point of the corrected program had to stay in (low, high)
+        [um]; NaN where there is no reference.
     unmatched : int
         Points of the corrected program with no original point near them on their pass.
     tolerance_um : float
@@ -253,6 +256,7 @@ class Comparison:
     tolerance_um: float
     lines: dict = field(default_factory=dict)
     after_field: ErrorField | None = None
+    allowed_um: np.ndarray | None = None
 
     @property
     def ok(self) -> bool:
@@ -371,8 +375,10 @@ def compare(before: ErrorField, after: ErrorField, *,
     over = max(tolerance_um, overcut_um)
     k = known
     largest = np.maximum(np.abs(lo[k]), np.abs(hi[k]))
-    worse[k] = ((np.abs(Ea[k]) > largest + tolerance_um)
-                | (Ea[k] < np.minimum(lo[k], 0.0) - over))
+    band = np.full((len(after), 2), np.nan)
+    band[k, 1] = largest + tolerance_um
+    band[k, 0] = np.maximum(-band[k, 1], np.minimum(lo[k], 0.0) - over)
+    worse[k] = (Ea[k] > band[k, 1]) | (Ea[k] < band[k, 0])
     per_block: dict[int, tuple[ErrorStats, ErrorStats]] = {}
     blocks = np.union1d(before.ref_block[before.ref_block >= 0],
                         after.ref_block[after.ref_block >= 0])
@@ -383,4 +389,4 @@ def compare(before: ErrorField, after: ErrorField, *,
     return Comparison(before=error_stats(before.E_um), after=error_stats(Ea),
                       per_block=per_block, reference_um=ref, worse=worse, worse_blocks=wb,
                       unmatched=int((~known).sum()), tolerance_um=float(tolerance_um),
-                      lines=dict(lines or {}), after_field=after)
+                      lines=dict(lines or {}), after_field=after, allowed_um=band)

@@ -6,14 +6,17 @@ what may be written (shared by a program's correction, :mod:`errpred.correct`, a
    ``VERIFY_SPACING_MM`` apart, both ends included): the reference field.
 2. A pass fits moves to the current candidate's errors (against the original
    surface) and applies a share of them (``RELAXATION``, halved after a pass that
-   did not improve: under-relaxation). From the second pass on, the error's
+   did not improve: under-relaxation; a single pass, ``iterate=False``, applies them
+   whole). From the second pass on, the error's
    response to a move is measured at each point between the last two accepted
    candidates (a secant) instead of taken from the model's first-order gain.
 3. The new candidate is predicted densely and compared with the original point
    by point (:func:`errpred.verification.compare`). Where it is worse, the moves
-   wanted by the points near there are halved (``FALLBACK_HALVINGS`` times), then
-   those points are held where they are (their original coordinates), the moves
-   fitted again each time (so the correction stays smooth) and the candidate
+   wanted by the points near there are scaled down (``FALLBACK_SCALINGS`` times) by
+   the share that brings the worse point's error back inside its allowed band with
+   half the tolerance to spare (linear in the move; at most ``FALLBACK_SCALE_MAX``),
+   then those points are held where they are (their original coordinates), the
+   moves fitted again each time (so the correction stays smooth) and the candidate
    predicted again.
 4. A candidate is accepted only when it is no worse than the original anywhere
    and better than the best so far (RMS, or the largest |E| at no higher RMS):
@@ -32,7 +35,8 @@ from typing import Any
 import numpy as np
 
 from .constants import (
-    FALLBACK_HALVINGS,
+    FALLBACK_SCALE_MAX,
+    FALLBACK_SCALINGS,
     RELAXATION,
     SECANT_MIN_SHIFT_UM,
     SECANT_SLOPE_RANGE,
@@ -58,8 +62,8 @@ class PassRecord:
     index : int
         Pass number (1, 2, ...).
     attempt : int
-        0 for the pass's moves as fitted; 1, 2, ... after halving the moves where it
-        was worse.
+        0 for the pass's moves as fitted; 1, 2, ... after scaling down the moves where
+        it was worse.
     relaxation : float
         Share of the fitted moves applied.
     largest_move_mm : float [mm]
@@ -204,14 +208,36 @@ def _secant_slope(prev: ErrorField | None, cur: ErrorField, spacing_mm: float
     return slope
 
 
-def _near(field_: ErrorField, tips: np.ndarray, reach_mm: float) -> np.ndarray:
-    """Points of ``field_`` whose tool tip lies within ``reach_mm`` of any of ``tips``."""
+def _fallback_scale(Fc: ErrorField, Fk: ErrorField, cmp: Comparison, spacing_mm: float,
+                    reach_mm: float) -> np.ndarray:
+    """Per point of ``Fc`` (the candidate the pass moved from), the share of its wanted
+    move to keep (1 away from the worse points of ``Fk``): at each worse point the
+    error went from ``Ec`` to ``Ea`` outside its band; the share of that change that
+    ends half a tolerance inside the band, assuming the error linear in the move,
+    clipped to [0, ``FALLBACK_SCALE_MAX``]; the smallest one within ``reach_mm``."""
     from scipy.spatial import cKDTree
 
-    if len(field_) == 0 or len(tips) == 0:
-        return np.zeros(0, np.int64)
-    hits = cKDTree(field_.tip_mm).query_ball_point(np.asarray(tips).reshape(-1, 3), reach_mm)
-    return np.unique(np.concatenate([np.asarray(h, np.int64) for h in hits]))
+    scale = np.ones(len(Fc))
+    bad = np.flatnonzero(cmp.worse)
+    if bad.size == 0 or len(Fc) == 0:
+        return scale
+    Ec = reference_at(Fc, Fk, spacing_mm, Fc.E_um)[bad]
+    Ea = Fk.E_um[bad]
+    low, high = cmp.allowed_um[bad, 0], cmp.allowed_um[bad, 1]
+    margin = 0.5 * cmp.tolerance_um
+    target = np.where(Ea > high, high - margin, low + margin)
+    change = Ea - Ec
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = (target - Ec) / change
+    share = np.where(np.isfinite(share) & (np.abs(change) > 0), share, 0.0)
+    share = np.clip(share, 0.0, FALLBACK_SCALE_MAX)
+    tree = cKDTree(Fc.tip_mm)
+    for tip, f in zip(Fk.tip_mm[bad], share, strict=True):
+        idx = tree.query_ball_point(tip, reach_mm)
+        if idx:
+            idx = np.asarray(idx, np.int64)
+            scale[idx] = np.minimum(scale[idx], f)
+    return scale
 
 
 def correct_verified(original: Any,
@@ -235,7 +261,7 @@ def correct_verified(original: Any,
         ``fit(candidate, field, slope, weight) -> edit``: ``slope`` (one per point of
         the field, or None) is the measured ``dE/dshift`` between the last two accepted
         candidates (NaN: not measured; use the model's); ``weight`` (one per point)
-        scales each point's wanted move (1; halved near the places where a candidate
+        scales each point's wanted move (1; less near the places where a candidate
         was worse; 0 at last: those points are held where they are). The edit has ``largest_mm`` (largest vertex move [mm]).
     apply : callable
         ``apply(candidate, edit, factor) -> new candidate``: the edit's moves times
@@ -250,8 +276,8 @@ def correct_verified(original: Any,
         The dense spacing ``predict`` uses.
     reach_mm : float [mm]
         Where a candidate is worse than the original, the wanted moves of the points
-        within this distance (at least ``spacing_mm``) of the worse ones are halved
-        and the moves fitted again (a neighbouring vertex's move, or a neighbouring
+        within this distance (at least ``spacing_mm``) of the worse ones are scaled
+        down and the moves fitted again (a neighbouring vertex's move, or a neighbouring
         pass's, can overcut a surface that its own point did not ask for).
     lines : dict, optional
         Block of the original -> source line, for the comparisons' reasons.
@@ -271,7 +297,7 @@ def correct_verified(original: Any,
         return out
     best_stats = error_stats(F0.E_um)
     current, Fc = original, F0
-    omega = RELAXATION
+    omega = RELAXATION if iterate else 1.0   # one pass: the whole fit (the fallback guards)
     passes = max_iterations if iterate else 1
     F_prev = None
     for k in range(1, passes + 1):
@@ -281,7 +307,7 @@ def correct_verified(original: Any,
         if edit.largest_mm * omega < tolerance_mm:
             break
         largest = float(edit.largest_mm)
-        for attempt in range(FALLBACK_HALVINGS + 2):
+        for attempt in range(FALLBACK_SCALINGS + 2):
             say(f"pass {k}" + (f", fallback {attempt}" if attempt else ""))
             if attempt:
                 edit = fit(current, Fc, slope, weight)
@@ -294,10 +320,13 @@ def correct_verified(original: Any,
             out.passes.append(PassRecord(k, attempt, omega, largest, cmp, ok))
             if cmp.ok:
                 break
-            near = _near(Fc, Fk.tip_mm[cmp.worse], max(reach_mm, spacing_mm))
-            if near.size == 0:
+            scale = _fallback_scale(Fc, Fk, cmp, spacing_mm, max(reach_mm, spacing_mm))
+            if (scale >= 1.0).all():
                 break
-            weight[near] = 0.0 if attempt == FALLBACK_HALVINGS else 0.5 * weight[near]
+            if attempt < FALLBACK_SCALINGS:
+                weight = weight * scale
+            else:
+                weight = np.where(scale < 1.0, 0.0, weight)
             if not weight.any():
                 break                 # nothing left to move: the candidate is the current
         if out.passes[-1].accepted:
