@@ -15,7 +15,10 @@ between: the original's error there is known only to lie between theirs). It is
 *worse* there when its ``|E|`` exceeds the original's (the larger of the two) by
 more than the tolerance (1 um by default), or when it cuts deeper (``E`` more
 negative than both the original's and zero) by more than ``VERIFY_OVERCUT_UM``:
-an overcut cannot be mended. The result carries max ``|E|``, most negative ``E``
+an overcut cannot be mended. A point of the corrected program with no original
+point near it on its pass (it cuts where the original did not) is held to the
+nominal surface instead: worse when ``E`` is beyond the tolerance either way (the
+overcut limit below). The result carries max ``|E|``, most negative ``E``
 and RMS before and after, overall and per block of the original, the worse
 points and blocks, and a one-line reason.
 """
@@ -238,7 +241,7 @@ class Comparison:
         Blocks of the original holding a worse point.
     allowed_um : ndarray, shape (n_after, 2)
         The band of E each point of the corrected program had to stay in (low, high)
-        [um]; NaN where there is no reference.
+        [um]; (-overcut, tolerance) where there is no reference.
     unmatched : int
         Points of the corrected program with no original point near them on their pass.
     tolerance_um : float
@@ -271,13 +274,16 @@ class Comparison:
         if self.ok:
             return f"verified on {a.points} points: no worse anywhere ({head})"
         f = self.after_field
-        excess = np.where(self.worse, np.abs(self.reference_um - f.E_um), -np.inf)
+        ref = np.nan_to_num(self.reference_um, nan=0.0)
+        excess = np.where(self.worse, np.abs(ref - f.E_um), -np.inf)
         i = int(np.argmax(excess))
+        said = (f"the original has {ref[i]:+.2f} um" if np.isfinite(self.reference_um[i])
+                else "the original does not cut")
         line = int(f.ref_line[i]) if f is not None and f.ref_line[i] >= 0 else None
         where = f"line {line}" if line is not None else f"block {int(f.ref_block[i])}"
         return (f"worse than the original at {int(self.worse.sum())} of {a.points} points "
                 f"on {self.worse_blocks.size} block(s), worst at {where}: E {f.E_um[i]:+.2f} um "
-                f"where the original has {self.reference_um[i]:+.2f} um (tolerance "
+                f"where {said} (tolerance "
                 f"{self.tolerance_um:g} um); {head}")
 
     def as_dict(self) -> dict:
@@ -378,7 +384,8 @@ def compare(before: ErrorField, after: ErrorField, *,
     band = np.full((len(after), 2), np.nan)
     band[k, 1] = largest + tolerance_um
     band[k, 0] = np.maximum(-band[k, 1], np.minimum(lo[k], 0.0) - over)
-    worse[k] = (Ea[k] > band[k, 1]) | (Ea[k] < band[k, 0])
+    band[~k] = (-over, tolerance_um)          # cuts where the original did not: nominal
+    worse = (Ea > band[:, 1]) | (Ea < band[:, 0])
     per_block: dict[int, tuple[ErrorStats, ErrorStats]] = {}
     blocks = np.union1d(before.ref_block[before.ref_block >= 0],
                         after.ref_block[after.ref_block >= 0])

@@ -45,7 +45,8 @@ def test_predict_writes_report_and_plots(tmp_path, capsys):
 
 def test_compensate_writes_a_program_that_reads_back(tmp_path, capsys):
     out = tmp_path / "corrected.nc"
-    assert main(["compensate", WALL, "--lines", "374", "377", "-o", str(out)]) == 0
+    # the third waterline level: lead-in, approach, the wall's straight block and its arc
+    assert main(["compensate", WALL, "--lines", "38", "41", "-o", str(out)]) == 0
     said = capsys.readouterr().out
     assert "verified on" in said and "no point worse than the original" in said
     orig = read_program(os.path.join(os.path.dirname(WALL), "finish.nc"))

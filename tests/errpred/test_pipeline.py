@@ -26,7 +26,7 @@ from errpred.tool import Tool
 from .cases import STEEL, plane_raster, plane_stock, stiff_tool
 
 #: Representative slices of the bundled scenarios (see their descriptions).
-SLICES = [("mold-ball", 19118, 19140), ("mold-ball", 6165, 6185), ("wall-radius", 374, 397)]
+SLICES = [("mold-ball", 19118, 19140), ("mold-ball", 6165, 6185), ("wall-radius", 38, 53)]
 
 
 @pytest.mark.parametrize("name,lo,hi", SLICES, ids=[f"{n}-{a}" for n, a, _ in SLICES])

@@ -36,8 +36,10 @@ CASES = [
     (5.0, 22.1, True),
     (5.0, -3.1, True),           # below min(-1, 0) - 2
     (1.0, 10.5, False),          # between 10 and 10
-    (12.0, 50.0, False),         # beyond the original's points by more than a spacing:
-]                                # no reference, not judged (counted as unmatched)
+    (12.0, 50.0, True),          # beyond the original's points by more than a spacing:
+    (12.0, 0.9, False),          # it cuts where the original did not: held to the
+    (12.0, -2.1, True),          # nominal surface (counted as unmatched)
+]
 
 
 @pytest.mark.parametrize("s,E,worse", CASES)
@@ -48,11 +50,11 @@ def test_a_point_is_worse_only_beyond_the_tolerance(s, E, worse):
 
 
 def test_the_comparison_reports_before_after_and_per_block():
-    after = _field([0, 2, 4, 6, 8, 12], [1.0, -0.5, 3.0, -1.5, 0.2, 50.0])
+    after = _field([0, 2, 4, 6, 8, 12], [1.0, -0.5, 3.0, -1.5, 0.2, 0.5])
     c = compare(BEFORE, after, lines={0: 10, 4: 14})
     assert c.ok and c.unmatched == 1
     assert c.before == error_stats(BEFORE.E_um)
-    assert c.after.max_abs_um == pytest.approx(50.0) and c.after.min_um == pytest.approx(-1.5)
+    assert c.after.max_abs_um == pytest.approx(3.0) and c.after.min_um == pytest.approx(-1.5)
     d = c.as_dict()
     assert d["ok"] and d["per_block"][0]["line"] == 10
     assert d["per_block"][0]["before"]["max_abs_um"] == pytest.approx(10.0)
@@ -63,7 +65,9 @@ def test_the_comparison_reports_before_after_and_per_block():
 def test_passes_are_compared_with_their_own_pass():
     """A point of another pass (a rapid apart) at the same path length is not compared
     with this pass's original points."""
-    c = compare(BEFORE, _field([2.0], [30.0], chain=1))
+    c = compare(BEFORE, _field([2.0], [0.5], chain=1))
     assert c.ok and c.unmatched == 1
+    c = compare(BEFORE, _field([2.0], [30.0], chain=1))
+    assert not c.ok and "the original does not cut" in c.reason()
     with pytest.raises(ValueError, match="tolerance_um"):
         compare(BEFORE, BEFORE, tolerance_um=float("nan"))

@@ -17,7 +17,7 @@ from orient.scenario import load_plan_scenario
 from sim.cli import BUNDLED
 from sim.controller import NCClient
 from sim.machine import SimulatedNC
-from sim.registers import ACK, RING_SAMPLES, STATUS, by_name
+from sim.registers import ACK, RING_SAMPLES, RING_START, STATUS, by_name
 from sim.server import NCServer
 
 POINTS = (2, 36)
@@ -96,7 +96,8 @@ def test_refused_and_malformed_requests_leave_the_nc_safe(scenario):
         assert r.isError() and r.exception_code == 2
         r = c.write_registers(lead, [100, 100, 7], device_id=1)       # lead, tilt, seq: fine
         assert not r.isError()
-        r = c.read_input_registers(RING_SAMPLES * 4, count=10, device_id=1)  # past the map
+        r = c.read_input_registers(RING_START + 2 * RING_SAMPLES, count=10,
+                                    device_id=1)  # past the map
         assert r.isError() and r.exception_code == 2
         # garbage on the socket: the server drops it and keeps answering
         with socket.create_connection(("127.0.0.1", srv.port), timeout=2) as s:
