@@ -4,7 +4,6 @@ collisions, axis limits, smooth, written and read back, accepted by LinuxCNC's r
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from nc import read_program
 from nc.kinematics import solve_path
@@ -12,14 +11,7 @@ from nc.linuxcnc import compare_with_rs274
 from nc.path import CutterLocations, cutter_locations
 from nc.writer import PostOptions, write_program
 from orient.interference import InterferenceChecker, ToolAssembly
-from orient.plan import plan
 from orient.scenario import bundled_scenario, load_plan_scenario
-
-
-@pytest.fixture(scope="module")
-def planned():
-    scn = load_plan_scenario(bundled_scenario("thin-wall"))
-    return scn, plan(scn)
 
 
 def test_cam_posture_chatters_and_planned_posture_does_not(planned):

@@ -9,12 +9,10 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 from orient.plan import plan  # noqa: E402
-from orient.scenario import bundled_scenario, load_plan_scenario  # noqa: E402
 
 
-def test_local_cluster_plan_equals_one_process():
-    scn = load_plan_scenario(bundled_scenario("thin-wall"))
-    one = plan(scn)
+def test_local_cluster_plan_equals_one_process(planned):
+    scn, one = planned
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   host="127.0.0.1", dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
