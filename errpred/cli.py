@@ -214,6 +214,19 @@ _TOOL_STATE_HELP = ("write the tool's wear at the end (JSON: each micro edge's c
                     "distance) for the next scenario's [tool] state")
 
 
+def _parallel_and_lines(p: argparse.ArgumentParser) -> None:
+    """The options predict and compensate share: where the geometry stage runs, and the
+    program lines in scope."""
+    p.add_argument("--workers", type=int, default=1, help="processes for the geometry stage")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the geometry stage on an existing Dask scheduler "
+                        "(e.g. tcp://10.0.0.5:8786)")
+    p.add_argument("--dask", type=int, default=0, metavar="N",
+                   help="run the geometry stage on a local Dask cluster of N workers")
+    p.add_argument("--lines", type=int, nargs=2, metavar=("FIRST", "LAST"),
+                   help="only the blocks on these program lines")
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m errpred", description=(
         "Predict the machining error of end milling along an NC program, and correct it."))
@@ -222,14 +235,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenario", help="scenario file (TOML)")
     p.add_argument("-o", "--output", help="report (JSON)")
     p.add_argument("--plots", metavar="DIR", help="write plots (PNG) into DIR")
-    p.add_argument("--workers", type=int, default=1, help="processes for the geometry stage")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run the geometry stage on an existing Dask scheduler "
-                        "(e.g. tcp://10.0.0.5:8786)")
-    p.add_argument("--dask", type=int, default=0, metavar="N",
-                   help="run the geometry stage on a local Dask cluster of N workers")
-    p.add_argument("--lines", type=int, nargs=2, metavar=("FIRST", "LAST"),
-                   help="predict only the blocks on these program lines")
+    _parallel_and_lines(p)
     p.add_argument("--revolution-line", type=int, metavar="LINE",
                    help="plot force and deflection over a revolution at this line "
                         "(default: where |E| is largest)")
@@ -247,12 +253,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="corrected program")
     p.add_argument("--iterate", action="store_true",
                    help="predict-correct until the largest change is below the tolerance")
-    p.add_argument("--workers", type=int, default=1)
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run the geometry stage on an existing Dask scheduler")
-    p.add_argument("--dask", type=int, default=0, metavar="N",
-                   help="run the geometry stage on a local Dask cluster of N workers")
-    p.add_argument("--lines", type=int, nargs=2, metavar=("FIRST", "LAST"))
+    _parallel_and_lines(p)
     p.add_argument("--tolerance-um", type=float, metavar="UM",
                    help="how much worse than the original the corrected program may be "
                         "anywhere (default: [correction] verify_tolerance_um, 1 um)")
