@@ -32,7 +32,7 @@ from errpred.pipeline import compensate_scenario, load, predict  # noqa: E402
 from errpred.scenario import bundled_scenario  # noqa: E402
 
 #: Default slices: a few blocks of each bundled scenario's representative slices.
-SLICES = ("wall-radius:374:379", "mold-ball:19103:19142", "mold-ball:6131:6150")
+SLICES = ("wall-radius:38:43", "mold-ball:19103:19142", "mold-ball:6131:6150")
 
 
 def _times(fn, repeat: int) -> tuple[float, float, object]:
