@@ -39,7 +39,7 @@ from nc.program import LINEAR, PLANE_AXES, RAPID, TCP_OFF, Program
 from nc.rewrite import rewrite_coordinates
 
 from .constants import MAX_GAIN, VERIFY_SPACING_MM, VERIFY_TOLERANCE_UM
-from .offset import ARC, CIRCLE, LINE, OffsetEdit, Units, fit_units
+from .offset import ARC, CIRCLE, LINE, OffsetEdit, Units, feed_chains, fit_units
 from .predict import Prediction
 from .verification import ErrorField, error_field
 from .verified import VerifiedCorrection, VerifiedResult, correct_verified
@@ -121,28 +121,6 @@ def program_units(program: Program) -> Units:
                  joined=joined)
 
 
-def _chains(program: Program, cut: np.ndarray) -> list[list[int]]:
-    """Runs of feed blocks, trimmed to their first and last cutting block (full circles
-    next to the trimmed ends are kept in: their start and end move together)."""
-    n = len(program)
-    out: list[list[int]] = []
-    run: list[int] = []
-    for b in range(n + 1):
-        if b < n and program.motion[b] != RAPID:
-            run.append(b)
-            continue
-        idx = [i for i, blk in enumerate(run) if cut[blk]]
-        if idx:
-            lo, hi = idx[0], idx[-1]
-            while lo > 0 and _full_circle(program, run[lo - 1]):
-                lo -= 1
-            while hi < len(run) - 1 and _full_circle(program, run[hi + 1]):
-                hi += 1
-            out.append(run[lo:hi + 1])
-        run = []
-    return out
-
-
 def _full_circle(program: Program, b: int) -> bool:
     k = int(program.arc_index[b])
     return k >= 0 and abs(float(program.arc_sweep[k])) >= 2 * math.pi - 1e-9
@@ -166,18 +144,16 @@ def fit_program(program: Program, field_: ErrorField, slope: np.ndarray | None =
     split : bool
         Split straight blocks whose points ask for more than a straight move.
     """
-    target = wanted_moves(field_, slope)
-    hold = None
-    if weight is not None:
-        target = target * np.asarray(weight, float)
-        hold = np.asarray(weight) == 0
     pblock = field_.block
     t = np.array([_fraction_on_block(program, int(b), tip)
                   for b, tip in zip(pblock, field_.tip_mm, strict=True)])
-    cut = np.zeros(len(program), bool)
+    n = len(program)
+    cut = np.zeros(n, bool)
     cut[pblock] = True
-    return fit_units(program_units(program), _chains(program, cut), pblock, t, target,
-                     field_.normal, hold=hold, split=split)
+    circle = np.array([_full_circle(program, b) for b in range(n)], bool)
+    chains = feed_chains(program.motion != RAPID, cut, sticky=circle)
+    return fit_units(program_units(program), chains, pblock, t, wanted_moves(field_, slope),
+                     field_.normal, weight=weight, split=split)
 
 
 def apply_edit(program: Program, edit: ProgramEdit, scale: np.ndarray | None = None, *,

@@ -28,7 +28,7 @@ from nc.path import CutterLocations
 
 from .constants import VERIFY_SPACING_MM, VERIFY_TOLERANCE_UM
 from .correct import wanted_moves
-from .offset import LINE, OffsetEdit, Units, fit_units
+from .offset import LINE, OffsetEdit, Units, feed_chains, fit_units
 from .predict import Prediction
 from .verification import ErrorField, error_field, locate_on_path
 from .verified import VerifiedCorrection, VerifiedResult, correct_verified
@@ -69,31 +69,16 @@ def fit_path(cl: CutterLocations, field_: ErrorField, slope: np.ndarray | None =
     """The correction of path ``cl`` for the errors ``field_`` (its own dense
     prediction, against the reference surface): see :mod:`errpred.correct`; segments
     whose points ask for more than a straight move get cutter locations inserted."""
-    n = len(cl)
-    target = wanted_moves(field_, slope)
-    hold = np.zeros(len(field_), bool)
-    if weight is not None:
-        target = target * np.asarray(weight, float)
-        hold = np.asarray(weight) == 0
     seg, t = locate_on_path(cl, field_.tip_mm, field_.axis)
     ok = seg >= 1
-    cut = np.zeros(n, bool)
+    cut = np.zeros(len(cl), bool)
     cut[seg[ok]] = True
     feed = ~cl.rapid
-    feed[0] = False
-    # chains: runs of feed segments, trimmed to their first and last cutting segment
-    chains: list[list[int]] = []
-    run: list[int] = []
-    for k in range(1, n + 1):
-        if k < n and feed[k]:
-            run.append(k)
-            continue
-        idx = [i for i, s in enumerate(run) if cut[s]]
-        if idx:
-            chains.append(run[idx[0]:idx[-1] + 1])
-        run = []
-    return fit_units(path_units(cl), chains, seg[ok], t[ok], target[ok], field_.normal[ok],
-                     hold=hold[ok], split=split)
+    feed[0] = False                       # location 0 starts the path: no segment ends there
+    w = None if weight is None else np.asarray(weight, float)[ok]
+    return fit_units(path_units(cl), feed_chains(feed, cut), seg[ok], t[ok],
+                     wanted_moves(field_, slope)[ok], field_.normal[ok], weight=w,
+                     split=split)
 
 
 def apply_path_edit(cl: CutterLocations, edit: PathEdit, scale: np.ndarray | None = None

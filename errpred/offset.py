@@ -66,7 +66,7 @@ from .constants import (
 _MIN_PIECE_MM = 0.05
 
 __all__ = ["LINE", "ARC", "CIRCLE", "OffsetProblem", "OffsetSolution", "solve_offsets",
-           "arc_weights", "second_difference", "Units", "OffsetEdit", "fit_units",
+           "arc_weights", "second_difference", "Units", "OffsetEdit", "feed_chains", "fit_units",
            "split_fractions"]
 
 #: Segment kinds.
@@ -524,8 +524,33 @@ def split_fractions(length_mm: float, t: np.ndarray, target: np.ndarray,
     return np.asarray(out)
 
 
+def feed_chains(feed: np.ndarray, cut: np.ndarray, sticky: np.ndarray | None = None
+                ) -> list[list[int]]:
+    """Runs of consecutive feed units (``feed``), each trimmed to its first and last
+    cutting unit (``cut``), with the ``sticky`` units next to the trimmed ends kept in
+    (a full circle's start and end move together); runs that do not cut are dropped."""
+    n = len(feed)
+    out: list[list[int]] = []
+    run: list[int] = []
+    for u in range(n + 1):
+        if u < n and feed[u]:
+            run.append(u)
+            continue
+        idx = [i for i, v in enumerate(run) if cut[v]]
+        if idx:
+            lo, hi = idx[0], idx[-1]
+            if sticky is not None:
+                while lo > 0 and sticky[run[lo - 1]]:
+                    lo -= 1
+                while hi < len(run) - 1 and sticky[run[hi + 1]]:
+                    hi += 1
+            out.append(run[lo:hi + 1])
+        run = []
+    return out
+
+
 def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
-              target: np.ndarray, normal: np.ndarray, *, hold: np.ndarray | None = None,
+              target: np.ndarray, normal: np.ndarray, *, weight: np.ndarray | None = None,
               split: bool = True) -> OffsetEdit:
     """The correction of a path of ``units`` for points asking for moves.
 
@@ -538,15 +563,18 @@ def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
         Each point's unit and fraction along it.
     target : ndarray, shape (q,) [mm]
         The move each point asks for along its ``normal`` (q, 3).
-    hold : ndarray, shape (q,), bool, optional
-        Points that must not move (their equations ask for no move, weighted
-        ``OFFSET_HOLD``): where a correction made the surface worse, the original
-        coordinates there.
+    weight : ndarray, shape (q,), optional
+        Factor on each point's ``target`` (the verified loop's fallback); 0: the point
+        must not move (its equation asks for no move, weighted ``OFFSET_HOLD``): where
+        a correction made the surface worse, the original coordinates there.
     split : bool
         Split straight units whose points ask for more than a straight move.
     """
     n = len(units)
-    held = np.zeros(unit.size, bool) if hold is None else np.asarray(hold, bool)
+    held = np.zeros(unit.size, bool)
+    if weight is not None:
+        target = target * np.asarray(weight, float)
+        held = np.asarray(weight) == 0
     vertices = [units.end, units.start[:1]]          # vertex n: the start of unit 0
     V = n + 1
     split_frac: dict[int, np.ndarray] = {}

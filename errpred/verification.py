@@ -376,10 +376,8 @@ def compare(before: ErrorField, after: ErrorField, *,
         raise ValueError(f"tolerance_um: expected a finite value >= 0, got {tolerance_um!r}")
     ref, lo, hi = reference_at(before, after, spacing_mm, envelope=True)
     Ea = after.E_um
-    known = np.isfinite(ref)
-    worse = np.zeros(len(after), bool)
+    k = np.isfinite(ref)                      # points with a reference
     over = max(tolerance_um, overcut_um)
-    k = known
     largest = np.maximum(np.abs(lo[k]), np.abs(hi[k]))
     band = np.full((len(after), 2), np.nan)
     band[k, 1] = largest + tolerance_um
@@ -395,5 +393,5 @@ def compare(before: ErrorField, after: ErrorField, *,
     wb = np.unique(after.ref_block[worse & (after.ref_block >= 0)])
     return Comparison(before=error_stats(before.E_um), after=error_stats(Ea),
                       per_block=per_block, reference_um=ref, worse=worse, worse_blocks=wb,
-                      unmatched=int((~known).sum()), tolerance_um=float(tolerance_um),
+                      unmatched=int((~k).sum()), tolerance_um=float(tolerance_um),
                       lines=dict(lines or {}), after_field=after, allowed_um=band)

@@ -231,11 +231,9 @@ def _fallback_scale(Fc: ErrorField, Fk: ErrorField, cmp: Comparison, spacing_mm:
         share = (target - Ec) / change
     share = np.where(np.isfinite(share) & (np.abs(change) > 0), share, 0.0)
     share = np.clip(share, 0.0, FALLBACK_SCALE_MAX)
-    tree = cKDTree(Fc.tip_mm)
-    for tip, f in zip(Fk.tip_mm[bad], share, strict=True):
-        idx = tree.query_ball_point(tip, reach_mm)
+    near = cKDTree(Fc.tip_mm).query_ball_point(Fk.tip_mm[bad], reach_mm)
+    for idx, f in zip(near, share, strict=True):
         if idx:
-            idx = np.asarray(idx, np.int64)
             scale[idx] = np.minimum(scale[idx], f)
     return scale
 
@@ -262,7 +260,8 @@ def correct_verified(original: Any,
         the field, or None) is the measured ``dE/dshift`` between the last two accepted
         candidates (NaN: not measured; use the model's); ``weight`` (one per point)
         scales each point's wanted move (1; less near the places where a candidate
-        was worse; 0 at last: those points are held where they are). The edit has ``largest_mm`` (largest vertex move [mm]).
+        was worse; 0 at last: those points are held where they are). The edit has
+        ``largest_mm`` (largest vertex move [mm]).
     apply : callable
         ``apply(candidate, edit, factor) -> new candidate``: the edit's moves times
         ``factor`` (the relaxation).
