@@ -22,6 +22,7 @@ from pathlib import Path
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from errpred.cli import main as errpred_main  # noqa: E402
+from errpred.pipeline import load  # noqa: E402
 from errpred.verification import compare, error_stats  # noqa: E402
 from tests.errpred import adversarial as adv  # noqa: E402
 from tests.errpred.test_never_harm import _dense_fields  # noqa: E402
@@ -38,11 +39,15 @@ CASES = {
     "full-circle-r30-2": (adv.full_circle, dict(radius=30.0, levels=2)),
 }
 
+#: Cases left out unless named: the two-level r 30 circle did not finish within 10 min.
+SLOW = ("full-circle-r30-2",)
+
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=None, help="keep the scenarios and programs here")
-    ap.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    ap.add_argument("--cases", nargs="+", default=[c for c in CASES if c not in SLOW],
+                    choices=list(CASES), help=f"default: all but {', '.join(SLOW)}")
     ap.add_argument("--max-iterations", type=int, default=4)
     args = ap.parse_args(argv)
     root = Path(args.out or tempfile.mkdtemp(prefix="never-harm-"))
@@ -56,7 +61,7 @@ def main(argv=None) -> int:
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
             rc = errpred_main(["compensate", str(scn), "--iterate", "-q", "-o", str(out)])
         dt = time.perf_counter() - t0
-        written = out if out.exists() else Path(load_program_path(scn))
+        written = out if out.exists() else Path(load(scn).program_path)
         _, _, before, after = _dense_fields(scn, written)
         b, a = error_stats(before.E_um), error_stats(after.E_um)
         ok = compare(before, after).ok
@@ -69,12 +74,6 @@ def main(argv=None) -> int:
         if last:
             print(f"{'':<20} {last}")
     return 0
-
-
-def load_program_path(scenario: Path) -> str:
-    from errpred.pipeline import load
-
-    return str(load(scenario).program_path)
 
 
 if __name__ == "__main__":
