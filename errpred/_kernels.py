@@ -24,7 +24,9 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["inside_any_sweep", "sweep_distance", "GOLDEN_ITERATIONS"]
+from .constants import CLUSTER_COARSE
+
+__all__ = ["inside_any_sweep", "sweep_distance", "sweeps_within", "GOLDEN_ITERATIONS"]
 
 #: Golden-section iterations for non-ball tools: the bracket shrinks to
 #: 0.618^40 = 4e-9 of the segment, far below any micrometre.
@@ -241,19 +243,57 @@ def _may_reach(j, cx, cy, cz, reach, p0, d, w, lo, hi, c, r, top):
 
 
 @njit(cache=True)
+def sweeps_within(ids, cx, cy, cz, reach, p0, d, w, lo, hi, c, r, top):
+    """Those of sweeps ``ids`` that may come within ``reach`` of the point (cx, cy, cz).
+
+    The same test as the per-bin pruning of :func:`inside_any_sweep_clustered`
+    (bounds, then a lower bound of the distance to the swept solid), done once
+    for a ball around everything a prediction point will test: a sweep left
+    out cannot contain, nor come within ``reach`` minus the ball's radius of,
+    any point in the ball.
+
+    Parameters
+    ----------
+    ids : ndarray, shape (k,), int
+        Candidate sweeps (indices into the sweep arrays).
+    cx, cy, cz : float [mm]
+    reach : float [mm]
+    p0, d, w, lo, hi : ndarray, shape (n, 3)
+    c, r, top : float [mm]
+
+    Returns
+    -------
+    ndarray, shape (k,), bool
+    """
+    out = np.zeros(ids.shape[0], dtype=np.bool_)
+    for t in range(ids.shape[0]):
+        out[t] = _may_reach(ids[t], cx, cy, cz, reach, p0, d, w, lo, hi, c, r, top)
+    return out
+
+
+@njit(cache=True)
 def _bins(points, candidates, cell):
-    """Candidate points binned into cubes: (idx, order, keys, count)."""
+    """Candidate points binned into cubes: (idx, order, keys, count).
+
+    A bin's key holds its coarse cube (``CLUSTER_COARSE`` bins a side) in its
+    high bits, so that sorting by key keeps the bins of a coarse cube together.
+    """
     k = points.shape[0]
     idx = np.empty(k, dtype=np.int64)
     keys = np.empty(k, dtype=np.int64)
     m = 0
-    big = 1 << 20
+    big = 1 << 16  # coarse cubes either side of the origin (cell 0.2 mm: 200 m)
+    span = 2 * big
+    q = CLUSTER_COARSE
     for i in range(k):
         if candidates[i]:
-            ix = int(math.floor(points[i, 0] / cell)) + big
-            iy = int(math.floor(points[i, 1] / cell)) + big
-            iz = int(math.floor(points[i, 2] / cell)) + big
-            keys[m] = (ix * (2 * big) + iy) * (2 * big) + iz
+            ix = int(math.floor(points[i, 0] / cell))
+            iy = int(math.floor(points[i, 1] / cell))
+            iz = int(math.floor(points[i, 2] / cell))
+            cx, cy, cz = ix // q, iy // q, iz // q
+            coarse = ((cx + big) * span + (cy + big)) * span + (cz + big)
+            fine = ((ix - cx * q) * q + (iy - cy * q)) * q + (iz - cz * q)
+            keys[m] = coarse * (q * q * q) + fine
             idx[m] = i
             m += 1
     order = np.argsort(keys[:m])
@@ -265,7 +305,12 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach)
     """Per bin: (start, end, sweeps that may reach it), as flat arrays.
 
     Sweeps that cannot come within ``reach`` of any point are dropped first
-    (one bounding sphere for all points), then per bin (its own sphere).
+    (one bounding sphere for all points), then per coarse cube of bins (a
+    sphere holding its bins' spheres), then per bin (its own sphere) from its
+    cube's list. A bin's list is the same, in the same order, as if every
+    sweep were tested against the bin alone: a sweep that may reach a bin's
+    sphere may reach any sphere holding it (the tests are 1-Lipschitz in the
+    centre).
     """
     n = p0.shape[0]
     cx, cy, cz, rad = _sphere(points, idx, order, 0, m)
@@ -275,35 +320,70 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach)
         if _may_reach(j, cx, cy, cz, reach + rad, p0, d, w, lo, hi, c, r, top):
             near[nn] = j
             nn += 1
-    starts = np.empty(m + 1, dtype=np.int64)
-    lists = np.empty(0, dtype=np.int64)
-    offsets = np.zeros(m + 1, dtype=np.int64)
+    # the bins: runs of equal keys
+    bstart = np.empty(m + 1, dtype=np.int64)
     nb = 0
     s = 0
+    while s < m:
+        bstart[nb] = s
+        key = keys[order[s]]
+        while s < m and keys[order[s]] == key:
+            s += 1
+        nb += 1
+    bstart[nb] = m
+    sph = np.empty((nb, 4))
+    for b in range(nb):
+        sph[b, 0], sph[b, 1], sph[b, 2], sph[b, 3] = _sphere(points, idx, order, bstart[b],
+                                                             bstart[b + 1])
+    cell_count = CLUSTER_COARSE * CLUSTER_COARSE * CLUSTER_COARSE
+    offsets = np.zeros(nb + 1, dtype=np.int64)
     total = 0
     buf = np.empty(max(nn, 1) * 8, dtype=np.int64)
-    while s < m:
-        e = s
-        key = keys[order[s]]
-        while e < m and keys[order[e]] == key:
-            e += 1
-        bx, by, bz, brad = _sphere(points, idx, order, s, e)
+    coarse_list = np.empty(max(nn, 1), dtype=np.int64)
+    b0 = 0
+    while b0 < nb:
+        # the bins of one coarse cube
+        ckey = keys[order[bstart[b0]]] // cell_count
+        b1 = b0
+        while b1 < nb and keys[order[bstart[b1]]] // cell_count == ckey:
+            b1 += 1
+        gx = gy = gz = 0.0
+        cnt = 0
+        for b in range(b0, b1):
+            e = bstart[b + 1] - bstart[b]
+            gx += sph[b, 0] * e
+            gy += sph[b, 1] * e
+            gz += sph[b, 2] * e
+            cnt += e
+        gx /= cnt
+        gy /= cnt
+        gz /= cnt
+        grad = 0.0
+        for b in range(b0, b1):
+            v = math.sqrt((sph[b, 0] - gx) ** 2 + (sph[b, 1] - gy) ** 2
+                          + (sph[b, 2] - gz) ** 2) + sph[b, 3]
+            if v > grad:
+                grad = v
+        nc = 0
         for q in range(nn):
             j = near[q]
-            if _may_reach(j, bx, by, bz, reach + brad, p0, d, w, lo, hi, c, r, top):
-                if total == buf.shape[0]:
-                    bigger = np.empty(2 * total, dtype=np.int64)
-                    bigger[:total] = buf
-                    buf = bigger
-                buf[total] = j
-                total += 1
-        starts[nb] = s
-        offsets[nb + 1] = total
-        nb += 1
-        s = e
-    starts[nb] = m
-    lists = buf[:total]
-    return starts[:nb + 1], offsets[:nb + 1], lists, nb
+            if _may_reach(j, gx, gy, gz, reach + grad, p0, d, w, lo, hi, c, r, top):
+                coarse_list[nc] = j
+                nc += 1
+        for b in range(b0, b1):
+            for q in range(nc):
+                j = coarse_list[q]
+                if _may_reach(j, sph[b, 0], sph[b, 1], sph[b, 2], reach + sph[b, 3], p0, d, w,
+                              lo, hi, c, r, top):
+                    if total == buf.shape[0]:
+                        bigger = np.empty(2 * total, dtype=np.int64)
+                        bigger[:total] = buf
+                        buf = bigger
+                    buf[total] = j
+                    total += 1
+            offsets[b + 1] = total
+        b0 = b1
+    return bstart[:nb + 1], offsets, buf[:total], nb
 
 
 @njit(cache=True)
@@ -331,10 +411,14 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
         for t in range(starts[b], starts[b + 1]):
             i = idx[order[t]]
             x, y, z = points[i, 0], points[i, 1], points[i, 2]
-            for q in range(offsets[b], offsets[b + 1]):
+            first = offsets[b]
+            for q in range(first, offsets[b + 1]):
                 j = lists[q]
                 if sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) <= lim:
                     out[i] = True
+                    # the bin's next points are likely inside the same sweep: test it first
+                    lists[q] = lists[first]
+                    lists[first] = j
                     break
     return out
 
@@ -364,12 +448,16 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
             i = idx[order[t]]
             x, y, z = points[i, 0], points[i, 1], points[i, 2]
             best = 1e300
-            for q in range(offsets[b], offsets[b + 1]):
+            first = offsets[b]
+            for q in range(first, offsets[b + 1]):
                 j = lists[q]
                 v = sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) - r
                 if v < best:
                     best = v
                     if best <= floor:
+                        # deep inside this sweep: the bin's next points likely too
+                        lists[q] = lists[first]
+                        lists[first] = j
                         break
             if best < floor:
                 best = floor

@@ -28,6 +28,11 @@ MEMBERSHIP_EPS_MM = 1.0e-6
 #: Side of the cubes into which points are binned before their membership
 #: tests, so that each bin tests only the sweeps that can reach it [mm].
 CLUSTER_CELL_MM = 0.2
+#: Bins are grouped into cubes of this many bins a side; a bin's sweeps are
+#: picked from its cube's, which are picked from all (two levels instead of
+#: every bin against every sweep: a finishing raster has ~2,000 sweeps within
+#: a tool's reach) [-].
+CLUSTER_COARSE = 8
 #: A tooth's engagement should span at least this many rotation steps; a
 #: shorter one (a light cut) is recomputed with a finer step ...
 ENGAGEMENT_MIN_STEPS = 16

@@ -21,7 +21,7 @@ import numpy as np
 from nc.path import CutterLocations
 
 from . import constants as K
-from ._kernels import inside_any_sweep_clustered
+from ._kernels import inside_any_sweep_clustered, sweeps_within
 from .bottomview import BottomTemplate, stock_view
 from .engagement import revolution_angles
 from .frames import tool_frame
@@ -192,6 +192,8 @@ class GeometryModel:
         self.theta = revolution_angles(resolution.angle_step_rad, tool.flutes)
         self.bottom = BottomTemplate(tool, self.edges, self.theta, resolution.pixel_mm)
         self._grids = {1: self.bottom.grid}
+        # how far outside the sweeps the finished-surface search measures margins [mm]
+        self._margin_reach = float(self.bottom.reach.max()) + K.MEMBERSHIP_EPS_MM
         seg = np.zeros(len(cl))
         if len(cl) > 1:
             seg[1:] = np.linalg.norm(np.diff(cl.tip, axis=0), axis=1)
@@ -439,7 +441,8 @@ class GeometryModel:
             return PointGeometry(status="no-cut", **base)
         t1, t2 = self._near_sweeps(tip, u, L, fz, z_top)
         # engagement of flute 0 over one revolution
-        eng = self._engagement(tip, frame, interval, t1, f_tooth, z_top)
+        removed = _RemovedMemo(self.tool, t1)
+        eng = self._engagement(tip, frame, interval, removed, f_tooth, z_top)
         if eng is None:
             return PointGeometry(status="no-cut", **base)
         cutting0, weight0, shift0, cl_rev = eng
@@ -470,7 +473,7 @@ class GeometryModel:
             # the same cut with the stock a little thicker along the normal:
             # how the error grows when the correction moves the tool deeper
             delta = K.SENSITIVITY_STEP_MM
-            deeper = self._engagement(tip, frame, interval, t1, f_tooth, z_top + delta,
+            deeper = self._engagement(tip, frame, interval, removed, f_tooth, z_top + delta,
                                       stock_shift=delta * (frame @ gen.normal_world))
             if deeper is not None:
                 sens = (delta, deeper[0], deeper[1].astype(np.float32),
@@ -501,7 +504,8 @@ class GeometryModel:
             return math.inf  # material without a top in view: everything counts
         return (float(fin.max()) - self.bottom.depth_offset_mm) if fin.size else -math.inf
 
-    def _engagement(self, tip, frame, interval, t1, f_tooth, z_top, stock_shift=None):
+    def _engagement(self, tip, frame, interval, removed_by_t1, f_tooth, z_top,
+                    stock_shift=None):
         """Flute 0's engagement: (cutting, weight, shift, cutting distance per rev).
 
         At the resolution's rotation step first; where a tooth's engagement
@@ -511,9 +515,10 @@ class GeometryModel:
         window only: the force pulse must be resolved for its dynamic
         response. ``stock_shift`` (tool frame, [mm]) displaces the stock, as if
         the tool cut that much deeper (for the correction's sensitivity).
+        ``removed_by_t1`` (:class:`_RemovedMemo`) answers whether a sample is
+        inside T1, remembering it for a second call at the same point.
         """
         tool = self.tool
-        c, r, top = tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm
         shift_vec = np.zeros(3) if stock_shift is None else np.asarray(stock_shift, float)
         # micro edges above the highest stock under the tool cannot cut
         edge_ok = self.edges.z <= z_top + self.res.pixel_mm
@@ -530,10 +535,7 @@ class GeometryModel:
             cand = self.bottom.in_stock_local(self.stock, interval, tip, frame,
                                               local - shift_vec)
             idx, local = idx[cand], local[cand]
-            world = tip + local @ frame
-            removed = inside_any_sweep_clustered(world, np.ones(idx.size, dtype=np.bool_),
-                                                 *t1, c, r, top, K.MEMBERSHIP_EPS_MM,
-                                                 K.CLUSTER_CELL_MM)
+            removed = removed_by_t1(("grid", factor), idx, tip + local @ frame)
             cutting0 = np.zeros(n * m, dtype=bool)
             cutting0[idx[~removed]] = True
             cutting0 = cutting0.reshape(n, m)
@@ -551,8 +553,8 @@ class GeometryModel:
             fine = np.arange(n * q)
             window = engaged[np.round(fine / q).astype(int) % n]
             factor *= q
-        weight0, shift0 = self._step_weights(grid, cutting0, interval, tip, frame, t1,
-                                             shift_vec)
+        weight0, shift0 = self._step_weights(grid, cutting0, interval, tip, frame,
+                                             removed_by_t1, factor, shift_vec)
         feed_step = (frame @ (f_tooth * tool.flutes)) / n
         i, j = np.nonzero(weight0)
         step_len = np.linalg.norm(grid.rotation_step[i, j] + feed_step, axis=-1)
@@ -561,7 +563,8 @@ class GeometryModel:
             return None  # only slivers thinner than the sub-samples: nothing measurable
         return weight0 > 0, weight0, shift0, cl_rev
 
-    def _step_weights(self, grid, cutting0, interval, tip, frame, t1, stock_shift):
+    def _step_weights(self, grid, cutting0, interval, tip, frame, removed_by_t1, factor,
+                      stock_shift):
         """Share of each sample's cell (rotation step x micro edge) that cuts, (n, m),
         and the rotation offset of that share's centroid [rad], (n, m).
 
@@ -599,10 +602,11 @@ class GeometryModel:
         phi = ang - tool.helix_lag(z)
         local = np.stack([rho * np.sin(phi), rho * np.cos(phi), z], axis=-1).reshape(-1, 3)
         inside = bt.in_stock_local(self.stock, interval, tip, frame, local - stock_shift)
-        pts = tip + local @ frame
-        removed = inside_any_sweep_clustered(pts, inside, *t1, tool.core_radius_mm,
-                                             tool.corner_radius_mm, tool.flute_length_mm,
-                                             K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
+        # sub-sample keys: the cell, then the sub-sample within it
+        keys = ((i * m + j)[:, None] * (st * se) + np.arange(st * se)[None, :]).ravel()
+        removed = np.zeros(inside.size, dtype=bool)
+        removed[inside] = removed_by_t1(("sub", factor), keys[inside],
+                                        tip + local[inside] @ frame)
         cut = (inside & ~removed).reshape(i.size, st, se)
         count = cut.sum(axis=(1, 2))
         weight[i, j] = count / (st * se)
@@ -620,6 +624,15 @@ class GeometryModel:
         ext = R * np.sqrt(np.clip(1 - u * u, 0, None)) + 2 * self.res.pixel_mm
         lo, hi = np.minimum(tip, top) - ext, np.maximum(tip, top) + ext
         ids = self.sweeps.query(lo, hi)
+        if ids.size:
+            # only sweeps that may reach the ball around everything this point tests
+            # (the tool below ``height``, and the finished-surface margins beyond it)
+            sw = self.sweeps
+            mid_axis = tip + 0.5 * height * u
+            ball = math.hypot(R + 2 * self.res.pixel_mm, 0.5 * height)
+            ids = ids[sweeps_within(ids, *mid_axis, ball + self._margin_reach, sw.p0, sw.d,
+                                    sw.w, sw.lo, sw.hi, sw.core_radius_mm,
+                                    sw.corner_radius_mm, sw.top_mm)]
         if ids.size:
             centre = tip + R * u
             mid = self.sweeps.p0[ids] + 0.5 * self.sweeps.d[ids]
@@ -656,6 +669,49 @@ class GeometryModel:
             if gen is not None:
                 return gen
         return None
+
+
+class _RemovedMemo:
+    """Which tool-frame samples of one prediction point are inside T1, remembered.
+
+    The engagement and its sensitivity pass (the stock a little thicker) test
+    the same samples against the same sweeps; only the stock moves. Each
+    sample is tested once (:func:`~errpred._kernels.inside_any_sweep_clustered`,
+    exact per point, so the answer does not depend on what else is asked with it).
+
+    Parameters
+    ----------
+    tool : Tool
+    t1 : tuple
+        The point's T1 sweeps ``(p0, d, w, lo, hi)``.
+    """
+
+    def __init__(self, tool: Tool, t1) -> None:
+        self._args = (*t1, tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm,
+                      K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
+        self._known: dict = {}
+
+    def __call__(self, tag, keys: np.ndarray, world: np.ndarray) -> np.ndarray:
+        """Inside T1? for the samples ``keys`` (int, unique per ``tag``) at ``world`` (k, 3)."""
+        keys = np.asarray(keys, dtype=np.int64)
+        k_known, v_known = self._known.get(tag, (None, None))
+        out = np.zeros(keys.size, dtype=bool)
+        miss = np.ones(keys.size, dtype=bool)
+        if k_known is not None and k_known.size:
+            pos = np.minimum(np.searchsorted(k_known, keys), k_known.size - 1)
+            hit = k_known[pos] == keys
+            out[hit] = v_known[pos[hit]]
+            miss = ~hit
+        if miss.any():
+            w = np.ascontiguousarray(world[miss])
+            new = inside_any_sweep_clustered(w, np.ones(w.shape[0], dtype=np.bool_),
+                                             *self._args)
+            out[miss] = new
+            k_all = keys[miss] if k_known is None else np.concatenate([k_known, keys[miss]])
+            v_all = new if v_known is None else np.concatenate([v_known, new])
+            order = np.argsort(k_all, kind="stable")
+            self._known[tag] = (k_all[order], v_all[order])
+        return out
 
 
 def _generation(tool: Tool, xyz, phi, kappa, frame, tip) -> GenerationPoint:
