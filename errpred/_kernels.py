@@ -26,7 +26,8 @@ from numba import njit
 
 from .constants import CLUSTER_COARSE
 
-__all__ = ["inside_any_sweep", "sweep_distance", "sweeps_within", "GOLDEN_ITERATIONS"]
+__all__ = ["inside_any_sweep", "sweep_distance", "sweeps_within", "interval_membership",
+           "GOLDEN_ITERATIONS"]
 
 #: Golden-section iterations for non-ball tools: the bracket shrinks to
 #: 0.618^40 = 4e-9 of the segment, far below any micrometre.
@@ -465,3 +466,55 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
                 best = -floor
             out[i] = best
     return out
+
+
+@njit(cache=True, inline="always")
+def _bilinear(a, i0, j0, tx, ty):
+    v00, v01 = a[i0, j0], a[i0, j0 + 1]
+    v10, v11 = a[i0 + 1, j0], a[i0 + 1, j0 + 1]
+    out = (1 - ty) * ((1 - tx) * v00 + tx * v01) + ty * ((1 - tx) * v10 + tx * v11)
+    if math.isnan(out):
+        return v00  # all-same infinities
+    return out
+
+
+@njit(cache=True)
+def interval_membership(xyz, top, bottom, smooth_top, smooth_bottom, pixel, depth_offset, eps):
+    """Stock membership of tool-frame points from a view's material interval.
+
+    The interval (``bottom``, ``top`` depths per pixel centre, (n, n)) is
+    interpolated bilinearly between the four centres around each point;
+    points in a cell that is not smooth on both sides (a steep wall, a
+    silhouette) are marked unsure, for the mesh to decide
+    (:meth:`errpred.bottomview.BottomTemplate.in_stock_local`).
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (k, 3) [mm]
+        Tool-frame points (depth along the axis is ``z + depth_offset``).
+    top, bottom : ndarray, shape (n, n) [mm]
+    smooth_top, smooth_bottom : ndarray, shape (n - 1, n - 1), bool
+    pixel, depth_offset, eps : float [mm]
+
+    Returns
+    -------
+    inside, unsure : ndarray, shape (k,), bool
+    """
+    k = xyz.shape[0]
+    n = top.shape[0]
+    inside = np.zeros(k, dtype=np.bool_)
+    unsure = np.zeros(k, dtype=np.bool_)
+    half = 0.5 * n * pixel
+    for q in range(k):
+        fx = (xyz[q, 0] + half) / pixel - 0.5
+        fy = (xyz[q, 1] + half) / pixel - 0.5
+        j0 = min(max(int(math.floor(fx)), 0), n - 2)
+        i0 = min(max(int(math.floor(fy)), 0), n - 2)
+        tx = min(max(fx - j0, 0.0), 1.0)
+        ty = min(max(fy - i0, 0.0), 1.0)
+        depth = xyz[q, 2] + depth_offset
+        t = _bilinear(top, i0, j0, tx, ty)
+        b = _bilinear(bottom, i0, j0, tx, ty)
+        inside[q] = (b - eps <= depth) and (depth <= t + eps)
+        unsure[q] = not (smooth_top[i0, j0] and smooth_bottom[i0, j0])
+    return inside, unsure

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import constants as K
-from ._kernels import inside_any_sweep_clustered, sweep_margin_clustered
+from ._kernels import inside_any_sweep_clustered, interval_membership, sweep_margin_clustered
 from .tool import MicroEdges, Tool
 
 __all__ = ["BottomTemplate", "Finished", "SampleGrid", "StockView", "stock_view"]
@@ -193,28 +193,10 @@ class BottomTemplate:
             lo, hi = stock.bounds
             e = K.MEMBERSHIP_EPS_MM
             return np.all((world >= lo - e) & (world <= hi + e), axis=1)
-        p, n = self.pixel_mm, self.n
-        fx = (xyz_local[:, 0] + 0.5 * n * p) / p - 0.5
-        fy = (xyz_local[:, 1] + 0.5 * n * p) / p - 0.5
-        j0 = np.clip(np.floor(fx).astype(np.int64), 0, n - 2)
-        i0 = np.clip(np.floor(fy).astype(np.int64), 0, n - 2)
-        tx = np.clip(fx - j0, 0.0, 1.0)
-        ty = np.clip(fy - i0, 0.0, 1.0)
-        depth = xyz_local[:, 2] + self.depth_offset_mm
-        e = K.MEMBERSHIP_EPS_MM
-
-        def interp(a):
-            v00, v01 = a[i0, j0], a[i0, j0 + 1]
-            v10, v11 = a[i0 + 1, j0], a[i0 + 1, j0 + 1]
-            with np.errstate(invalid="ignore"):
-                out = ((1 - ty) * ((1 - tx) * v00 + tx * v01)
-                       + ty * ((1 - tx) * v10 + tx * v11))
-            return np.where(np.isnan(out), v00, out)  # all-same infinities
-
-        top = interp(interval.top)
-        bottom = interp(interval.bottom)
-        inside = (bottom - e <= depth) & (depth <= top + e)
-        unsure = ~(interval.smooth_top[i0, j0] & interval.smooth_bottom[i0, j0])
+        inside, unsure = interval_membership(
+            np.ascontiguousarray(xyz_local, dtype=float), interval.top, interval.bottom,
+            interval.smooth_top, interval.smooth_bottom, self.pixel_mm, self.depth_offset_mm,
+            K.MEMBERSHIP_EPS_MM)
         if unsure.any():
             world = tip + xyz_local[unsure] @ frame
             inside[unsure] = stock.contains(world)

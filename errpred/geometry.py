@@ -21,7 +21,7 @@ import numpy as np
 from nc.path import CutterLocations
 
 from . import constants as K
-from ._kernels import inside_any_sweep_clustered, sweeps_within
+from ._kernels import inside_any_sweep_clustered
 from .bottomview import BottomTemplate, stock_view
 from .engagement import revolution_angles
 from .frames import tool_frame
@@ -623,22 +623,12 @@ class GeometryModel:
         top = tip + height * u
         ext = R * np.sqrt(np.clip(1 - u * u, 0, None)) + 2 * self.res.pixel_mm
         lo, hi = np.minimum(tip, top) - ext, np.maximum(tip, top) + ext
-        ids = self.sweeps.query(lo, hi)
-        if ids.size:
-            # only sweeps that may reach the ball around everything this point tests
-            # (the tool below ``height``, and the finished-surface margins beyond it)
-            sw = self.sweeps
-            mid_axis = tip + 0.5 * height * u
-            ball = math.hypot(R + 2 * self.res.pixel_mm, 0.5 * height)
-            ids = ids[sweeps_within(ids, *mid_axis, ball + self._margin_reach, sw.p0, sw.d,
-                                    sw.w, sw.lo, sw.hi, sw.core_radius_mm,
-                                    sw.corner_radius_mm, sw.top_mm)]
-        if ids.size:
-            centre = tip + R * u
-            mid = self.sweeps.p0[ids] + 0.5 * self.sweeps.d[ids]
-            ids = ids[np.argsort(np.sum((mid - centre) ** 2, axis=1), kind="stable")]
-        return (self.sweeps.clipped(ids, -math.inf, L - fz),
-                self.sweeps.clipped(ids, L + fz, math.inf))
+        mid_axis = tip + 0.5 * height * u
+        # only sweeps that may reach the ball around everything this point tests
+        # (the tool below ``height``, and the finished-surface margins beyond it)
+        ball = math.hypot(R + 2 * self.res.pixel_mm, 0.5 * height)
+        return self.sweeps.near(lo, hi, mid_axis, ball + self._margin_reach, tip + R * u,
+                                L - fz, L + fz)
 
     def _side_view(self, tip, frame, fin, cutting0, t1, t2) -> GenerationPoint | None:
         """Finished surface seen from the side where the cutting region lies."""

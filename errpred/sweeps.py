@@ -25,6 +25,7 @@ from numba import njit
 from nc.path import CutterLocations
 
 from . import constants as K
+from ._kernels import sweeps_within
 from .tool import Tool
 
 __all__ = ["Sweeps", "build_sweeps"]
@@ -66,6 +67,91 @@ def _grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark):
     for t in range(count):
         mark[res[t]] = False
     return res
+
+
+@njit(cache=True)
+def _query(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi):
+    """Ids (sorted) of the sweeps whose bounds overlap the box [lo, hi]."""
+    mark = np.zeros(lo_all.shape[0], dtype=np.bool_)
+    ids = _grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark)
+    keep = np.empty(ids.shape[0], dtype=np.bool_)
+    for t in range(ids.shape[0]):
+        j = ids[t]
+        keep[t] = (lo_all[j, 0] <= hi[0] and lo_all[j, 1] <= hi[1] and lo_all[j, 2] <= hi[2]
+                   and hi_all[j, 0] >= lo[0] and hi_all[j, 1] >= lo[1]
+                   and hi_all[j, 2] >= lo[2])
+    return np.sort(ids[keep])
+
+
+@njit(cache=True)
+def _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start, path_end, path_lo, path_hi,
+          radius, height):
+    """The parts of sweeps ``ids`` between two path lengths (:meth:`Sweeps.clipped`)."""
+    k = ids.shape[0]
+    p0 = np.empty((k, 3))
+    d = np.empty((k, 3))
+    w = np.empty((k, 3))
+    lo = np.empty((k, 3))
+    hi = np.empty((k, 3))
+    n = 0
+    for t in range(k):
+        j = ids[t]
+        ps, pe = path_start[j], path_end[j]
+        length = pe - ps
+        if length > 0:
+            a = (path_lo - ps) / length
+            b = (path_hi - ps) / length
+        else:
+            a = 0.0 if ps >= path_lo else 1.0
+            b = 1.0 if pe <= path_hi else 0.0
+        a = min(max(a, 0.0), 1.0)
+        b = min(max(b, 0.0), 1.0)
+        if not (b > a or (length == 0 and ps >= path_lo and pe <= path_hi)):
+            continue
+        for c in range(3):
+            p0[n, c] = p0_all[j, c] + a * d_all[j, c]
+            d[n, c] = (b - a) * d_all[j, c]
+            w[n, c] = w_all[j, c]
+            lo[n, c] = lo_all[j, c]
+            hi[n, c] = hi_all[j, c]
+        if a > 0 or b < 1:
+            for c in range(3):
+                ext = radius * math.sqrt(max(1.0 - w[n, c] * w[n, c], 0.0))
+                s0 = p0[n, c]
+                q0 = s0 + height * w[n, c]
+                s1 = p0[n, c] + d[n, c]
+                q1 = s1 + height * w[n, c]
+                lo[n, c] = min(min(s0, q0) - ext, min(s1, q1) - ext)
+                hi[n, c] = max(max(s0, q0) + ext, max(s1, q1) + ext)
+        n += 1
+    return p0[:n], d[:n], w[:n], lo[:n], hi[:n]
+
+
+@njit(cache=True)
+def _near(cell_start, cell_items, shape, origin, cell, p0_all, d_all, w_all, lo_all, hi_all,
+          path_start, path_end, c, r, top, lo, hi, centre, reach, order_from, t1_end,
+          t2_start):
+    """:meth:`Sweeps.near` in one call."""
+    ids = _query(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi)
+    keep = sweeps_within(ids, centre[0], centre[1], centre[2], reach, p0_all, d_all, w_all,
+                         lo_all, hi_all, c, r, top)
+    ids = ids[keep]
+    dist = np.empty(ids.shape[0])
+    for t in range(ids.shape[0]):
+        j = ids[t]
+        v = 0.0
+        for a in range(3):
+            e = p0_all[j, a] + 0.5 * d_all[j, a] - order_from[a]
+            v += e * e
+        dist[t] = v
+    ids = ids[np.argsort(dist, kind="mergesort")]
+    radius = c + r
+    height = top + r
+    t1 = _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start, path_end, -np.inf,
+               t1_end, radius, height)
+    t2 = _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start, path_end, t2_start,
+               np.inf, radius, height)
+    return t1, t2
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,6 +200,10 @@ class Sweeps:
             "p0", "d", "w", "lo", "hi", "path_start", "path_end", "cl_index",
             "cell_start", "cell_items"))
 
+    def _index(self):
+        return (self.cell_start, self.cell_items, self.grid_shape, self.grid_origin,
+                self.cell_mm)
+
     def query(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """Ids of the sweeps whose bounds may overlap the box ``[lo, hi]`` [mm].
 
@@ -122,12 +212,38 @@ class Sweeps:
         """
         if len(self) == 0:
             return np.zeros(0, dtype=np.int64)
-        mark = np.zeros(len(self), dtype=np.bool_)
-        ids = _grid_query(self.cell_start, self.cell_items, self.grid_shape,
-                          self.grid_origin, self.cell_mm, np.asarray(lo, float),
-                          np.asarray(hi, float), mark)
-        ok = np.all((self.lo[ids] <= hi) & (self.hi[ids] >= lo), axis=1)
-        return np.sort(ids[ok])
+        return _query(*self._index(), self.lo, self.hi, np.asarray(lo, float),
+                      np.asarray(hi, float))
+
+    def near(self, lo, hi, centre, reach: float, order_from, t1_end: float,
+             t2_start: float):
+        """T1 and T2 near a prediction point, in one call.
+
+        The sweeps whose bounds overlap the box ``[lo, hi]`` and that may come
+        within ``reach`` of ``centre`` (``errpred._kernels.sweeps_within``),
+        nearest first (their middles' distance from ``order_from``), clipped
+        to the path before ``t1_end`` and after ``t2_start`` (:meth:`clipped`).
+
+        Parameters
+        ----------
+        lo, hi, centre, order_from : array_like, shape (3,) [mm]
+        reach : float [mm]
+        t1_end, t2_start : float [mm]
+            Path lengths.
+
+        Returns
+        -------
+        t1, t2 : tuple of ndarray
+            ``(p0, d, w, lo, hi)`` each, as :meth:`clipped` returns.
+        """
+        if len(self) == 0:
+            empty = tuple(np.zeros((0, 3)) for _ in range(5))
+            return empty, empty
+        return _near(*self._index(), self.p0, self.d, self.w, self.lo, self.hi,
+                     self.path_start, self.path_end, self.core_radius_mm,
+                     self.corner_radius_mm, self.top_mm, np.asarray(lo, float),
+                     np.asarray(hi, float), np.asarray(centre, float), float(reach),
+                     np.asarray(order_from, float), float(t1_end), float(t2_start))
 
     def clipped(self, ids: np.ndarray, path_lo: float, path_hi: float):
         """The parts of sweeps ``ids`` between two path lengths.
@@ -144,28 +260,10 @@ class Sweeps:
         p0, d, w, lo, hi : ndarray, shape (k, 3)
             The kept pieces, in the order of ``ids`` (empty pieces dropped).
         """
-        ps, pe = self.path_start[ids], self.path_end[ids]
-        length = pe - ps
-        with np.errstate(divide="ignore", invalid="ignore"):
-            a = np.where(length > 0, (path_lo - ps) / length, np.where(ps >= path_lo, 0.0, 1.0))
-            b = np.where(length > 0, (path_hi - ps) / length, np.where(pe <= path_hi, 1.0, 0.0))
-        a = np.clip(a, 0.0, 1.0)
-        b = np.clip(b, 0.0, 1.0)
-        keep = (b > a) | ((length == 0) & (ps >= path_lo) & (pe <= path_hi))
-        ids, a, b = ids[keep], a[keep], b[keep]
-        p0 = self.p0[ids] + a[:, None] * self.d[ids]
-        d = (b - a)[:, None] * self.d[ids]
-        w = self.w[ids]
-        partial = (a > 0) | (b < 1)
-        lo, hi = self.lo[ids].copy(), self.hi[ids].copy()
-        if np.any(partial):
-            R = self.core_radius_mm + self.corner_radius_mm
-            h = self.top_mm + self.corner_radius_mm
-            l0, h0 = _cylinder_bounds(p0[partial], w[partial], h, R)
-            l1, h1 = _cylinder_bounds(p0[partial] + d[partial], w[partial], h, R)
-            lo[partial], hi[partial] = np.minimum(l0, l1), np.maximum(h0, h1)
-        return (np.ascontiguousarray(p0), np.ascontiguousarray(d), np.ascontiguousarray(w),
-                lo, hi)
+        R = self.core_radius_mm + self.corner_radius_mm
+        h = self.top_mm + self.corner_radius_mm
+        return _clip(np.asarray(ids, dtype=np.int64), self.p0, self.d, self.w, self.lo, self.hi,
+                     self.path_start, self.path_end, float(path_lo), float(path_hi), R, h)
 
 
 def build_sweeps(cl: CutterLocations, tool: Tool, *,

@@ -327,8 +327,16 @@ def _dist2_point_triangle(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
 
 
 @njit(**_JIT)
-def contains_mesh(V, F, glo, cell, dims, offsets, items, tri_cl, tri_lo, tri_hi, big,
-                  points, eps):
+def _column(glo, cell, dims, x, a):
+    """Grid column index of coordinate x along axis a, or -1 outside the grid."""
+    top = glo[a] + dims[a] * cell
+    if x < glo[a] or x > top:
+        return -1
+    return min(max(int(np.floor((x - glo[a]) / cell)), 0), dims[a] - 1)
+
+
+@njit(**_JIT)
+def contains_mesh(V, F, glo, cell, dims, col_offsets, col_items, tri_lo, tri_hi, points, eps):
     """Inside test of points by a vertical ray (+Z) each: a one-pixel view per point.
 
     The ray of point ``p`` starts at depth ``-eps`` below ``p``; the point is
@@ -336,69 +344,82 @@ def contains_mesh(V, F, glo, cell, dims, offsets, items, tri_cl, tri_lo, tri_hi,
     front face within ``eps`` of the point, or when any triangle is within
     ``eps`` of it (on the boundary, also on walls parallel to the ray). Same
     fill rule as the rasterizer, so shared edges are crossed exactly once.
+    The triangles come from the grid's (x, y) columns (``col_offsets``,
+    ``col_items``: every triangle whose bounds touch the column).
     """
     n = points.shape[0]
     res = np.zeros(n, dtype=np.bool_)
-    qlo = np.empty(3)
-    qhi = np.empty(3)
-    ztop = glo[2] + dims[2] * cell
+    d1 = dims[1]
     for k in range(n):
         px, py, pz = points[k, 0], points[k, 1], points[k, 2]
-        qlo[0] = px
-        qhi[0] = px
-        qlo[1] = py
-        qhi[1] = py
-        qlo[2] = pz - eps
-        qhi[2] = max(ztop, pz)
-        ids = grid_query(glo, cell, dims, offsets, items, tri_cl, tri_lo, tri_hi, big, qlo, qhi)
         first_front = np.inf
         first_back = np.inf
-        for m in range(ids.shape[0]):
-            t = ids[m]
-            a, b, c = F[t, 0], F[t, 1], F[t, 2]
-            x0, y0, z0 = V[a, 0] - px, V[a, 1] - py, V[a, 2] - pz
-            x1, y1, z1 = V[b, 0] - px, V[b, 1] - py, V[b, 2] - pz
-            x2, y2, z2 = V[c, 0] - px, V[c, 1] - py, V[c, 2] - pz
-            area = _edge(x0, y0, x1, y1, x2, y2)
-            if area == 0.0:
-                continue
-            front = area < 0.0
-            if area < 0.0:
-                x1, y1, z1, x2, y2, z2 = x2, y2, z2, x1, y1, z1
-            w0 = _edge(x1, y1, x2, y2, 0.0, 0.0)
-            if not _owns(w0, x2 - x1, y2 - y1):
-                continue
-            w1 = _edge(x2, y2, x0, y0, 0.0, 0.0)
-            if not _owns(w1, x0 - x2, y0 - y2):
-                continue
-            w2 = _edge(x0, y0, x1, y1, 0.0, 0.0)
-            if not _owns(w2, x1 - x0, y1 - y0):
-                continue
-            s = w0 + w1 + w2
-            if s <= 0.0:
-                continue
-            z = (w0 * z0 + w1 * z1 + w2 * z2) / s
-            if z < -eps:
-                continue
-            if front:
-                if z < first_front:
-                    first_front = z
-            elif z < first_back:
-                first_back = z
+        ix = _column(glo, cell, dims, px, 0)
+        iy = _column(glo, cell, dims, py, 1)
+        if ix >= 0 and iy >= 0:
+            col = ix * d1 + iy
+            for m in range(col_offsets[col], col_offsets[col + 1]):
+                t = col_items[m]
+                if (tri_hi[t, 2] < pz - eps or tri_lo[t, 0] > px or tri_hi[t, 0] < px
+                        or tri_lo[t, 1] > py or tri_hi[t, 1] < py):
+                    continue
+                a, b, c = F[t, 0], F[t, 1], F[t, 2]
+                x0, y0, z0 = V[a, 0] - px, V[a, 1] - py, V[a, 2] - pz
+                x1, y1, z1 = V[b, 0] - px, V[b, 1] - py, V[b, 2] - pz
+                x2, y2, z2 = V[c, 0] - px, V[c, 1] - py, V[c, 2] - pz
+                area = _edge(x0, y0, x1, y1, x2, y2)
+                if area == 0.0:
+                    continue
+                front = area < 0.0
+                if area < 0.0:
+                    x1, y1, z1, x2, y2, z2 = x2, y2, z2, x1, y1, z1
+                w0 = _edge(x1, y1, x2, y2, 0.0, 0.0)
+                if not _owns(w0, x2 - x1, y2 - y1):
+                    continue
+                w1 = _edge(x2, y2, x0, y0, 0.0, 0.0)
+                if not _owns(w1, x0 - x2, y0 - y2):
+                    continue
+                w2 = _edge(x0, y0, x1, y1, 0.0, 0.0)
+                if not _owns(w2, x1 - x0, y1 - y0):
+                    continue
+                s = w0 + w1 + w2
+                if s <= 0.0:
+                    continue
+                z = (w0 * z0 + w1 * z1 + w2 * z2) / s
+                if z < -eps:
+                    continue
+                if front:
+                    if z < first_front:
+                        first_front = z
+                elif z < first_back:
+                    first_back = z
         inside = first_back < first_front or first_front <= eps
         if not inside and eps > 0.0:  # on the boundary within eps (e.g. a wall along the ray)
-            for a in range(3):
-                qlo[a] = points[k, a] - eps
-                qhi[a] = points[k, a] + eps
-            near = grid_query(glo, cell, dims, offsets, items, tri_cl, tri_lo, tri_hi, big,
-                              qlo, qhi)
-            for m in range(near.shape[0]):
-                t = near[m]
-                a, b, c = F[t, 0], F[t, 1], F[t, 2]
-                if _dist2_point_triangle(px, py, pz, V[a, 0], V[a, 1], V[a, 2],
-                                         V[b, 0], V[b, 1], V[b, 2],
-                                         V[c, 0], V[c, 1], V[c, 2]) <= eps * eps:
-                    inside = True
-                    break
+            x0c = _column(glo, cell, dims, max(px - eps, glo[0]), 0)
+            x1c = _column(glo, cell, dims, min(px + eps, glo[0] + dims[0] * cell), 0)
+            y0c = _column(glo, cell, dims, max(py - eps, glo[1]), 1)
+            y1c = _column(glo, cell, dims, min(py + eps, glo[1] + dims[1] * cell), 1)
+            near_grid = (px + eps >= glo[0] and px - eps <= glo[0] + dims[0] * cell
+                         and py + eps >= glo[1] and py - eps <= glo[1] + dims[1] * cell)
+            if near_grid:
+                for cx in range(x0c, x1c + 1):
+                    for cy in range(y0c, y1c + 1):
+                        col = cx * d1 + cy
+                        for m in range(col_offsets[col], col_offsets[col + 1]):
+                            t = col_items[m]
+                            if (tri_lo[t, 0] > px + eps or tri_hi[t, 0] < px - eps
+                                    or tri_lo[t, 1] > py + eps or tri_hi[t, 1] < py - eps
+                                    or tri_lo[t, 2] > pz + eps or tri_hi[t, 2] < pz - eps):
+                                continue
+                            a, b, c = F[t, 0], F[t, 1], F[t, 2]
+                            if _dist2_point_triangle(px, py, pz, V[a, 0], V[a, 1], V[a, 2],
+                                                     V[b, 0], V[b, 1], V[b, 2],
+                                                     V[c, 0], V[c, 1], V[c, 2]) <= eps * eps:
+                                inside = True
+                                break
+                        if inside:
+                            break
+                    if inside:
+                        break
         res[k] = inside
     return res

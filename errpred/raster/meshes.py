@@ -102,6 +102,18 @@ class TriangleGrid:
         self.offsets = np.zeros(ncell + 1, dtype=np.int64)
         np.cumsum(np.bincount(cells, minlength=ncell), out=self.offsets[1:])
         self.n_triangles = nt
+        # the same cells seen from above: every triangle in each (x, y) column its
+        # bounds touch, for vertical rays (Stock.contains)
+        span_xy = ch[:, :2] - cl[:, :2] + 1
+        cnt = span_xy[:, 0] * span_xy[:, 1]
+        tri = np.repeat(np.arange(nt, dtype=np.int64), cnt)
+        k = np.arange(int(cnt.sum()), dtype=np.int64) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        cols = (cl[tri, 0] + k // span_xy[tri, 1]) * dims[1] + (cl[tri, 1] + k % span_xy[tri, 1])
+        order = np.argsort(cols, kind="stable")
+        self.column_items = np.ascontiguousarray(tri[order])
+        ncol = int(dims[0] * dims[1])
+        self.column_offsets = np.zeros(ncol + 1, dtype=np.int64)
+        np.cumsum(np.bincount(cols, minlength=ncol), out=self.column_offsets[1:])
 
     def query(self, lo, hi) -> np.ndarray:
         """Triangle ids (int64, unsorted) whose bounding boxes overlap [lo, hi]."""
@@ -113,6 +125,10 @@ class TriangleGrid:
     def _args(self):
         return (self.glo, self.cell, self.dims, self.offsets, self.items, self.tri_cl,
                 self.tri_lo, self.tri_hi, self.big)
+
+    def _column_args(self):
+        return (self.glo, self.cell, self.dims, self.column_offsets, self.column_items,
+                self.tri_lo, self.tri_hi)
 
 
 def _check_mesh(mesh, name: str, allow_open: bool):
@@ -293,7 +309,7 @@ class Stock:
         if self.is_box:
             lo, hi = self.bounds
             return np.all((p >= lo - e) & (p <= hi + e), axis=1)
-        return KR.contains_mesh(self.vertices, self.faces, *self.grid._args(), p, e)
+        return KR.contains_mesh(self.vertices, self.faces, *self.grid._column_args(), p, e)
 
 
 def _box_interval(bounds, view: View, dmin: float, dmax: float, mask):
