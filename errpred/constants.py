@@ -33,6 +33,15 @@ CLUSTER_CELL_MM = 0.2
 #: every bin against every sweep: a finishing raster has ~2,000 sweeps within
 #: a tool's reach) [-].
 CLUSTER_COARSE = 8
+#: Stock membership by vertical rays looks up the triangles over a point in a
+#: grid of (x, y) columns: at most this many columns along the longer side
+#: [-] ...
+COLUMNS_PER_AXIS = 512
+#: ... coarsened until no more than this many (triangle, column) entries are
+#: listed (8 bytes each: 16 MB) [-]. A ray then tests the few triangles above
+#: its column (mold-ball stock: 2.2 -> see bench; a coarse 3-d grid cell put
+#: ~950 triangles in every column of the wall-radius stock).
+COLUMN_ENTRIES = 2_000_000
 #: A tooth's engagement should span at least this many rotation steps; a
 #: shorter one (a light cut) is recomputed with a finer step ...
 ENGAGEMENT_MIN_STEPS = 16

@@ -155,6 +155,25 @@ class PointGeometry:
     finished_pixels: int = 0
     notes: tuple[str, ...] = field(default_factory=tuple)
 
+    def __getstate__(self) -> dict:
+        # the per-revolution arrays are mostly zero rows (a refined step outside the
+        # engaged window): ship the rows with anything in them (workers -> stage 2)
+        state = dict(self.__dict__)
+        for name in ("cutting0", "weight0", "shift0"):
+            state[name] = _pack_rows(state[name])
+        if state["sensitivity"] is not None:
+            delta, *arrays = state["sensitivity"]
+            state["sensitivity"] = (delta, *(_pack_rows(a) for a in arrays))
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        for name in ("cutting0", "weight0", "shift0"):
+            state[name] = _unpack_rows(state[name])
+        if state["sensitivity"] is not None:
+            delta, *arrays = state["sensitivity"]
+            state["sensitivity"] = (delta, *(_unpack_rows(a) for a in arrays))
+        self.__dict__.update(state)
+
     @property
     def cuts(self) -> bool:
         """Whether the point removes material (known after stage 1)."""
@@ -720,6 +739,24 @@ def _generation(tool: Tool, xyz, phi, kappa, frame, tip) -> GenerationPoint:
     return GenerationPoint(theta_rad=theta, phi_rad=phi_m, kappa_rad=kappa_m, point_tool=pt,
                            point_world=tip + pt @ frame, normal_world=n_tool @ frame,
                            pixels=int(xyz.shape[0]), **strip)
+
+
+def _pack_rows(a):
+    """A 2-d array as (shape, dtype, indices of its non-zero rows, those rows)."""
+    if a is None or a.ndim != 2:
+        return a
+    rows = np.flatnonzero(a.any(axis=1))
+    return ("rows", a.shape, a.dtype.str, rows, np.ascontiguousarray(a[rows]))
+
+
+def _unpack_rows(p):
+    """The array :func:`_pack_rows` packed."""
+    if not (isinstance(p, tuple) and len(p) == 5 and isinstance(p[0], str) and p[0] == "rows"):
+        return p
+    _, shape, dtype, rows, data = p
+    a = np.zeros(shape, dtype=np.dtype(dtype))
+    a[rows] = data
+    return a
 
 
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:

@@ -184,10 +184,12 @@ class Predictor:
             finally:
                 client.cancel(futures)
             return
-        if workers <= 1 or len(blocks) < 2 * chunk:
+        if workers <= 1 or len(blocks) < 2 * workers:
             for b in blocks:
                 yield self.model.geometry(b)
             return
+        # at least four chunks a worker, so the last ones do not leave a worker idle
+        chunk = max(1, min(chunk, -(-len(blocks) // (4 * workers))))
         chunks = [blocks[i:i + chunk] for i in range(0, len(blocks), chunk)]
         import multiprocessing as mp
 

@@ -30,6 +30,7 @@ import os
 
 import numpy as np
 
+from ..constants import COLUMN_ENTRIES, COLUMNS_PER_AXIS
 from . import _kernels as KR
 from .camera import View
 from .depth import _NO_MASK, StockInterval, rasterize_interval
@@ -102,16 +103,31 @@ class TriangleGrid:
         self.offsets = np.zeros(ncell + 1, dtype=np.int64)
         np.cumsum(np.bincount(cells, minlength=ncell), out=self.offsets[1:])
         self.n_triangles = nt
-        # the same cells seen from above: every triangle in each (x, y) column its
-        # bounds touch, for vertical rays (Stock.contains)
-        span_xy = ch[:, :2] - cl[:, :2] + 1
-        cnt = span_xy[:, 0] * span_xy[:, 1]
+        # columns seen from above: every triangle in each (x, y) column its bounds
+        # touch, for vertical rays (Stock.contains); their own cell size, as fine as
+        # COLUMN_ENTRIES allows (a ray then meets only the triangles over its column)
+        col_cell = max(float(ext[:2].max()) / COLUMNS_PER_AXIS, scale * 1e-6)
+        for _ in range(60):
+            col_dims = np.maximum(np.ceil(ext[:2] / col_cell), 1.0).astype(np.int64)
+            hi_col = (col_dims - 1).astype(float)
+            ccl = np.clip(np.floor((self.tri_lo[:, :2] - glo[:2]) / col_cell), 0.0,
+                          hi_col).astype(np.int64)
+            cch = np.clip(np.floor((self.tri_hi[:, :2] - glo[:2]) / col_cell), 0.0,
+                          hi_col).astype(np.int64)
+            span_xy = cch - ccl + 1
+            cnt = span_xy[:, 0] * span_xy[:, 1]
+            if int(cnt.sum()) <= COLUMN_ENTRIES:
+                break
+            col_cell *= 1.25
         tri = np.repeat(np.arange(nt, dtype=np.int64), cnt)
         k = np.arange(int(cnt.sum()), dtype=np.int64) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        cols = (cl[tri, 0] + k // span_xy[tri, 1]) * dims[1] + (cl[tri, 1] + k % span_xy[tri, 1])
+        cols = (ccl[tri, 0] + k // span_xy[tri, 1]) * col_dims[1] + (ccl[tri, 1]
+                                                                     + k % span_xy[tri, 1])
         order = np.argsort(cols, kind="stable")
         self.column_items = np.ascontiguousarray(tri[order])
-        ncol = int(dims[0] * dims[1])
+        self.column_cell = float(col_cell)
+        self.column_dims = np.ascontiguousarray(col_dims, dtype=np.int64)
+        ncol = int(col_dims[0] * col_dims[1])
         self.column_offsets = np.zeros(ncol + 1, dtype=np.int64)
         np.cumsum(np.bincount(cols, minlength=ncol), out=self.column_offsets[1:])
 
@@ -127,8 +143,8 @@ class TriangleGrid:
                 self.tri_lo, self.tri_hi, self.big)
 
     def _column_args(self):
-        return (self.glo, self.cell, self.dims, self.column_offsets, self.column_items,
-                self.tri_lo, self.tri_hi)
+        return (self.glo, self.column_cell, self.column_dims, self.column_offsets,
+                self.column_items, self.tri_lo, self.tri_hi)
 
 
 def _check_mesh(mesh, name: str, allow_open: bool):

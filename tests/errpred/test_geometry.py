@@ -177,3 +177,43 @@ def test_cutting_distance_of_a_straight_slot():
     np.testing.assert_allclose(out.wear_mm[flank], analytic, rtol=math.radians(1.0) / math.pi
                                + 5e-3)
     assert np.all(out.wear_mm[~flank & (pred.edges.z > 2.0)] == 0.0)
+
+
+def test_point_geometry_ships_its_arrays_exactly_and_smaller():
+    """Stage-1 results cross to stage 2 by pickle (worker processes): the packed
+    per-revolution arrays come back identical, dtype included, and smaller."""
+    import pickle
+
+    _, _, g = side_cut("up", 2.5)
+    back = pickle.loads(pickle.dumps(g))
+    for name in ("cutting0", "weight0", "shift0", "cl_per_rev", "frame", "tip"):
+        a, b = getattr(g, name), getattr(back, name)
+        assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
+    assert g.sensitivity is not None
+    for a, b in zip(g.sensitivity[1:], back.sensitivity[1:], strict=True):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    raw = sum(getattr(g, n).nbytes for n in ("cutting0", "weight0", "shift0"))
+    assert len(pickle.dumps(g)) < 0.8 * 2 * raw
+
+
+def test_removed_memo_answers_as_the_kernel_in_any_order():
+    """The T1 memo of a point gives the kernel's own answer for every sample, however
+    the samples are split between calls and repeated."""
+    from errpred import constants as K
+    from errpred._kernels import inside_any_sweep_clustered
+    from errpred.geometry import _RemovedMemo
+
+    tool, model, g = side_cut("slot", 0.0)
+    t1, _ = model._near_sweeps(g.tip, g.axis, g.path_mm, 0.05)
+    rng = np.random.default_rng(11)
+    world = g.tip + rng.uniform([-6, -6, -1], [6, 6, 3], (4000, 3))
+    ref = inside_any_sweep_clustered(world, np.ones(4000, dtype=np.bool_), *t1,
+                                     tool.core_radius_mm, tool.corner_radius_mm,
+                                     tool.flute_length_mm, K.MEMBERSHIP_EPS_MM,
+                                     K.CLUSTER_CELL_MM)
+    assert 0 < ref.sum() < 4000
+    memo = _RemovedMemo(tool, t1)
+    keys = np.arange(4000) * 7
+    for part in (rng.permutation(4000)[:2500], rng.permutation(4000)[:2500], np.arange(4000)):
+        got = memo("grid", keys[part], world[part])
+        assert np.array_equal(got, ref[part])

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from nc.path import CutterLocations
 from errpred._kernels import (inside_any_sweep, inside_any_sweep_clustered, sweep_distance,
-                              sweep_margin_clustered)
+                              sweep_margin_clustered, sweeps_within)
 from errpred.sweeps import build_sweeps
 from errpred.tool import Tool, core_distance
 
@@ -116,3 +116,60 @@ def test_clipping_to_path_intervals():
     np.testing.assert_allclose(d, [[6.0, 0, 0], [0.0, 5.0, 0]])
     p0, d, *_ = sw.clipped(ids, -math.inf, 4.0)
     np.testing.assert_allclose(d, [[4.0, 0, 0]])
+
+
+def _reference_near(sw, lo, hi, centre, reach, order_from, t1_end, t2_start):
+    """Sweeps.near composed from its parts in numpy (query, prune, order, clip)."""
+    ids = sw.query(lo, hi)
+    keep = np.array([_may_reach_brute(sw, j, centre, reach) for j in ids], dtype=bool)
+    ids = ids[keep] if ids.size else ids
+    mid = sw.p0[ids] + 0.5 * sw.d[ids]
+    ids = ids[np.argsort(np.sum((mid - order_from) ** 2, axis=1), kind="stable")]
+    return sw.clipped(ids, -math.inf, t1_end), sw.clipped(ids, t2_start, math.inf)
+
+
+def _may_reach_brute(sw, j, centre, reach):
+    return bool(sweeps_within(np.array([j]), *centre, reach, sw.p0, sw.d, sw.w, sw.lo, sw.hi,
+                              sw.core_radius_mm, sw.corner_radius_mm, sw.top_mm)[0])
+
+
+def test_near_is_query_prune_order_and_clip():
+    rng = np.random.default_rng(12)
+    pts = np.cumsum(rng.normal(0, 0.6, (3000, 3)), axis=0)
+    axis = np.tile([0.0, 0.0, 1.0], (3000, 1))
+    cl = CutterLocations.from_arrays(pts, axis, 1000.0, 8000.0)
+    for tool in (Tool("ball", 6), Tool("radius", 8, 1.0)):
+        sw = build_sweeps(cl, tool)
+        for _ in range(10):
+            k = int(rng.integers(len(pts)))
+            c = pts[k]
+            lo, hi = c - 3.0, c + 3.0
+            L = float(sw.path_end[min(k, len(sw) - 1)])
+            got = sw.near(lo, hi, c + [0, 0, 1.0], 4.0, c, L - 0.05, L + 0.05)
+            ref = _reference_near(sw, lo, hi, c + [0, 0, 1.0], 4.0, c, L - 0.05, L + 0.05)
+            for g, r in zip(got, ref, strict=True):
+                for a, b in zip(g, r, strict=True):
+                    assert a.shape == b.shape and np.array_equal(a, b)
+
+
+def test_sweeps_left_out_reach_no_point_of_the_ball():
+    """sweeps_within is a safe pruning: a sweep it drops has no point of the ball within
+    reach - radius (checked by the exact distance at random points in the ball)."""
+    rng = np.random.default_rng(3)
+    n = 400
+    p0 = rng.uniform(-15, 15, (n, 3))
+    d = rng.uniform(-3, 3, (n, 3))
+    w = rng.normal(size=(n, 3))
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    for c, r in ((0.0, 3.0), (2.0, 1.0), (3.0, 0.0)):
+        top = 10.0
+        lo = np.minimum(p0, p0 + d) - (c + r) - top
+        hi = np.maximum(p0, p0 + d) + (c + r) + top
+        centre, ball, margin = np.zeros(3), 4.0, 0.3
+        keep = sweeps_within(np.arange(n), *centre, ball + margin, p0, d, w, lo, hi, c, r, top)
+        assert 0 < keep.sum() < n
+        q = rng.normal(size=(3000, 3))
+        q *= (ball * rng.uniform(size=3000) ** (1 / 3) / np.linalg.norm(q, axis=1))[:, None]
+        for j in np.flatnonzero(~keep):
+            dist = min(sweep_distance(*x, p0[j], d[j], w[j], c, r, top) for x in q[:300])
+            assert dist - r > margin - 1e-9

@@ -1,0 +1,55 @@
+"""The bottom view's stock membership kernel against its numpy twin."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from errpred._kernels import interval_membership
+
+
+def _numpy_twin(xyz, top, bottom, smooth_top, smooth_bottom, p, depth_offset, e):
+    """The interpolation as numpy array code (what the kernel replaced)."""
+    n = top.shape[0]
+    fx = (xyz[:, 0] + 0.5 * n * p) / p - 0.5
+    fy = (xyz[:, 1] + 0.5 * n * p) / p - 0.5
+    j0 = np.clip(np.floor(fx).astype(np.int64), 0, n - 2)
+    i0 = np.clip(np.floor(fy).astype(np.int64), 0, n - 2)
+    tx = np.clip(fx - j0, 0.0, 1.0)
+    ty = np.clip(fy - i0, 0.0, 1.0)
+    depth = xyz[:, 2] + depth_offset
+
+    def interp(a):
+        v00, v01 = a[i0, j0], a[i0, j0 + 1]
+        v10, v11 = a[i0 + 1, j0], a[i0 + 1, j0 + 1]
+        with np.errstate(invalid="ignore"):
+            out = (1 - ty) * ((1 - tx) * v00 + tx * v01) + ty * ((1 - tx) * v10 + tx * v11)
+        return np.where(np.isnan(out), v00, out)
+
+    inside = (interp(bottom) - e <= depth) & (depth <= interp(top) + e)
+    unsure = ~(smooth_top[i0, j0] & smooth_bottom[i0, j0])
+    return inside, unsure
+
+
+def test_interval_membership_equals_its_numpy_twin():
+    rng = np.random.default_rng(5)
+    n, p = 34, 0.3
+    for trial in range(5):
+        bottom = rng.uniform(-1.0, 2.0, (n, n))
+        top = bottom + rng.uniform(0.0, 3.0, (n, n))
+        # no material (both +inf), material without a bottom or a top in view
+        bottom[rng.random((n, n)) < 0.1] = math.inf
+        top[np.isposinf(bottom)] = math.inf
+        bottom[rng.random((n, n)) < 0.05] = -math.inf
+        top[rng.random((n, n)) < 0.05] = math.inf
+        smooth_top = rng.random((n - 1, n - 1)) < 0.8
+        smooth_bottom = rng.random((n - 1, n - 1)) < 0.8
+        xyz = np.column_stack([rng.uniform(-0.6 * n * p, 0.6 * n * p, 20000),
+                               rng.uniform(-0.6 * n * p, 0.6 * n * p, 20000),
+                               rng.uniform(-3.0, 5.0, 20000)])
+        args = (xyz, top, bottom, smooth_top, smooth_bottom, p, 1.5, 1e-6)
+        got = interval_membership(*args)
+        ref = _numpy_twin(*args)
+        assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+        assert 0 < got[0].sum() < xyz.shape[0] and got[1].any()
