@@ -161,6 +161,71 @@ def sweep_distance(x, y, z, p0, d, w, c, r, top):
     return best
 
 
+@njit(cache=True)
+def sweep_lower_bound(x, y, z, p0, d, w, c, r, top):
+    """A lower bound of :func:`sweep_distance` [mm], closed form.
+
+    The core lies within ``c`` of its axis segment, so the distance to the
+    swept core is at least the distance to the swept axis strip minus ``c``
+    (exact for ball end mills, ``c = 0``).
+    """
+    return _dist_half_strip(x - (p0[0] + r * w[0]), y - (p0[1] + r * w[1]),
+                            z - (p0[2] + r * w[2]), d[0], d[1], d[2], w[0], w[1], w[2],
+                            top - r) - c
+
+
+@njit(cache=True)
+def sweep_within(x, y, z, p0, d, w, c, r, top, lim):
+    """``sweep_distance(...) <= lim``, with early answers.
+
+    The same answer, but where the distance is within rounding (~1e-15 mm) of
+    ``lim`` and the lower bound is tight.
+
+    Ball end mills: the closed form. Others: a cutter location at either end
+    within ``lim`` answers yes; the closed-form lower bound
+    (:func:`sweep_lower_bound`) above ``lim`` answers no; otherwise the same
+    golden-section search as :func:`sweep_distance`, stopping at the first
+    value within ``lim`` (the search keeps its best value, so the final
+    minimum would be within ``lim`` too).
+    """
+    if c == 0.0:
+        return sweep_distance(x, y, z, p0, d, w, c, r, top) <= lim
+    if _core_dist(x, y, z, p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r, top) <= lim:
+        return True
+    if _core_dist(x - d[0], y - d[1], z - d[2], p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r,
+                  top) <= lim:
+        return True
+    if sweep_lower_bound(x, y, z, p0, d, w, c, r, top) > lim:
+        return False
+    lo, hi = 0.0, 1.0
+    m1 = hi - _INV_PHI * (hi - lo)
+    m2 = lo + _INV_PHI * (hi - lo)
+    f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
+                    w[0], w[1], w[2], c, r, top)
+    f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
+                    w[0], w[1], w[2], c, r, top)
+    if f1 <= lim or f2 <= lim:
+        return True
+    for _ in range(GOLDEN_ITERATIONS):
+        if f1 <= f2:
+            hi = m2
+            m2, f2 = m1, f1
+            m1 = hi - _INV_PHI * (hi - lo)
+            f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
+                            w[0], w[1], w[2], c, r, top)
+            if f1 <= lim:
+                return True
+        else:
+            lo = m1
+            m1, f1 = m2, f2
+            m2 = lo + _INV_PHI * (hi - lo)
+            f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
+                            w[0], w[1], w[2], c, r, top)
+            if f2 <= lim:
+                return True
+    return False
+
+
 @njit(cache=True, parallel=False)
 def inside_any_sweep(points, candidates, p0, d, w, lo, hi, c, r, top, eps):
     """For each point: is it inside any of the sweeps?
@@ -196,7 +261,7 @@ def inside_any_sweep(points, candidates, p0, d, w, lo, hi, c, r, top, eps):
             if (x < lo[j, 0] or x > hi[j, 0] or y < lo[j, 1] or y > hi[j, 1]
                     or z < lo[j, 2] or z > hi[j, 2]):
                 continue
-            if sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) <= lim:
+            if sweep_within(x, y, z, p0[j], d[j], w[j], c, r, top, lim):
                 out[i] = True
                 break
     return out
@@ -415,7 +480,7 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
             first = offsets[b]
             for q in range(first, offsets[b + 1]):
                 j = lists[q]
-                if sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) <= lim:
+                if sweep_within(x, y, z, p0[j], d[j], w[j], c, r, top, lim):
                     out[i] = True
                     # the bin's next points are likely inside the same sweep: test it first
                     lists[q] = lists[first]
@@ -452,6 +517,9 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
             first = offsets[b]
             for q in range(first, offsets[b + 1]):
                 j = lists[q]
+                if c != 0.0 and (sweep_lower_bound(x, y, z, p0[j], d[j], w[j], c, r, top) - r
+                                 >= min(best, -floor)):
+                    continue  # cannot lower the margin (the search would not go below it)
                 v = sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) - r
                 if v < best:
                     best = v

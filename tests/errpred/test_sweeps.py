@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from nc.path import CutterLocations
 from errpred._kernels import (inside_any_sweep, inside_any_sweep_clustered, sweep_distance,
-                              sweep_margin_clustered, sweeps_within)
+                              sweep_lower_bound, sweep_margin_clustered, sweep_within,
+                              sweeps_within)
 from errpred.sweeps import build_sweeps
 from errpred.tool import Tool, core_distance
 
@@ -173,3 +174,23 @@ def test_sweeps_left_out_reach_no_point_of_the_ball():
         for j in np.flatnonzero(~keep):
             dist = min(sweep_distance(*x, p0[j], d[j], w[j], c, r, top) for x in q[:300])
             assert dist - r > margin - 1e-9
+
+
+@settings(max_examples=300)
+@given(q=st.tuples(coord, coord, coord), d=st.tuples(coord, coord, st.floats(-2, 2, **finite)),
+       tilt=st.floats(0, 1.2, **finite), az=st.floats(0, 6.3, **finite),
+       kind=st.sampled_from([(0.0, 5.0), (4.0, 1.0), (5.0, 0.0), (2.5, 2.5)]),
+       slack=st.floats(-0.5, 0.5, **finite))
+def test_sweep_within_answers_as_the_distance(q, d, tilt, az, kind, slack):
+    """The early-answer membership test agrees with the distance it shortcuts, and the
+    closed-form lower bound is one."""
+    c, r = kind
+    top = 12.0
+    q, d = np.array(q), np.array(d)
+    w = np.array([math.sin(tilt) * math.cos(az), math.sin(tilt) * math.sin(az), math.cos(tilt)])
+    p0 = np.array([0.3, -0.2, 0.1])
+    dist = sweep_distance(q[0], q[1], q[2], p0, d, w, c, r, top)
+    assert sweep_lower_bound(q[0], q[1], q[2], p0, d, w, c, r, top) <= dist + 1e-12
+    for lim in (r + 1e-6, dist + slack, dist - 1e-9, dist + 1e-9):
+        # (at exactly the distance, rounding of the lower bound may answer either way)
+        assert sweep_within(q[0], q[1], q[2], p0, d, w, c, r, top, lim) == (dist <= lim)
