@@ -1,16 +1,29 @@
-"""Prediction throughput and memory on the bundled mold-ball scenario.
+"""Prediction throughput, its breakdown and memory on the bundled programs.
 
-Prints, for a run of consecutive blocks of the 24,351-block finishing
-program at the default resolution:
+For each slice (mold-ball contour lines 6131-, mold-ball raster 19103-,
+wall-radius 374-; ``--blocks`` consecutive blocks each) at the default
+resolution it prints:
 
-* blocks per second on one core (this process) and on both cores (a pool of
-  two worker processes for the geometry stage), and their ratio;
-* the time split between the geometry stage and the physics stage;
-* memory: the program and the sweep index (fixed per program), and the peak
-  Python allocation while predicting N and 4N blocks (tracemalloc): it must
-  not grow with the number of blocks beyond the report's own records.
+* blocks per second on one core (this process: stage 1 geometry and stage 2
+  physics, marginal cost: the kernels are compiled and the predictor built
+  before the clock starts), min and median of ``--repeat`` runs;
+* blocks per second with two worker processes for stage 1 (physics in order
+  in this process) and the ratio to one core;
+* where a block's time goes (inclusive, so nested stages overlap): the
+  pre-check, the stock's bottom view, the sweep lookup, the engagement (with
+  its step weights and sensitivity pass), the finished surface, the side
+  view, the physics;
+* sweeps per prediction point: considered (T1 and T2 after the lookup), those
+  that contain any engagement sample, and those that are the first to contain
+  one in the order tested (they decide);
+* memory: the sweep index, and the peak Python allocation predicting N and 4N
+  blocks (tracemalloc; flat in program length but for the results kept) and
+  this process's peak resident size.
 
-Usage: python benchmarks/bench_errpred.py [--first LINE] [--blocks N]
+The machine is shared: figures are min and median of repeats, and the ratio
+to one core is taken in the same run.
+
+Usage: python benchmarks/bench_errpred.py [--blocks N] [--repeat K] [--slices NAMES]
 """
 
 from __future__ import annotations
@@ -18,64 +31,227 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+import resource
+import statistics
 import sys
 import time
 import tracemalloc
+from collections import defaultdict
+
+import numpy as np
+from numba import njit
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from errpred.pipeline import blocks_in_scope, build_predictor, load  # noqa: E402
+from errpred import bottomview, geometry  # noqa: E402
+from errpred import constants as K  # noqa: E402
+from errpred._kernels import sweep_within  # noqa: E402
 from errpred.physics import WearState, evaluate  # noqa: E402
+from errpred.pipeline import blocks_in_scope, build_predictor, load  # noqa: E402
 from errpred.scenario import bundled_scenario  # noqa: E402
 
+SLICES = {
+    "contour": ("mold-ball", 6131),
+    "raster": ("mold-ball", 19103),
+    "wall-radius": ("wall-radius", 374),
+}
 
-def stage_seconds(pred, blocks) -> tuple[float, float, int]:
-    """Stage 1 (geometry) and stage 2 (physics) of ``blocks`` in this process, one after
-    the other: seconds of each and the number of prediction points."""
+
+@njit(cache=True)
+def _first_container(points, p0, d, w, c, r, top, lim):
+    """For each point: the first sweep (in the order given) that contains it, or -1."""
+    out = np.full(points.shape[0], -1, dtype=np.int64)
+    for i in range(points.shape[0]):
+        for j in range(p0.shape[0]):
+            if sweep_within(points[i, 0], points[i, 1], points[i, 2], p0[j], d[j], w[j], c, r,
+                            top, lim):
+                out[i] = j
+                break
+    return out
+
+
+@njit(cache=True)
+def _any_container(points, p0, d, w, c, r, top, lim):
+    """For each sweep: does it contain any of the points?"""
+    out = np.zeros(p0.shape[0], dtype=np.bool_)
+    for j in range(p0.shape[0]):
+        for i in range(points.shape[0]):
+            if sweep_within(points[i, 0], points[i, 1], points[i, 2], p0[j], d[j], w[j], c, r,
+                            top, lim):
+                out[j] = True
+                break
+    return out
+
+
+class _Probe:
+    """Inclusive seconds of the geometry stage's steps, and the sweeps per point."""
+
+    STEPS = {
+        "pre-check": (geometry.GeometryModel, "_material_at"),
+        "sweep lookup": (geometry.GeometryModel, "_near_sweeps"),
+        "engagement": (geometry.GeometryModel, "_engagement"),
+        "step weights": (geometry.GeometryModel, "_step_weights"),
+        "finished surface": (bottomview.BottomTemplate, "finished_surface"),
+        "side view": (geometry.GeometryModel, "_side_view"),
+    }
+
+    def __init__(self, sweep_stats: bool) -> None:
+        self.seconds: dict[str, float] = defaultdict(float)
+        self.considered: list[int] = []
+        self.containing: list[int] = []
+        self.deciding: list[int] = []
+        self._saved = []
+        self._sweep_stats = sweep_stats
+
+    def __enter__(self):
+        for label, (owner, name) in self.STEPS.items():
+            self._wrap(owner, name, label)
+        self._wrap(geometry, "stock_view", "stock bottom view")
+        return self
+
+    def __exit__(self, *exc):
+        for owner, name, f in reversed(self._saved):
+            setattr(owner, name, f)
+
+    def _wrap(self, owner, name, label):
+        f = getattr(owner, name)
+        self._saved.append((owner, name, f))
+        seconds = self.seconds
+        probe = self
+
+        def timed(*a, **kw):
+            t0 = time.perf_counter()
+            try:
+                out = f(*a, **kw)
+            finally:
+                seconds[label] += time.perf_counter() - t0
+            if name == "_engagement" and probe._sweep_stats and "stock_shift" not in kw:
+                probe._count(a[0], a[4])
+            return out
+
+        setattr(owner, name, timed)
+
+    def _count(self, model, memo):
+        """Sweeps per point over the samples the engagement tested against T1."""
+        tested = [w for tag, w in memo.tested if tag[0] == "grid"]
+        if not tested:
+            return
+        world = np.concatenate(tested)
+        t1 = memo.args_t1
+        tool = model.tool
+        args = (*t1[:3], tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm,
+                tool.corner_radius_mm + K.MEMBERSHIP_EPS_MM)
+        first = _first_container(world, *args)
+        self.considered.append(t1[0].shape[0])
+        self.containing.append(int(_any_container(world, *args).sum()))
+        self.deciding.append(int(np.unique(first[first >= 0]).size))
+
+
+def _one_core(pred, blocks, probe=None):
+    """Stage 1 then stage 2 of ``blocks`` in this process: (seconds, geometry seconds)."""
     t0 = time.perf_counter()
     geoms = [g for gl in pred.geometries(blocks) for g in gl]
     t_geo = time.perf_counter() - t0
+    wear = WearState.new(pred.edges)
+    for g in geoms:
+        evaluate(pred.tool, pred.edges, pred.coefficients, pred.compliance, pred.shape,
+                 pred.theta, g, wear)
+    return time.perf_counter() - t0, t_geo
+
+
+def _fmt(rates):
+    return f"min {min(rates):7.1f}  median {statistics.median(rates):7.1f}"
+
+
+def bench_slice(label, scenario, first, n_blocks, repeat, workers):
+    s = load(bundled_scenario(scenario))
+    s = dataclasses.replace(s, lines=(first, 10**9))
+    t0 = time.perf_counter()
+    pred = build_predictor(s)
+    setup = time.perf_counter() - t0
+    blocks = blocks_in_scope(s, pred.program)[:n_blocks]
+    print(f"\n== {label}: {scenario} lines {first}-{int(pred.program.line[blocks[-1]])} "
+          f"({len(blocks)} blocks of {len(pred.program):,}; {len(pred.model.sweeps):,} sweeps; "
+          f"setup {setup:.2f} s)")
+    pred.run(blocks[:10])  # kernels compiled or loaded from the cache
+    one, geo_share = [], []
+    for _ in range(repeat):
+        total, t_geo = _one_core(pred, blocks)
+        one.append(len(blocks) / total)
+        geo_share.append(t_geo / total)
+    print(f"1 core     blocks/s: {_fmt(one)}   (geometry {100 * statistics.median(geo_share):.0f} %"
+          " of it)")
+    two = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        pred.run(blocks, workers=workers)
+        two.append(len(blocks) / (time.perf_counter() - t0))
+    print(f"{workers} workers  blocks/s: {_fmt(two)}   (x{max(two) / max(one):.2f} of one core, "
+          "best against best)")
+    # breakdown and sweeps, one more single-core run with the probes in
+    memo_init, memo_call = geometry._RemovedMemo.__init__, geometry._RemovedMemo.__call__
+
+    def init(self, tool, t1):
+        memo_init(self, tool, t1)
+        self.args_t1, self.tested = t1, []
+
+    def call(self, tag, keys, world):
+        self.tested.append((tag, np.asarray(world)))
+        return memo_call(self, tag, keys, world)
+
+    geometry._RemovedMemo.__init__, geometry._RemovedMemo.__call__ = init, call
+    try:
+        with _Probe(sweep_stats=True) as probe:
+            t0 = time.perf_counter()
+            geoms = [g for gl in pred.geometries(blocks) for g in gl]
+            t_geo = time.perf_counter() - t0
+    finally:
+        geometry._RemovedMemo.__init__, geometry._RemovedMemo.__call__ = memo_init, memo_call
     wear = WearState.new(pred.edges)
     t0 = time.perf_counter()
     for g in geoms:
         evaluate(pred.tool, pred.edges, pred.coefficients, pred.compliance, pred.shape,
                  pred.theta, g, wear)
-    return t_geo, time.perf_counter() - t0, len(geoms)
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--first", type=int, default=19103, help="first program line")
-    ap.add_argument("--blocks", type=int, default=1500)
-    args = ap.parse_args(argv)
-    s = load(bundled_scenario("mold-ball"))
-    s = dataclasses.replace(s, lines=(args.first, 10**9))
-    t0 = time.perf_counter()
-    pred = build_predictor(s)
-    setup = time.perf_counter() - t0
-    blocks = blocks_in_scope(s, pred.program)[: args.blocks]
-    print(f"mold-ball: {len(pred.program):,} blocks in the program, {len(pred.cl):,} path "
-          f"points, {len(pred.model.sweeps):,} sweeps; setup {setup:.2f} s")
-    print(f"fixed memory: sweep index {pred.model.sweeps.nbytes / 1e6:.1f} MB, program "
-          f"arrays {sum(a.nbytes for a in (pred.program.end, pred.program.line)) / 1e6:.1f} MB")
-    pred.run(blocks[:30])  # numba compiled and cached
-    t_geo, t_phys, _ = stage_seconds(pred, blocks)
-    one = len(blocks) / (t_geo + t_phys)
-    print(f"1 core : {one:8.1f} blocks/s  (geometry {t_geo / len(blocks) * 1e3:.2f} ms/block, "
-          f"physics {t_phys / len(blocks) * 1e3:.2f} ms/block)")
-    t0 = time.perf_counter()
-    pred.run(blocks, workers=2)
-    two = len(blocks) / (time.perf_counter() - t0)
-    print(f"2 cores: {two:8.1f} blocks/s  (x{two / one:.2f}; geometry in 2 worker processes, "
-          "physics in order in this one)")
-    for n in (len(blocks) // 4, len(blocks)):
+    t_phys = time.perf_counter() - t0
+    nb = len(blocks)
+    print(f"per block [ms] (inclusive; this run with probes and sweep counts: geometry "
+          f"{t_geo / nb * 1e3:.2f}, "
+          f"physics {t_phys / nb * 1e3:.2f})")
+    for k in ("pre-check", "stock bottom view", "sweep lookup", "engagement", "step weights",
+              "finished surface", "side view"):
+        print(f"  {k:18s} {probe.seconds.get(k, 0.0) / nb * 1e3:7.2f}")
+    if probe.considered:
+        print(f"sweeps per point (T1, engagement samples in stock): considered {np.mean(probe.considered):7.1f}, "
+              f"containing a sample {np.mean(probe.containing):6.1f}, "
+              f"deciding {np.mean(probe.deciding):5.1f}")
+    # memory
+    print(f"sweep index {pred.model.sweeps.nbytes / 1e6:.1f} MB")
+    for n in (max(1, len(blocks) // 4), len(blocks)):
         tracemalloc.start()
         out = pred.run(blocks[:n])
         _, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
         print(f"peak allocation predicting {n:5d} blocks: {peak / 1e6:6.1f} MB "
               f"({len(out.points):,} points kept in the result)")
-    print("target: >= 1,000 blocks/s per core (not reached; see the closing note)")
+    return one, two
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--blocks", type=int, default=300, help="blocks per slice")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--slices", default=",".join(SLICES),
+                    help=f"comma-separated, of {', '.join(SLICES)}")
+    args = ap.parse_args(argv)
+    for name in args.slices.split(","):
+        if name not in SLICES:
+            ap.error(f"--slices: unknown slice {name!r}; expected one of {', '.join(SLICES)}")
+        bench_slice(name, *SLICES[name], args.blocks, args.repeat, args.workers)
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"\npeak resident size of this process: {rss:.0f} MB")
+    print("targets (issue 17): >= 1,000 blocks/s on one core on both mold-ball slices, "
+          ">= 200 on wall-radius, 2 workers >= 1.8x one")
     return 0
 
 
