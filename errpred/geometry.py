@@ -211,6 +211,13 @@ class GeometryModel:
         self.theta = revolution_angles(resolution.angle_step_rad, tool.flutes)
         self.bottom = BottomTemplate(tool, self.edges, self.theta, resolution.pixel_mm)
         self._grids = {1: self.bottom.grid}
+        # the sub-edges of the step weights: profile radius, height and helix lag at
+        # ENGAGEMENT_SUBEDGES points along each micro edge, (m, se) each
+        se = K.ENGAGEMENT_SUBEDGES
+        dv = (np.arange(se) + 0.5) / se - 0.5
+        sarc = self.edges.s[:, None] + dv[None, :] * self.edges.db[:, None]
+        sub_rho, sub_z, _ = tool.profile_at(sarc)
+        self._sub_edges = (sub_rho, sub_z, tool.helix_lag(sub_z))
         # how far outside the sweeps the finished-surface search measures margins [mm]
         self._margin_reach = float(self.bottom.reach.max()) + K.MEMBERSHIP_EPS_MM
         seg = np.zeros(len(cl))
@@ -596,7 +603,7 @@ class GeometryModel:
         when the boundary moves: the reason the prediction converges with
         resolution.
         """
-        bt, tool, edges = self.bottom, self.tool, self.edges
+        bt = self.bottom
         c0 = cutting0
         n, m = c0.shape
         pad = np.pad(c0, ((0, 0), (1, 1)), mode="edge")
@@ -613,12 +620,13 @@ class GeometryModel:
         st, se = K.ENGAGEMENT_SUBSTEPS, K.ENGAGEMENT_SUBEDGES
         step = 2 * math.pi / n
         du = (np.arange(st) + 0.5) / st - 0.5
-        dv = (np.arange(se) + 0.5) / se - 0.5
         # sub-sample angles and profile positions, (cells, st, se)
         ang = grid.theta[i][:, None, None] + du[None, :, None] * step
-        sarc = edges.s[j][:, None, None] + dv[None, None, :] * edges.db[j][:, None, None]
-        rho, z, _ = tool.profile_at(np.broadcast_to(sarc, ang.shape[:1] + (st, se)))
-        phi = ang - tool.helix_lag(z)
+        sub_rho, sub_z, sub_lag = self._sub_edges
+        shape = ang.shape[:1] + (st, se)
+        rho = np.broadcast_to(sub_rho[j][:, None, :], shape)
+        z = np.broadcast_to(sub_z[j][:, None, :], shape)
+        phi = ang - sub_lag[j][:, None, :]
         local = np.stack([rho * np.sin(phi), rho * np.cos(phi), z], axis=-1).reshape(-1, 3)
         inside = bt.in_stock_local(self.stock, interval, tip, frame, local - stock_shift)
         # sub-sample keys: the cell, then the sub-sample within it
