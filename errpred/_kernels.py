@@ -27,7 +27,7 @@ from numba import njit
 from .constants import CLUSTER_COARSE
 
 __all__ = ["inside_any_sweep", "sweep_distance", "sweeps_within", "interval_membership",
-           "GOLDEN_ITERATIONS"]
+           "cells_smooth", "GOLDEN_ITERATIONS"]
 
 #: Golden-section iterations for non-ball tools: the bracket shrinks to
 #: 0.618^40 = 4e-9 of the segment, far below any micrometre.
@@ -586,3 +586,25 @@ def interval_membership(xyz, top, bottom, smooth_top, smooth_bottom, pixel, dept
         inside[q] = (b - eps <= depth) and (depth <= t + eps)
         unsure[q] = not (smooth_top[i0, j0] and smooth_bottom[i0, j0])
     return inside, unsure
+
+
+@njit(cache=True)
+def cells_smooth(a, limit):
+    """For each 2 x 2 cell of pixel centres: may ``a`` be interpolated there?
+
+    True where the four values are all finite and span at most ``limit``
+    [mm], or are all the same infinity (no surface there). ``a``: (n, n);
+    returns (n - 1, n - 1), bool.
+    """
+    n0, n1 = a.shape
+    out = np.zeros((n0 - 1, n1 - 1), dtype=np.bool_)
+    for i in range(n0 - 1):
+        for j in range(n1 - 1):
+            v0, v1, v2, v3 = a[i, j], a[i + 1, j], a[i, j + 1], a[i + 1, j + 1]
+            f0, f1 = math.isfinite(v0), math.isfinite(v1)
+            f2, f3 = math.isfinite(v2), math.isfinite(v3)
+            if f0 and f1 and f2 and f3:
+                out[i, j] = max(max(v0, v1), max(v2, v3)) - min(min(v0, v1), min(v2, v3)) <= limit
+            elif not (f0 or f1 or f2 or f3):
+                out[i, j] = v0 == v1 and v0 == v2 and v0 == v3
+    return out

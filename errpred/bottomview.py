@@ -26,7 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import constants as K
-from ._kernels import inside_any_sweep_clustered, interval_membership, sweep_margin_clustered
+from ._kernels import (cells_smooth, inside_any_sweep_clustered, interval_membership,
+                       sweep_margin_clustered)
 from .tool import MicroEdges, Tool
 
 __all__ = ["BottomTemplate", "Finished", "SampleGrid", "StockView", "stock_view"]
@@ -59,22 +60,6 @@ class Finished:
     refined_pixels: int
 
 
-def _cells_smooth(a: np.ndarray, limit: float) -> np.ndarray:
-    """For each 2 x 2 cell of pixel centres: may ``a`` be interpolated there?
-
-    True where the four values are all finite and span at most ``limit``, or
-    are all the same infinity (no surface there).
-    """
-    c = np.stack([a[:-1, :-1], a[1:, :-1], a[:-1, 1:], a[1:, 1:]])
-    fin = np.isfinite(c)
-    big = np.where(fin, c, -np.inf).max(axis=0)
-    small = np.where(fin, c, np.inf).min(axis=0)
-    with np.errstate(invalid="ignore"):
-        span = big - small  # -inf or nan where no finite value: fails the test below
-    same_inf = (~fin).all(axis=0) & (c == c[0]).all(axis=0)
-    return (fin.all(axis=0) & (span <= limit)) | same_inf
-
-
 @dataclass(frozen=True, eq=False)
 class StockView:
     """The stock's material interval in a view, and where it interpolates.
@@ -97,7 +82,7 @@ def stock_view(stock, view, depth_range) -> StockView | None:
         return None
     bottom, top = stock.interval(view, depth_range=depth_range)
     limit = view.pixel_mm * math.sqrt(2.0) * math.tan(K.STOCK_INTERPOLATION_SLOPE_RAD)
-    return StockView(bottom, top, _cells_smooth(bottom, limit), _cells_smooth(top, limit))
+    return StockView(bottom, top, cells_smooth(bottom, limit), cells_smooth(top, limit))
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,4 +1,4 @@
-"""The bottom view's stock membership kernel against its numpy twin."""
+"""The bottom view's kernels (stock membership, smooth cells) against their numpy twins."""
 
 from __future__ import annotations
 
@@ -53,3 +53,27 @@ def test_interval_membership_equals_its_numpy_twin():
         ref = _numpy_twin(*args)
         assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
         assert 0 < got[0].sum() < xyz.shape[0] and got[1].any()
+
+
+def _cells_smooth_twin(a, limit):
+    c = np.stack([a[:-1, :-1], a[1:, :-1], a[:-1, 1:], a[1:, 1:]])
+    fin = np.isfinite(c)
+    big = np.where(fin, c, -np.inf).max(axis=0)
+    small = np.where(fin, c, np.inf).min(axis=0)
+    with np.errstate(invalid="ignore"):
+        span = big - small
+    same_inf = (~fin).all(axis=0) & (c == c[0]).all(axis=0)
+    return (fin.all(axis=0) & (span <= limit)) | same_inf
+
+
+def test_cells_smooth_equals_its_numpy_twin():
+    from errpred._kernels import cells_smooth
+
+    rng = np.random.default_rng(6)
+    for _ in range(5):
+        a = rng.normal(0.0, 0.3, (30, 30))
+        a[rng.random((30, 30)) < 0.15] = math.inf
+        a[rng.random((30, 30)) < 0.05] = -math.inf
+        a[:8, :8] = math.inf
+        got, ref = cells_smooth(a, 0.25), _cells_smooth_twin(a, 0.25)
+        assert np.array_equal(got, ref) and got.any() and not got.all()
