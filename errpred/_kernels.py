@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .constants import CLUSTER_COARSE
+from .constants import CLUSTER_COARSE, HOT_SEED_POINTS, HOT_SEED_SWEEPS
 
 __all__ = ["inside_any_sweep", "sweep_distance", "sweeps_within", "interval_membership",
            "cells_smooth", "GOLDEN_ITERATIONS"]
@@ -453,6 +453,28 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach)
 
 
 @njit(cache=True)
+def _hot_sweep(points, candidates, p0, d, w, c, r, top, lim):
+    """A sweep likely to hold many of the points within ``lim`` of its core, or -1.
+
+    The first of the first ``HOT_SEED_SWEEPS`` sweeps (callers order them
+    nearest first) to hold one of the first ``HOT_SEED_POINTS`` candidates: in
+    finishing, the move just behind the tool holds most of the tool.
+    """
+    tried = 0
+    for i in range(points.shape[0]):
+        if not candidates[i]:
+            continue
+        if tried >= HOT_SEED_POINTS:
+            break
+        tried += 1
+        for j in range(min(p0.shape[0], HOT_SEED_SWEEPS)):
+            if sweep_within(points[i, 0], points[i, 1], points[i, 2], p0[j], d[j], w[j], c, r,
+                            top, lim):
+                return j
+    return -1
+
+
+@njit(cache=True)
 def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, eps, cell):
     """:func:`inside_any_sweep`, pruning sweeps per cluster of nearby points.
 
@@ -467,10 +489,20 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
     out = np.zeros(k, dtype=np.bool_)
     if k == 0 or p0.shape[0] == 0:
         return out
-    idx, order, keys, m = _bins(points, candidates, cell)
+    lim = r + eps
+    # first, every point against one sweep that holds many (:func:`_hot_sweep`): only
+    # the others are binned
+    rest = candidates.copy()
+    hot = _hot_sweep(points, candidates, p0, d, w, c, r, top, lim)
+    if hot >= 0:
+        for i in range(k):
+            if candidates[i] and sweep_within(points[i, 0], points[i, 1], points[i, 2], p0[hot],
+                                              d[hot], w[hot], c, r, top, lim):
+                out[i] = True
+                rest[i] = False
+    idx, order, keys, m = _bins(points, rest, cell)
     if m == 0:
         return out
-    lim = r + eps
     starts, offsets, lists, nb = _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi,
                                              c, r, top, eps)
     for b in range(nb):
@@ -504,7 +536,16 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
     out = np.full(k, floor)
     if k == 0:
         return out
-    idx, order, keys, m = _bins(points, candidates, cell)
+    # first, every point against one sweep many lie deep inside (:func:`_hot_sweep`):
+    # those read ``floor``; only the others are binned
+    rest = candidates.copy()
+    hot = _hot_sweep(points, candidates, p0, d, w, c, r, top, r + floor)
+    if hot >= 0:
+        for i in range(k):
+            if candidates[i] and sweep_distance(points[i, 0], points[i, 1], points[i, 2],
+                                                p0[hot], d[hot], w[hot], c, r, top) - r <= floor:
+                rest[i] = False
+    idx, order, keys, m = _bins(points, rest, cell)
     if m == 0:
         return out
     starts, offsets, lists, nb = _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi,

@@ -33,6 +33,12 @@ CLUSTER_CELL_MM = 0.2
 #: every bin against every sweep: a finishing raster has ~2,000 sweeps within
 #: a tool's reach) [-].
 CLUSTER_COARSE = 8
+#: Before binning, points are tested against one sweep likely to hold many of
+#: them (in finishing, the move just behind the tool): the first of the first
+#: HOT_SEED_SWEEPS sweeps (nearest first) to hold one of the first
+#: HOT_SEED_POINTS points [-]. Only the points it does not hold are binned.
+HOT_SEED_POINTS = 4
+HOT_SEED_SWEEPS = 16
 #: Stock membership by vertical rays looks up the triangles over a point in a
 #: grid of (x, y) columns: at most this many columns along the longer side
 #: [-] ...

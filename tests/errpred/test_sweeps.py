@@ -194,3 +194,36 @@ def test_sweep_within_answers_as_the_distance(q, d, tilt, az, kind, slack):
     for lim in (r + 1e-6, dist + slack, dist - 1e-9, dist + 1e-9):
         # (at exactly the distance, rounding of the lower bound may answer either way)
         assert sweep_within(q[0], q[1], q[2], p0, d, w, c, r, top, lim) == (dist <= lim)
+
+
+def test_clustered_kernels_equal_the_plain_ones_on_a_finishing_raster():
+    """Points around a ball end mill inside a dense raster of earlier passes (the move
+    just behind the tool holds most of them): the clustered kernels, with their first
+    pass against one likely sweep, answer as the plain test and the brute-force margin."""
+    tool = Tool("ball", 6)
+    xs = np.arange(0.0, 20.0, 0.5)
+    rows = []
+    for k, y in enumerate(np.arange(-3.0, 3.01, 0.35)):
+        line = xs if k % 2 == 0 else xs[::-1]
+        rows.append(np.column_stack([line, np.full(line.size, y), 0.01 * line]))
+    tip = np.vstack(rows)
+    cl = CutterLocations.from_arrays(tip, [0.0, 0.0, 1.0], 1000.0, 8000.0)
+    sw = build_sweeps(cl, tool)
+    centre = tip[-5]
+    L = float(sw.path_end[-5])
+    t1, _ = sw.near(centre - 4, centre + 4, centre + [0, 0, 3], 8.0, centre + [0, 0, 3],
+                    L - 0.05, L + 0.05)
+    rng = np.random.default_rng(21)
+    pts = centre + rng.uniform([-3, -3, -0.2], [3, 3, 3], (4000, 3))
+    cand = rng.uniform(size=4000) < 0.9
+    c, r, top = tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm
+    a = inside_any_sweep(pts, cand, *t1, c, r, top, 1e-6)
+    b = inside_any_sweep_clustered(pts, cand, *t1, c, r, top, 1e-6, 0.2)
+    assert np.array_equal(a, b) and 0.2 < a[cand].mean() < 0.98
+    floor = -0.05
+    m = sweep_margin_clustered(pts, cand, *t1, c, r, top, floor, 0.2)
+    for i in np.flatnonzero(cand)[:300]:
+        dmin = min(sweep_distance(*pts[i], t1[0][j], t1[1][j], t1[2][j], c, r, top) - r
+                   for j in range(t1[0].shape[0]))
+        assert m[i] == pytest.approx(min(max(dmin, floor), -floor), abs=1e-12)
+    assert np.all(m[~cand] == floor)
