@@ -5,7 +5,8 @@ wall-radius 374-; ``--blocks`` consecutive blocks each) at the default
 resolution it prints:
 
 * blocks per second on one core (this process: stage 1 geometry and stage 2
-  physics, marginal cost: the kernels are compiled and the predictor built
+  physics, as ``errpred predict`` runs them, or with ``--sensitivity`` as a
+  correction does; marginal cost: the kernels are compiled and the predictor built
   before the clock starts), min and median of ``--repeat`` runs;
 * blocks per second with two worker processes for stage 1 (physics in order
   in this process) and the ratio to one core;
@@ -163,16 +164,17 @@ def _fmt(rates):
     return f"min {min(rates):7.1f}  median {statistics.median(rates):7.1f}"
 
 
-def bench_slice(label, scenario, first, n_blocks, repeat, workers):
+def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
     s = load(bundled_scenario(scenario))
     s = dataclasses.replace(s, lines=(first, 10**9))
     t0 = time.perf_counter()
-    pred = build_predictor(s)
+    pred = build_predictor(s, sensitivity=sensitivity)
     setup = time.perf_counter() - t0
     blocks = blocks_in_scope(s, pred.program)[:n_blocks]
     print(f"\n== {label}: {scenario} lines {first}-{int(pred.program.line[blocks[-1]])} "
           f"({len(blocks)} blocks of {len(pred.program):,}; {len(pred.model.sweeps):,} sweeps; "
-          f"setup {setup:.2f} s)")
+          f"setup {setup:.2f} s; "
+          f"{'with' if sensitivity else 'without'} the correction's sensitivity pass)")
     pred.run(blocks[:10])  # kernels compiled or loaded from the cache
     one, geo_share = [], []
     for _ in range(repeat):
@@ -241,13 +243,17 @@ def main(argv=None) -> int:
     ap.add_argument("--blocks", type=int, default=300, help="blocks per slice")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--sensitivity", action="store_true",
+                    help="also the error's sensitivity, as a correction predicts (default: as "
+                         "errpred predict, without)")
     ap.add_argument("--slices", default=",".join(SLICES),
                     help=f"comma-separated, of {', '.join(SLICES)}")
     args = ap.parse_args(argv)
     for name in args.slices.split(","):
         if name not in SLICES:
             ap.error(f"--slices: unknown slice {name!r}; expected one of {', '.join(SLICES)}")
-        bench_slice(name, *SLICES[name], args.blocks, args.repeat, args.workers)
+        bench_slice(name, *SLICES[name], args.blocks, args.repeat, args.workers,
+                    args.sensitivity)
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"\npeak resident size of this process: {rss:.0f} MB")
     print("targets (issue 17): >= 1,000 blocks/s on one core on both mold-ball slices, "

@@ -93,7 +93,7 @@ def _cmd_predict(args) -> int:
     scenario = _scenario(args.scenario)
     if args.lines:
         scenario = _with_lines(scenario, args.lines)
-    pred = build_predictor(scenario)
+    pred = build_predictor(scenario, sensitivity=False)
     blocks = blocks_in_scope(scenario, pred.program)
     ctx, cb = _progress(len(blocks), "predicting", args.quiet)
     t0 = time.perf_counter()

@@ -199,10 +199,16 @@ class GeometryModel:
     cl : CutterLocations
         The program's path (arcs expanded), ``cl.block`` the program block.
     resolution : Resolution
+    sensitivity : bool
+        Also the engagement with the stock slightly thicker (the error's
+        sensitivity to a correction, :attr:`PointGeometry.sensitivity`): what a
+        correction needs, not a prediction alone.
     """
 
-    def __init__(self, tool: Tool, stock, cl: CutterLocations, resolution: Resolution) -> None:
+    def __init__(self, tool: Tool, stock, cl: CutterLocations, resolution: Resolution,
+                 sensitivity: bool = True) -> None:
         self.tool = tool
+        self.sensitivity = bool(sensitivity)
         self.stock = stock
         self.cl = cl
         self.res = resolution
@@ -495,7 +501,7 @@ class GeometryModel:
         if rho_m < tool.radius_mm * math.sin(K.MIN_AXIS_NORMAL_ANGLE_RAD):
             status = "axis-normal"
         sens = None
-        if status == "predicted":
+        if status == "predicted" and self.sensitivity:
             # the same cut with the stock a little thicker along the normal:
             # how the error grows when the correction moves the tool deeper
             delta = K.SENSITIVITY_STEP_MM

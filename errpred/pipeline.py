@@ -48,13 +48,14 @@ def _machine(scenario: Scenario):
 
 def build_predictor(scenario: Scenario, program: Program | None = None,
                     resolution: Resolution | None = None, stock=None,
-                    workpiece=None, machine=None) -> Predictor:
+                    workpiece=None, machine=None, sensitivity: bool = True) -> Predictor:
     """A :class:`Predictor` for the scenario (or another program, e.g. corrected).
 
     ``workpiece``: the workpiece's modes at a cutting point (see :class:`Predictor`);
     ``machine``: the machine the program is written for (default: the scenario's, with
-    the tool's overhang as its tool length). The wear starts from the scenario's tool
-    state (:attr:`Scenario.initial_wear_mm`).
+    the tool's overhang as its tool length); ``sensitivity``: also the error's
+    sensitivity to a correction (corrections need it, predictions alone do not). The
+    wear starts from the scenario's tool state (:attr:`Scenario.initial_wear_mm`).
     """
     prog = program if program is not None else scenario.read_program()
     res = resolution or scenario.resolution
@@ -65,7 +66,7 @@ def build_predictor(scenario: Scenario, program: Program | None = None,
                      resolution=res,
                      machine=machine if machine is not None else _machine(scenario),
                      workpiece=workpiece,
-                     initial_wear_mm=scenario.initial_wear_mm)
+                     initial_wear_mm=scenario.initial_wear_mm, sensitivity=sensitivity)
 
 
 def blocks_in_scope(scenario: Scenario, program: Program) -> list[int]:
@@ -84,7 +85,7 @@ def predict(scenario: Scenario, *, program: Program | None = None, workers: int 
     ``workpiece``: the workpiece's modes at a cutting point (see :class:`Predictor`);
     ``client``: a Dask client for the geometry stage (``workers`` is then unused).
     """
-    pred = build_predictor(scenario, program, resolution, stock, workpiece)
+    pred = build_predictor(scenario, program, resolution, stock, workpiece, sensitivity=False)
     blocks = blocks_in_scope(scenario, pred.program)
     return pred.run(blocks, workers=workers, progress=progress, series_lines=series_lines,
                     client=client)

@@ -135,6 +135,11 @@ class Predictor:
         actual cutting distance so far (an array, e.g. from a tool-state file,
         :mod:`errpred.tool_state`), or one distance for every micro edge.
         Default: a fresh tool (0).
+    sensitivity : bool
+        Also each point's error sensitivity to a correction
+        (:attr:`errpred.physics.PointResult.gain`; 0 where not computed). A
+        correction needs it; a prediction alone does not (it costs a second
+        engagement and a second revolution per point).
     """
 
     def __init__(self, tool: Tool, stock, program: Program,
@@ -142,7 +147,7 @@ class Predictor:
                  shape_error: ShapeErrorModel | None = None,
                  resolution: Resolution | None = None, machine=None,
                  cl: CutterLocations | None = None, workpiece=None,
-                 initial_wear_mm=None) -> None:
+                 initial_wear_mm=None, sensitivity: bool = True) -> None:
         self.tool = tool
         self.workpiece = workpiece
         self.program = program
@@ -152,7 +157,7 @@ class Predictor:
         self.resolution = resolution or Resolution.default(tool)
         self.cl = cl if cl is not None else cutter_locations(
             program, machine, chord_tol_mm=self.resolution.chord_tol_mm)
-        self.model = GeometryModel(tool, stock, self.cl, self.resolution)
+        self.model = GeometryModel(tool, stock, self.cl, self.resolution, sensitivity)
         self.initial_wear_mm = WearState.start(self.edges, initial_wear_mm).cl_mm
 
     @property

@@ -217,3 +217,21 @@ def test_removed_memo_answers_as_the_kernel_in_any_order():
     for part in (rng.permutation(4000)[:2500], rng.permutation(4000)[:2500], np.arange(4000)):
         got = memo("grid", keys[part], world[part])
         assert np.array_equal(got, ref[part])
+
+
+def test_prediction_without_sensitivity_has_the_same_error():
+    """The sensitivity pass (what a correction needs) changes no error: without it the
+    points are the same, E identical, and the gain is not computed (0)."""
+    prog = parse_program(plane_raster(30.0, R, passes=4))
+    mid_pass = [b for b in range(len(prog)) if 45 <= prog.line[b] <= 52]
+    out = []
+    for sens in (True, False):
+        pred = Predictor(Tool("ball", D, flute_length_mm=15), plane_stock(30.0, 0.2), prog,
+                         STEEL, stiff_tool(), sensitivity=sens)
+        out.append(pred.run(mid_pass))
+    with_s, without = out
+    assert [q.status for q in with_s.points] == [q.status for q in without.points]
+    got = [(a.E_um, b.E_um) for a, b in zip(with_s.points, without.points) if a.result]
+    assert got and all(a == b for a, b in got)
+    assert any(q.result.gain != 0.0 for q in with_s.predicted())
+    assert all(q.result.gain == 0.0 for q in without.predicted())
