@@ -553,19 +553,16 @@ class GeometryModel:
         tool = self.tool
         shift_vec = np.zeros(3) if stock_shift is None else np.asarray(stock_shift, float)
         # micro edges above the highest stock under the tool cannot cut
-        edge_ok = self.edges.z <= z_top + self.res.pixel_mm
+        edge_ok = np.flatnonzero(self.edges.z <= z_top + self.res.pixel_mm)
         factor, window = 1, None
         while True:
             grid = self._grid(factor)
             n, m = grid.shape
-            if window is None:
-                sel = np.tile(edge_ok, n)
-            else:
-                sel = np.repeat(window, m) & np.tile(edge_ok, n)
-            idx = np.flatnonzero(sel)
+            rows = np.arange(n) if window is None else np.flatnonzero(window)
+            idx = (rows[:, None] * m + edge_ok[None, :]).ravel()
             local = grid.samples[idx]
             cand = self.bottom.in_stock_local(self.stock, interval, tip, frame,
-                                              local - shift_vec)
+                                              local if stock_shift is None else local - shift_vec)
             idx, local = idx[cand], local[cand]
             removed = removed_by_t1(("grid", factor), idx, tip + local @ frame)
             cutting0 = np.zeros(n * m, dtype=bool)
