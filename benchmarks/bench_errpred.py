@@ -148,16 +148,24 @@ class _Probe:
         self.deciding.append(int(np.unique(first[first >= 0]).size))
 
 
-def _one_core(pred, blocks, probe=None):
-    """Stage 1 then stage 2 of ``blocks`` in this process: (seconds, geometry seconds)."""
+def stage_seconds(pred, blocks) -> tuple[float, float, int]:
+    """Stage 1 (geometry) and stage 2 (physics) of ``blocks`` in this process, one after
+    the other: seconds of each and the number of prediction points (also bench_dask's)."""
     t0 = time.perf_counter()
     geoms = [g for gl in pred.geometries(blocks) for g in gl]
     t_geo = time.perf_counter() - t0
     wear = WearState.new(pred.edges)
+    t0 = time.perf_counter()
     for g in geoms:
         evaluate(pred.tool, pred.edges, pred.coefficients, pred.compliance, pred.shape,
                  pred.theta, g, wear)
-    return time.perf_counter() - t0, t_geo
+    return t_geo, time.perf_counter() - t0, len(geoms)
+
+
+def _one_core(pred, blocks):
+    """Stage 1 then stage 2 of ``blocks`` in this process: (seconds, geometry seconds)."""
+    t_geo, t_phys, _ = stage_seconds(pred, blocks)
+    return t_geo + t_phys, t_geo
 
 
 def _fmt(rates):
