@@ -235,3 +235,21 @@ def test_prediction_without_sensitivity_has_the_same_error():
     assert got and all(a == b for a, b in got)
     assert any(q.result.gain != 0.0 for q in with_s.predicted())
     assert all(q.result.gain == 0.0 for q in without.predicted())
+
+
+def test_two_worker_processes_predict_as_one():
+    """Stage 1 in two worker processes (chunks of a few blocks, results shipped packed)
+    gives the same points and errors, in the same order, as in this process."""
+    prog = parse_program(plane_raster(30.0, R, passes=4))
+    blocks = [b for b in range(len(prog)) if 45 <= prog.line[b] <= 60]
+    pred = Predictor(Tool("ball", D, flute_length_mm=15), plane_stock(30.0, 0.2), prog,
+                     STEEL, stiff_tool())
+    one = pred.run(blocks)
+    two = pred.run(blocks, workers=2)
+    assert len(blocks) >= 8 and len(one.points) == len(two.points)
+    for a, b in zip(one.points, two.points, strict=True):
+        assert (a.block, a.status) == (b.block, b.status)
+        assert (a.E_um == b.E_um) or (math.isnan(a.E_um) and math.isnan(b.E_um))
+        if a.result is not None:
+            assert a.result.gain == b.result.gain
+    np.testing.assert_array_equal(one.wear_mm, two.wear_mm)
