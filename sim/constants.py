@@ -82,6 +82,13 @@ DETECTOR_HOP_SAMPLES = 256
 #: tooth-passing multiples are forced lines (period-doubling chatter at odd
 #: multiples of half the tooth frequency stays visible).
 DETECTOR_HARMONIC_BASE = "tooth"
+#: Windows judged per call of the detector when a recorded run is judged offline
+#: (sim/report.py: chatter_timeline) [-]. The detector holds each window of a call and
+#: its spectra at once (about 0.2 MB a window of 2048 samples): 256 windows bound that
+#: to about 50 MB whatever the run's length (a whole 141 s run at once, 14,117 windows,
+#: was a 2.2 GB transient); the verdicts do not depend on it (each window is judged
+#: from its own samples).
+DETECTOR_CHUNK_WINDOWS = 256
 
 # --- the simulated NC (sim/machine.py) ----------------------------------------
 #: Rapid traverse rate [mm/min].
