@@ -82,6 +82,13 @@ DETECTOR_HOP_SAMPLES = 256
 #: tooth-passing multiples are forced lines (period-doubling chatter at odd
 #: multiples of half the tooth frequency stays visible).
 DETECTOR_HARMONIC_BASE = "tooth"
+#: Windows judged per call of the detector when a recorded run is judged offline
+#: (sim/report.py: chatter_timeline) [-]. The detector holds each window of a call and
+#: its spectra at once (about 0.2 MB a window of 2048 samples): 256 windows bound that
+#: to about 50 MB whatever the run's length (a whole 141 s run at once, 14,117 windows,
+#: was a 2.2 GB transient); the verdicts do not depend on it (each window is judged
+#: from its own samples).
+DETECTOR_CHUNK_WINDOWS = 256
 
 # --- the simulated NC (sim/machine.py) ----------------------------------------
 #: Rapid traverse rate [mm/min].
@@ -142,6 +149,14 @@ JOB_CORRECTION_PASSES = 3
 #: predicted and cutter locations simulated while the planner chooses the speed [-].
 JOB_WARM_BLOCKS = 40
 JOB_WARM_POINTS = 30
+#: BLAS threads of the job's main process (sim.blas) [-]: one, as Dask gives each of its
+#: workers. With OpenBLAS's default (one a core) on the 2 cores kept busy by other
+#: processes (as a cluster's workers keep them), the planner's time-periodic margins took
+#: 188 of its 323 s (eigenvalues 6.1 s a matrix against 0.07 s on one thread); and
+#: OpenBLAS's results change with its thread count (last bits: an SDM margin
+#: 0.18029627247115548 against 0.1802962724711461), which one process and a cluster
+#: must not.
+JOB_BLAS_THREADS = 1
 #: Spindle speeds of the job's lobe diagrams (0.5 to 1.5 times the planned speed) [-].
 JOB_LOBE_SPEEDS = 300
 #: The job's check: RMS simulated surface error of the corrected program at most this

@@ -126,9 +126,11 @@ class Cutter:
         on_new = self._engaged(new)
         if old is not None:                  # both engage it: the vibration's imprint stays
             both = on_new & self._engaged(old)
-            self.surface[both] += (q_new - q_old)[both.nonzero()[0]]
+            rows, cols = both.nonzero()      # once: a mask as an index is found again
+            self.surface[rows, cols] += (q_new - q_old)[rows]
             on_new &= ~both
-        self.surface[on_new] = q_new[on_new.nonzero()[0]]    # only the new cut engages it
+        rows, cols = on_new.nonzero()        # only the new cut engages it
+        self.surface[rows, cols] = q_new[rows]
 
     def _engaged(self, cut: Cut) -> np.ndarray:
         out = np.zeros((self.steps_per_rev, self.n_edges), bool)

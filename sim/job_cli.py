@@ -27,6 +27,8 @@ from pathlib import Path
 from nc.atomic import atomic_write
 from nc.command import Refused
 
+from .constants import JOB_BLAS_THREADS
+
 __all__ = ["NOT_FOR_CUTTING_SUFFIX", "add_job_arguments", "run"]
 
 
@@ -67,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
     from errpred.cluster import dask_client
     from orient.scenario import bundled_scenario, load_plan_scenario
 
+    from .blas import blas_threads
     from .job import run_job
     from .job_report import write_job_report
 
@@ -82,7 +85,11 @@ def run(args: argparse.Namespace) -> int:
     stage = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
     t0 = time.perf_counter()
     try:
-        with _progress(con) as bar, dask_client(args.scheduler, workers) as client:
+        # this process's BLAS on one thread, as Dask's workers (sim.blas: beside a local
+        # cluster's workers its spinning threads made LAPACK 100 times slower; and
+        # OpenBLAS's results depend on its thread count: one process and a cluster alike)
+        with _progress(con) as bar, dask_client(args.scheduler, workers) as client, \
+                blas_threads(JOB_BLAS_THREADS):
             tasks: dict[str, int] = {}
 
             def progress(name: str, done: int, total: int) -> None:

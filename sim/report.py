@@ -28,6 +28,7 @@ and closed loop are judged alike. Definitions:
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Any
 
@@ -35,23 +36,86 @@ import numpy as np
 
 from orient.detect import ChatterDetector
 
-from .constants import STOP_FRACTION, STOP_WINDOW_S, TAIL_FRACTION
+from .constants import (
+    DETECTOR_CHUNK_WINDOWS,
+    STOP_FRACTION,
+    STOP_WINDOW_S,
+    TAIL_FRACTION,
+)
 
 __all__ = ["chatter_episodes", "chatter_timeline", "spectrum", "summarize_run"]
 
 
 def chatter_timeline(time_s: np.ndarray, accel_m_s2: np.ndarray, detector: ChatterDetector,
-                     spindle_rpm: float, teeth: int) -> dict[str, np.ndarray]:
-    """Verdict per window: end time [s], chatter flag, amplitude [m/s^2], frequency [Hz]."""
+                     spindle_rpm: float, teeth: int,
+                     chunk_windows: int = DETECTOR_CHUNK_WINDOWS) -> dict[str, np.ndarray]:
+    """The detector's verdict on every window of a recorded run.
+
+    The samples are fed to the detector (reset first) in chunks of ``chunk_windows``
+    hops, so that it holds at most about that many windows and their spectra at once,
+    whatever the run's length; the detector keeps the samples a window needs across
+    :meth:`~orient.detect.ChatterDetector.feed` calls and judges each window from its
+    own samples, so the verdicts are those of feeding the whole run at once.
+
+    Parameters
+    ----------
+    time_s : ndarray, shape (k,) [s]
+        Sample times (the first one is the stream's start).
+    accel_m_s2 : ndarray, shape (k, 2) [m/s^2]
+        X and Y acceleration.
+    detector : orient.detect.ChatterDetector
+    spindle_rpm : float [rev/min]
+    teeth : int [-]
+    chunk_windows : int [-]
+        Windows judged per call of the detector (>= 2; the last call may take one more).
+
+    Returns
+    -------
+    dict of ndarray, each shape (w,)
+        ``end_s`` window end time [s], ``chatter`` verdict, ``amplitude`` [m/s^2] and
+        ``frequency_hz`` [Hz] of the strongest non-harmonic component, ``cause``
+        (``'tool'``, ``'workpiece'`` or ``''``).
+    """
+    if isinstance(chunk_windows, bool) or not isinstance(chunk_windows, int) \
+            or chunk_windows < 2:
+        raise ValueError(f"chunk_windows: expected an integer >= 2, got {chunk_windows!r}")
     detector.reset()
-    out = detector.feed(accel_m_s2[:, 0], accel_m_s2[:, 1], spindle_rpm, teeth)
+    parts: dict[str, list[np.ndarray]] = {"index": [], "chatter": [], "amplitude": [],
+                                          "frequency_hz": [], "cause": []}
+    cuts = _chunk_bounds(accel_m_s2.shape[0], detector.settings.window_samples,
+                         detector.settings.hop_samples, chunk_windows)
+    for a, b in itertools.pairwise(cuts):
+        out = detector.feed(accel_m_s2[a:b, 0], accel_m_s2[a:b, 1], spindle_rpm, teeth)
+        parts["index"].append(np.array([d.sample_index for d in out], dtype=np.int64))
+        parts["chatter"].append(np.array([d.chatter for d in out], dtype=bool))
+        parts["amplitude"].append(np.array([d.amplitude for d in out], dtype=float))
+        parts["frequency_hz"].append(np.array([d.frequency_hz for d in out], dtype=float))
+        parts["cause"].append(np.array([d.cause or "" for d in out], dtype=object))
+    cat = {key: np.concatenate(v) if v else np.zeros(0, dtype) for (key, v), dtype in
+           zip(parts.items(), (np.int64, bool, float, float, object))}
     t0 = float(time_s[0]) if time_s.size else 0.0
     fs = detector.settings.sample_rate_hz
-    return {"end_s": t0 + np.array([d.sample_index for d in out], dtype=float) / fs,
-            "chatter": np.array([d.chatter for d in out], dtype=bool),
-            "amplitude": np.array([d.amplitude for d in out], dtype=float),
-            "frequency_hz": np.array([d.frequency_hz for d in out], dtype=float),
-            "cause": np.array([d.cause or "" for d in out])}
+    return {"end_s": t0 + cat["index"].astype(float) / fs,
+            "chatter": cat["chatter"],
+            "amplitude": cat["amplitude"],
+            "frequency_hz": cat["frequency_hz"],
+            "cause": cat["cause"].astype(str)}
+
+
+def _chunk_bounds(samples: int, window: int, hop: int, chunk_windows: int) -> list[int]:
+    """Sample indices where :func:`chatter_timeline` splits a run of ``samples`` samples:
+    each piece completes ``chunk_windows`` windows of ``window`` samples every ``hop``,
+    the last one the rest, never a single window (merged into the piece before it: a
+    batch of one window takes numpy's vector product where the batch of many takes the
+    matrix one, whose sums differ in the last bit)."""
+    if samples < window:
+        return [0, samples]
+    windows = (samples - window) // hop + 1
+    ends = [window + (i * chunk_windows - 1) * hop
+            for i in range(1, (windows - 1) // chunk_windows + 1)]
+    if ends and windows - len(ends) * chunk_windows == 1:
+        ends.pop()
+    return [0, *ends, samples]
 
 
 def chatter_episodes(end_s: np.ndarray, chatter: np.ndarray, window_s: float

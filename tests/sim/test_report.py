@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from orient.detect import ChatterDetector, DetectorSettings
-from sim.report import chatter_episodes, summarize_run
+from sim.report import chatter_episodes, chatter_timeline, summarize_run
 
 FS_HZ = 25600.0
 RPM = 11400.0
@@ -77,3 +77,29 @@ def test_a_ringing_that_dies_within_its_window_is_a_transient_and_chatter_is_sus
     # nothing added: no call at all
     quiet = summarize_run(t, acc, {}, _detector(), RPM, TEETH)
     assert quiet["chatter_windows"] == 0 and quiet["episodes"] == []
+
+
+@pytest.mark.parametrize("chunk_windows", [2, 3, 37, 56, 10_000])
+def test_a_run_judged_in_chunks_gets_the_verdicts_of_the_whole_run_fed_at_once(chunk_windows):
+    rng = np.random.default_rng(5)
+    t, acc = _cut(1.2, rng)                      # 113 windows: 2 and 56 leave one at the end
+    t = t + 3.0                                  # a stream that does not start at 0 s
+    acc = acc + _ring(t, 3.55, 40.0, np.inf)     # quiet, then chatter to the end
+    det = _detector()
+    det.reset()
+    whole = det.feed(acc[:, 0], acc[:, 1], RPM, TEETH)
+    fs = det.settings.sample_rate_hz
+    tl = chatter_timeline(t, acc, det, RPM, TEETH, chunk_windows=chunk_windows)
+    chatter = np.array([d.chatter for d in whole])
+    assert chatter.any() and not chatter.all()   # the signal holds both verdicts
+    assert np.array_equal(tl["chatter"], chatter)
+    assert np.array_equal(tl["amplitude"], [d.amplitude for d in whole], equal_nan=True)
+    assert np.array_equal(tl["frequency_hz"], [d.frequency_hz for d in whole], equal_nan=True)
+    assert np.array_equal(tl["end_s"], t[0] + np.array([d.sample_index for d in whole]) / fs)
+    assert list(tl["cause"]) == [d.cause or "" for d in whole]
+
+
+def test_chatter_timeline_refuses_a_chunk_of_one_window():
+    t, acc = _cut(0.1, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="chunk_windows"):
+        chatter_timeline(t, acc, _detector(), RPM, TEETH, chunk_windows=1)
