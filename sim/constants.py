@@ -149,7 +149,7 @@ JOB_CORRECTION_PASSES = 3
 #: predicted and cutter locations simulated while the planner chooses the speed [-].
 JOB_WARM_BLOCKS = 40
 JOB_WARM_POINTS = 30
-#: BLAS threads of the job's main process (sim.blas) [-]: one, as Dask gives each of its
+#: BLAS threads of the job's main process (threadpoolctl: numpy's and scipy's OpenBLAS) [-]: one, as Dask gives each of its
 #: workers. With OpenBLAS's default (one a core) on the 2 cores kept busy by other
 #: processes (as a cluster's workers keep them), the planner's time-periodic margins took
 #: 188 of its 323 s (eigenvalues 6.1 s a matrix against 0.07 s on one thread); and

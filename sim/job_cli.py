@@ -69,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
     from errpred.cluster import dask_client
     from orient.scenario import bundled_scenario, load_plan_scenario
 
-    from .blas import blas_threads
+    from threadpoolctl import threadpool_limits
+
     from .job import run_job
     from .job_report import write_job_report
 
@@ -85,11 +86,11 @@ def run(args: argparse.Namespace) -> int:
     stage = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
     t0 = time.perf_counter()
     try:
-        # this process's BLAS on one thread, as Dask's workers (sim.blas: beside a local
-        # cluster's workers its spinning threads made LAPACK 100 times slower; and
+        # this process's BLAS on one thread, as Dask's workers (JOB_BLAS_THREADS: beside a
+        # local cluster's workers its spinning threads made LAPACK 100 times slower; and
         # OpenBLAS's results depend on its thread count: one process and a cluster alike)
         with _progress(con) as bar, dask_client(args.scheduler, workers) as client, \
-                blas_threads(JOB_BLAS_THREADS):
+                threadpool_limits(limits=JOB_BLAS_THREADS, user_api="blas"):
             tasks: dict[str, int] = {}
 
             def progress(name: str, done: int, total: int) -> None:
