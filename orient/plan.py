@@ -92,6 +92,10 @@ CAM_PREFERENCE_PER_RAD = 1.0e-3
 SPEED_SAMPLE_POINTS = 24
 #: Cutter locations per Dask task when planning on a cluster [-].
 DASK_CHUNK_POINTS = 256
+#: Sampled cutter locations per Dask task of the speed choice [-]: small tasks (about
+#: 0.4 s each on the bundled thin wall), so that a worker busy elsewhere (the job's
+#: warm-up) holds up none for long: the idle worker takes them.
+DASK_SPEED_ROWS = 4
 #: A previous pass counts if an earlier contact lies within this fraction of the
 #: pick feed of where it should be [-].
 FIRST_PASS_TOLERANCE = 0.5
@@ -262,21 +266,37 @@ def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
 def _chunk_gains_margins(tool, coeffs, wp: WorkpieceModel, tool_sys: ModalSystem,
                          points: np.ndarray, normal: np.ndarray, feed: np.ndarray,
                          axes: np.ndarray, ok: np.ndarray, cuts: list, rpm: float,
-                         cap: float) -> tuple:
+                         cap: float, cam_rpm: float | None = None) -> tuple:
     """Process gains, cut senses, capped margins and systems of a chunk of cutter
-    locations (a Dask task; the same functions as the one-process path)."""
+    locations (a Dask task; the same functions as the one-process path); with
+    ``cam_rpm``, also the CAM posture's (the last column's) exact margin at that speed
+    (None otherwise)."""
     P, sense = _gains_rows(tool, coeffs, normal, feed, axes, ok, cuts, parallel=False)
     systems: list = [None] * axes.shape[0]
     margin = _margins_rows(tool, wp, tool_sys, points, axes, ok, P, rpm, cap, systems)
-    return P, sense, margin, systems
+    cam = None
+    if cam_rpm is not None:
+        cam = _margins_rows(tool, wp, tool_sys, points, axes, _cam_column(ok), P,
+                            cam_rpm)[:, -1]
+    return P, sense, margin, systems, cam
+
+
+def _cam_column(ok: np.ndarray) -> np.ndarray:
+    """Only the CAM posture (the last column) of ``ok``'s shape."""
+    out = np.zeros_like(ok)
+    out[:, -1] = True
+    return out
 
 
 def _dask_gains_margins(client, scn, wp, tool_sys, contacts, idx, axes, ok, cuts, rpm, cap,
-                        chunk: int = DASK_CHUNK_POINTS) -> tuple:
+                        chunk: int = DASK_CHUNK_POINTS, wp_f=None,
+                        cam_rpm: float | None = None) -> tuple:
     """:func:`_chunk_gains_margins` over chunks of cutter locations on a Dask cluster;
-    the workpiece model is scattered once; results are put back in order."""
+    the workpiece model is scattered once (``wp_f``: already scattered); results are put
+    back in order. Returns P, sense, margin, systems and the CAM margins (None without
+    ``cam_rpm``)."""
     t = len(idx)
-    wp_f = client.scatter(wp, broadcast=True)
+    wp_f = client.scatter(wp, broadcast=True) if wp_f is None else wp_f
     tool, coeffs = scn.base.tool, scn.base.coefficients
     futures = []
     for a in range(0, t, chunk):
@@ -285,53 +305,91 @@ def _dask_gains_margins(client, scn, wp, tool_sys, contacts, idx, axes, ok, cuts
         futures.append(client.submit(
             _chunk_gains_margins, tool, coeffs, wp_f, tool_sys, contacts.point[r],
             contacts.normal[r], contacts.feed[r], axes[a:b], ok[a:b], cuts[a:b], rpm, cap,
-            pure=False))
+            cam_rpm, pure=False))
     parts = client.gather(futures)
     P = np.concatenate([p[0] for p in parts])
     sense = np.concatenate([p[1] for p in parts])
     margin = np.concatenate([p[2] for p in parts])
     systems = [sys_ for p in parts for sys_ in p[3]]
-    return P, sense, margin, systems
+    cam = None if cam_rpm is None else np.concatenate([p[4] for p in parts])
+    return P, sense, margin, systems, cam
 
 
 def _uncap(scn, systems: list, axes: np.ndarray, P: np.ndarray, rpm: float,
-           margin: np.ndarray, cols: np.ndarray, cap: float) -> None:
-    """Exact margins, in place, of the postures ``margin[r, cols[r, :]]`` found capped."""
+           margin: np.ndarray, cols: np.ndarray, cap: float, client=None,
+           chunk: int = DASK_CHUNK_POINTS) -> None:
+    """Exact margins, in place, of the postures ``margin[r, cols[r, :]]`` found capped
+    (with ``client``: chunks of rows on its workers, the same function)."""
     flutes = scn.base.tool.flutes
+    wanted = []
     for r in range(margin.shape[0]):
         c = np.unique(cols[r])
         c = c[margin[r, c] >= cap]
-        if len(c) == 0 or systems[r] is None:
-            continue
-        sys_r = systems[r]
-        margin[r, c] = zoa_margin_batch(P[r, c], sys_r, rpm, flutes,
-                                        mode_directions=sys_r.directions_for_axes(axes[r, c]))
+        if len(c) and systems[r] is not None:
+            wanted.append((r, c))
+    if client is None or len(wanted) < 2:
+        parts = [_uncap_rows(flutes, rpm, [(systems[r], axes[r, c], P[r, c])
+                                           for r, c in wanted])]
+    else:
+        futures = [client.submit(_uncap_rows, flutes, rpm,
+                                 [(systems[r], axes[r, c], P[r, c]) for r, c in
+                                  wanted[a:a + chunk]], pure=False)
+                   for a in range(0, len(wanted), chunk)]
+        parts = client.gather(futures)
+    for (r, c), m in zip(wanted, (m for p in parts for m in p), strict=True):
+        margin[r, c] = m
 
 
-def _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm0: float) -> float:
+def _uncap_rows(flutes: int, rpm: float, rows: list) -> list:
+    """Exact ZOA margins of ``rows``: (system, axes (k, 3), P (k, 3, 3)) each."""
+    return [zoa_margin_batch(P_, sys_r, rpm, flutes,
+                             mode_directions=sys_r.directions_for_axes(ax))
+            for sys_r, ax, P_ in rows]
+
+
+def _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm0: float,
+                  client=None, wp_f=None) -> float:
     """Spindle speed from the lobes: the speed of ``[orient.spindle]``'s range whose
     worst sampled cutter location has the best reachable (capped) margin; ties go to
-    the speed nearest the programmed one."""
+    the speed nearest the programmed one. With ``client``, the sampled cutter locations
+    are shared among its workers (``wp_f``: the workpiece model scattered)."""
     sp = scn.options.spindle
     speeds = np.linspace(*sp.range_rpm, sp.steps)
     rows = np.unique(np.linspace(0, len(idx) - 1, min(SPEED_SAMPLE_POINTS, len(idx)))
                      .astype(int))
+    rows = [r for r in rows if ok[r].any()]
     target = scn.options.margin_target
+    args = [(contacts.point[idx[r]], axes[r, ok[r]], P[r, ok[r]]) for r in rows]
+    flutes = scn.base.tool.flutes
+    if client is None:
+        bests = _speed_rows(wp, tool_sys, speeds, flutes, target, args)
+    else:
+        wp_f = client.scatter(wp, broadcast=True) if wp_f is None else wp_f
+        futures = [client.submit(_speed_rows, wp_f, tool_sys, speeds, flutes, target,
+                                 args[a:a + DASK_SPEED_ROWS], pure=False)
+                   for a in range(0, len(args), DASK_SPEED_ROWS)]
+        bests = [x for part in client.gather(futures) for x in part]
     score = np.full(len(speeds), np.inf)
-    for r in rows:
-        sel = np.flatnonzero(ok[r])
-        if len(sel) == 0:
-            continue
-        system = wp.system_at(tool_sys, contacts.point[idx[r]])
-        dirs = system.directions_for_axes(axes[r, sel])
-        k = len(sel)
-        m = zoa_margin_batch(np.tile(P[r, sel], (len(speeds), 1, 1)), system,
-                             np.repeat(speeds, k), scn.base.tool.flutes,
-                             mode_directions=np.tile(dirs, (len(speeds), 1, 1)))
-        best = np.minimum(m.reshape(len(speeds), k), target).max(axis=1)
+    for best in bests:
         score = np.minimum(score, best)
     top = np.flatnonzero(score >= score.max() - 1e-9)
     return float(speeds[top[np.argmin(np.abs(speeds[top] - rpm0))]])
+
+
+def _speed_rows(wp: WorkpieceModel, tool_sys: ModalSystem, speeds: np.ndarray, flutes: int,
+                target: float, rows: list) -> list:
+    """Per sampled cutter location (point, feasible axes (k, 3), their P (k, 3, 3)): the
+    best capped margin of its postures at each of ``speeds`` (a Dask task or not)."""
+    out = []
+    for point, ax, P_ in rows:
+        system = wp.system_at(tool_sys, point)
+        dirs = system.directions_for_axes(ax)
+        k = len(ax)
+        m = zoa_margin_batch(np.tile(P_, (len(speeds), 1, 1)), system,
+                             np.repeat(speeds, k), flutes,
+                             mode_directions=np.tile(dirs, (len(speeds), 1, 1)))
+        out.append(np.minimum(m.reshape(len(speeds), k), target).max(axis=1))
+    return out
 
 
 def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
@@ -424,13 +482,18 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     t2 = time.perf_counter()
     rpm_program = rpm
     cap = opt.margin_target
+    cam_margin = None
     if client is not None:
+        wp_f = client.scatter(wp, broadcast=True)
         if choose_speed:
             P_s = np.zeros(axes.shape[:2] + (3, 3))
             P_s[rows_s] = sample_f.result()[0]
-            rpm = _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P_s, rpm)
-        P, sense, margin, systems = _dask_gains_margins(client, scn, wp, tool_sys, contacts,
-                                                        idx, axes, ok, cuts, rpm, cap)
+            rpm = _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P_s, rpm,
+                                client=client, wp_f=wp_f)
+        # the CAM's posture at the CAM's speed (for the report) in the same tasks
+        P, sense, margin, systems, cam_margin = _dask_gains_margins(
+            client, scn, wp, tool_sys, contacts, idx, axes, ok, cuts, rpm, cap, wp_f=wp_f,
+            cam_rpm=rpm_program if rpm != rpm_program else None)
     else:
         P, sense = _gains(scn, contacts, idx, axes, ok, cuts)
         if choose_speed:
@@ -439,14 +502,12 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
         margin = _margins(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm,
                           None if progress is None else (lambda d, n: progress("margins", d, n)),
                           cap=cap, systems=systems)
-    cam_margin = None
-    if rpm != rpm_program:        # the CAM's posture at the CAM's speed, for the report
-        # (its column keeps the margin at the planned speed: the choice and the
-        # reasons are about the planned path)
-        cam_col = np.zeros_like(ok)
-        cam_col[:, -1] = True
-        cam_margin = _margins(scn, tool_sys, wp, contacts, idx, axes, cam_col, P,
-                                 rpm_program)[:, -1]
+    if rpm != rpm_program and cam_margin is None:
+        # the CAM's posture at the CAM's speed, for the report (its column keeps the
+        # margin at the planned speed: the choice and the reasons are about the planned
+        # path)
+        cam_margin = _margins(scn, tool_sys, wp, contacts, idx, axes, _cam_column(ok), P,
+                              rpm_program)[:, -1]
     ok[:, -1] = cam_ok
     t3 = time.perf_counter()
     # --- choose: smooth, then interference, repeated -------------------------
@@ -475,7 +536,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     # the score needed only min(margin, target): the chosen and the CAM postures'
     # margins are made exact again for the report
     _uncap(scn, systems, axes, P, rpm, margin,
-           np.stack([choice, np.full(len(idx), S1 - 1)], axis=1), cap)
+           np.stack([choice, np.full(len(idx), S1 - 1)], axis=1), cap, client=client)
     if cam_margin is None:
         cam_margin = margin[:, -1]
     t4 = time.perf_counter()
