@@ -112,6 +112,43 @@ def _dist_half_strip(ax, ay, az, dx, dy, dz, wx, wy, wz, lmax):
     return math.sqrt(best)
 
 
+@njit(cache=True, inline="always")
+def _golden(x, y, z, p0, d, w, c, r, top, lim):
+    """Golden-section search over s of the core distance of (x, y, z) - s d: the
+    smaller of its last two values, or the first value within ``lim`` (``-inf``:
+    never stops early; the search keeps its best value, so the final one would be
+    within ``lim`` too)."""
+    lo, hi = 0.0, 1.0
+    m1 = hi - _INV_PHI * (hi - lo)
+    m2 = lo + _INV_PHI * (hi - lo)
+    f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
+                    w[0], w[1], w[2], c, r, top)
+    f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
+                    w[0], w[1], w[2], c, r, top)
+    if f1 <= lim:
+        return f1
+    if f2 <= lim:
+        return f2
+    for _ in range(GOLDEN_ITERATIONS):
+        if f1 <= f2:
+            hi = m2
+            m2, f2 = m1, f1
+            m1 = hi - _INV_PHI * (hi - lo)
+            f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
+                            w[0], w[1], w[2], c, r, top)
+            if f1 <= lim:
+                return f1
+        else:
+            lo = m1
+            m1, f1 = m2, f2
+            m2 = lo + _INV_PHI * (hi - lo)
+            f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
+                            w[0], w[1], w[2], c, r, top)
+            if f2 <= lim:
+                return f2
+    return f1 if f1 < f2 else f2
+
+
 @njit(cache=True)
 def sweep_distance(x, y, z, p0, d, w, c, r, top):
     """Distance from a point to the swept core of one sweep [mm].
@@ -130,27 +167,7 @@ def sweep_distance(x, y, z, p0, d, w, c, r, top):
         return _dist_half_strip(x - (p0[0] + r * w[0]), y - (p0[1] + r * w[1]),
                                 z - (p0[2] + r * w[2]), d[0], d[1], d[2], w[0], w[1], w[2],
                                 top - r)
-    lo, hi = 0.0, 1.0
-    m1 = hi - _INV_PHI * (hi - lo)
-    m2 = lo + _INV_PHI * (hi - lo)
-    f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
-                    w[0], w[1], w[2], c, r, top)
-    f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
-                    w[0], w[1], w[2], c, r, top)
-    for _ in range(GOLDEN_ITERATIONS):
-        if f1 <= f2:
-            hi = m2
-            m2, f2 = m1, f1
-            m1 = hi - _INV_PHI * (hi - lo)
-            f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
-                            w[0], w[1], w[2], c, r, top)
-        else:
-            lo = m1
-            m1, f1 = m2, f2
-            m2 = lo + _INV_PHI * (hi - lo)
-            f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
-                            w[0], w[1], w[2], c, r, top)
-    best = f1 if f1 < f2 else f2
+    best = _golden(x, y, z, p0, d, w, c, r, top, -math.inf)
     # the ends are candidates too (the minimum may sit at s = 0 or 1)
     e0 = _core_dist(x, y, z, p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r, top)
     e1 = _core_dist(x - d[0], y - d[1], z - d[2], p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r, top)
@@ -197,33 +214,7 @@ def sweep_within(x, y, z, p0, d, w, c, r, top, lim):
         return True
     if sweep_lower_bound(x, y, z, p0, d, w, c, r, top) > lim:
         return False
-    lo, hi = 0.0, 1.0
-    m1 = hi - _INV_PHI * (hi - lo)
-    m2 = lo + _INV_PHI * (hi - lo)
-    f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
-                    w[0], w[1], w[2], c, r, top)
-    f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
-                    w[0], w[1], w[2], c, r, top)
-    if f1 <= lim or f2 <= lim:
-        return True
-    for _ in range(GOLDEN_ITERATIONS):
-        if f1 <= f2:
-            hi = m2
-            m2, f2 = m1, f1
-            m1 = hi - _INV_PHI * (hi - lo)
-            f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
-                            w[0], w[1], w[2], c, r, top)
-            if f1 <= lim:
-                return True
-        else:
-            lo = m1
-            m1, f1 = m2, f2
-            m2 = lo + _INV_PHI * (hi - lo)
-            f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
-                            w[0], w[1], w[2], c, r, top)
-            if f2 <= lim:
-                return True
-    return False
+    return _golden(x, y, z, p0, d, w, c, r, top, lim) <= lim
 
 
 @njit(cache=True, parallel=False)
