@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from nc.atomic import atomic_path
+from nc.errors import InputError
 from nc.checks import real_number as _real
 
 __all__ = ["DIRECTIONS", "Compliance", "FRFDataError", "Mode"]
@@ -40,7 +41,7 @@ _UFF_DIR = {"x": 1, "y": 2, "z": 3}
 _LENGTH_M = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "micron": 1e-6, "microns": 1e-6}
 
 
-class FRFDataError(ValueError):
+class FRFDataError(InputError):
     """Bad FRF input. Attributes ``path``, ``record``, ``line``, ``column``
     (None where not applicable) locate the problem; the message names them."""
 

@@ -37,6 +37,8 @@ from typing import Any
 
 import numpy as np
 
+from nc.errors import InputError
+
 from . import constants as K
 from .geometry import Resolution
 from .tool import TOOL_KINDS, Holder, Tool
@@ -61,7 +63,7 @@ def bundled_scenario(name: str) -> Path:
                          f"{', '.join(BUNDLED)}") from None
 
 
-class ScenarioError(ValueError):
+class ScenarioError(InputError):
     """A scenario file that cannot be used: names the file and the dotted key.
 
     Attributes

@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from nc.atomic import atomic_write
+from nc.errors import InputError
 
 from . import constants as K
 from .tool import MicroEdges, Tool
@@ -63,7 +64,7 @@ FORMAT = "errpred-tool-state"
 VERSION = 1
 
 
-class ToolStateError(ValueError):
+class ToolStateError(InputError):
     """A tool-state file that cannot be used; the message names file and key."""
 
     def __init__(self, file: str, key: str | None, message: str) -> None:

@@ -18,12 +18,13 @@ import math
 from collections.abc import Mapping, Sequence
 
 from . import constants as K
+from .errors import InputError
 from .program import PLANE_AXES
 
 __all__ = ["ArcWordError", "arc_from_words"]
 
 
-class ArcWordError(ValueError):
+class ArcWordError(InputError):
     """An arc's words do not make an arc; ``letter`` names the word, if one."""
 
     def __init__(self, letter: str | None, message: str) -> None:

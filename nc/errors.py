@@ -1,14 +1,28 @@
-"""Exceptions of the ``nc`` package.
+"""Exceptions of the ``nc`` package, and the project's input-error base class.
 
-All are ``ValueError`` subclasses: they report bad input, never a bug.
+:class:`InputError` is the one base of every error that reports bad input
+(a file, a line, a key, a value), in every package: ``nc``, ``errpred``,
+``orient`` and ``sim`` derive their input errors from it. The command lines
+(:func:`nc.command.run_command`) report it in one line with exit status 2;
+any other exception is a bug and keeps its traceback (exit status 1).
+It derives from ``ValueError`` so that callers catching ``ValueError`` keep
+working.
 """
 
 from __future__ import annotations
 
-__all__ = ["NCParseError", "CLFileError", "KinematicsError", "MachineFileError"]
+__all__ = ["InputError", "NCParseError", "CLFileError", "KinematicsError", "MachineFileError"]
 
 
-class NCParseError(ValueError):
+class InputError(ValueError):
+    """Bad input: a file, line, key or value that the project cannot use.
+
+    The message names where (file, line and column, or file and key) and what
+    was expected. Every package's input errors derive from this class.
+    """
+
+
+class NCParseError(InputError):
     """A G-code program could not be read.
 
     Parameters
@@ -55,7 +69,7 @@ class NCParseError(ValueError):
         return out
 
 
-class CLFileError(ValueError):
+class CLFileError(InputError):
     """A cutter-location file could not be read (names file, line, column)."""
 
     def __init__(self, message: str, *, file: str, line: int | None = None,
@@ -67,11 +81,11 @@ class CLFileError(ValueError):
         super().__init__(f"{where}: {message}")
 
 
-class MachineFileError(ValueError):
+class MachineFileError(InputError):
     """A machine definition (TOML) is missing a key or has a bad value."""
 
 
-class KinematicsError(ValueError):
+class KinematicsError(InputError):
     """A posture cannot be reached: outside axis limits, or no solution.
 
     Attributes

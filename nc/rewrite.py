@@ -22,6 +22,7 @@ import numpy as np
 
 from . import constants as K
 from .atomic import atomic_write
+from .errors import InputError
 from .gcode import parse_program
 from .lexer import words_with_spans
 from .program import PLANE_AXES, TCP_VECTOR, Program
@@ -34,7 +35,7 @@ _MIN_DECIMALS = {21: 3, 20: 4}
 _ANGLE_DECIMALS = 4
 
 
-class RewriteError(ValueError):
+class RewriteError(InputError):
     """The requested coordinates cannot be written into the program."""
 
 

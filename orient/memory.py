@@ -43,6 +43,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from nc.atomic import atomic_write
+from nc.errors import InputError
 from nc.checks import real_number as _real
 
 __all__ = [
@@ -75,7 +76,7 @@ DEFAULT_PICK_MM = 0.1
 DEFAULT_ANGLE_RAD = math.radians(10.0)
 
 
-class PostureMemoryError(ValueError):
+class PostureMemoryError(InputError):
     """A posture-memory file that cannot be read; the message names file, entry, key."""
 
 
