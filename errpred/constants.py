@@ -216,3 +216,10 @@ WORKER_MALLOC_MMAP_BYTES = 32 << 20
 #: by more (the micro edges of neighbouring ``resolution.micro_edges``
 #: settings are hundredths of a millimetre apart).
 TOOL_STATE_MATCH_MM = 1.0e-6
+
+#: Chunks of blocks a Dask worker may have submitted ahead of the one being
+#: taken [-]: enough to keep it busy while the client takes results in order,
+#: few enough that the workers hold a few chunks' results, not a pass's
+#: (every chunk's future used to be held until the pass ended: 2.1-2.6 GB a
+#: worker in the main job).
+DASK_CHUNKS_IN_FLIGHT = 3

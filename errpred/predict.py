@@ -22,6 +22,7 @@ import numpy as np
 from nc.path import CutterLocations, cutter_locations
 from nc.program import Program
 
+from . import constants as K
 from .coefficients import CuttingCoefficients
 from .dynamics import Compliance
 from .geometry import STATUS, GeometryModel, PointGeometry, Resolution
@@ -98,6 +99,37 @@ _WORKER_MODEL: GeometryModel | None = None
 def _init_worker(model: GeometryModel) -> None:
     global _WORKER_MODEL
     _WORKER_MODEL = model
+
+
+def _on_cluster(client, model, blocks: list[int], chunk: int
+                ) -> Iterator[list[PointGeometry]]:
+    """Stage 1 of ``blocks`` on a Dask cluster, in order, with a bounded number of
+    chunks in flight (``DASK_CHUNKS_IN_FLIGHT`` a worker): each chunk's future is
+    released as soon as its result is taken, so the workers hold a few chunks'
+    results at a time, not the whole pass's."""
+    from collections import deque
+
+    chunks = [blocks[i:i + chunk] for i in range(0, len(blocks), chunk)]
+    if not chunks:
+        return
+    workers = max(1, len(client.scheduler_info().get("workers", {})))
+    limit = K.DASK_CHUNKS_IN_FLIGHT * workers
+    scattered = client.scatter(model, broadcast=True)
+    pending: deque = deque()
+    nxt = 0
+    try:
+        while nxt < len(chunks) or pending:
+            while nxt < len(chunks) and len(pending) < limit:
+                pending.append(client.submit(_model_chunk, scattered, chunks[nxt], pure=False))
+                nxt += 1
+            f = pending.popleft()
+            res = f.result()
+            f.release()
+            del f
+            yield from res
+    finally:
+        if pending:
+            client.cancel(list(pending))
 
 
 def _model_chunk(model: GeometryModel, blocks: list[int]) -> list[list[PointGeometry]]:
@@ -180,14 +212,7 @@ class Predictor:
         """
         blocks = list(blocks)
         if client is not None:
-            chunks = [blocks[i:i + chunk] for i in range(0, len(blocks), chunk)]
-            model = client.scatter(self.model, broadcast=True)
-            futures = [client.submit(_model_chunk, model, c, pure=False) for c in chunks]
-            try:
-                for f in futures:
-                    yield from f.result()
-            finally:
-                client.cancel(futures)
+            yield from _on_cluster(client, self.model, blocks, chunk)
             return
         if workers <= 1 or len(blocks) < 2 * workers:
             for b in blocks:

@@ -91,3 +91,63 @@ def test_the_local_cluster_workers_keep_freed_memory_for_reuse():
     with dask_client(workers=1) as client:
         faults = list(client.run(_faults_per_alloc).values())
     assert faults[0] < 5
+
+
+class _FakeFuture:
+    def __init__(self, client, value):
+        self.client, self.value, self.released = client, value, False
+
+    def result(self):
+        return self.value
+
+    def release(self):
+        self.released = True
+        self.client.alive -= 1
+
+
+class _FakeClient:
+    """Runs tasks at submission; counts the futures not yet released."""
+
+    def __init__(self, workers):
+        self.workers, self.alive, self.peak, self.cancelled = workers, 0, 0, []
+
+    def scheduler_info(self):
+        return {"workers": {f"w{i}": {} for i in range(self.workers)}}
+
+    def scatter(self, obj, broadcast=False):
+        return obj
+
+    def submit(self, fn, *args, pure=True):
+        self.alive += 1
+        self.peak = max(self.peak, self.alive)
+        return _FakeFuture(self, fn(*args))
+
+    def cancel(self, futures):
+        self.cancelled.extend(futures)
+
+
+class _Model:
+    def geometry(self, block):
+        return [("point", block)]
+
+
+def test_cluster_chunks_in_flight_are_bounded_and_released():
+    from errpred import constants as K
+    from errpred.predict import _on_cluster
+
+    client = _FakeClient(workers=2)
+    blocks = list(range(1000))
+    out = list(_on_cluster(client, _Model(), blocks, chunk=7))
+    assert [g[0][1] for g in out] == blocks               # every block, in order
+    assert client.peak == K.DASK_CHUNKS_IN_FLIGHT * 2     # bounded, and the bound is used
+    assert client.alive == 0                               # every future released
+
+
+def test_cluster_stopped_early_cancels_what_is_in_flight():
+    from errpred.predict import _on_cluster
+
+    client = _FakeClient(workers=1)
+    gen = _on_cluster(client, _Model(), list(range(100)), chunk=5)
+    next(gen)
+    gen.close()
+    assert client.cancelled and client.alive == len(client.cancelled)
