@@ -8,6 +8,9 @@ resolution it prints:
   physics, as ``errpred predict`` runs them, or with ``--sensitivity`` as a
   correction does; marginal cost: the kernels are compiled and the predictor built
   before the clock starts), min and median of ``--repeat`` runs;
+* on 3-axis ball end milling, the same without the sweeps' height map
+  (``errpred.zmap``: every T1 test exact), the ratio, and the share of the
+  tests the map answered;
 * blocks per second with two worker processes for stage 1 (physics in order
   in this process) and the ratio to one core;
 * where a block's time goes (inclusive, so nested stages overlap): the
@@ -191,6 +194,30 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
         geo_share.append(t_geo / total)
     print(f"1 core     blocks/s: {_fmt(one)}   (geometry {100 * statistics.median(geo_share):.0f} %"
           " of it)")
+    zmap = pred.model._sweep_map()
+    if zmap is not None:
+        # the same blocks without the sweeps' height map (every T1 test exact), same run
+        pred.model.use_sweep_map = False
+        base = [len(blocks) / _one_core(pred, blocks)[0] for _ in range(repeat)]
+        pred.model.use_sweep_map = True
+        counts = np.zeros(3)
+        classify = type(zmap).classify
+
+        def counted(self, points, t1_end):
+            state = classify(self, points, t1_end)
+            counts[:] += [(state == v).sum() for v in (-1, 0, 1)]
+            return state
+
+        type(zmap).classify = counted
+        try:
+            _one_core(pred, blocks)
+        finally:
+            type(zmap).classify = classify
+        share = counts / max(counts.sum(), 1)
+        print(f"  without the sweeps' height map: {_fmt(base)}   (map x{max(one) / max(base):.2f},"
+              f" best against best; map answered {100 * (share[0] + share[2]):.1f} % of the T1 "
+              f"tests: {100 * share[0]:.1f} % outside, {100 * share[2]:.1f} % inside; "
+              f"{zmap.nbytes / 1e6:.0f} MB, {int((zmap.tile_index >= 0).sum())} tiles)")
     two = []
     for _ in range(repeat):
         t0 = time.perf_counter()
@@ -201,8 +228,8 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
     # breakdown and sweeps, one more single-core run with the probes in
     memo_init, memo_call = geometry._RemovedMemo.__init__, geometry._RemovedMemo.__call__
 
-    def init(self, tool, t1):
-        memo_init(self, tool, t1)
+    def init(self, tool, t1, *rest):
+        memo_init(self, tool, t1, *rest)
         self.args_t1, self.tested = t1, []
 
     def call(self, tag, keys, world):

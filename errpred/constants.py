@@ -25,6 +25,21 @@ CHORD_TOL_MM = 2.5e-4
 #: A point closer than this to a sweep's or the stock's boundary counts as
 #: on it (inside) [mm]. Keeps flat-floor contacts from flickering.
 MEMBERSHIP_EPS_MM = 1.0e-6
+#: Cell side of the sweeps' height map (errpred.zmap) [mm]: its bounds are off
+#: the true boundary by about curvature x cell^2 / 8 (0.25 um for a 5 mm ball at
+#: 0.1 mm), and samples that close to a boundary are left to the exact test;
+#: a smaller cell answers more of them, at more cells to fill per sweep.
+ZMAP_CELL_MM = 0.1
+#: Cells a side of the height map's tiles, allocated where queries ask [-].
+ZMAP_TILE_CELLS = 32
+#: Tiles the height map keeps at most (least recently used dropped first, to
+#: be filled again if asked for): 2,048 tiles of 32 x 32 cells of 18 values
+#: hold 302 MB, a part of 92 x 92 mm at 0.1 mm; the state kept for going back
+#: (errpred.zmap) doubles it [-].
+ZMAP_MAX_TILES = 2048
+#: Rounding allowance of the height map's decisions [mm]: far above the
+#: closed forms' rounding (~1e-12 mm), far below a cell.
+ZMAP_GUARD_MM = 1.0e-5
 #: Side of the cubes into which points are binned before their membership
 #: tests, so that each bin tests only the sweeps that can reach it [mm].
 CLUSTER_CELL_MM = 0.2

@@ -30,6 +30,7 @@ from .raster.camera import View
 from .surface import GenerationPoint, envelope_hits, generation_point, regions, strip_samples
 from .sweeps import Sweeps, build_sweeps
 from .tool import MicroEdges, Tool
+from .zmap import SweepMap, sweep_map
 
 __all__ = ["Resolution", "PointGeometry", "GeometryModel", "STATUS", "ERROR_STATUSES"]
 
@@ -213,6 +214,10 @@ class GeometryModel:
         self.cl = cl
         self.res = resolution
         self.sweeps: Sweeps = build_sweeps(cl, tool)
+        #: answer most T1 tests from a height map of the sweeps (3-axis ball end
+        #: milling; identical answers, :mod:`errpred.zmap`)
+        self.use_sweep_map = True
+        self._zmap: SweepMap | bool | None = None
         self.edges: MicroEdges = tool.micro_edges(resolution.micro_edges)
         self.theta = revolution_angles(resolution.angle_step_rad, tool.flutes)
         self.bottom = BottomTemplate(tool, self.edges, self.theta, resolution.pixel_mm)
@@ -422,7 +427,7 @@ class GeometryModel:
         else:
             feed, spindle = float(self.cl.feed_mm_min[s]), float(self.cl.spindle_rpm[s])
             behind = feed / (spindle * tool.flutes) if spindle > 0 and feed > 0 else 0.0
-        t1, _ = self._near_sweeps(tip, u, L, behind, z_top)
+        t1, _, _ = self._near_sweeps(tip, u, L, behind, z_top)
         grid = self._grid(1)
         n, m = grid.shape
         rows = np.arange(0, n, K.PRECHECK_ROTATION_STRIDE)
@@ -471,9 +476,9 @@ class GeometryModel:
         z_top = self._stock_top(tip, frame, interval)
         if z_top < -tool.radius_mm:
             return PointGeometry(status="no-cut", **base)
-        t1, t2 = self._near_sweeps(tip, u, L, fz, z_top)
+        t1, t2, t1_ids = self._near_sweeps(tip, u, L, fz, z_top)
         # engagement of flute 0 over one revolution
-        removed = _RemovedMemo(self.tool, t1)
+        removed = _RemovedMemo(self.tool, t1, self._sweep_map(), L - fz, t1_ids)
         eng = self._engagement(tip, frame, interval, removed, f_tooth, z_top)
         if eng is None:
             return PointGeometry(status="no-cut", **base)
@@ -644,8 +649,23 @@ class GeometryModel:
         shift[i, j] = np.where(count > 0, ushare / np.maximum(count, 1) * step, 0.0)
         return weight, shift
 
+    def _sweep_map(self) -> SweepMap | None:
+        """This process's height map of the sweeps (made on first use), or None where
+        it does not apply or is switched off."""
+        if not self.use_sweep_map:
+            return None
+        if self._zmap is None:
+            self._zmap = sweep_map(self.sweeps, self.tool) or False
+        return self._zmap or None
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_zmap"] = None  # per process, rebuilt where it is used
+        return state
+
     def _near_sweeps(self, tip, u, L, fz, z_top=math.inf):
-        """T1 and T2 near the tool's part below the stock top, nearest first."""
+        """T1 and T2 near the tool's part below the stock top, nearest first, and the
+        sweep each part of T1 comes from."""
         tool = self.tool
         R = tool.radius_mm
         height = min(tool.flute_length_mm + tool.corner_radius_mm,
@@ -698,18 +718,55 @@ class _RemovedMemo:
     the same samples against the same sweeps; only the stock moves. Each
     sample is tested once (:func:`~errpred._kernels.inside_any_sweep_clustered`,
     exact per point, so the answer does not depend on what else is asked with it).
+    Where a height map of the sweeps applies (:class:`~errpred.zmap.SweepMap`),
+    it answers first: a sample it finds inside an earlier sweep is inside T1; one
+    below every sweep it holds is tested against the rest of T1 only (the move
+    the tool is on); the others as before.
 
     Parameters
     ----------
     tool : Tool
     t1 : tuple
         The point's T1 sweeps ``(p0, d, w, lo, hi)``.
+    zmap : SweepMap or None
+    t1_end : float [mm]
+        The path length where T1 ends.
+    t1_ids : ndarray of int
+        The sweep each part of T1 comes from.
     """
 
-    def __init__(self, tool: Tool, t1) -> None:
-        self._args = (*t1, tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm,
-                      K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
+    def __init__(self, tool: Tool, t1, zmap: SweepMap | None = None, t1_end: float = math.inf,
+                 t1_ids: np.ndarray | None = None) -> None:
+        tail = (tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm,
+                K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
+        self._args = (*t1, *tail)
+        self._tail = tail
+        self._t1 = t1
+        self._zmap = zmap if t1_ids is not None else None
+        self._t1_end = t1_end
+        self._t1_ids = t1_ids
+        self._rest = None
         self._known: dict = {}
+
+    def _test(self, world: np.ndarray) -> np.ndarray:
+        ones = np.ones(world.shape[0], dtype=np.bool_)
+        zmap = self._zmap
+        if zmap is None or world.shape[0] == 0:
+            return inside_any_sweep_clustered(world, ones, *self._args)
+        state = zmap.classify(world, self._t1_end)
+        out = state > 0
+        unsure = state == 0
+        if unsure.any():
+            out |= inside_any_sweep_clustered(world, unsure, *self._args)
+        below = state < 0
+        if below.any():
+            if self._rest is None:
+                # the parts of T1 the map does not hold yet (the current move)
+                late = np.flatnonzero(self._t1_ids >= zmap.time)
+                self._rest = tuple(np.ascontiguousarray(a[late]) for a in self._t1)
+            if self._rest[0].shape[0]:
+                out |= inside_any_sweep_clustered(world, below, *self._rest, *self._tail)
+        return out
 
     def __call__(self, tag, keys: np.ndarray, world: np.ndarray) -> np.ndarray:
         """Inside T1? for the samples ``keys`` (int, unique per ``tag``) at ``world`` (k, 3)."""
@@ -724,8 +781,7 @@ class _RemovedMemo:
             miss = ~hit
         if miss.any():
             w = np.ascontiguousarray(world[miss])
-            new = inside_any_sweep_clustered(w, np.ones(w.shape[0], dtype=np.bool_),
-                                             *self._args)
+            new = self._test(w)
             out[miss] = new
             k_all = keys[miss] if k_known is None else np.concatenate([k_known, keys[miss]])
             v_all = new if v_known is None else np.concatenate([v_known, new])

@@ -86,8 +86,10 @@ def _query(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi):
 @njit(cache=True)
 def _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start, path_end, path_lo, path_hi,
           radius, height):
-    """The parts of sweeps ``ids`` between two path lengths (:meth:`Sweeps.clipped`)."""
+    """The parts of sweeps ``ids`` between two path lengths (:meth:`Sweeps.clipped`),
+    and the ids of the parts kept."""
     k = ids.shape[0]
+    kept = np.empty(k, dtype=np.int64)
     p0 = np.empty((k, 3))
     d = np.empty((k, 3))
     w = np.empty((k, 3))
@@ -123,8 +125,9 @@ def _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start, path_end, path_
                 q1 = s1 + height * w[n, c]
                 lo[n, c] = min(min(s0, q0) - ext, min(s1, q1) - ext)
                 hi[n, c] = max(max(s0, q0) + ext, max(s1, q1) + ext)
+        kept[n] = j
         n += 1
-    return p0[:n], d[:n], w[:n], lo[:n], hi[:n]
+    return p0[:n], d[:n], w[:n], lo[:n], hi[:n], kept[:n]
 
 
 @njit(cache=True)
@@ -147,11 +150,11 @@ def _near(cell_start, cell_items, shape, origin, cell, p0_all, d_all, w_all, lo_
     ids = ids[np.argsort(dist, kind="mergesort")]
     radius = c + r
     height = top + r
-    t1 = _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start, path_end, -np.inf,
-               t1_end, radius, height)
-    t2 = _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start, path_end, t2_start,
-               np.inf, radius, height)
-    return t1, t2
+    p0, d, w, lo1, hi1, ids1 = _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start,
+                                     path_end, -np.inf, t1_end, radius, height)
+    q0, e, v, lo2, hi2, _ = _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start,
+                                  path_end, t2_start, np.inf, radius, height)
+    return (p0, d, w, lo1, hi1), (q0, e, v, lo2, hi2), ids1
 
 
 @dataclass(frozen=True, eq=False)
@@ -235,10 +238,12 @@ class Sweeps:
         -------
         t1, t2 : tuple of ndarray
             ``(p0, d, w, lo, hi)`` each, as :meth:`clipped` returns.
+        t1_ids : ndarray of int
+            The sweep each part of T1 comes from.
         """
         if len(self) == 0:
             empty = tuple(np.zeros((0, 3)) for _ in range(5))
-            return empty, empty
+            return empty, empty, np.zeros(0, dtype=np.int64)
         return _near(*self._index(), self.p0, self.d, self.w, self.lo, self.hi,
                      self.path_start, self.path_end, self.core_radius_mm,
                      self.corner_radius_mm, self.top_mm, np.asarray(lo, float),
@@ -263,7 +268,7 @@ class Sweeps:
         R = self.core_radius_mm + self.corner_radius_mm
         h = self.top_mm + self.corner_radius_mm
         return _clip(np.asarray(ids, dtype=np.int64), self.p0, self.d, self.w, self.lo, self.hi,
-                     self.path_start, self.path_end, float(path_lo), float(path_hi), R, h)
+                     self.path_start, self.path_end, float(path_lo), float(path_hi), R, h)[:5]
 
 
 def build_sweeps(cl: CutterLocations, tool: Tool, *,

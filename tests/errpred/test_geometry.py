@@ -204,7 +204,7 @@ def test_removed_memo_answers_as_the_kernel_in_any_order():
     from errpred.geometry import _RemovedMemo
 
     tool, model, g = side_cut("slot", 0.0)
-    t1, _ = model._near_sweeps(g.tip, g.axis, g.path_mm, 0.05)
+    t1, _, _ = model._near_sweeps(g.tip, g.axis, g.path_mm, 0.05)
     rng = np.random.default_rng(11)
     world = g.tip + rng.uniform([-6, -6, -1], [6, 6, 3], (4000, 3))
     ref = inside_any_sweep_clustered(world, np.ones(4000, dtype=np.bool_), *t1,

@@ -146,7 +146,7 @@ def test_near_is_query_prune_order_and_clip():
             c = pts[k]
             lo, hi = c - 3.0, c + 3.0
             L = float(sw.path_end[min(k, len(sw) - 1)])
-            got = sw.near(lo, hi, c + [0, 0, 1.0], 4.0, c, L - 0.05, L + 0.05)
+            *got, ids = sw.near(lo, hi, c + [0, 0, 1.0], 4.0, c, L - 0.05, L + 0.05)
             ref = _reference_near(sw, lo, hi, c + [0, 0, 1.0], 4.0, c, L - 0.05, L + 0.05)
             for g, r in zip(got, ref, strict=True):
                 for a, b in zip(g, r, strict=True):
@@ -211,8 +211,8 @@ def test_clustered_kernels_equal_the_plain_ones_on_a_finishing_raster():
     sw = build_sweeps(cl, tool)
     centre = tip[-5]
     L = float(sw.path_end[-5])
-    t1, _ = sw.near(centre - 4, centre + 4, centre + [0, 0, 3], 8.0, centre + [0, 0, 3],
-                    L - 0.05, L + 0.05)
+    t1, _, _ = sw.near(centre - 4, centre + 4, centre + [0, 0, 3], 8.0, centre + [0, 0, 3],
+                       L - 0.05, L + 0.05)
     rng = np.random.default_rng(21)
     pts = centre + rng.uniform([-3, -3, -0.2], [3, 3, 3], (4000, 3))
     cand = rng.uniform(size=4000) < 0.9

@@ -1,0 +1,236 @@
+"""A height map of the sweeps so far, to answer most T1 membership tests at once.
+
+The seeds make engagement a depth-buffer question (``docs/method.md`` §3): what
+earlier moves removed is rendered once, and each micro-edge sample becomes a
+look-up, with exact tests only near a boundary. :class:`SweepMap` does this for
+programs whose every move keeps the tool axis vertical with a ball end mill (a
+3-axis finishing program): per cell of a horizontal grid it keeps bounds of
+the inserted sweeps' solids over the cell's column (:mod:`errpred._zmap_kernels`),
+so a sample below every solid, or inside one, is known without an exact test.
+Samples between the bounds, and the sweeps not yet inserted (the move the tool is
+on), go to the exact test as before; every answer is the exact one.
+
+The map is filled in program order: a query at path length ``L`` needs the
+sweeps that end by ``L`` inserted and no later one; a query earlier than the
+map's time starts it again. Cells are allocated by tiles where queries ask, so
+memory follows the part of the program around the tool, and the least recently
+used tiles are dropped beyond a budget.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import constants as K
+from ._zmap_kernels import FIELDS, classify, empty_tile, insert_sweeps, tiles_of
+from .sweeps import Sweeps
+from .tool import Tool
+
+__all__ = ["SweepMap", "sweep_map"]
+
+
+class SweepMap:
+    """Bounds of the sweeps inserted so far, per cell of a horizontal grid.
+
+    Parameters
+    ----------
+    sweeps : Sweeps
+        The program's sweeps; every axis vertical (+z), see :func:`sweep_map`.
+    tool : Tool
+        A ball end mill.
+    cell_mm : float [mm]
+        Cell side.
+    tile : int
+        Cells a tile side.
+    max_tiles : int
+        Tiles kept at most (least recently used dropped first).
+    """
+
+    def __init__(self, sweeps: Sweeps, tool: Tool, cell_mm: float = K.ZMAP_CELL_MM,
+                 tile: int = K.ZMAP_TILE_CELLS, max_tiles: int = K.ZMAP_MAX_TILES) -> None:
+        self.sweeps = sweeps
+        self.cell = float(cell_mm)
+        self.size = int(tile)
+        self.max_tiles = int(max_tiles)
+        self.rc = float(tool.corner_radius_mm)
+        self.lim = self.rc + K.MEMBERSHIP_EPS_MM
+        self.top = float(tool.flute_length_mm)
+        self._empty = empty_tile(self.size)
+        span = self.cell * self.size
+        lo = sweeps.lo[:, :2].min(axis=0) - span
+        hi = sweeps.hi[:, :2].max(axis=0) + span
+        self.origin = lo
+        self._zlo = float(sweeps.lo[:, 2].min())
+        self._zhi = float(sweeps.hi[:, 2].max())
+        self.shape = np.maximum(np.ceil((hi - lo) / span).astype(np.int64), 1)
+        self._reset()
+
+    def _reset(self) -> None:
+        self.time = 0  # sweeps 0 .. time - 1 are in every allocated tile
+        self.tile_index = np.full(tuple(self.shape), -1, dtype=np.int64)
+        cap = min(64, self.max_tiles)
+        self._vals = np.empty((cap, self.size, self.size, FIELDS))
+        self._owner = np.full(cap, -1, dtype=np.int64)  # flat tile key of each slot
+        self._used = np.zeros(cap, dtype=np.int64)  # last query that touched it
+        self._free = list(range(cap - 1, -1, -1))
+        self._clock = 0
+        self._snapshot = None
+
+    @property
+    def nbytes(self) -> int:
+        """Memory held [bytes] (with the kept state)."""
+        kept = 0 if self._snapshot is None else self._snapshot[2].nbytes
+        return int(self._vals.nbytes + self.tile_index.nbytes + kept)
+
+    def _advance(self, t1_end: float) -> None:
+        """Insert the sweeps that end by path length ``t1_end``, no later one.
+
+        A query earlier than the map's time goes back to the state kept at the
+        first query after the map was started (a run over the same blocks again,
+        or a slice after the program's start), or starts the map again.
+        """
+        target = int(np.searchsorted(self.sweeps.path_end, t1_end, side="right"))
+        if target < self.time:
+            if self._snapshot is not None and self._snapshot[0] <= target:
+                self._restore()
+            else:
+                self._reset()
+        fresh = self._snapshot is None
+        if target > self.time:
+            ids = np.arange(self.time, target, dtype=np.int64)
+            self._insert(ids)
+            self.time = target
+        if fresh:
+            self._keep()
+
+    def _keep(self) -> None:
+        self._snapshot = (self.time, self.tile_index.copy(), self._vals.copy(),
+                          self._owner.copy(), self._used.copy(), list(self._free))
+
+    def _restore(self) -> None:
+        time, index, vals, owner, used, free = self._snapshot
+        self.time = time
+        self.tile_index = index.copy()
+        self._vals = vals.copy()
+        self._owner = owner.copy()
+        self._used = used.copy()
+        self._free = list(free)
+
+    def _insert(self, ids: np.ndarray) -> None:
+        """Insert sweeps ``ids`` (the map's next ones) into every tile they reach,
+        allocating the tiles they reach first (so tiles are filled as the program
+        goes, not from scratch when first asked for)."""
+        sw = self.sweeps
+        span = self.cell * self.size
+        grow = self.lim + self.cell
+        lo = np.minimum(sw.p0[ids, :2], sw.p0[ids, :2] + sw.d[ids, :2]) - grow
+        hi = np.maximum(sw.p0[ids, :2], sw.p0[ids, :2] + sw.d[ids, :2]) + grow
+        a0 = np.clip(np.floor((lo - self.origin) / span).astype(np.int64), 0, self.shape - 1)
+        a1 = np.clip(np.floor((hi - self.origin) / span).astype(np.int64), 0, self.shape - 1)
+        keys = set()
+        for (i0, j0), (i1, j1) in zip(a0.tolist(), a1.tolist()):
+            for i in range(i0, i1 + 1):
+                keys.update(range(i * self.shape[1] + j0, i * self.shape[1] + j1 + 1))
+        need = np.array(sorted(keys), dtype=np.int64)
+        need = need[self.tile_index.ravel()[need] < 0]
+        if need.size:
+            self._allocate(need)
+        self._insert_only(ids)
+
+    def _insert_only(self, ids: np.ndarray) -> None:
+        sw = self.sweeps
+        insert_sweeps(ids, sw.p0, sw.d, self.rc, self.lim, self.top, self.cell, self.size,
+                      self._vals, self.tile_index, self.origin)
+
+    def _slot(self) -> int:
+        if not self._free:
+            cap = self._vals.shape[0]
+            if cap < self.max_tiles:
+                grow = min(cap, self.max_tiles - cap)
+                self._vals = np.concatenate(
+                    [self._vals, np.empty((grow,) + self._vals.shape[1:])])
+                self._owner = np.concatenate([self._owner, np.full(grow, -1, dtype=np.int64)])
+                self._used = np.concatenate([self._used, np.zeros(grow, dtype=np.int64)])
+                self._free = list(range(cap + grow - 1, cap - 1, -1))
+            else:
+                s = int(np.argmin(self._used))  # the least recently used tile
+                key = int(self._owner[s])
+                self.tile_index.flat[key] = -1
+                self._free.append(s)
+        return self._free.pop()
+
+    def _allocate(self, keys: np.ndarray) -> None:
+        """Tiles ``keys`` (flat) that have no slot: allocate and fill to the map's time."""
+        flat = self.tile_index.ravel()
+        new = keys[flat[keys] < 0]
+        if new.size == 0:
+            return
+        if new.size > self.max_tiles:
+            raise MemoryError(f"a query needs {new.size} tiles of the sweep map, "
+                              f"more than its budget of {self.max_tiles}")
+        span = self.cell * self.size
+        for key in new.tolist():
+            s = self._slot()
+            self._vals[s] = self._empty
+            self._owner[s] = key
+            self._used[s] = self._clock
+            self.tile_index.flat[key] = s
+        if self.time == 0:
+            return
+        # the sweeps before the map's time that reach the new tiles
+        a, b = np.divmod(new, self.shape[1])
+        lo = np.array([self.origin[0] + a.min() * span, self.origin[1] + b.min() * span,
+                       self._zlo])
+        hi = np.array([self.origin[0] + (a.max() + 1) * span,
+                       self.origin[1] + (b.max() + 1) * span, self._zhi])
+        grow = self.lim + self.cell
+        lo[:2] -= grow
+        hi[:2] += grow
+        ids = self.sweeps.query(lo, hi)
+        ids = ids[ids < self.time]
+        if ids.size:
+            # fill only the new tiles: hide the others while inserting
+            keep = self.tile_index.copy()
+            mask = np.full(self.tile_index.size, -1, dtype=np.int64)
+            mask[new] = keep.ravel()[new]
+            self.tile_index = mask.reshape(self.tile_index.shape)
+            try:
+                self._insert_only(ids)
+            finally:
+                self.tile_index = keep
+
+    def classify(self, points: np.ndarray, t1_end: float) -> np.ndarray:
+        """Per point, against the sweeps that end by path length ``t1_end``:
+        -1 inside none, 1 inside one, 0 not known here (test exactly).
+
+        Parameters
+        ----------
+        points : ndarray, shape (k, 3) [mm]
+            World points.
+        t1_end : float [mm]
+
+        Returns
+        -------
+        ndarray, shape (k,), int8
+        """
+        self._clock += 1
+        self._advance(t1_end)
+        keys = tiles_of(points, self.origin, self.cell, self.size, self.shape)
+        self._allocate(keys)
+        slots = self.tile_index.ravel()[keys]
+        self._used[slots[slots >= 0]] = self._clock
+        return classify(points, self._vals, self.tile_index, self.origin, self.cell, self.size,
+                        K.ZMAP_GUARD_MM)
+
+
+def sweep_map(sweeps: Sweeps, tool: Tool) -> SweepMap | None:
+    """A :class:`SweepMap` of ``sweeps`` if the map applies (a ball end mill, every
+    axis vertical, some sweeps), else None."""
+    if len(sweeps) == 0 or tool.core_radius_mm != 0.0:
+        return None
+    w = sweeps.w
+    if not (np.all(w[:, 2] == 1.0) and np.all(w[:, :2] == 0.0)):
+        return None
+    return SweepMap(sweeps, tool)

@@ -1,0 +1,206 @@
+"""The sweeps' height map: its bounds hold, its answers are the exact test's, and a
+prediction with it is the prediction without it, bit for bit."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nc import parse_program
+from nc.path import CutterLocations
+from errpred import constants as K
+from errpred._kernels import inside_any_sweep
+from errpred._zmap_kernels import FIELDS, PLANES, capsule_low, classify
+from errpred.predict import Predictor
+from errpred.sweeps import build_sweeps
+from errpred.tool import Tool
+from errpred.zmap import SweepMap, sweep_map
+
+from .cases import STEEL, plane_raster, plane_stock, stiff_tool
+
+
+def _true_low(x, y, c0, d, rho, n=20001):
+    """Lowest z within ``rho`` of the segment on the line through (x, y): dense in s,
+    then a golden-section polish (the function is convex in s)."""
+    s = np.linspace(0.0, 1.0, n)
+    c = c0[None, :] + s[:, None] * d[None, :]
+    h2 = rho * rho - (x - c[:, 0]) ** 2 - (y - c[:, 1]) ** 2
+    if not (h2 >= 0).any():
+        return math.inf
+
+    def f(t):
+        cc = c0 + t * d
+        v = rho * rho - (x - cc[0]) ** 2 - (y - cc[1]) ** 2
+        return cc[2] - math.sqrt(v) if v >= 0 else math.inf
+
+    z = np.where(h2 >= 0, c[:, 2] - np.sqrt(np.clip(h2, 0, None)), np.inf)
+    k = int(np.argmin(z))
+    lo, hi = s[max(k - 1, 0)], s[min(k + 1, n - 1)]
+    for _ in range(80):
+        m1, m2 = lo + (hi - lo) * 0.382, lo + (hi - lo) * 0.618
+        if f(m1) <= f(m2):
+            hi = m2
+        else:
+            lo = m1
+    return min(float(z[k]), f(0.5 * (lo + hi)))
+
+
+def test_capsule_low_bounds_the_true_boundary_and_its_slopes():
+    rng = np.random.default_rng(3)
+    checked = 0
+    for _ in range(300):
+        c0 = rng.uniform(-2, 2, 3)
+        d = rng.normal(size=3) * rng.choice([0.01, 0.5, 3.0])
+        rho = rng.uniform(0.5, 5.0)
+        x, y = c0[:2] + d[:2] * rng.uniform(-0.3, 1.3) + rng.uniform(-rho, rho, 2)
+        true = _true_low(x, y, c0, d, rho)
+        lo, gx, gy = capsule_low(x, y, *c0, *d, rho, -1)
+        up = capsule_low(x, y, *c0, *d, rho, 1)[0]
+        if math.isinf(true):
+            assert math.isinf(up)
+            continue
+        assert lo <= true + 1e-12 and up >= true - 1e-12
+        if math.isfinite(up):
+            assert up - lo < 1e-4
+            checked += 1
+        if math.isfinite(gx):
+            # the slopes are the tangent plane's: finite differences of the true boundary
+            e = 1e-5
+            fx = (_true_low(x + e, y, c0, d, rho) - _true_low(x - e, y, c0, d, rho)) / (2 * e)
+            fy = (_true_low(x, y + e, c0, d, rho) - _true_low(x, y - e, c0, d, rho)) / (2 * e)
+            assert gx == pytest.approx(fx, abs=2e-3 * (1 + abs(fx)))
+            assert gy == pytest.approx(fy, abs=2e-3 * (1 + abs(fy)))
+    assert checked > 150
+
+
+def _wavy_raster(step=0.4, passes=25, length=12.0, seg=0.5):
+    """Ball tips over a wavy surface: raster passes along x, stepping over in y."""
+    pts = []
+    for k in range(passes):
+        y = -0.5 * passes * step + k * step
+        xs = np.arange(0.0, length + 1e-9, seg)
+        if k % 2:
+            xs = xs[::-1]
+        for x in xs:
+            pts.append([x, y, 0.6 * math.sin(0.5 * x) + 0.3 * math.cos(0.7 * y)])
+    pts = np.array(pts)
+    return CutterLocations.from_arrays(pts, [0.0, 0.0, 1.0], 1000.0, 8000.0)
+
+
+def _classify_twin(points, vals, tile_index, origin, cell, size, guard):
+    """numpy twin of :func:`errpred._zmap_kernels.classify`."""
+    out = np.zeros(points.shape[0], dtype=np.int8)
+    fx = (points[:, 0] - origin[0]) / cell
+    fy = (points[:, 1] - origin[1]) / cell
+    tx, ty = tile_index.shape
+    ok = (fx >= 0) & (fx < tx * size) & (fy >= 0) & (fy < ty * size)
+    ix = np.where(ok, fx, 0).astype(np.int64)
+    iy = np.where(ok, fy, 0).astype(np.int64)
+    s = np.where(ok, tile_index[ix // size, iy // size], -1)
+    ok &= s >= 0
+    v = vals[np.where(ok, s, 0), ix % size, iy % size]
+    u, w = fx - ix, fy - iy
+    z = points[:, 2]
+    up = ((1 - u) * (1 - w) * v[:, 0] + u * (1 - w) * v[:, 1] + (1 - u) * w * v[:, 2]
+          + u * w * v[:, 3])
+    with np.errstate(invalid="ignore"):
+        inside = (up + guard <= z) & (z <= v[:, 4] - guard)
+        below = z < v[:, 5] - guard
+        for f in range(6, 9 + 3 * PLANES, 3):
+            lo = v[:, f] + v[:, f + 1] * (u - 0.5) * cell + v[:, f + 2] * (w - 0.5) * cell
+            below &= ~(lo <= z + guard)
+    out[ok & inside] = 1
+    out[ok & ~inside & below] = -1
+    return out
+
+
+@pytest.mark.parametrize("cell", [0.1, 0.25])
+def test_map_answers_are_the_exact_tests_and_most_are_answered(cell):
+    tool = Tool("ball", 6.0, flute_length_mm=12.0)
+    cl = _wavy_raster()
+    sw = build_sweeps(cl, tool)
+    zmap = SweepMap(sw, tool, cell_mm=cell)
+    rng = np.random.default_rng(5)
+    lim = tool.corner_radius_mm + K.MEMBERSHIP_EPS_MM
+    decided = total = 0
+    for frac in (0.3, 0.6, 0.95):
+        time = int(frac * len(sw))
+        t1_end = float(sw.path_end[time - 1])
+        # points around the envelope of what is cut so far, some far off it
+        xy = rng.uniform([0.0, -5.0], [12.0, 5.0], (6000, 2))
+        base = 0.6 * np.sin(0.5 * xy[:, 0]) + 0.3 * np.cos(0.7 * xy[:, 1])
+        dz = rng.choice([1e-4, 1e-3, 1e-2, 0.1, 1.0], 6000) * rng.choice([-1, 1], 6000)
+        pts = np.column_stack([xy, base + dz + rng.uniform(-0.05, 0.05, 6000)])
+        state = zmap.classify(pts, t1_end)
+        assert zmap.time == time
+        ids = np.arange(time)
+        exact = inside_any_sweep(pts, np.ones(len(pts), dtype=np.bool_), sw.p0[ids], sw.d[ids],
+                                 sw.w[ids], sw.lo[ids] - 1.0, sw.hi[ids] + 1.0, 0.0,
+                                 tool.corner_radius_mm, tool.flute_length_mm,
+                                 K.MEMBERSHIP_EPS_MM)
+        assert not (state[exact] == -1).any()
+        assert not (state[~exact] == 1).any()
+        twin = _classify_twin(pts, zmap._vals, zmap.tile_index, zmap.origin, zmap.cell,
+                              zmap.size, K.ZMAP_GUARD_MM)
+        assert np.array_equal(twin, state)
+        decided += int((state != 0).sum())
+        total += len(pts)
+        assert lim > 0
+    assert decided > 0.6 * total
+    assert zmap._vals.shape[-1] == FIELDS
+
+
+def test_map_going_back_restores_its_first_state():
+    tool = Tool("ball", 6.0, flute_length_mm=12.0)
+    sw = build_sweeps(_wavy_raster(), tool)
+    zmap = SweepMap(sw, tool)
+    pts = np.array([[6.0, 0.0, 0.0], [3.0, 1.0, 0.5]])
+    first = zmap.classify(pts, float(sw.path_end[200]))
+    kept = zmap._vals.copy()
+    zmap.classify(pts, float(sw.path_end[400]))
+    again = zmap.classify(pts, float(sw.path_end[200]))   # back: the kept state
+    assert zmap.time == 201 and np.array_equal(first, again)
+    assert np.array_equal(zmap._vals[:kept.shape[0]], kept)
+    zmap.classify(pts, float(sw.path_end[50]))            # before it: started again
+    assert zmap.time == 51
+
+
+def test_map_applies_to_three_axis_ball_end_milling_only():
+    cl = _wavy_raster(passes=3)
+    assert sweep_map(build_sweeps(cl, Tool("ball", 6.0)), Tool("ball", 6.0)) is not None
+    bull = Tool("radius", 6.0, 1.0)
+    assert sweep_map(build_sweeps(cl, bull), bull) is None
+    tilted = CutterLocations.from_arrays(cl.tip, [0.0, math.sin(0.1), math.cos(0.1)], 1000.0,
+                                         8000.0)
+    assert sweep_map(build_sweeps(tilted, Tool("ball", 6.0)), Tool("ball", 6.0)) is None
+
+
+@pytest.mark.parametrize("slope", [20.0, 35.0])
+def test_prediction_with_the_map_is_the_prediction_without(slope):
+    """Per point, the engagement, its step weights, the generation point and the
+    sensitivity pass are identical with the height map and without it, also when the
+    same blocks are predicted again (the map goes back to its kept state)."""
+    prog = parse_program(plane_raster(slope, 5.0, passes=4))
+    blocks = [b for b in range(len(prog)) if 40 <= prog.line[b] <= 62]
+    runs = {}
+    for use in (False, True):
+        pred = Predictor(Tool("ball", 10.0, flute_length_mm=15), plane_stock(slope, 0.2), prog,
+                         STEEL, stiff_tool())
+        pred.model.use_sweep_map = use
+        runs[use] = [g for _ in range(2) for gl in pred.geometries(blocks) for g in gl]
+        if use:
+            assert pred.model._zmap is not None and pred.model._zmap.time > 0
+    plain, mapped = runs[False], runs[True]
+    assert len(plain) == len(mapped) and sum(g.status == "predicted" for g in plain) >= 10
+    for a, b in zip(plain, mapped, strict=True):
+        assert a.status == b.status
+        for name in ("cutting0", "weight0", "shift0", "cl_per_rev"):
+            x, y = getattr(a, name), getattr(b, name)
+            assert (x is None and y is None) or np.array_equal(x, y)
+        if a.gen is not None:
+            assert a.gen.theta_rad == b.gen.theta_rad and a.gen.kappa_rad == b.gen.kappa_rad
+        if a.sensitivity is not None:
+            for x, y in zip(a.sensitivity[1:], b.sensitivity[1:], strict=True):
+                assert np.array_equal(x, y)
