@@ -211,6 +211,7 @@ class Predictor:
         prediction is the same as in one process.
         """
         blocks = list(blocks)
+        self.model.plan_sweep_map(blocks)
         if client is not None:
             yield from _on_cluster(client, self.model, blocks, chunk)
             return

@@ -188,7 +188,7 @@ def test_prediction_with_the_map_is_the_prediction_without(slope):
     for use in (False, True):
         pred = Predictor(Tool("ball", 10.0, flute_length_mm=15), plane_stock(slope, 0.2), prog,
                          STEEL, stiff_tool())
-        pred.model.use_sweep_map = use
+        pred.model.use_sweep_map = use  # forced either way
         runs[use] = [g for _ in range(2) for gl in pred.geometries(blocks) for g in gl]
         if use:
             assert pred.model._zmap is not None and pred.model._zmap.time > 0
@@ -204,3 +204,24 @@ def test_prediction_with_the_map_is_the_prediction_without(slope):
         if a.sensitivity is not None:
             for x, y in zip(a.sensitivity[1:], b.sensitivity[1:], strict=True):
                 assert np.array_equal(x, y)
+
+
+def test_a_run_far_into_the_program_leaves_the_map_out_unless_asked():
+    """The map is filled in program order: a short run far into a program would first
+    insert every sweep before it, so it runs without the map (same answers) unless
+    the map is asked for; a run from the start uses it."""
+    prog = parse_program(plane_raster(30.0, 5.0, passes=4))
+    late = [b for b in range(len(prog)) if 60 <= prog.line[b] <= 61]
+    early = [b for b in range(len(prog)) if 0 < prog.line[b] <= 62]
+    pred = Predictor(Tool("ball", 10.0, flute_length_mm=15), plane_stock(30.0, 0.2), prog,
+                     STEEL, stiff_tool())
+    list(pred.geometries(late))
+    assert pred.model._zmap is None
+    list(pred.geometries(early))
+    assert pred.model._zmap.time > 0
+    pred.model.use_sweep_map = True
+    fresh = Predictor(Tool("ball", 10.0, flute_length_mm=15), plane_stock(30.0, 0.2), prog,
+                      STEEL, stiff_tool())
+    fresh.model.use_sweep_map = True
+    list(fresh.geometries(late))
+    assert fresh.model._zmap.time > 0
