@@ -87,7 +87,11 @@ CODES = ["G0", "G1", "G2", "G3", "G4", "G17", "G18", "G19", "G20", "G21", "G28",
          "G90.1", "G91.1", "G92", "G93", "G94", "M0", "M1", "M2", "M3", "M4", "M5", "M6",
          "M8", "M9", "M30", "M98", "M99"]
 SPECIAL = ["(", ")", ";", "%", "/", "#", "[", "]", "\r", "\t", "\x00", "\x0c", ".", "-",
-           "+", "=", "*", "\u00b5", "\u2212", " ", "\n", "O", "E"]
+           "+", "=", "*", "\u00b5", "\u2212", " ", "\n", "O", "E",
+           # text that is not ASCII: other scripts' digits, letters whose upper case
+           # is longer (sharp s, ligatures), full-width forms, unusual spaces and breaks
+           "\u0663", "\uff11", "\u00df", "\ufb00", "\u0131", "\uff38", "\u00a0", "\u2028",
+           "\u0085", "\u1680", "\ufeff", "\U0001d7d9"]
 
 
 def interesting_number(rng: random.Random) -> str:

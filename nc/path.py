@@ -205,7 +205,8 @@ def _arc_segments(program: Program, chord_tol_mm: float) -> np.ndarray:
             i = int(np.flatnonzero(arcs)[j])
             raise _block_error(program, i, (
                 f"arc of radius {r[j]:.6g} mm sweeping "
-                f"{np.degrees(abs(program.arc_sweep[k[j]])):.6g} deg needs {count[j]:.3g} chords at chord tolerance {chord_tol_mm:g} mm; "
+                f"{np.degrees(abs(program.arc_sweep[k[j]])):.6g} deg needs {count[j]:,.0f} "
+                f"chords at chord tolerance {chord_tol_mm:g} mm; "
                 f"expected at most {K.MAX_ARC_CHORDS:,} (nc.constants.MAX_ARC_CHORDS): "
                 "fewer turns P, a smaller radius or a larger tolerance"), "PRIJ")
         nseg[arcs] = count.astype(np.int64)
@@ -250,6 +251,13 @@ def expand_arcs(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM
         each block is the block's end point exactly.
     block : ndarray, shape (m,), int
         Block index each point belongs to.
+
+    Raises
+    ------
+    NCParseError
+        Before any point is made, naming file, line and column, when one arc
+        needs more than ``nc.constants.MAX_ARC_CHORDS`` chords or the whole
+        path more than ``MAX_PATH_POINTS`` points.
     """
     if not chord_tol_mm > 0 or not math.isfinite(chord_tol_mm):
         raise ValueError(f"chord_tol_mm: expected a finite value > 0, got {chord_tol_mm!r}")
