@@ -167,3 +167,22 @@ def test_check_takes_relative_paths_and_reports_refusals(tmp_path, capsys, rs274
     assert main(["check", "bad.ngc"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: bad.ngc:2:") and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("toml,part", [
+    ("[G55]\nxyz_mm = 5\n", "xyz_mm = 5; expected three finite numbers x, y, z [mm]"),
+    ("[G55]\nxyz_mm = [1, 2]\n", "expected three finite numbers"),
+    ('[G55]\nxyz_mm = [1, "a", 3]\n', "expected three finite numbers"),
+    ("[G55]\nxyz_mm = [1, nan, 3]\n", "expected three finite numbers"),
+    ("[G55]\nxyz_mm = [1, 2, 3]\nabc_deg = true\n", "abc_deg = True; expected three"),
+    ("[G60]\nxyz_mm = [1, 2, 3]\n", "[G60]; expected tables [G54] ... [G59]"),
+    ("[G55\n", "not valid TOML"),
+])
+def test_bad_offsets_file_ends_in_one_line(tmp_path, capsys, toml, part):
+    path = tmp_path / "p.nc"
+    path.write_text("G21 G55\nG0 X1\nM30\n")
+    offsets = tmp_path / "offsets.toml"
+    offsets.write_text(toml)
+    assert main(["parse", str(path), "--offsets", str(offsets)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {offsets}: ") and part in err and err.count("\n") == 1
