@@ -5,7 +5,9 @@ Mutates real programs -- the bundled ones (``errpred/scenarios``,
 5-axis and arc programs written here, and LinuxCNC's sample programs when
 ``linuxcnc-uspace`` is installed -- and runs each mutant through the command
 line's own ``parse`` (summary: path lengths, times, arcs expanded into chords,
-the table printed) and ``parse --json``, in-process.
+the table printed) and ``parse --json``, in-process, and then through
+:func:`nc.path.cutter_locations` (on a table-table A/C machine, or on none), as
+``errpred`` and ``orient`` take programs.
 
 Every program ends one of three ways:
 
@@ -48,8 +50,14 @@ from dataclasses import dataclass, field
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, ROOT)
 
+from nc import read_program  # noqa: E402
 from nc.cli import build_parser  # noqa: E402
 from nc.errors import InputError  # noqa: E402
+from nc.kinematics import get_machine  # noqa: E402
+from nc.path import cutter_locations  # noqa: E402
+
+#: The machine the programs' rotary words are turned into tool axes on.
+MACHINE = get_machine("xyzac-trt")
 
 #: LinuxCNC sample programs inside the dialect (as tests/nc/test_linuxcnc_samples.py).
 LINUXCNC_SAMPLES = [
@@ -235,7 +243,9 @@ def _signature(exc: BaseException) -> str:
 
 
 def run_one(data: bytes, path: str, parser, rng: random.Random) -> BaseException | None:
-    """``python -m nc parse`` and ``parse --json`` on ``data``; the exception, if any."""
+    """``python -m nc parse`` and ``parse --json`` on ``data``, then the program's
+    cutter locations (as errpred and orient take them) on a 5-axis machine or on
+    none; the exception, if any."""
     with open(path, "wb") as fh:
         fh.write(data)
     extra = []
@@ -250,6 +260,9 @@ def run_one(data: bytes, path: str, parser, rng: random.Random) -> BaseException
             for argv in (["parse", path, *extra], ["parse", path, "--json", *extra]):
                 args = parser.parse_args(argv)
                 args.func(args)
+            prog = read_program(path, allow=ALLOW.split(",") if extra[:1] == ["--allow"]
+                                else (), block_delete="--block-delete" in extra)
+            cutter_locations(prog, MACHINE if rng.random() < 0.7 else None)
     except Exception as exc:  # noqa: BLE001 - the point is to classify every exception
         return exc
     return None

@@ -327,23 +327,24 @@ def cutter_locations(program: Program, machine: "Machine | None" = None, *,
     has_vec = tcp == TCP_VECTOR
     if np.any(has_vec & np.isnan(vec[:, 0])):
         i = int(block[np.argmax(has_vec & np.isnan(vec[:, 0]))])
-        raise ValueError(f"{program.file}:{program.line[i]}: G43.5 move before any tool "
-                         "vector I J K was programmed")
+        raise _block_error(program, i, "G43.5 move before any tool vector I J K was "
+                           "programmed; expected I J K in or before this block", "XYZ")
     axis[has_vec] = vec[has_vec]
     rotary = ~has_vec & np.any(np.abs(program.end[:, 3:]) > 0, axis=1)[block]
     rotary |= tcp == TCP_ANGLES
     if np.any(rotary):
         if machine is None:
             i = int(block[np.argmax(rotary)])
-            raise ValueError(f"{program.file}:{program.line[i]}: the program moves rotary "
-                             "axes; a machine is needed to turn them into a tool axis")
+            raise _block_error(program, i, "the program moves rotary axes; a machine is "
+                               "needed to turn them into a tool axis", "ABC")
         names = machine.rotary_names
         cols = ["XYZABC".index(c) for c in names]
         other = [c for c in "ABC" if c not in names]
-        used_other = np.any(np.abs(pts[:, ["XYZABC".index(c) for c in other]]) > 0)
-        if used_other:
-            raise ValueError(f"{program.file}: the program moves {'/'.join(other)}, which "
-                             f"machine {machine.name} does not have")
+        used_other = np.any(np.abs(pts[:, ["XYZABC".index(c) for c in other]]) > 0, axis=1)
+        if np.any(used_other):
+            raise _block_error(program, int(block[np.argmax(used_other)]),
+                               f"the program moves {'/'.join(other)}, which machine "
+                               f"{machine.name} does not have", "".join(other))
         joints = np.column_stack([pts[:, :3], pts[:, cols]])
         ftip, faxis = machine.forward(joints)
         direct = rotary & (tcp == TCP_OFF)
@@ -375,8 +376,8 @@ def cutter_locations(program: Program, machine: "Machine | None" = None, *,
         fc = f[cut]
         known = np.flatnonzero(np.isfinite(fc))
         if known.size == 0:
-            raise ValueError(f"{program.file}: no cutting move moves the tool tip; "
-                             "cannot give the path a feed")
+            raise _block_error(program, int(block[cut[0]]), "no cutting move moves the tool tip "
+                               "(the first is here); cannot give the path a feed", "")
         nearest = np.maximum.accumulate(np.where(np.isfinite(fc), np.arange(fc.size), -1))
         nearest[nearest < 0] = known[0]
         f[cut] = fc[nearest]

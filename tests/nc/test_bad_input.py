@@ -201,3 +201,22 @@ def test_long_and_control_characters_stay_on_one_line():
     assert len(ex) == 3 and len(ex[1]) <= 4 + K.ERROR_EXCERPT_CHARS
     # the caret is under the Y in the shown part of the line
     assert ex[1][ex[2].index("^")] == "Y"
+
+
+# --- cutter locations: the program and the machine do not fit ---------------------------
+
+@pytest.mark.parametrize("src,machine,where,part", [
+    ("G21 G43.5 H1\nG0 X0\nG1 X1 F100\n", None, "p.nc:2:4: ", "before any tool vector"),
+    ("G21 G0 X0\nG1 X1 F100\nG1 A10\n", None, "p.nc:3:4: ", "a machine is needed"),
+    ("G21 G0 X0\nG1 X1 F100\nG1 B10\n", "xyzac-trt", "p.nc:3:4: ",
+     "moves B, which machine xyzac-trt does not have"),
+    ("G21 G0 X1\nG1 A10 F100\nG1 A20\n", "xyzac-trt", "p.nc:2:1: ",
+     "no cutting move moves the tool tip"),
+])
+def test_cutter_locations_refuse_a_program_naming_its_line(src, machine, where, part):
+    from nc.kinematics import get_machine
+
+    prog = parse_program(src, file="p.nc")
+    with pytest.raises(NCParseError) as info:
+        cutter_locations(prog, None if machine is None else get_machine(machine))
+    assert str(info.value).startswith(where) and part in str(info.value)
