@@ -64,9 +64,11 @@ CHORD_TOL_MM = 1.0e-3
 #: radius 40 mm at 1 um give 0.44 million; more is a radius or turn count
 #: nobody cuts, refused (file, line) before any point is made.
 MAX_ARC_CHORDS = 1_000_000
-#: Most points of a whole program's expansion [points]; about 130 bytes each
-#: while it is made (2.6 GB at the limit), so a program of 10^6 blocks may
-#: average 20 chords per block. Beyond: refused before any point is made.
+#: Most points of a whole program's expansion [points]. A point takes about
+#: 170 bytes while it is made on a straight block, 210 on an arc (measured:
+#: tracemalloc peak of expand_arcs and summarize), so at most 3.4 to 4.2 GB;
+#: a program of 10^6 blocks may average 20 points per block. Beyond: refused
+#: (file, line) before any point is made.
 MAX_PATH_POINTS = 20_000_000
 #: Tool-axis vectors from a file must have unit length within this [-].
 UNIT_VECTOR_TOL = 1.0e-6
