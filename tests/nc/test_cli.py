@@ -186,3 +186,18 @@ def test_bad_offsets_file_ends_in_one_line(tmp_path, capsys, toml, part):
     assert main(["parse", str(path), "--offsets", str(offsets)]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"error: {offsets}: ") and part in err and err.count("\n") == 1
+
+
+def test_check_rs274_refusal_is_one_line(tmp_path, capsys, rs274):
+    """A program this reader takes and rs274 refuses (G43.4): rs274's message and block
+    on one line, exit 2; rs274 that does not finish in time is an Rs274Error too."""
+    from nc.linuxcnc import Rs274Error, run_rs274
+
+    path = tmp_path / "tcp.ngc"
+    path.write_text("G21 G43.4 H1\nG1 X1 A10 F100\nM2\n")
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: rs274 refused {path}: ") and "G43.4" in err
+    assert err.count("\n") == 1
+    with pytest.raises(Rs274Error, match="did not finish"):
+        run_rs274(path, timeout_s=1e-6)
