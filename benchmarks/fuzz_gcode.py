@@ -13,7 +13,7 @@ Every program ends one of three ways:
 
 * **refused**: an :class:`nc.errors.InputError` (the reader's
   ``NCParseError`` and the like); its message must be one line starting
-  ``FILE:LINE`` -- a refusal that is not is counted as *unclear*;
+  ``FILE:LINE:COLUMN: `` -- a refusal that is not is counted as *unclear*;
 * **read**: both commands finished;
 * **crashed**: any other exception (``RuntimeWarning`` from numpy included:
   the tests turn them into errors), tallied by signature (type, the
@@ -306,7 +306,7 @@ def fuzz(n: int, seed: int = 1, workdir: str | None = None, tally: Tally | None 
                 tally.refusals[type(exc).__name__] += 1
                 msg = str(exc)
                 tally.messages[re.sub(r"[-+.\d]+", "N", msg.split(": ", 1)[-1])[:50]] += 1
-                if "\n" in msg or not re.match(re.escape(path) + r":\d+", msg):
+                if "\n" in msg or not re.match(re.escape(path) + r":\d+:\d+: ", msg):
                     tally.unclear += 1
                     if len(tally.unclear_examples) < 20:
                         tally.unclear_examples.append((msg, data))

@@ -157,6 +157,8 @@ class _Interpreter:
         raw = self.lines[lineno - 1]
         if token is not None and column is None:
             column = token_column(raw, token)
+        if column is None:  # the block as a whole: its first character
+            column = len(raw) - len(raw.lstrip()) + 1
         return NCParseError(message, file=self.file, line=lineno, column=column, text=raw)
 
     def _word_error(self, lineno: int, toks: list, letter: str, message: str) -> NCParseError:
