@@ -71,9 +71,9 @@ def arc_from_words(vals: Mapping[str, float], motion_mode: int, plane: int, scal
     turns = 1
     if "P" in vals:
         p = vals["P"]
-        if p < 1 or p != int(p):
-            raise ArcWordError("P", "expected P (arc turns) to be a "
-                                   "whole number >= 1")
+        if not 1 <= p <= K.MAX_ARC_TURNS or p != int(p):
+            raise ArcWordError("P", "expected P (arc turns) to be a whole number from 1 "
+                                    f"to {K.MAX_ARC_TURNS} (nc.constants.MAX_ARC_TURNS)")
         turns = int(p)
     if "R" in vals:
         if l1 in vals or l2 in vals:

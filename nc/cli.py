@@ -15,6 +15,7 @@ import tomllib
 
 from .command import run_command
 from .constants import SINGULAR_CONE_RAD
+from .errors import InputError
 from .gcode import ALLOWABLE_EXAMPLES, read_program
 from .linuxcnc import Rs274Error
 from .summary import blocks_as_json, summarize
@@ -34,13 +35,25 @@ def _offsets(path: str | None) -> dict | None:
         try:
             data = tomllib.load(fh)
         except tomllib.TOMLDecodeError as exc:
-            raise ValueError(f"{path}: not valid TOML: {exc}") from None
+            raise InputError(f"{path}: not valid TOML: {exc}") from None
     out = {}
     for key, table in data.items():
+        if key.strip().upper() not in ("G54", "G55", "G56", "G57", "G58", "G59"):
+            raise InputError(f"{path}: [{key}]; expected tables [G54] ... [G59]")
         if not isinstance(table, dict) or "xyz_mm" not in table:
-            raise ValueError(f"{path}: [{key}] needs xyz_mm = [x, y, z] (and optionally "
+            raise InputError(f"{path}: [{key}] needs xyz_mm = [x, y, z] (and optionally "
                              "abc_deg = [a, b, c])")
-        out[key] = list(table["xyz_mm"]) + list(table.get("abc_deg", []))
+        xyz, abc = table["xyz_mm"], table.get("abc_deg", [])
+        for name, value, what in (("xyz_mm", xyz, "x, y, z [mm]"),
+                                  ("abc_deg", abc, "a, b, c [deg]")):
+            if name == "abc_deg" and "abc_deg" not in table:
+                continue
+            if not (isinstance(value, list) and len(value) == 3 and all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool)
+                    and math.isfinite(v) for v in value)):
+                raise InputError(f"{path}: [{key}] {name} = {value!r}; expected three "
+                                 f"finite numbers {what}")
+        out[key] = list(xyz) + list(abc)
     return out
 
 

@@ -30,6 +30,26 @@ ARC_R_CHORD_TOL_MM = 1.0e-3
 #: units. Anything beyond is a typo or an overflow, not a machine [-].
 MAX_ABS_WORD_VALUE = 1.0e7
 
+#: Error messages are one line; a run of more digits than this (a 400-digit
+#: word quoted back) is shown as its first digits and its length [digits] ...
+ERROR_MAX_DIGITS = 20
+#: ... and a message longer than this is cut [characters].
+ERROR_MAX_CHARS = 400
+#: Characters of the source line shown around the column by
+#: ``NCParseError.excerpt`` [characters].
+ERROR_EXCERPT_CHARS = 100
+
+#: Smallest F word other than 0 [program units per minute, deg/min, or 1/min
+#: under G93]. A block of 1 mm at this feed takes 10^6 min (two years): a
+#: typo, and a time worked out from a feed ~1e-310 overflows to infinity.
+MIN_FEED = 1.0e-6
+
+#: Most turns ``P`` of one G2/G3 block (LinuxCNC's helical turns) [turns].
+#: Helical entries and bores take a few to a few hundred turns; every turn is
+#: expanded into chords downstream (``CHORD_TOL_MM``), so a P of millions is a
+#: typo that would fill the memory, refused where it is read.
+MAX_ARC_TURNS = 1000
+
 #: Codes the reader understands and treats as asserting the state it assumes
 #: (cutter compensation off, no canned cycle, program end/stop). They need no
 #: ``allow`` option.
@@ -39,6 +59,17 @@ IMPLIED_DEFAULT_CODES = frozenset({"G40", "G80", "M0", "M1", "M2", "M30"})
 
 #: Chord tolerance when arcs are expanded into lines [mm].
 CHORD_TOL_MM = 1.0e-3
+#: Most chords one arc block may be expanded into [chords]. The count is
+#: |sweep| / (2 acos(1 - tol / r)), ~ turns x pi sqrt(2 r / tol): 1000 turns of
+#: radius 40 mm at 1 um give 0.44 million; more is a radius or turn count
+#: nobody cuts, refused (file, line) before any point is made.
+MAX_ARC_CHORDS = 1_000_000
+#: Most points of a whole program's expansion [points]. A point takes about
+#: 170 bytes while it is made on a straight block, 210 on an arc (measured:
+#: tracemalloc peak of expand_arcs and summarize), so at most 3.4 to 4.2 GB;
+#: a program of 10^6 blocks may average 20 points per block. Beyond: refused
+#: (file, line) before any point is made.
+MAX_PATH_POINTS = 20_000_000
 #: Tool-axis vectors from a file must have unit length within this [-].
 UNIT_VECTOR_TOL = 1.0e-6
 

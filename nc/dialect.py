@@ -8,6 +8,8 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 
+from .errors import InputError
+
 __all__ = ["ALLOWABLE_EXAMPLES", "AXIS_LETTERS", "AXIS_INDEX", "BASE_WORDS", "PARAM_WORDS",
            "MOTION_CODES", "G_GROUPS", "M_GROUPS", "NOT_ALLOWABLE", "normalise_allow",
            "code_key", "code_name", "why_not"]
@@ -56,8 +58,10 @@ PARAM_WORDS = frozenset("PQDELHR")  # words an allowed code may bring
 
 
 def code_key(letter: str, text: str) -> int | None:
-    """``("G", "43.4")`` -> 434; None when not a multiple of 0.1."""
+    """``("G", "43.4")`` -> 434; None when not a multiple of 0.1 or not below 10^6."""
     v = float(text)
+    if not abs(v) < 1e6:  # no such code; G9999...9 of 308+ digits is inf
+        return None
     k = round(v * 10)
     return k if abs(v * 10 - k) < 1e-6 and k >= 0 else None
 
@@ -72,12 +76,13 @@ def normalise_allow(allow: Iterable[str]) -> dict[str, set[int]]:
         s = str(item).strip().upper()
         m = re.fullmatch(r"([GM])\s*(\d+(?:\.\d)?)", s)
         if not m:
-            raise ValueError(f"allow: {item!r} is not a G or M code such as 'G64' or 'M8'")
+            raise InputError(f"allow: {item!r} is not a G or M code such as 'G64' or 'M8'")
         letter, key = m.group(1), code_key(m.group(1), m.group(2))
-        assert key is not None
+        if key is None:
+            raise InputError(f"allow: {item!r} is not a G or M code such as 'G64' or 'M8'")
         reason = NOT_ALLOWABLE[letter].get(key)
         if reason:
-            raise ValueError(f"allow: {s} is {reason}; ignoring it would misplace the tool")
+            raise InputError(f"allow: {s} is {reason}; ignoring it would misplace the tool")
         out[letter].add(key)
     return out
 

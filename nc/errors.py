@@ -11,6 +11,10 @@ working.
 
 from __future__ import annotations
 
+import re
+
+from . import constants as K
+
 __all__ = ["InputError", "NCParseError", "CLFileError", "KinematicsError", "MachineFileError"]
 
 
@@ -25,6 +29,10 @@ class InputError(ValueError):
 class NCParseError(InputError):
     """A G-code program could not be read.
 
+    ``str(error)`` is one line, ``FILE:LINE:COLUMN: message`` (as the command
+    lines print it); :meth:`excerpt` adds the source line and a caret under
+    the column, for a caller that wants to show them.
+
     Parameters
     ----------
     message : str
@@ -36,7 +44,7 @@ class NCParseError(InputError):
     column : int, optional
         1-based column of the offending word or character.
     text : str, optional
-        The source line, shown under the message with a caret.
+        The source line (kept as an attribute; shown by :meth:`excerpt`).
     """
 
     def __init__(
@@ -53,20 +61,54 @@ class NCParseError(InputError):
         self.line = line
         self.column = column
         self.text = text
-        super().__init__(self._format())
+        where = file
+        if line is not None:
+            where += f":{line}"
+            if column is not None:
+                where += f":{column}"
+        super().__init__(f"{_printable(where)}: {_one_line(message)}")
 
-    def _format(self) -> str:
-        where = self.file
-        if self.line is not None:
-            where += f":{self.line}"
-            if self.column is not None:
-                where += f":{self.column}"
-        out = f"{where}: {self.message}"
-        if self.text is not None:
-            out += "\n    " + self.text.rstrip("\r\n").replace("\t", " ")
-            if self.column is not None:
-                out += "\n    " + " " * (self.column - 1) + "^"
+    def excerpt(self, width: int = K.ERROR_EXCERPT_CHARS) -> str:
+        """The one-line message, then the source line and a caret under the column.
+
+        Parameters
+        ----------
+        width : int [characters]
+            The source line is cut to this many characters around the column.
+        """
+        out = str(self)
+        if self.text is None:
+            return out
+        src = self.text.rstrip("\r\n").replace("\t", " ")
+        col = self.column
+        first = 0
+        if len(src) > width:
+            first = 0 if col is None else max(0, min(col - 1 - width // 2, len(src) - width))
+            src = src[first:first + width]
+        out += "\n    " + "".join(c if c.isprintable() else "?" for c in src)
+        if col is not None:
+            out += "\n    " + " " * (col - 1 - first) + "^"
         return out
+
+
+_LONG_DIGITS = re.compile(r"\d{%d,}" % (K.ERROR_MAX_DIGITS + 1))
+
+
+def _printable(text: str) -> str:
+    """Control characters (newlines among them) escaped: ``\\n``, ``\\x00``."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+def _one_line(text: str) -> str:
+    """``text`` on one line: control characters escaped, runs of digits longer
+    than ``ERROR_MAX_DIGITS`` shortened, cut at ``ERROR_MAX_CHARS``."""
+    out = _LONG_DIGITS.sub(lambda m: f"{m.group()[:8]}...({len(m.group())} digits)",
+                           _printable(text))
+    if len(out) > K.ERROR_MAX_CHARS:
+        out = out[:K.ERROR_MAX_CHARS - 3] + "..."
+    return out
 
 
 class CLFileError(InputError):

@@ -46,7 +46,7 @@ from .dialect import (
     normalise_allow,
     why_not,
 )
-from .errors import NCParseError
+from .errors import InputError, NCParseError
 from .lexer import TOKEN, blank_comments, find_token, raw_column, token_column
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
@@ -59,10 +59,10 @@ def _offset_table(work_offsets: Mapping[str, Sequence[float]] | None) -> np.ndar
     for key, value in (work_offsets or {}).items():
         m = re.fullmatch(r"G5([4-9])", str(key).strip().upper())
         if not m:
-            raise ValueError(f"work_offsets: key {key!r} must be one of G54...G59")
+            raise InputError(f"work_offsets: key {key!r} must be one of G54...G59")
         v = np.asarray(value, dtype=float)
         if v.ndim != 1 or v.size not in (3, 6) or not np.all(np.isfinite(v)):
-            raise ValueError(f"work_offsets[{key!r}]: expected 3 or 6 finite numbers "
+            raise InputError(f"work_offsets[{key!r}]: expected 3 or 6 finite numbers "
                              f"(x y z [mm], a b c [deg]), got {value!r}")
         row = int(m.group(1)) - 4
         table[row, :3] = v[:3]
@@ -157,6 +157,8 @@ class _Interpreter:
         raw = self.lines[lineno - 1]
         if token is not None and column is None:
             column = token_column(raw, token)
+        if column is None:  # the block as a whole: its first character
+            column = len(raw) - len(raw.lstrip()) + 1
         return NCParseError(message, file=self.file, line=lineno, column=column, text=raw)
 
     def _word_error(self, lineno: int, toks: list, letter: str, message: str) -> NCParseError:
@@ -305,6 +307,9 @@ class _Interpreter:
                 f = vals["F"]
                 if f < 0:
                     raise self._word_error(lineno, toks, "F", "negative feed; expected F >= 0")
+                if 0 < f < K.MIN_FEED:
+                    raise self._word_error(lineno, toks, "F", f"feed F{num} below "
+                                           f"{K.MIN_FEED:g}; expected F0 or F >= {K.MIN_FEED:g}")
                 feed = f * (scale if feed_mode == 94 else 1.0)
             if "S" in vals:
                 if vals["S"] < 0:

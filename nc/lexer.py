@@ -13,7 +13,9 @@ __all__ = ["TOKEN", "blank_comments", "token_column", "raw_column", "find_token"
            "words_with_spans"]
 
 #: A word (letter, number) or, in group 3, any other non-blank character.
-TOKEN = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))|(\S)")
+#: ASCII only: digits of other scripts (``X\u0663``, full-width ``X\uff11``),
+#: which ``float`` would read, and non-ASCII spaces are characters to refuse.
+TOKEN = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))|(\S)", re.ASCII)
 
 
 def find_token(toks: list, letter: str, num: str) -> int | None:

@@ -117,7 +117,8 @@ def run_rs274(path: str | os.PathLike, *, tool_lengths_mm: Mapping[int, float] |
     FileNotFoundError
         When ``rs274`` is not installed.
     Rs274Error
-        When ``rs274`` reports an error in the program.
+        When ``rs274`` reports an error in the program (its message and the
+        block, on one line) or does not finish within ``timeout_s``.
     """
     exe = rs274_path()
     if exe is None:
@@ -130,11 +131,17 @@ def run_rs274(path: str | os.PathLike, *, tool_lengths_mm: Mapping[int, float] |
         # rs274 runs in the temporary folder: the program's path must not be relative
         args = [exe, "-t", tbl, "-g"] + (["-b"] if block_delete else []) + [
             os.path.abspath(path), out]
-        proc = subprocess.run(args, capture_output=True, text=True, timeout=timeout_s,
-                              stdin=subprocess.DEVNULL, cwd=tmp)
+        try:
+            proc = subprocess.run(args, capture_output=True, text=True, timeout=timeout_s,
+                                  stdin=subprocess.DEVNULL, cwd=tmp)
+        except subprocess.TimeoutExpired:
+            raise Rs274Error(f"rs274 did not finish {os.fspath(path)} within "
+                             f"{timeout_s:g} s") from None
         text = open(out, encoding="utf-8", errors="replace").read() if os.path.exists(out) else ""
     if proc.returncode != 0:
         msg = (proc.stderr.strip() or proc.stdout.strip()).replace("executing", "").strip()
+        # one line: rs274 prints its message, then the block it refused
+        msg = " | ".join(ln.strip() for ln in msg.splitlines() if ln.strip())
         raise Rs274Error(f"rs274 refused {os.fspath(path)}: {msg}")
     return parse_canon(text)
 

@@ -18,7 +18,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import constants as K
-from .errors import CLFileError
+from .errors import CLFileError, NCParseError
+from .lexer import words_with_spans
 from .program import PLANE_AXES, RAPID, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Program
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -179,7 +180,15 @@ def block_minutes(program: Program, lengths_mm: np.ndarray | None = None) -> np.
 
 
 def _arc_segments(program: Program, chord_tol_mm: float) -> np.ndarray:
-    """Segments per block so that arcs stay within the chord tolerance."""
+    """Segments per block so that arcs stay within the chord tolerance.
+
+    Raises
+    ------
+    NCParseError
+        Naming the file and line of an arc that would need more than
+        ``MAX_ARC_CHORDS`` chords, or of the block at which the program's
+        points pass ``MAX_PATH_POINTS``; nothing is expanded then.
+    """
     nseg = np.ones(len(program), dtype=np.int64)
     arcs = program.arc_index >= 0
     if np.any(arcs):
@@ -188,10 +197,41 @@ def _arc_segments(program: Program, chord_tol_mm: float) -> np.ndarray:
         ratio = np.clip(1.0 - chord_tol_mm / np.maximum(r, 1e-12), -1.0, 1.0)
         max_step = 2.0 * np.arccos(ratio)  # angle whose sagitta equals the tolerance
         max_step = np.where(max_step > 0, max_step, np.pi)
-        nseg[arcs] = np.maximum(
-            np.ceil(np.abs(program.arc_sweep[k]) / np.minimum(max_step, np.pi / 2)), 1
-        ).astype(np.int64)
+        count = np.maximum(np.ceil(np.abs(program.arc_sweep[k])
+                                   / np.minimum(max_step, np.pi / 2)), 1.0)
+        over = ~(count <= K.MAX_ARC_CHORDS)  # in float: a count may not fit an integer
+        if np.any(over):
+            j = int(np.argmax(over))
+            i = int(np.flatnonzero(arcs)[j])
+            raise _block_error(program, i, (
+                f"arc of radius {r[j]:.6g} mm sweeping "
+                f"{np.degrees(abs(program.arc_sweep[k[j]])):.6g} deg needs {count[j]:,.0f} "
+                f"chords at chord tolerance {chord_tol_mm:g} mm; "
+                f"expected at most {K.MAX_ARC_CHORDS:,} (nc.constants.MAX_ARC_CHORDS): "
+                "fewer turns P, a smaller radius or a larger tolerance"), "PRIJ")
+        nseg[arcs] = count.astype(np.int64)
+    if nseg.size and int(nseg.sum()) > K.MAX_PATH_POINTS:
+        i = int(np.argmax(np.cumsum(nseg) > K.MAX_PATH_POINTS))
+        raise _block_error(program, i, (
+            f"the path expanded into chords (tolerance {chord_tol_mm:g} mm) passes "
+            f"{K.MAX_PATH_POINTS:,} points here (nc.constants.MAX_PATH_POINTS; "
+            f"{int(nseg.sum()):,} in all); expected fewer: a shorter program or a larger "
+            "chord tolerance"), "")
     return nseg
+
+
+def _block_error(program: Program, i: int, message: str, letters: str) -> NCParseError:
+    """An error naming block ``i``'s file, line and the column of its first word
+    among ``letters`` (P, then R, ...), or of its first word."""
+    line = int(program.line[i])
+    text = program.lines[line - 1] if 0 < line <= len(program.lines) else None
+    column = None
+    if text is not None:
+        words = words_with_spans(text)
+        found = [w for c in letters for w in words if w[0] == c] or words
+        if found:
+            column = found[0][2] + 1
+    return NCParseError(message, file=program.file, line=line, column=column, text=text)
 
 
 def expand_arcs(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM
@@ -211,6 +251,13 @@ def expand_arcs(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM
         each block is the block's end point exactly.
     block : ndarray, shape (m,), int
         Block index each point belongs to.
+
+    Raises
+    ------
+    NCParseError
+        Before any point is made, naming file, line and column, when one arc
+        needs more than ``nc.constants.MAX_ARC_CHORDS`` chords or the whole
+        path more than ``MAX_PATH_POINTS`` points.
     """
     if not chord_tol_mm > 0 or not math.isfinite(chord_tol_mm):
         raise ValueError(f"chord_tol_mm: expected a finite value > 0, got {chord_tol_mm!r}")
@@ -221,8 +268,13 @@ def expand_arcs(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM
     first = np.cumsum(nseg) - nseg
     j = np.arange(block.size) - first[block] + 1
     t = j / nseg[block]
+    del j, first
     start, end = program.start, program.end
-    pts = start[block] + t[:, None] * (end[block] - start[block])
+    step = (end - start)[block]  # in place below: fewer temporaries at the peak
+    step *= t[:, None]
+    pts = start[block]
+    pts += step
+    del step
     arcs = program.arc_index[block] >= 0
     if np.any(arcs):
         rows = np.flatnonzero(arcs)
@@ -275,23 +327,24 @@ def cutter_locations(program: Program, machine: "Machine | None" = None, *,
     has_vec = tcp == TCP_VECTOR
     if np.any(has_vec & np.isnan(vec[:, 0])):
         i = int(block[np.argmax(has_vec & np.isnan(vec[:, 0]))])
-        raise ValueError(f"{program.file}:{program.line[i]}: G43.5 move before any tool "
-                         "vector I J K was programmed")
+        raise _block_error(program, i, "G43.5 move before any tool vector I J K was "
+                           "programmed; expected I J K in or before this block", "XYZ")
     axis[has_vec] = vec[has_vec]
     rotary = ~has_vec & np.any(np.abs(program.end[:, 3:]) > 0, axis=1)[block]
     rotary |= tcp == TCP_ANGLES
     if np.any(rotary):
         if machine is None:
             i = int(block[np.argmax(rotary)])
-            raise ValueError(f"{program.file}:{program.line[i]}: the program moves rotary "
-                             "axes; a machine is needed to turn them into a tool axis")
+            raise _block_error(program, i, "the program moves rotary axes; a machine is "
+                               "needed to turn them into a tool axis", "ABC")
         names = machine.rotary_names
         cols = ["XYZABC".index(c) for c in names]
         other = [c for c in "ABC" if c not in names]
-        used_other = np.any(np.abs(pts[:, ["XYZABC".index(c) for c in other]]) > 0)
-        if used_other:
-            raise ValueError(f"{program.file}: the program moves {'/'.join(other)}, which "
-                             f"machine {machine.name} does not have")
+        used_other = np.any(np.abs(pts[:, ["XYZABC".index(c) for c in other]]) > 0, axis=1)
+        if np.any(used_other):
+            raise _block_error(program, int(block[np.argmax(used_other)]),
+                               f"the program moves {'/'.join(other)}, which machine "
+                               f"{machine.name} does not have", "".join(other))
         joints = np.column_stack([pts[:, :3], pts[:, cols]])
         ftip, faxis = machine.forward(joints)
         direct = rotary & (tcp == TCP_OFF)
@@ -323,8 +376,8 @@ def cutter_locations(program: Program, machine: "Machine | None" = None, *,
         fc = f[cut]
         known = np.flatnonzero(np.isfinite(fc))
         if known.size == 0:
-            raise ValueError(f"{program.file}: no cutting move moves the tool tip; "
-                             "cannot give the path a feed")
+            raise _block_error(program, int(block[cut[0]]), "no cutting move moves the tool tip "
+                               "(the first is here); cannot give the path a feed", "")
         nearest = np.maximum.accumulate(np.where(np.isfinite(fc), np.arange(fc.size), -1))
         nearest[nearest < 0] = known[0]
         f[cut] = fc[nearest]

@@ -46,10 +46,49 @@ def test_parse_error_is_one_clear_line(tmp_path, capsys):
     path.write_text("G21\nG1 X1 Y2 Y3 F10\n")
     assert main(["parse", str(path)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith(f"error: {path}:2:10: word Y appears twice")
-    assert "Traceback" not in err
+    assert err == (f"error: {path}:2:10: word Y appears twice in one block; expected each "
+                   "word at most once\n")
     assert main(["parse", str(tmp_path / "missing.nc")]) == 2
     assert "No such file" in capsys.readouterr().err
+
+
+#: Bad programs for ``parse`` and ``check``: (text, line, column, message part).
+BAD_PROGRAMS = [
+    ("G21\nG1 X1 Y2 Y3 F10\n", 2, 10, "appears twice"),
+    ("G21 G0 X1 M" + "9" * 400 + "\n", 1, 11, "unknown or unsupported code M99999999..."),
+    ("G21 G0 X1\nG2 X1 Y0 I-1 P10000000 F100\n", 2, 14, "MAX_ARC_TURNS"),
+    ("G20 G0 X10000000\nG2 I-10000000 F1\n", 2, 4, "MAX_ARC_CHORDS"),
+    ("G21\nG1 X1 F0.0000001\n", 2, 7, "expected F0 or F >="),
+    ("G21\nG1 X1 (open\n", 2, 7, "comment not closed"),
+]
+
+
+@pytest.mark.parametrize("argv,src,line,col,part", [
+    (argv, *case) for argv in (["parse"], ["parse", "--json"], ["check"]) for case in BAD_PROGRAMS
+    # only the summary expands arcs into chords
+    if case[3] != "MAX_ARC_CHORDS" or argv == ["parse"]])
+def test_bad_programs_end_in_one_line_and_exit_2(tmp_path, capsys, argv, src, line, col,
+                                                 part):
+    path = tmp_path / "bad.nc"
+    path.write_text(src)
+    assert main([*argv, str(path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.startswith(f"error: {path}:{line}:{col}: ")
+    assert part in captured.err
+    assert captured.err.count("\n") == 1 and captured.err.endswith("\n")
+    assert captured.out == ""
+
+
+def test_bad_program_one_line_from_the_shell(tmp_path):
+    """``python -m nc parse`` as a process: stderr is the one line, exit status 2."""
+    path = tmp_path / "bad.nc"
+    path.write_text("G21 G0 X1\nG2 X1 Y0 I-1 P10000000 F100\n")
+    for cmd in ("parse", "check"):
+        proc = subprocess.run([sys.executable, "-m", "nc", cmd, str(path)],
+                              capture_output=True, text=True, cwd=ROOT)
+        assert proc.returncode == 2
+        assert proc.stderr.count("\n") == 1 and proc.stdout == ""
+        assert proc.stderr.startswith(f"error: {path}:2:14: expected P (arc turns)")
 
 
 def test_allow_option(tmp_path, capsys):
@@ -127,4 +166,38 @@ def test_check_takes_relative_paths_and_reports_refusals(tmp_path, capsys, rs274
     (tmp_path / "bad.ngc").write_text("G1 X1 F100\nG2 X2 Y0\nM2\n")
     assert main(["check", "bad.ngc"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("error: ") and "Traceback" not in err
+    assert err.startswith("error: bad.ngc:2:") and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("toml,part", [
+    ("[G55]\nxyz_mm = 5\n", "xyz_mm = 5; expected three finite numbers x, y, z [mm]"),
+    ("[G55]\nxyz_mm = [1, 2]\n", "expected three finite numbers"),
+    ('[G55]\nxyz_mm = [1, "a", 3]\n', "expected three finite numbers"),
+    ("[G55]\nxyz_mm = [1, nan, 3]\n", "expected three finite numbers"),
+    ("[G55]\nxyz_mm = [1, 2, 3]\nabc_deg = true\n", "abc_deg = True; expected three"),
+    ("[G60]\nxyz_mm = [1, 2, 3]\n", "[G60]; expected tables [G54] ... [G59]"),
+    ("[G55\n", "not valid TOML"),
+])
+def test_bad_offsets_file_ends_in_one_line(tmp_path, capsys, toml, part):
+    path = tmp_path / "p.nc"
+    path.write_text("G21 G55\nG0 X1\nM30\n")
+    offsets = tmp_path / "offsets.toml"
+    offsets.write_text(toml)
+    assert main(["parse", str(path), "--offsets", str(offsets)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {offsets}: ") and part in err and err.count("\n") == 1
+
+
+def test_check_rs274_refusal_is_one_line(tmp_path, capsys, rs274):
+    """A program this reader takes and rs274 refuses (G43.4): rs274's message and block
+    on one line, exit 2; rs274 that does not finish in time is an Rs274Error too."""
+    from nc.linuxcnc import Rs274Error, run_rs274
+
+    path = tmp_path / "tcp.ngc"
+    path.write_text("G21 G43.4 H1\nG1 X1 A10 F100\nM2\n")
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: rs274 refused {path}: ") and "G43.4" in err
+    assert err.count("\n") == 1
+    with pytest.raises(Rs274Error, match="did not finish"):
+        run_rs274(path, timeout_s=1e-6)

@@ -248,6 +248,7 @@ def test_errors_name_line_and_column(src, opts, line, bad, fragment):
     if fragment is not None:
         assert fragment in str(err)
     assert str(err).startswith(f"part.nc:{line}")
+    assert "\n" not in str(err)  # one line; the source line and caret: err.excerpt()
 
 
 def test_allow_list_is_explicit_and_refuses_motion_codes():
