@@ -78,12 +78,16 @@ def _print_summary(s, console=None) -> None:
     t.add_row("spindle", f"{s.spindle_rpm[0]:g} .. {s.spindle_rpm[1]:g} rev/min")
     t.add_row("units in program", ", ".join(s.units) or "-")
     t.add_row("tool centre point", ", ".join(s.tcp_modes) or "-")
+    if s.ignored:
+        t.add_row("passed over", ", ".join(
+            f"{code} x{count} (line {first})" for code, count, first in s.ignored))
     console.print(t)
 
 
 def _cmd_parse(args) -> int:
     prog = read_program(args.file, allow=_allow_list(args.allow),
-                        block_delete=args.block_delete, work_offsets=_offsets(args.offsets))
+                        block_delete=args.block_delete, work_offsets=_offsets(args.offsets),
+                        strict=args.strict)
     if args.json:
         json.dump(blocks_as_json(prog), sys.stdout, separators=(",", ":"))
         sys.stdout.write("\n")
@@ -121,7 +125,7 @@ def _cmd_post(args) -> int:
 def _cmd_check(args) -> int:
     from .linuxcnc import compare_with_rs274
 
-    prog = read_program(args.file, allow=_allow_list(args.allow))
+    prog = read_program(args.file, allow=_allow_list(args.allow), strict=args.strict)
     result = compare_with_rs274(args.file, prog)
     print(result.message, file=sys.stdout if result.ok else sys.stderr)
     return 0 if result.ok else 1
@@ -149,7 +153,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true",
                    help="print every motion block: line, motion, xyz_mm, abc_deg, feed")
     p.add_argument("--allow", metavar="CODES",
-                   help=f"comma-separated codes to pass over, e.g. {','.join(ALLOWABLE_EXAMPLES[:3])}")
+                   help="comma-separated codes to pass over beyond those passed over anyway "
+                        f"(coolant, dwell, G64...), e.g. {','.join(ALLOWABLE_EXAMPLES[:3])}")
+    p.add_argument("--strict", action="store_true",
+                   help="refuse codes that do nothing here unless listed in --allow, and the "
+                        "frame and reference codes (G10, G28, G30, G52, G53, G92) and G95")
     p.add_argument("--block-delete", action="store_true", help="skip lines starting with '/'")
     p.add_argument("--offsets", metavar="TOML", help="work offsets: [G55] xyz_mm = [x, y, z]")
     p.set_defaults(func=_cmd_parse)
@@ -178,6 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("check", help="compare this reader with LinuxCNC's rs274 on a file")
     p.add_argument("file")
     p.add_argument("--allow", metavar="CODES")
+    p.add_argument("--strict", action="store_true")
     p.set_defaults(func=_cmd_check)
 
     p = sub.add_parser("machines", help="list the named machines")

@@ -2,19 +2,23 @@
 
 The dialect is what CAM systems write for milling: G0/G1/G2/G3 (IJK centre
 and R forms, full circles, helical arcs, LinuxCNC's P turns), G17/G18/G19,
-G90/G91, G90.1/G91.1, G20/G21, G93/G94, F, S, M3/M4/M5, T and M6, G43 H,
+G90/G91, G90.1/G91.1, G20/G21, G93/G94/G95, F, S, M3/M4/M5, T and M6, G43 H,
 G43.4/G43.5/G49 (tool centre point on/off; under G43.5 the words I J K of a
 G0/G1 block are the tool vector), G54...G59 (offsets from a table), comments
 in parentheses and after ``;``, block delete ``/``, N numbers, ``%`` and O
-program numbers. G40 and G80 (which assert the state the reader assumes), and
-M0/M1/M2/M30 are understood.
+program numbers. G40 and G80 (which assert the state the reader assumes;
+G80 may share a block with G0...G3), and M0/M1/M2/M30 are understood.
+
+Codes that neither move the tool nor change the frame (coolant M7/M8/M9,
+clamps M10/M11, dwell G4, path blending G61/G64, Fanuc look-ahead G05 P,
+G05.1 Q, G08 P, ...: :data:`nc.dialect.PASSIVE`) are passed over with
+their own parameter words and counted in :attr:`Program.ignored`; with
+``strict=True`` they are refused unless the caller lists them in ``allow``.
+Codes that move the tool in ways the reader does not model (canned cycles,
+cutter compensation, splines...) are refused, and cannot be allowed.
 
 Anything else is refused with an :class:`~nc.errors.NCParseError` naming the
-file, line and column. Codes that change nothing this package cares about
-(coolant M8/M9, path blending G64, dwell G4, ...) pass only when the caller
-lists them in ``allow``; their own parameter words (P, Q, D, E, L) are then
-taken as theirs. Codes that move the tool or the coordinate frame (G28, G92,
-canned cycles, cutter compensation...) cannot be allowed.
+file, line and column.
 
 The execution order inside a block follows LinuxCNC (feed mode, F, S, T, M6,
 spindle, plane, units, tool length, work offset, distance mode, motion), so a
@@ -41,6 +45,8 @@ from .dialect import (
     M_GROUPS,
     MOTION_CODES,
     PARAM_WORDS,
+    PASSIVE,
+    STRICT_REFUSED,
     code_key,
     code_name,
     normalise_allow,
@@ -101,6 +107,7 @@ def parse_program(
     allow: Iterable[str] = (),
     block_delete: bool = False,
     work_offsets: Mapping[str, Sequence[float]] | None = None,
+    strict: bool = False,
 ) -> Program:
     """Interpret G-code text.
 
@@ -111,20 +118,27 @@ def parse_program(
     file : str
         Name used in error messages and kept in the result.
     allow : iterable of str
-        Codes (``"G64"``, ``"M8"``) that may appear and are passed over.
+        Codes (``"G64"``, ``"M8"``) that may appear and are passed over, beyond
+        those passed over anyway (:data:`nc.dialect.PASSIVE`: coolant, clamps,
+        dwell, path blending, look-ahead...). Every code passed over is
+        counted in :attr:`Program.ignored`.
     block_delete : bool
         Skip lines that start with ``/`` (the operator's block-delete switch);
         when False they run like any other line.
     work_offsets : mapping, optional
         ``{"G55": (x, y, z)}`` or ``(x, y, z, a, b, c)`` [mm, deg]: the work
         offset table, used by :attr:`Program.end_machine`.
+    strict : bool
+        Refuse what the reader once refused: codes that do nothing here
+        (coolant, G64...) unless listed in ``allow``, and the frame and
+        reference codes (G10, G28, G30, G52, G53, G92) and G95.
 
     Returns
     -------
     Program
     """
     return _Interpreter(text, file, normalise_allow(allow), block_delete,
-                        _offset_table(work_offsets)).run()
+                        _offset_table(work_offsets), strict).run()
 
 
 # ---------------------------------------------------------------------------
@@ -132,7 +146,7 @@ class _Interpreter:
     """One pass over the lines; appends columns as plain Python lists."""
 
     def __init__(self, text: str, file: str, allow: dict[str, set[int]],
-                 block_delete: bool, offsets: np.ndarray) -> None:
+                 block_delete: bool, offsets: np.ndarray, strict: bool = False) -> None:
         # split on "\n" only, as controls count lines (str.splitlines would also
         # split on form feeds and other separators and shift line numbers)
         lines = text.split("\n")
@@ -149,7 +163,10 @@ class _Interpreter:
             code_name(letter, k) for letter, ks in allow.items() for k in ks)
         self.block_delete = block_delete
         self.offsets = offsets
+        self.strict = strict
         self.number: str | None = None
+        #: code name -> [count, first line] of codes passed over
+        self.ignored: dict[str, list[int]] = {}
 
     # -- errors -----------------------------------------------------------
     def _error(self, lineno: int, message: str, token: int | None = None,
@@ -265,12 +282,17 @@ class _Interpreter:
             gcodes: dict[str, int] = {}
             mcodes: dict[str, int] = {}
             allowed_here = False
+            owned = ""
             if gs is not None:
-                gcodes, allowed_here = self._group_codes(lineno, toks, "G", gs, G_GROUPS,
-                                                         allow_g)
+                gcodes, owned, allowed_here = self._group_codes(lineno, toks, "G", gs,
+                                                                G_GROUPS, allow_g, w)
             if ms is not None:
-                mcodes, allowed_m = self._group_codes(lineno, toks, "M", ms, M_GROUPS, allow_m)
+                mcodes, owned_m, allowed_m = self._group_codes(lineno, toks, "M", ms,
+                                                               M_GROUPS, allow_m, w)
                 allowed_here = allowed_here or allowed_m
+                owned += owned_m
+            if owned:
+                self._take_words(lineno, toks, w, owned)
 
             # values; axis words are noted on the way
             vals: dict[str, float] = {}
@@ -293,6 +315,9 @@ class _Interpreter:
                     else:
                         axes.append((k, v))
 
+            if "frame" in gcodes:
+                raise self._error(lineno, "frame and reference codes are not read yet",
+                                  token=find_token(toks, "G", gs[0]))
             changed = False
             # 1. feed mode, F, S, T, M6, spindle
             if gcodes:
@@ -305,7 +330,7 @@ class _Interpreter:
                 f = vals["F"]
                 if f < 0:
                     raise self._word_error(lineno, toks, "F", "negative feed; expected F >= 0")
-                feed = f * (scale if feed_mode == 94 else 1.0)
+                feed = f * (1.0 if feed_mode == 93 else scale)
             if "S" in vals:
                 if vals["S"] < 0:
                     raise self._word_error(lineno, toks, "S",
@@ -337,7 +362,7 @@ class _Interpreter:
                     units = v // 10
                     scale = K.MM_PER_INCH if units == 20 else 1.0
                     changed = True
-                    if "F" in vals and feed_mode == 94:
+                    if "F" in vals and feed_mode != 93:
                         feed = vals["F"] * scale
                 v = gcodes.get("length")
                 if v is not None:
@@ -373,7 +398,9 @@ class _Interpreter:
                     changed = True
                 v = gcodes.get("motion")
                 if v is not None:
-                    motion_mode = MOTION_CODES.get(v)  # G80 -> None
+                    motion_mode = MOTION_CODES[v]
+                elif "cycle" in gcodes:
+                    motion_mode = None  # G80 alone: no motion mode (LinuxCNC)
             elif "H" in vals:
                 raise self._word_error(lineno, toks, "H", "H word without G43, G43.4 or "
                                        "G43.5; expected it with a tool length code")
@@ -457,6 +484,9 @@ class _Interpreter:
                 elif not feed > 0:
                     raise self._error(lineno, "cutting move with no feed; expected an F > 0 "
                                       "in this block or before it")
+                elif feed_mode == 95 and not spindle_rpm > 0:
+                    raise self._error(lineno, "feed per revolution (G95) with no spindle "
+                                      "speed; expected an S > 0 in this block or before it")
 
             if dirty:
                 key = (plane, units, distance, arc_distance, feed_mode, spindle_rpm,
@@ -499,28 +529,84 @@ class _Interpreter:
             newline=self.newline,
             allowed=self.allowed_names,
             block_delete=self.block_delete,
+            ignored=tuple((name, c, first) for name, (c, first) in
+                          sorted(self.ignored.items(), key=lambda kv: (kv[1][1], kv[0]))),
+            strict=self.strict,
         )
 
     # -- pieces ------------------------------------------------------------
     def _group_codes(self, lineno: int, toks: list, letter: str, nums: list[str],
-                     groups: dict[int, str], allowed: set[int]) -> tuple[dict[str, int], bool]:
-        """The block's G (or M) codes by modal group; refuses unknown and clashing codes."""
+                     groups: dict[int, str], allowed: set[int], w: dict[str, str]
+                     ) -> tuple[dict[str, int], str, bool]:
+        """The block's G (or M) codes by modal group; refuses unknown and clashing codes.
+
+        Returns the codes by group, the parameter words owned by the codes
+        passed over, and whether a code the caller allowed is in the block.
+        """
         out: dict[str, int] = {}
+        owned = ""
         allowed_here = False
+        strict = self.strict
         for num in nums:
             key = code_key(letter, num)
             group = groups.get(key) if key is not None else None
+            if group is not None and strict and letter == "G" and key in STRICT_REFUSED:
+                group = None
             if group is None:
+                passive = None if key is None else PASSIVE[letter].get(key)
                 if key is not None and key in allowed:
                     allowed_here = True
+                    self._note_ignored(letter, key, lineno)
+                    if passive is not None:  # its words are its own (G04 X: seconds)
+                        owned += self._passive_words(letter, key, passive[0], nums, w) or ""
                     continue
+                if passive is not None and not strict:
+                    words = self._passive_words(letter, key, passive[0], nums, w)
+                    if words is not None:
+                        owned += words
+                        self._note_ignored(letter, key, lineno)
+                        continue
                 raise self._error(lineno, f"unknown or unsupported code {letter}{num}"
-                                  + why_not(letter, key), token=find_token(toks, letter, num))
+                                  + why_not(letter, key, strict),
+                                  token=find_token(toks, letter, num))
             if group in out:
                 raise self._error(lineno, f"two codes of the {group} group in one block; "
                                   "expected at most one", token=find_token(toks, letter, num))
             out[group] = key
-        return out, allowed_here
+        return out, owned, allowed_here
+
+    @staticmethod
+    def _passive_words(letter: str, key: int, words: str, nums: list[str],
+                       w: dict[str, str]) -> str | None:
+        """The words a passed-over code owns here; None when it is not the passive code.
+
+        G5 and G5.1 are Fanuc's high-speed modes (G05 P10000, G05.1 Q1) only
+        without axis and I J words; otherwise they are LinuxCNC's splines.
+        G4 owns X (Fanuc's dwell in seconds) only in a block without a motion code.
+        """
+        if letter == "G":
+            if key in (50, 51):
+                if words[0] not in w or any(c in w for c in "XYZABCIJ"):
+                    return None
+            elif key == 40 and any(code_key("G", n) in MOTION_CODES for n in nums):
+                return "P"
+        return words
+
+    def _note_ignored(self, letter: str, key: int, lineno: int) -> None:
+        name = code_name(letter, key)
+        rec = self.ignored.get(name)
+        if rec is None:
+            self.ignored[name] = [1, lineno]
+        else:
+            rec[0] += 1
+
+    def _take_words(self, lineno: int, toks: list, w: dict[str, str], owned: str) -> None:
+        """Remove the words owned by codes passed over, checking they are numbers in range."""
+        for c in set(owned):
+            num = w.pop(c, None)
+            if num is not None and not abs(float(num)) <= K.MAX_ABS_WORD_VALUE:
+                raise self._word_error(lineno, toks, c, f"{c}{num} is out of range; expected "
+                                       f"|value| <= {K.MAX_ABS_WORD_VALUE:g}")
 
     def _strip_comments(self, s: str, lineno: int) -> str:
         out = []

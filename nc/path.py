@@ -162,8 +162,9 @@ def block_minutes(program: Program, lengths_mm: np.ndarray | None = None) -> np.
     """Time of each block at its programmed feed, shape (n,) [min].
 
     G94: path length of the programmed axes X Y Z / feed; a move that only
-    turns rotary axes takes its feed in deg/min (LinuxCNC's rule). G93:
-    1 / F. Rapids: 0 (their speed is the machine's, not the program's).
+    turns rotary axes takes its feed in deg/min (LinuxCNC's rule). G95: the
+    same with feed x spindle speed (F per revolution). G93: 1 / F. Rapids: 0
+    (their speed is the machine's, not the program's).
     """
     length = block_lengths(program) if lengths_mm is None else lengths_mm
     feed_mode = program.modal_column("feed_mode")
@@ -175,6 +176,10 @@ def block_minutes(program: Program, lengths_mm: np.ndarray | None = None) -> np.
     travel = np.where(length > 0, length,
                       np.degrees(np.abs(program.end[:, 3:] - program.start[:, 3:]).max(axis=1)))
     minutes[per_min] = travel[per_min] / program.feed[per_min]
+    per_rev = cut & (feed_mode == 95)  # G95: F per spindle revolution
+    if np.any(per_rev):
+        rpm = program.modal_column("spindle_rpm")[per_rev]
+        minutes[per_rev] = travel[per_rev] / (program.feed[per_rev] * rpm)
     return minutes
 
 

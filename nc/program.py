@@ -216,6 +216,11 @@ class Program:
         Codes the caller allowed to pass without effect.
     block_delete : bool
         Whether lines starting with ``/`` were skipped.
+    ignored : tuple of (str, int, int)
+        Codes read and passed over (coolant, dwell, path blending, the
+        caller's ``allow``...): code, count, first line; in order of first line.
+    strict : bool
+        Whether the program was read strictly (see :func:`nc.parse_program`).
     """
 
     file: str
@@ -238,6 +243,8 @@ class Program:
     newline: str = "\n"
     allowed: frozenset[str] = frozenset()
     block_delete: bool = False
+    ignored: tuple[tuple[str, int, int], ...] = ()
+    strict: bool = False
 
     def __post_init__(self) -> None:
         for name in ("line", "motion", "end", "initial", "feed", "modal_index",

@@ -34,6 +34,8 @@ class ProgramSummary:
     spindle_rpm: tuple[float, float]
     units: tuple[str, ...]
     tcp_modes: tuple[str, ...]
+    #: codes read and passed over: (code, count, first line)
+    ignored: tuple[tuple[str, int, int], ...] = ()
 
     def as_dict(self) -> dict:
         """Plain types, ready for JSON."""
@@ -76,6 +78,7 @@ def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> Program
         spindle_rpm=(min(rpm), max(rpm)) if rpm else (0.0, 0.0),
         units=tuple(sorted({"inch" if m.units == 20 else "mm" for m in used})),
         tcp_modes=tuple(sorted({tcp_names[m.tcp] for m in used})),
+        ignored=program.ignored,
     )
 
 

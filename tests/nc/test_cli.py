@@ -54,10 +54,15 @@ def test_parse_error_is_one_clear_line(tmp_path, capsys):
 
 def test_allow_option(tmp_path, capsys):
     path = tmp_path / "p.nc"
-    path.write_text("G21 G64 P0.01\nM8\nG0 X1\nM30\n")
-    assert main(["parse", str(path)]) == 2
+    path.write_text("G21 G64 P0.01\nM8\nG0 X1\nM8\nM30\n")
+    assert main(["parse", str(path), "--strict"]) == 2
     assert "--allow G64" in capsys.readouterr().err
-    assert main(["parse", str(path), "--allow", "G64,M8"]) == 0
+    assert main(["parse", str(path), "--strict", "--allow", "G64,M8"]) == 0
+    capsys.readouterr()
+    # without --strict they are passed over, and the summary says which
+    assert main(["parse", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "passed over" in out and "G64 x1 (line 1)" in out and "M8 x2 (line 2)" in out
 
 
 def test_offsets_file(tmp_path, capsys):
