@@ -53,10 +53,13 @@ from .dialect import (
     why_not,
 )
 from .errors import NCParseError
-from .lexer import TOKEN, blank_comments, find_token, raw_column, token_column
+from .lexer import (TOKEN, blank_comments, find_token, foreign_syntax, raw_column,
+                    token_column)
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
 __all__ = ["read_program", "parse_program", "ALLOWABLE_EXAMPLES"]
+
+_PROGRAM_NUMBER = re.compile(r"(\d+)\s*(?:\([^()]*\)\s*)?")
 
 #: Codes commonly worth allowing in CAM output, for the CLI help and docs.
 def _offset_table(work_offsets: Mapping[str, Sequence[float]] | None) -> np.ndarray:
@@ -229,11 +232,29 @@ class _Interpreter:
                 continue  # after M2/M30 the control reads no further
             c0 = s[0]
             if c0 == "%":
+                if first_content:
+                    # the tape start, maybe with a name: '%_N_PART_MPF' (Siemens),
+                    # '%PM' / '%1234' (other controls' headers)
+                    if s.rstrip().endswith("*"):
+                        raise self._error(lineno, foreign_syntax(s.upper()), column=1)
+                    percent_seen = True
+                    first_content = False
+                    continue
                 if s.strip("% \t") and not s.lstrip("%").lstrip().startswith("("):
                     raise self._error(lineno, "expected '%' alone on its line", column=1)
-                if percent_seen or not first_content:
-                    break  # the closing '%': the tape ends here
+                break  # the closing '%': the tape ends here
+            if first_content and c0 == "$":
+                # Okuma's header '$NAME.MIN%': the tape start with the file's name
                 percent_seen = True
+                first_content = False
+                continue
+            if c0 == ":" and s[1:2].isdigit():
+                # Fanuc's ISO program number ':1234' (the EIA 'O')
+                m = _PROGRAM_NUMBER.fullmatch(s[1:])
+                if m is None:
+                    raise self._error(lineno, "expected a program number ':1234' alone on "
+                                      "its line", column=raw.index(":") + 1)
+                self.number = m.group(1)
                 first_content = False
                 continue
             first_content = False
@@ -638,6 +659,9 @@ class _Interpreter:
     def _bad_token(self, lineno: int, i: int, bad: str, s: str) -> NCParseError:
         raw = self.lines[lineno - 1]
         blank = blank_comments(raw)
+        foreign = foreign_syntax(blank)
+        if foreign is not None:
+            return self._error(lineno, foreign, column=len(blank) - len(blank.lstrip()) + 1)
         if "#" in blank or "[" in blank:
             col = min(k for k in (blank.find("#"), blank.find("[")) if k >= 0) + 1
             return self._error(lineno, "parameters and expressions ('#', '[') are not "

@@ -373,3 +373,37 @@ def test_feed_per_revolution():
     from nc.path import block_minutes
     # 10 mm at 0.1 mm/rev and 1000 rev/min: 0.1 min
     assert block_minutes(prog)[0] == pytest.approx(0.1)
+
+
+# --- program headers and numbers ---------------------------------------------
+@pytest.mark.parametrize("header,number", [
+    ("%_N_PART1_MPF\n;$PATH=/_N_MPF_DIR\n", None),
+    ("%PM\n", None),
+    ("%\nO1234 (PART NAME)\n", "1234"),
+    ("%\n:1234\n", "1234"),
+    (":0042 (FANUC ISO NUMBER)\n", "0042"),
+    ("$PART1.MIN%\n", None),
+])
+def test_program_headers(header, number):
+    prog = parse_program(header + "G21 G90\nG0 X1\nG1 Y2 F100\nM30\n%\n")
+    assert prog.number == number
+    assert len(prog) == 2 and prog.end[1, 1] == 2
+    assert prog.line[0] == header.count("\n") + 2
+
+
+@pytest.mark.parametrize("src,bad,fragment", [
+    ("%_N_PART_MPF\nDEF REAL DEPTH=5\nG0 X1\n", "DEF", "Siemens Sinumerik syntax (DEF)"),
+    ("G21\nR1=5\n", "R1", "Siemens Sinumerik assignments"),
+    ("G21\nN10 CYCLE800(1,\"TC1\",0)\n", "N10", "Siemens Sinumerik syntax (CYCLE800)"),
+    ("G21\nX=R1 Y=2\n", "X", "Siemens Sinumerik assignments"),
+    ("0 BEGIN PGM PART MM\n", "0", "Heidenhain conversational"),
+    ("%PART G71 *\nN10 G00 X+0 *\n", "%", "Heidenhain ISO"),
+    ("G21\nIF [#1 GT 5] GOTO 10\n", "IF", "macro B control flow (IF)"),
+    ("G21\n#100=5\n", "#", "parameters and expressions"),
+])
+def test_foreign_dialects_are_named(src, bad, fragment):
+    with pytest.raises(NCParseError) as info:
+        parse_program(src, file="p.nc")
+    err = info.value
+    assert fragment in err.message and "not supported" in err.message
+    assert err.column == err.text.index(bad) + 1
