@@ -26,8 +26,19 @@ def _allow_list(text: str | None) -> list[str]:
     return [t for t in (text or "").replace(" ", ",").split(",") if t]
 
 
+def _setup(path: str | None) -> tuple[dict | None, dict | None]:
+    """Work offsets and reference points from one TOML file (see :func:`_offsets`)."""
+    table = _offsets(path)
+    if table is None:
+        return None, None
+    refs = {k: v for k, v in table.items() if k.strip().upper() in ("G28", "G30")}
+    return {k: v for k, v in table.items() if k not in refs}, refs
+
+
 def _offsets(path: str | None) -> dict | None:
-    """Work offsets from TOML: ``[G55] xyz_mm = [..]`` and optional ``abc_deg``."""
+    """Work offsets from TOML: ``[G55] xyz_mm = [..]`` and optional ``abc_deg``;
+    ``[G28]`` and ``[G30]`` the same way give the machine's reference points
+    (machine coordinates)."""
     if path is None:
         return None
     with open(path, "rb") as fh:
@@ -78,6 +89,10 @@ def _print_summary(s, console=None) -> None:
     t.add_row("spindle", f"{s.spindle_rpm[0]:g} .. {s.spindle_rpm[1]:g} rev/min")
     t.add_row("units in program", ", ".join(s.units) or "-")
     t.add_row("tool centre point", ", ".join(s.tcp_modes) or "-")
+    if s.unknown_blocks:
+        t.add_row("position not known", f"{s.unknown_blocks:,} blocks from line "
+                  f"{s.unknown_first_line} (G28/G30 to a point not given: [G28] / [G30] "
+                  "xyz_mm in --offsets); left out of the figures above")
     if s.ignored:
         t.add_row("passed over", ", ".join(
             f"{code} x{count} (line {first})" for code, count, first in s.ignored))
@@ -85,9 +100,10 @@ def _print_summary(s, console=None) -> None:
 
 
 def _cmd_parse(args) -> int:
+    offsets, refs = _setup(args.offsets)
     prog = read_program(args.file, allow=_allow_list(args.allow),
-                        block_delete=args.block_delete, work_offsets=_offsets(args.offsets),
-                        strict=args.strict)
+                        block_delete=args.block_delete, work_offsets=offsets,
+                        strict=args.strict, reference_points=refs)
     if args.json:
         json.dump(blocks_as_json(prog), sys.stdout, separators=(",", ":"))
         sys.stdout.write("\n")
@@ -159,7 +175,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="refuse codes that do nothing here unless listed in --allow, and the "
                         "frame and reference codes (G10, G28, G30, G52, G53, G92) and G95")
     p.add_argument("--block-delete", action="store_true", help="skip lines starting with '/'")
-    p.add_argument("--offsets", metavar="TOML", help="work offsets: [G55] xyz_mm = [x, y, z]")
+    p.add_argument("--offsets", metavar="TOML",
+                   help="work offsets: [G55] xyz_mm = [x, y, z]; the machine's G28/G30 "
+                        "points (machine coordinates): [G28] xyz_mm = [x, y, z]")
     p.set_defaults(func=_cmd_parse)
 
     p = sub.add_parser("post", help="write an NC program from a cutter-location CSV")

@@ -17,8 +17,15 @@ their own parameter words and counted in :attr:`Program.ignored`; with
 Codes that move the tool in ways the reader does not model (canned cycles,
 cutter compensation, splines...) are refused, and cannot be allowed.
 
+Frame and reference codes are modelled as LinuxCNC does (:mod:`nc.frames`):
+G92/G92.1/G92.2/G92.3, G52, G10 L2/L20, G53, G28/G30 (through the
+intermediate point; to the machine's point when ``reference_points`` gives
+it, else to a position not known, NaN, until absolute coordinates come
+again) and G28.1/G30.1.
+
 Anything else is refused with an :class:`~nc.errors.NCParseError` naming the
-file, line and column.
+file, line and column; Siemens, Heidenhain and Fanuc macro B programs with a
+sentence that names the dialect as not supported yet.
 
 The execution order inside a block follows LinuxCNC (feed mode, F, S, T, M6,
 spindle, plane, units, tool length, work offset, distance mode, motion), so a
@@ -53,11 +60,17 @@ from .dialect import (
     why_not,
 )
 from .errors import NCParseError
+from .frames import Frames, reference_table
 from .lexer import (TOKEN, blank_comments, find_token, foreign_syntax, raw_column,
                     token_column)
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
 __all__ = ["read_program", "parse_program", "ALLOWABLE_EXAMPLES"]
+
+def _convert(pos: list[float], old: list[float], new: list[float]) -> list[float]:
+    """The same machine position in a frame whose offset changed from ``old`` to ``new``."""
+    return [p if o == n else p + o - n for p, o, n in zip(pos, old, new)]
+
 
 _PROGRAM_NUMBER = re.compile(r"(\d+)\s*(?:\([^()]*\)\s*)?")
 
@@ -111,6 +124,7 @@ def parse_program(
     block_delete: bool = False,
     work_offsets: Mapping[str, Sequence[float]] | None = None,
     strict: bool = False,
+    reference_points: Mapping[str, Sequence[float]] | None = None,
 ) -> Program:
     """Interpret G-code text.
 
@@ -135,13 +149,20 @@ def parse_program(
         Refuse what the reader once refused: codes that do nothing here
         (coolant, G64...) unless listed in ``allow``, and the frame and
         reference codes (G10, G28, G30, G52, G53, G92) and G95.
+    reference_points : mapping, optional
+        ``{"G28": (x, y, z)}`` or ``(x, y, z, a, b, c)`` [mm, deg]: the machine's
+        G28 and G30 points in machine coordinates. Where a program goes to a
+        point not given here, the axes it sends there are unknown (NaN in
+        :attr:`Program.end`, False in :attr:`Program.known`) until absolute
+        coordinates give them a value again (see :mod:`nc.frames`).
 
     Returns
     -------
     Program
     """
     return _Interpreter(text, file, normalise_allow(allow), block_delete,
-                        _offset_table(work_offsets), strict).run()
+                        _offset_table(work_offsets), strict,
+                        reference_table(reference_points)).run()
 
 
 # ---------------------------------------------------------------------------
@@ -149,7 +170,8 @@ class _Interpreter:
     """One pass over the lines; appends columns as plain Python lists."""
 
     def __init__(self, text: str, file: str, allow: dict[str, set[int]],
-                 block_delete: bool, offsets: np.ndarray, strict: bool = False) -> None:
+                 block_delete: bool, offsets: np.ndarray, strict: bool = False,
+                 references: dict | None = None) -> None:
         # split on "\n" only, as controls count lines (str.splitlines would also
         # split on form feeds and other separators and shift line numbers)
         lines = text.split("\n")
@@ -167,6 +189,11 @@ class _Interpreter:
         self.block_delete = block_delete
         self.offsets = offsets
         self.strict = strict
+        self.frames = Frames(offsets, references or reference_table(None))
+        #: distinct offsets program -> machine [mm, rad] (Modal.frame indexes them)
+        self.frame_rows: list[list[float]] = []
+        #: line of the G28/G30 that made the position unknown
+        self.unknown_line = 0
         self.number: str | None = None
         #: code name -> [count, first line] of codes passed over
         self.ignored: dict[str, list[int]] = {}
@@ -200,6 +227,14 @@ class _Interpreter:
         scale = 1.0
         tv = (math.nan, math.nan, math.nan)
         pos = [0.0] * 6
+        frames = self.frames
+        total = frames.total(wcs)
+        frame_id = self._frame_id(total)
+        reframe = False  # the position was converted to a new frame since the last row
+        rotary_used = False
+        reframed: list[int] = []
+        reframed_start: list[float] = []
+        machine_rows: list[int] = []
         modal_ids: dict[tuple, int] = {}
         modals: list[Modal] = []
         modal_id = -1
@@ -312,8 +347,7 @@ class _Interpreter:
                                                                M_GROUPS, allow_m, w)
                 allowed_here = allowed_here or allowed_m
                 owned += owned_m
-            if owned:
-                self._take_words(lineno, toks, w, owned)
+            pvals = self._take_words(lineno, toks, w, owned) if owned else None
 
             # values; axis words are noted on the way
             vals: dict[str, float] = {}
@@ -336,9 +370,6 @@ class _Interpreter:
                     else:
                         axes.append((k, v))
 
-            if "frame" in gcodes:
-                raise self._error(lineno, "frame and reference codes are not read yet",
-                                  token=find_token(toks, "G", gs[0]))
             changed = False
             # 1. feed mode, F, S, T, M6, spindle
             if gcodes:
@@ -407,7 +438,12 @@ class _Interpreter:
                                            "or G43.5; expected it with a tool length code")
                 v = gcodes.get("wcs")
                 if v is not None:
-                    wcs = v // 10 - 53
+                    if v // 10 - 53 != wcs:
+                        wcs = v // 10 - 53
+                        new_total = frames.total(wcs)
+                        if new_total != total:  # the tool stays: convert its position
+                            pos = _convert(pos, total, new_total)
+                            total, frame_id, reframe = new_total, self._frame_id(new_total), True
                     changed = True
                 v = gcodes.get("distance")
                 if v is not None:
@@ -427,6 +463,67 @@ class _Interpreter:
                                        "G43.5; expected it with a tool length code")
             if changed:
                 dirty = True
+
+            fc = gcodes.get("frame") if gcodes else None
+            if fc is not None and fc != 530:
+                # G10, G28/G30 (.1), G52, G92 (.1 .2 .3): the axis words are theirs
+                if tcp != TCP_OFF:
+                    raise self._error(lineno, f"{code_name('G', fc)} under tool centre "
+                                      "point control; expected G49 first",
+                                      token=find_token(toks, "G", gs[0]))
+                named = [(i, v * scale if i < 3 else math.radians(v)) for i, v in axes or ()]
+                rotary_used = rotary_used or any(i >= 3 for i, _ in named)
+                for c in ("I", "J", "K", "R", "P"):
+                    if c in vals:
+                        raise self._word_error(lineno, toks, c, f"{c} word with "
+                                               f"{code_name('G', fc)}; expected axis words only")
+                if fc in (280, 300):
+                    mid, end = frames.home(fc, named, distance == 91, pos, wcs, rotary_used)
+                    if not all(e == e for e in end):
+                        self.unknown_line = lineno
+                    if dirty:
+                        modal_id = self._modal_id(modal_ids, modals, (
+                            plane, units, distance, arc_distance, feed_mode, spindle_rpm,
+                            spindle_dir, tool, length_offset, tcp, wcs, frame_id))
+                        dirty = False
+                    for row in (mid, end):
+                        if reframe:
+                            reframed.append(len(out_line))
+                            reframed_start.extend(pos)
+                            reframe = False
+                        out_line.append(lineno)
+                        out_motion.append(0)
+                        out_end.extend(row)
+                        out_feed.append(feed)
+                        out_modal.append(modal_id)
+                        out_tv.extend(tv)
+                        out_arc.append(-1)
+                    machine_rows.append(len(out_line) - 1)
+                    pos = end
+                else:
+                    old_total = total
+                    if fc in (281, 301):
+                        if named:
+                            raise self._error(lineno, "axis words with G28.1/G30.1; "
+                                              "expected none", token=find_token(toks, "G", gs[0]))
+                        frames.store_reference(fc, pos, wcs)
+                    elif fc == 100:
+                        self._g10(lineno, toks, pvals, named, pos, wcs)
+                    else:
+                        msg = frames.g92(fc, named, pos)
+                        if msg is not None:
+                            raise self._error(lineno, msg, token=find_token(toks, "G", gs[0]))
+                    new_total = frames.total(wcs)
+                    if new_total != old_total:
+                        pos = _convert(pos, old_total, new_total)
+                        total, frame_id, reframe, dirty = (
+                            new_total, self._frame_id(new_total), True, True)
+                    if fc == 920:  # the named axes read the given values, known or not
+                        for i, v in named:
+                            pos[i] = v
+                if mcodes and mcodes.get("stop") in (20, 300):
+                    ended = True
+                continue
 
             # 3. motion
             has_axes = axes is not None
@@ -453,7 +550,15 @@ class _Interpreter:
             start = pos
             new = pos[:]
             inc = distance == 91
-            if axes is not None:
+            if fc == 530:  # G53: this block's axis words are machine coordinates
+                if motion_mode not in (0, 1) or inc or tcp != TCP_OFF:
+                    raise self._error(lineno, "G53 needs G0 or G1, G90 and no tool centre "
+                                      "point control", token=find_token(toks, "G", gs[0]))
+                for i, v in axes or ():
+                    v = v * scale if i < 3 else math.radians(v)
+                    new[i] = frames.machine_to_program(i, v, wcs)
+                machine_rows.append(len(out_line))
+            elif axes is not None:
                 for i, v in axes:
                     if i < 3:
                         v *= scale
@@ -463,9 +568,16 @@ class _Interpreter:
                             raise self._word_error(lineno, toks, c, f"rotary word {c} under "
                                                    "G43.5; expected the tool vector as I J K")
                         v = math.radians(v)
+                        rotary_used = True
                     new[i] = new[i] + v if inc else v
 
             if motion_mode >= 2:
+                if not (start[0] == start[0] and start[1] == start[1] and start[2] == start[2]
+                        and new[0] == new[0] and new[1] == new[1] and new[2] == new[2]):
+                    raise self._error(lineno, "arc at a position that is not known (after "
+                                      f"G28/G30 at line {self.unknown_line}, whose point was "
+                                      "not given); expected an absolute move in X Y Z first, "
+                                      "or the machine's reference point")
                 try:
                     arc = arc_from_words(vals, motion_mode, plane, scale, arc_distance,
                                          start, new)
@@ -511,12 +623,16 @@ class _Interpreter:
 
             if dirty:
                 key = (plane, units, distance, arc_distance, feed_mode, spindle_rpm,
-                       spindle_dir, tool, length_offset, tcp, wcs)
+                       spindle_dir, tool, length_offset, tcp, wcs, frame_id)
                 modal_id = modal_ids.get(key, -1)
                 if modal_id < 0:
                     modal_id = modal_ids[key] = len(modals)
                     modals.append(Modal(*key))
                 dirty = False
+            if reframe:
+                reframed.append(len(out_line))
+                reframed_start.extend(pos)
+                reframe = False
             out_line.append(lineno)
             out_motion.append(motion_mode)
             out_end.extend(new)
@@ -547,6 +663,10 @@ class _Interpreter:
             arc_plane=np.array(arc_plane, dtype=np.int64),
             work_offsets=self.offsets,
             number=self.number,
+            frames=np.array(self.frame_rows, dtype=float).reshape(-1, 6),
+            reframed=np.array(reframed, dtype=np.int64),
+            reframed_start=np.array(reframed_start, dtype=float).reshape(-1, 6),
+            machine_moves=np.array(machine_rows, dtype=np.int64),
             newline=self.newline,
             allowed=self.allowed_names,
             block_delete=self.block_delete,
@@ -594,6 +714,8 @@ class _Interpreter:
                 raise self._error(lineno, f"two codes of the {group} group in one block; "
                                   "expected at most one", token=find_token(toks, letter, num))
             out[group] = key
+            if key == 100:  # G10's L P R are its own
+                owned += "LPR"
         return out, owned, allowed_here
 
     @staticmethod
@@ -621,13 +743,56 @@ class _Interpreter:
         else:
             rec[0] += 1
 
-    def _take_words(self, lineno: int, toks: list, w: dict[str, str], owned: str) -> None:
-        """Remove the words owned by codes passed over, checking they are numbers in range."""
+    def _take_words(self, lineno: int, toks: list, w: dict[str, str],
+                    owned: str) -> dict[str, float]:
+        """Remove the words owned by codes passed over (and G10's), checked in range."""
+        out = {}
         for c in set(owned):
             num = w.pop(c, None)
-            if num is not None and not abs(float(num)) <= K.MAX_ABS_WORD_VALUE:
-                raise self._word_error(lineno, toks, c, f"{c}{num} is out of range; expected "
-                                       f"|value| <= {K.MAX_ABS_WORD_VALUE:g}")
+            if num is not None:
+                if not abs(float(num)) <= K.MAX_ABS_WORD_VALUE:
+                    raise self._word_error(lineno, toks, c, f"{c}{num} is out of range; "
+                                           f"expected |value| <= {K.MAX_ABS_WORD_VALUE:g}")
+                out[c] = float(num)
+        return out
+
+    def _frame_id(self, total: list[float]) -> int:
+        """Index of the offset ``total`` in :attr:`frame_rows` (NaN rows are never shared)."""
+        for k, row in enumerate(self.frame_rows):
+            if row == total:
+                return k
+        self.frame_rows.append(list(total))
+        return len(self.frame_rows) - 1
+
+    @staticmethod
+    def _modal_id(modal_ids: dict, modals: list, key: tuple) -> int:
+        modal_id = modal_ids.get(key, -1)
+        if modal_id < 0:
+            modal_id = modal_ids[key] = len(modals)
+            modals.append(Modal(*key))
+        return modal_id
+
+    def _g10(self, lineno: int, toks: list, pvals: dict[str, float],
+             named: list[tuple[int, float]], pos: list[float], wcs: int) -> None:
+        """G10 L2 / L20 (work offsets); L1/L10/L11 (tool table) are passed over."""
+        level = pvals.get("L")
+        if level in (1.0, 10.0, 11.0):
+            self._note_ignored("G", 100, lineno)
+            return
+        if level not in (2.0, 20.0):
+            raise self._word_error(lineno, toks, "L" if level is not None else "G",
+                                   "expected G10 L2 or L20 (work offsets; L1/L10/L11 for "
+                                   "the tool table are passed over)")
+        number = pvals.get("P", 0.0)
+        if number != int(number) or not 0 <= number <= 6:
+            raise self._word_error(lineno, toks, "P", "expected P0...P6 (0 the active "
+                                   "system, 1...6 G54...G59; G59.1-G59.3 are not supported)")
+        if pvals.get("R", 0.0) != 0.0:
+            raise self._word_error(lineno, toks, "R", "rotation of a work offset (G10 R) "
+                                   "is not supported; expected R0 or none")
+        msg = self.frames.g10(int(level), int(number), named, pos, wcs)
+        if msg is not None:
+            raise self._word_error(lineno, toks, "G", msg)
 
     def _strip_comments(self, s: str, lineno: int) -> str:
         out = []

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import constants as K
-from .errors import CLFileError
+from .errors import CLFileError, InputError
 from .program import PLANE_AXES, RAPID, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Program
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -272,6 +272,12 @@ def cutter_locations(program: Program, machine: "Machine | None" = None, *,
         One point per chord end; rapids flagged, their feed NaN. Feeds in
         inverse time (G93) are turned into tip speed [mm/min].
     """
+    known = program.known
+    if not known.all():
+        i = int(np.argmin(known))
+        raise InputError(f"{program.file}:{program.line[i]}: position not known from this "
+                         "block on (a G28/G30 to a reference point that was not given); "
+                         "give the machine's point, or program absolute X Y Z before cutting")
     pts, block = expand_arcs(program, chord_tol_mm)
     tcp = program.modal_column("tcp")[block] if len(program) else np.zeros(0, int)
     tip = pts[:, :3].copy()

@@ -133,3 +133,17 @@ def test_check_takes_relative_paths_and_reports_refusals(tmp_path, capsys, rs274
     assert main(["check", "bad.ngc"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and "Traceback" not in err
+
+
+def test_parse_reports_unknown_position_and_reference_points(tmp_path, capsys):
+    path = tmp_path / "p.nc"
+    path.write_text("G21 G90\nG0 X1 Y1 Z5\nG91 G28 Z0\nG90 G0 X2 Y2\nG0 Z5\nG1 Z0 F100\nM30\n")
+    assert main(["parse", str(path)]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    # G28's second row, the G0 X Y from there, the G0 Z from the unknown Z
+    assert "position not known" in out and "3 blocks from line 3" in out
+    setup = tmp_path / "setup.toml"
+    setup.write_text("[G54]\nxyz_mm = [0.0, 0.0, -100.0]\n[G28]\nxyz_mm = [0.0, 0.0, 0.0]\n")
+    assert main(["parse", str(path), "--offsets", str(setup), "--json"]) == 0
+    blocks = json.loads(capsys.readouterr().out)
+    assert [b["xyz_mm"][2] for b in blocks] == [5.0, 5.0, 100.0, 100.0, 5.0, 0.0]

@@ -196,7 +196,10 @@ def test_modal_state_carried():
     assert (m2.length_offset, m2.feed_mode, m2.distance) == (0, 94, 90)
     assert m3.spindle_dir == 0
     assert m0.wcs_code == "G55"
-    np.testing.assert_allclose(prog.end_machine[0], [101, 0, -50, 0, 0, math.pi / 2])
+    # the switch to G55 does not move the tool: Z and C, not programmed, stay
+    # where they were on the machine (LinuxCNC's rs274 prints 1, 0, 50, C-90)
+    np.testing.assert_allclose(prog.end[0], [1, 0, 50, 0, 0, -math.pi / 2])
+    np.testing.assert_allclose(prog.end_machine[0], [101, 0, 0, 0, 0, 0], atol=1e-12)
 
 
 def test_tool_vector_normalized_and_modal():

@@ -25,6 +25,7 @@ SAMPLES = [
     (f"{NCFILES}/tort.ngc", []),               # helical arcs in all three planes
     (f"{TRT}/impeller-7bl-xyzac.ngc", []),     # 5-axis A/C, inverse time, 4,492 moves
     (f"{TRT}/boat-xyzac.ngc", []),             # 5-axis A/C; coolant M8 M9 passed over
+    (f"{TRT}/boat-xyzbc.ngc", []),             # 5-axis B/C; M8 M9, G53 G49 Z30 at the end
 ]
 
 
