@@ -113,6 +113,8 @@ def read_program(path: str | os.PathLike, **options) -> Program:
         raise NCParseError("expected text (UTF-8 or ASCII), found a non-text byte "
                            f"0x{data[exc.start]:02x}", file=name, line=line,
                            column=col) from None
+    if text.startswith("\ufeff"):  # a byte-order mark some editors write: not code
+        text = text[1:]
     return parse_program(text, file=name, **options)
 
 
