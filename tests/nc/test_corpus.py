@@ -29,6 +29,8 @@ READ = {
     "camotics-scorpion.nc": True, "camotics-wave.gcode": True,
     "camotics-slant_test.nc": False,  # rs274: "File ended with no percent sign or program end"
     "camotics-text.ngc": False,       # rs274: "Bad character '%' used" (a '%' line mid-file)
+    "pcb2gcode-front.ngc": True, "pcb2gcode-outline.ngc": True,
+    "pcb2gcode-custom_tiled-outline.ngc": True,
     "gcodes-simple_mill.gcode": False,  # rs274: "Bad character" (a UTF-8 byte-order mark)
 }
 
@@ -38,6 +40,12 @@ REFUSED = {
     "lcnc-daisy.ngc": ("O-word subroutines and control flow", "O-word control flow"),
     "camotics-genes-encoder.ngc": ("O-word subroutines and control flow",
                                    "O-word control flow"),
+    "pcb2gcode-linuxcnc_tiled-front.ngc": ("O-word subroutines and control flow",
+                                           "O-word control flow"),
+    "pcb2gcode-mach3_tiled-outline.ngc": ("M98 (a subroutine call",
+                                          "M98/M99 subprograms"),
+    "pcb2gcode-mach4-back.ngc": ("parameters and expressions", "'#' parameters (macro B)"),
+    "pcb2gcode-D1MiniGSR-drill.ngc": ("G81 (a canned cycle", "canned cycles"),
     "lcnc-offsets.ngc": ("parameters and expressions", "'#' parameters (macro B)"),
     "camotics-cutout.ngc": ("parameters and expressions", "'#' parameters (macro B)"),
     "lcnc-hole-circle.ngc": ("unexpected character '^'",
