@@ -35,9 +35,27 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["Frames", "reference_table"]
+__all__ = ["Frames", "reference_table", "work_offset_table", "convert_position"]
 
 NAN = math.nan
+
+
+def work_offset_table(work_offsets: Mapping[str, Sequence[float]] | None) -> np.ndarray:
+    """G54...G59 offsets from ``{"G55": (x, y, z[, a, b, c])}`` [mm, deg]."""
+    table = np.zeros((6, 6))
+    for key, value in (work_offsets or {}).items():
+        m = re.fullmatch(r"G5([4-9])", str(key).strip().upper())
+        if not m:
+            raise ValueError(f"work_offsets: key {key!r} must be one of G54...G59")
+        v = np.asarray(value, dtype=float)
+        if v.ndim != 1 or v.size not in (3, 6) or not np.all(np.isfinite(v)):
+            raise ValueError(f"work_offsets[{key!r}]: expected 3 or 6 finite numbers "
+                             f"(x y z [mm], a b c [deg]), got {value!r}")
+        row = int(m.group(1)) - 4
+        table[row, :3] = v[:3]
+        if v.size == 6:
+            table[row, 3:] = np.radians(v[3:])
+    return table
 
 
 def reference_table(points: Mapping[str, Sequence[float]] | None) -> dict[int, list | None]:
@@ -56,6 +74,15 @@ def reference_table(points: Mapping[str, Sequence[float]] | None) -> dict[int, l
             row[3:] = [math.radians(float(x)) for x in v[3:]]
         out[int(m.group(1)) * 10] = row
     return out
+
+
+def convert_position(pos: list[float], old: list[float], new: list[float]) -> list[float]:
+    """The same machine position in a frame whose offset changed from ``old`` to ``new``.
+
+    Axes whose offset did not change keep their value exactly (also when it
+    is NaN, not known); the others are NaN where either offset is.
+    """
+    return [p if o == n else p + o - n for p, o, n in zip(pos, old, new)]
 
 
 class Frames:
