@@ -141,7 +141,10 @@ def _cmd_post(args) -> int:
 def _cmd_check(args) -> int:
     from .linuxcnc import compare_with_rs274
 
-    prog = read_program(args.file, allow=_allow_list(args.allow), strict=args.strict)
+    # rs274 alone (no variable file) has its G28/G30 points at machine zero
+    zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    prog = read_program(args.file, allow=_allow_list(args.allow), strict=args.strict,
+                        reference_points={"G28": zero, "G30": zero})
     result = compare_with_rs274(args.file, prog)
     print(result.message, file=sys.stdout if result.ok else sys.stderr)
     return 0 if result.ok else 1

@@ -34,6 +34,8 @@ PROGRAMS = {
                         "G10 L2 P2 X-20 Z10\nG55 G0 X0\nG1 Y3\nG91 G10 L20 P2 Y1\nG90 G1 Y2\n"
                         "G54 G0 X0 Y0\nG53 G0 X0\nG10 L1 P1 Z0.1\nM2\n",
     "g92-inch-rotary": "G20 G0 X1 A10\nG92 X0 A0\nG1 X1 A5 F10\nG92.1\nG1 X2\nM2\n",
+    "g28.1-stores-the-point": "G21 G0 X5 Y6 Z7\nG28.1\nG0 X0 Y0 Z0\nG91 G28 Z1\nG90 G30.1\n"
+                              "G0 X1 Y1 Z1\nG30\nM2\n",
     "g92-at-end-of-4-axis-job": "G21 G0 X0 A0\nG1 A360 F1000\nG1 A720\nG92 A0\nG1 A90 X1\n"
                                 "M30\n",
 }
@@ -133,3 +135,19 @@ def test_rewrite_refuses_programs_that_change_frame():
     prog = parse_program(PROGRAMS["g92-family"])
     with pytest.raises(RewriteError, match="G92"):
         rewrite_coordinates(prog, {0: prog.end[0]})
+
+
+def test_g28_1_makes_the_point_known():
+    prog = parse_program(PROGRAMS["g28.1-stores-the-point"])
+    assert prog.known.all()
+    np.testing.assert_allclose(prog.end[2:4, :3], [[0, 0, 1], [0, 0, 7]])  # G91 G28 Z1: via Z1
+    np.testing.assert_allclose(prog.end[-1, :3], [0, 0, 7])  # G30: the point of G30.1
+
+
+def test_check_command_uses_rs274s_reference_points(rs274, tmp_path, capsys):
+    from nc.cli import main
+
+    path = tmp_path / "g28.ngc"
+    path.write_text(PROGRAMS["safety-line-and-g28"])
+    assert main(["check", str(path)]) == 0
+    assert "agrees" in capsys.readouterr().out

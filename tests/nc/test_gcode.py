@@ -284,6 +284,9 @@ def test_read_program_names_the_file(tmp_path):
     with pytest.raises(NCParseError) as info:
         read_program(path)
     assert str(info.value).startswith(f"{path}:3:7:")
+    bom = tmp_path / "bom.nc"
+    bom.write_bytes(b"\xef\xbb\xbfG21 G0 X1\nG1 Y2 F10\n")  # a byte-order mark: not code
+    assert read_program(bom).end[1, 1] == 2
     binary = tmp_path / "binary.nc"
     binary.write_bytes(b"G21\nG0 X1\nG1 \xff\n")
     with pytest.raises(NCParseError, match="non-text byte") as info:
