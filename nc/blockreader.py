@@ -158,9 +158,10 @@ class BlockReader:
         if pvals.get("R", 0.0) != 0.0:
             raise self._word_error(lineno, toks, "R", "rotation of a work offset (G10 R) "
                                    "is not supported; expected R0 or none")
-        msg = self.frames.g10(int(level), int(number), named, pos, wcs)
-        if msg is not None:
-            raise self._word_error(lineno, toks, "G", msg)
+        if not named and "R" not in pvals:
+            raise self._word_error(lineno, toks, "G", "expected axis words (or R0) with G10 "
+                                   "L2 / L20")
+        self.frames.g10(int(level), int(number), named, pos, wcs)
 
     def _strip_comments(self, s: str, lineno: int) -> str:
         out = []

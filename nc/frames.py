@@ -127,16 +127,13 @@ class Frames:
         return None
 
     def g10(self, level: int, number: int, named: list[tuple[int, float]], pos: list[float],
-            wcs: int) -> str | None:
+            wcs: int) -> None:
         """Apply G10 L2 / L20 to work offset ``number`` (0: active)."""
-        if not named:
-            return "expected axis words with G10 L2 / L20"
         n = wcs if number == 0 else number
         row = self.table[n - 1]
         cur = self.table[wcs - 1]
         for i, v in named:
             row[i] = v if level == 2 else pos[i] + cur[i] - v
-        return None
 
     # -- moves in machine coordinates -------------------------------------
     def machine_to_program(self, i: int, v: float, wcs: int) -> float:

@@ -121,6 +121,7 @@ def test_strict_refuses_frame_codes():
     ("G21\nG10 L2 P7 X0\n", "G59.1"),
     ("G21\nG10 L2 P1 R45 X0\n", "rotation"),
     ("G21\nG10 L3 P1 X0\n", "L2 or L20"),
+    ("G21\nG10 L2 P1\n", "axis words \\(or R0\\)"),
     ("G21\nG91 G53 G0 X0\n", "G53 needs"),
     ("G21\nG53 G2 X0 I1\n", "G53 needs"),
     ("G21\nG43.4 H1\nG28 Z0\n", "tool centre point"),
