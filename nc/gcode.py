@@ -63,9 +63,9 @@ from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
 __all__ = ["read_program", "parse_program", "ALLOWABLE_EXAMPLES"]
 
+#: Fanuc's ISO program number after ':' (digits, maybe a comment)
 _PROGRAM_NUMBER = re.compile(r"(\d+)\s*(?:\([^()]*\)\s*)?")
 
-#: Codes commonly worth allowing in CAM output, for the CLI help and docs.
 def read_program(path: str | os.PathLike, **options) -> Program:
     """Read a G-code file; see :func:`parse_program` for ``options``.
 
@@ -173,7 +173,7 @@ class _Interpreter(BlockReader):
         #: code name -> [count, first line] of codes passed over
         self.ignored: dict[str, list[int]] = {}
 
-    # -- errors -----------------------------------------------------------
+    # -- main loop -------------------------------------------------------
     def run(self) -> Program:  # noqa: C901 - one flat loop is the fast form
         lines = self.lines
         findall = TOKEN.findall
@@ -216,7 +216,6 @@ class _Interpreter(BlockReader):
         arc_sweep: list[float] = []
         arc_plane: list[int] = []
 
-        percent_seen = False
         first_content = True
         ended = False
         for lineno0, raw in enumerate(lines):
@@ -235,7 +234,6 @@ class _Interpreter(BlockReader):
                     # '%PM' / '%1234' (other controls' headers)
                     if s.rstrip().endswith("*"):
                         raise self._error(lineno, foreign_syntax(s.upper()), column=1)
-                    percent_seen = True
                     first_content = False
                     continue
                 if s.strip("% \t") and not s.lstrip("%").lstrip().startswith("("):
@@ -243,7 +241,6 @@ class _Interpreter(BlockReader):
                 break  # the closing '%': the tape ends here
             if first_content and c0 == "$":
                 # Okuma's header '$NAME.MIN%': the tape start with the file's name
-                percent_seen = True
                 first_content = False
                 continue
             if c0 == ":" and s[1:2].isdigit():
