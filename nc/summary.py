@@ -53,7 +53,9 @@ def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> Program
     rapid = program.motion == RAPID
     if np.any(known):
         pts, block = expand_arcs(program, chord_tol_mm)
-        pts = np.vstack([program.start[known][:1], pts[known[block]]])
+        # every known block's start too: after a position not known, a known
+        # block starts where the last unknown one ended
+        pts = np.vstack([program.start[known], pts[known[block]]])
         lo, hi = pts[:, :3].min(axis=0), pts[:, :3].max(axis=0)
     else:
         pts = np.zeros((0, 6))

@@ -86,6 +86,7 @@ def test_g28_without_reference_point_makes_position_unknown():
     s = summarize(prog)
     assert s.unknown_blocks == 4 and s.unknown_first_line == 3
     assert s.cutting_length_mm == pytest.approx(21.0)
+    np.testing.assert_allclose(s.bbox_max_mm, [10, 5, 20])  # the start of the G1 Z-1
     js = blocks_as_json(prog)
     assert js[2]["xyz_mm"][2] is None
     with pytest.raises(ValueError, match=":3: position not known"):
