@@ -270,6 +270,9 @@ def test_allow_list_is_explicit_and_refuses_motion_codes():
     assert len(parse_program(src, allow=["M8"])) == 1
     with pytest.raises(ValueError, match="return to home"):
         parse_program(src, allow=["G28"])
+    for code in ("G54.1", "G59.1", "G44", "G12", "G71", "G68.2", "M98"):
+        with pytest.raises(ValueError, match="would misplace the tool"):
+            parse_program(src, allow=[code])
     with pytest.raises(ValueError, match="not a G or M code"):
         parse_program(src, allow=["coolant"])
     # an allowed code's own words belong to it; elsewhere they are refused
