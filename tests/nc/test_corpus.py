@@ -1,9 +1,15 @@
-"""Real public NC programs (tests/data/nc-corpus, provenance in SOURCES.md).
+"""Real NC programs: LinuxCNC's sample programs and other public programs.
 
-Every file is read. Those in LinuxCNC's dialect are compared with LinuxCNC's
-rs274 move by move. Files the reader still refuses are strict xfails with the
-exact reason: when support for them arrives, they pass and the xfail fails
-loudly, so that they move to the list of files read.
+``linuxcnc_corpus.txt`` lists every program file that Debian's linuxcnc-uspace
+installs (read in place, as ``test_linuxcnc_samples.py`` does; CI installs
+the package); ``external_corpus.txt`` lists further public programs (CAM
+outputs, LinuxCNC's own interpreter tests) with their provenance, read when
+their files are put in ``$NC_CORPUS_DIR`` or ``../shared/nc-corpus/``.
+
+Programs the reader reads are compared with LinuxCNC's rs274 move by move
+(unless rs274 refuses the file itself). Programs it still refuses are strict
+xfails with the reason: when support arrives they pass, the xfail fails
+loudly, and the list is updated.
 """
 
 from __future__ import annotations
@@ -13,103 +19,99 @@ import os
 import pytest
 
 from nc import NCParseError, read_program
-from nc.linuxcnc import compare_with_rs274
+from nc.linuxcnc import compare_with_rs274, rs274_path
 
-CORPUS = os.path.join(os.path.dirname(__file__), "..", "data", "nc-corpus")
+HERE = os.path.dirname(__file__)
+PREFIXES = {"NC/": "/usr/share/linuxcnc/ncfiles/",
+            "EX/": "/usr/share/doc/linuxcnc/examples/sample-configs/sim/"}
+EXTERNAL_DIR = os.environ.get("NC_CORPUS_DIR") or os.path.join(
+    HERE, "..", "..", "..", "shared", "nc-corpus")
 
-#: file -> compared with rs274 (False: rs274 refuses the file, reason given)
-READ = {
-    "lcnc-3dtest.ngc": True, "lcnc-arcspiral.ngc": True, "lcnc-b-index.ngc": True,
-    "lcnc-boat-xyzbc.ngc": True, "lcnc-cds.ngc": True, "lcnc-lathe_pawn.ngc": True,
-    "lcnc-plasmatest.ngc": True, "lcnc-skeleton.ngc": True, "lcnc-tort.ngc": True,
-    "lcnc-vector_test.ngc": True,
-    # LinuxCNC's own tests: G10 L2 (R0), G10 L2 P1 in inch with rotary axes, G92 A, G53
-    "lcnc-test-arc-feed_basic_xy.ngc": True, "lcnc-test-unit-conversion.ngc": True,
-    "lcnc-test-machinekit_412.ngc": True, "lcnc-test-tkalcevic_realtime_error.ngc": True,
-    "lcnc-test-z_jump_tangent_improvement.ngc": True,
-    "pygcode-Alien.tap": True, "pygcode-Clamp.nc": True, "pygcode-Cross2.tap": True,
-    "pygcode-Disc3.tap": True, "pygcode-Scorpion.tap": True, "pygcode-plug6a.tap": True,
-    "camotics-buildbotics.gcode": True, "camotics-cds.gcode": True,
-    "camotics-scorpion.nc": True, "camotics-wave.gcode": True,
-    "camotics-slant_test.nc": False,  # rs274: "File ended with no percent sign or program end"
-    "camotics-text.ngc": False,       # rs274: "Bad character '%' used" (a '%' line mid-file)
-    "pcb2gcode-front.ngc": True, "pcb2gcode-outline.ngc": True,
-    "pcb2gcode-custom_tiled-outline.ngc": True,
-    "gcodes-simple_mill.gcode": False,  # rs274: "Bad character" (a UTF-8 byte-order mark)
+#: status -> (what the reader's message says, what the reader needs to read it)
+REASONS = {
+    "oword": ("O-word subroutines and control flow", "O-word control flow"),
+    "param": ("parameters and expressions", "'#' parameters and expressions"),
+    "polar": ("unexpected character '^'", "LinuxCNC polar coordinates (^ @)"),
+    "comp": ("(cutter compensation", "cutter radius compensation"),
+    "cycle": ("(a canned cycle", "canned cycles"),
+    "probe": ("(a probing move", "probing moves"),
+    "kins": ("unsupported code M42", "kinematics switching (LinuxCNC user M428/M429)"),
+    "userm": ("unsupported code M190", "LinuxCNC user M-codes (M100-M199)"),
+    "m70": ("unsupported code M70", "modal state save and restore (M70-M73)"),
+    "uvw": ("unknown word U", "axes U V W"),
+    "rotation": ("rotation of a work offset (G10 R)", "work offsets with rotation (G10 L2 R)"),
+    "nurbs": ("G5.2 (a spline", "NURBS G5.2/G5.3"),
+    "tilt": ("G68.2 (a tilted working plane", "tilted working planes"),
+    "arcradius": ("differ by", "arc radii beyond LinuxCNC's tolerance (rs274 refuses too)"),
+    "g71": ("unsupported code G71", "G70/G71 units (Siemens/Heidenhain style)"),
+    "ijk-g0": ("I word in a straight move", "I J words in a G0 block"),
+    "plotter": ("unsupported code G78", "a plotter dialect (G78, G22, G4 H)"),
+    "m98": ("M98 (a subroutine call", "M98/M99 subprograms"),
 }
-
-#: file -> (what the reader says, why: the part of the work that will read it)
-REFUSED = {
-    "lcnc-cone.ngc": ("O-word subroutines and control flow", "O-word control flow"),
-    "lcnc-daisy.ngc": ("O-word subroutines and control flow", "O-word control flow"),
-    "camotics-genes-encoder.ngc": ("O-word subroutines and control flow",
-                                   "O-word control flow"),
-    "pcb2gcode-linuxcnc_tiled-front.ngc": ("O-word subroutines and control flow",
-                                           "O-word control flow"),
-    "pcb2gcode-mach3_tiled-outline.ngc": ("M98 (a subroutine call",
-                                          "M98/M99 subprograms"),
-    "pcb2gcode-mach4-back.ngc": ("parameters and expressions", "'#' parameters (macro B)"),
-    "pcb2gcode-D1MiniGSR-drill.ngc": ("G81 (a canned cycle", "canned cycles"),
-    "lcnc-offsets.ngc": ("parameters and expressions", "'#' parameters (macro B)"),
-    "camotics-cutout.ngc": ("parameters and expressions", "'#' parameters (macro B)"),
-    "lcnc-hole-circle.ngc": ("unexpected character '^'",
-                             "LinuxCNC polar coordinates '^' and canned cycle G81"),
-    "lcnc-polar.ngc": ("G81 (a canned cycle", "canned cycles"),
-    "lcnc-comp.ngc": ("G42 (cutter compensation", "cutter radius compensation"),
-    "pygcode-DB25.tap": ("G41 (cutter compensation", "cutter radius compensation"),
-    "lcnc-butterfly-xy.ngc": ("G5.2 (a spline", "NURBS G5.2/G5.3"),
-    "lcnc-simple_example.ngc": ("G68.2 (a tilted working plane", "tilted working plane"),
-    "lcnc-test-arc-feed_full_xy.ngc": ("rotation of a work offset (G10 R)",
-                                       "work offsets with rotation (G10 L2 R)"),
-    "lcnc-test-g10-l1-l10.ngc": ("rotation of a work offset (G10 R)",
-                                 "work offsets with rotation (G10 L2 R)"),
-    "pygcode-unsupported-Horse2.tap": ("unknown or unsupported code G71",
-                                       "G70/G71 units (Siemens/Heidenhain style)"),
-    "pygcode-Colt.tap": ("differ by 0.0057 mm",
-                         "arc radii differ beyond LinuxCNC's tolerance (rs274 refuses it too)"),
-    "gcodes-circle.gcode": ("I word in a straight move", "I J words in a G0 block"),
-    "gcodes-371373P.gcode": ("unknown or unsupported code G78",
-                             "a plotter/cutter dialect (G78, G22, G4 H)"),
-}
+READ = ("read", "read-only", "empty")
 
 
-def test_every_corpus_file_is_listed_with_its_provenance():
-    files = {f for f in os.listdir(CORPUS) if f != "SOURCES.md"}
-    assert files == set(READ) | set(REFUSED)
-    assert not set(READ) & set(REFUSED)
-    sources = open(os.path.join(CORPUS, "SOURCES.md"), encoding="utf-8").read()
-    for f in files:
-        row = next((ln for ln in sources.splitlines() if ln.startswith(f"| {f} |")), None)
-        assert row is not None, f
-        cells = [c.strip() for c in row.strip("|").split("|")]
-        assert len(cells) == 5 and len(cells[3]) == 40 and cells[4], row  # commit, licence
-        assert os.path.getsize(os.path.join(CORPUS, f)) < 200_000
+def _manifest(name: str) -> list[tuple[str, str]]:
+    """(status, path) per program of a manifest file."""
+    out = []
+    with open(os.path.join(HERE, name), encoding="utf-8") as fh:
+        for line in fh:
+            if line.strip() and not line.startswith("#"):
+                status, where = line.split()[:2]
+                assert status in READ or status in REASONS, line
+                for short, long in PREFIXES.items():
+                    if where.startswith(short):
+                        where = long + where[len(short):]
+                if name.startswith("external"):
+                    where = os.path.join(EXTERNAL_DIR, where)
+                out.append((status, where))
+    return out
 
 
-@pytest.mark.parametrize("name", sorted(READ))
-def test_corpus_file_is_read(name, rs274_available):
-    path = os.path.join(CORPUS, name)
-    prog = read_program(path)
+CORPUS = _manifest("linuxcnc_corpus.txt") + _manifest("external_corpus.txt")
+
+
+def _id(path: str) -> str:
+    return path.replace("/usr/share/", "").replace(EXTERNAL_DIR + os.sep, "external/")
+
+
+def test_manifests_are_complete():
+    assert len(CORPUS) == len({p for _, p in CORPUS})
+    package = [p for _, p in CORPUS if p.startswith("/usr/share/")]
+    assert len(package) == 137
+    with open(os.path.join(HERE, "external_corpus.txt"), encoding="utf-8") as fh:
+        for line in fh:
+            if line.strip() and not line.startswith("#"):
+                cells = line.split()
+                assert len(cells) == 6 and len(cells[4]) == 40, line  # commit, licence
+
+
+def _existing(path: str) -> str:
+    if not os.path.exists(path):
+        pytest.skip(f"{path} is not on this machine")
+    return path
+
+
+@pytest.mark.parametrize("status,path", [c for c in CORPUS if c[0] in READ],
+                         ids=[_id(p) for s, p in CORPUS if s in READ])
+def test_corpus_program_is_read(status, path):
+    prog = read_program(_existing(path))
+    if status == "empty":
+        assert len(prog) == 0
+        return
     assert len(prog) > 0 and prog.known.all()
-    if READ[name] and rs274_available:
+    if status == "read" and rs274_path() is not None:
         result = compare_with_rs274(path, prog, tool_lengths_mm={t: 0.0 for t in range(100)})
         assert result.ok and result.moves == len(prog), result.message
 
 
-@pytest.mark.parametrize("name", [
-    pytest.param(n, marks=pytest.mark.xfail(raises=NCParseError, strict=True,
-                                            reason=f"needs {why}"))
-    for n, (_, why) in sorted(REFUSED.items())])
-def test_corpus_file_refused_for_now(name):
+@pytest.mark.parametrize("status,path", [
+    pytest.param(s, p, marks=pytest.mark.xfail(raises=NCParseError, strict=True,
+                                               reason=f"needs {REASONS[s][1]}"), id=_id(p))
+    for s, p in CORPUS if s not in READ])
+def test_corpus_program_refused_for_now(status, path):
     try:
-        read_program(os.path.join(CORPUS, name))
+        read_program(_existing(path))
     except NCParseError as exc:
-        assert REFUSED[name][0] in str(exc), str(exc)  # any other refusal: a real failure
+        assert REASONS[status][0] in str(exc), str(exc)  # any other refusal: a failure
         raise
-
-
-@pytest.fixture(scope="session")
-def rs274_available():
-    from nc.linuxcnc import rs274_path
-
-    return rs274_path() is not None
