@@ -111,7 +111,7 @@ def test_arc_at_unknown_position_is_refused():
 
 def test_strict_refuses_frame_codes():
     for src in ("G21\nG92 X0\n", "G21\nG91 G28 Z0\n", "G21\nG53 G0 Z0\n",
-                "G21\nG10 L2 P1 X0\n"):
+                "G21\nG10 L2 P1 X0\n", "G21 S100 M3\nG95 G1 X1 F0.1\n"):
         with pytest.raises(NCParseError, match="without strict"):
             parse_program(src, strict=True)
 
