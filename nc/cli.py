@@ -27,8 +27,19 @@ def _allow_list(text: str | None) -> list[str]:
     return [t for t in (text or "").replace(" ", ",").split(",") if t]
 
 
+def _setup(path: str | None) -> tuple[dict | None, dict | None]:
+    """Work offsets and reference points from one TOML file (see :func:`_offsets`)."""
+    table = _offsets(path)
+    if table is None:
+        return None, None
+    refs = {k: v for k, v in table.items() if k.strip().upper() in ("G28", "G30")}
+    return {k: v for k, v in table.items() if k not in refs}, refs
+
+
 def _offsets(path: str | None) -> dict | None:
-    """Work offsets from TOML: ``[G55] xyz_mm = [..]`` and optional ``abc_deg``."""
+    """Work offsets from TOML: ``[G55] xyz_mm = [..]`` and optional ``abc_deg``;
+    ``[G28]`` and ``[G30]`` the same way give the machine's reference points
+    (machine coordinates)."""
     if path is None:
         return None
     with open(path, "rb") as fh:
@@ -38,8 +49,8 @@ def _offsets(path: str | None) -> dict | None:
             raise InputError(f"{path}: not valid TOML: {exc}") from None
     out = {}
     for key, table in data.items():
-        if key.strip().upper() not in ("G54", "G55", "G56", "G57", "G58", "G59"):
-            raise InputError(f"{path}: [{key}]; expected tables [G54] ... [G59]")
+        if key.strip().upper() not in ("G54", "G55", "G56", "G57", "G58", "G59", "G28", "G30"):
+            raise InputError(f"{path}: [{key}]; expected tables [G54] ... [G59], [G28], [G30]")
         if not isinstance(table, dict) or "xyz_mm" not in table:
             raise InputError(f"{path}: [{key}] needs xyz_mm = [x, y, z] (and optionally "
                              "abc_deg = [a, b, c])")
@@ -91,12 +102,21 @@ def _print_summary(s, console=None) -> None:
     t.add_row("spindle", f"{s.spindle_rpm[0]:g} .. {s.spindle_rpm[1]:g} rev/min")
     t.add_row("units in program", ", ".join(s.units) or "-")
     t.add_row("tool centre point", ", ".join(s.tcp_modes) or "-")
+    if s.unknown_blocks:
+        t.add_row("position not known", f"{s.unknown_blocks:,} blocks from line "
+                  f"{s.unknown_first_line} (G28/G30 to a point not given: [G28] / [G30] "
+                  "xyz_mm in --offsets); left out of the figures above")
+    if s.ignored:
+        t.add_row("passed over", ", ".join(
+            f"{code} x{count} (line {first})" for code, count, first in s.ignored))
     console.print(t)
 
 
 def _cmd_parse(args) -> int:
+    offsets, refs = _setup(args.offsets)
     prog = read_program(args.file, allow=_allow_list(args.allow),
-                        block_delete=args.block_delete, work_offsets=_offsets(args.offsets))
+                        block_delete=args.block_delete, work_offsets=offsets,
+                        strict=args.strict, reference_points=refs)
     if args.json:
         json.dump(blocks_as_json(prog), sys.stdout, separators=(",", ":"))
         sys.stdout.write("\n")
@@ -134,7 +154,10 @@ def _cmd_post(args) -> int:
 def _cmd_check(args) -> int:
     from .linuxcnc import compare_with_rs274
 
-    prog = read_program(args.file, allow=_allow_list(args.allow))
+    # rs274 alone (no variable file) has its G28/G30 points at machine zero
+    zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    prog = read_program(args.file, allow=_allow_list(args.allow), strict=args.strict,
+                        reference_points={"G28": zero, "G30": zero})
     result = compare_with_rs274(args.file, prog)
     print(result.message, file=sys.stdout if result.ok else sys.stderr)
     return 0 if result.ok else 1
@@ -162,9 +185,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true",
                    help="print every motion block: line, motion, xyz_mm, abc_deg, feed")
     p.add_argument("--allow", metavar="CODES",
-                   help=f"comma-separated codes to pass over, e.g. {','.join(ALLOWABLE_EXAMPLES[:3])}")
+                   help="comma-separated codes to pass over beyond those passed over anyway "
+                        f"(coolant, dwell, G64...), e.g. {','.join(ALLOWABLE_EXAMPLES[:3])}")
+    p.add_argument("--strict", action="store_true",
+                   help="refuse codes that do nothing here unless listed in --allow, and the "
+                        "frame and reference codes (G10, G28, G30, G52, G53, G92) and G95")
     p.add_argument("--block-delete", action="store_true", help="skip lines starting with '/'")
-    p.add_argument("--offsets", metavar="TOML", help="work offsets: [G55] xyz_mm = [x, y, z]")
+    p.add_argument("--offsets", metavar="TOML",
+                   help="work offsets: [G55] xyz_mm = [x, y, z]; the machine's G28/G30 "
+                        "points (machine coordinates): [G28] xyz_mm = [x, y, z]")
     p.set_defaults(func=_cmd_parse)
 
     p = sub.add_parser("post", help="write an NC program from a cutter-location CSV")
@@ -191,6 +220,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("check", help="compare this reader with LinuxCNC's rs274 on a file")
     p.add_argument("file")
     p.add_argument("--allow", metavar="CODES")
+    p.add_argument("--strict", action="store_true")
     p.set_defaults(func=_cmd_check)
 
     p = sub.add_parser("machines", help="list the named machines")

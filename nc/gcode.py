@@ -2,19 +2,30 @@
 
 The dialect is what CAM systems write for milling: G0/G1/G2/G3 (IJK centre
 and R forms, full circles, helical arcs, LinuxCNC's P turns), G17/G18/G19,
-G90/G91, G90.1/G91.1, G20/G21, G93/G94, F, S, M3/M4/M5, T and M6, G43 H,
+G90/G91, G90.1/G91.1, G20/G21, G93/G94/G95, F, S, M3/M4/M5, T and M6, G43 H,
 G43.4/G43.5/G49 (tool centre point on/off; under G43.5 the words I J K of a
 G0/G1 block are the tool vector), G54...G59 (offsets from a table), comments
 in parentheses and after ``;``, block delete ``/``, N numbers, ``%`` and O
-program numbers. G40 and G80 (which assert the state the reader assumes), and
-M0/M1/M2/M30 are understood.
+program numbers. G40 and G80 (which assert the state the reader assumes;
+G80 may share a block with G0...G3), and M0/M1/M2/M30 are understood.
+
+Codes that neither move the tool nor change the frame (coolant M7/M8/M9,
+clamps M10/M11, dwell G4, path blending G61/G64, Fanuc look-ahead G05 P,
+G05.1 Q, G08 P, ...: :data:`nc.dialect.PASSIVE`) are passed over with
+their own parameter words and counted in :attr:`Program.ignored`; with
+``strict=True`` they are refused unless the caller lists them in ``allow``.
+Codes that move the tool in ways the reader does not model (canned cycles,
+cutter compensation, splines...) are refused, and cannot be allowed.
+
+Frame and reference codes are modelled as LinuxCNC does (:mod:`nc.frames`):
+G92/G92.1/G92.2/G92.3, G52, G10 L2/L20, G53, G28/G30 (through the
+intermediate point; to the machine's point when ``reference_points`` gives
+it, else to a position not known, NaN, until absolute coordinates come
+again) and G28.1/G30.1.
 
 Anything else is refused with an :class:`~nc.errors.NCParseError` naming the
-file, line and column. Codes that change nothing this package cares about
-(coolant M8/M9, path blending G64, dwell G4, ...) pass only when the caller
-lists them in ``allow``; their own parameter words (P, Q, D, E, L) are then
-taken as theirs. Codes that move the tool or the coordinate frame (G28, G92,
-canned cycles, cutter compensation...) cannot be allowed.
+file, line and column; Siemens, Heidenhain and Fanuc macro B programs with a
+sentence that names the dialect as not supported yet.
 
 The execution order inside a block follows LinuxCNC (feed mode, F, S, T, M6,
 spindle, plane, units, tool length, work offset, distance mode, motion), so a
@@ -32,6 +43,7 @@ import numpy as np
 
 from . import constants as K
 from .arcs import ArcWordError, arc_from_words
+from .blockreader import BlockReader
 from .dialect import (
     ALLOWABLE_EXAMPLES,
     AXIS_INDEX,
@@ -41,35 +53,18 @@ from .dialect import (
     M_GROUPS,
     MOTION_CODES,
     PARAM_WORDS,
-    code_key,
     code_name,
     normalise_allow,
-    why_not,
 )
-from .errors import InputError, NCParseError
-from .lexer import TOKEN, blank_comments, find_token, raw_column, token_column
+from .errors import NCParseError
+from .frames import Frames, convert_position, reference_table, work_offset_table
+from .lexer import TOKEN, find_token, foreign_syntax
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
 __all__ = ["read_program", "parse_program", "ALLOWABLE_EXAMPLES"]
 
-#: Codes commonly worth allowing in CAM output, for the CLI help and docs.
-def _offset_table(work_offsets: Mapping[str, Sequence[float]] | None) -> np.ndarray:
-    """G54...G59 offsets from ``{"G55": (x, y, z[, a, b, c])}`` [mm, deg]."""
-    table = np.zeros((6, 6))
-    for key, value in (work_offsets or {}).items():
-        m = re.fullmatch(r"G5([4-9])", str(key).strip().upper())
-        if not m:
-            raise InputError(f"work_offsets: key {key!r} must be one of G54...G59")
-        v = np.asarray(value, dtype=float)
-        if v.ndim != 1 or v.size not in (3, 6) or not np.all(np.isfinite(v)):
-            raise InputError(f"work_offsets[{key!r}]: expected 3 or 6 finite numbers "
-                             f"(x y z [mm], a b c [deg]), got {value!r}")
-        row = int(m.group(1)) - 4
-        table[row, :3] = v[:3]
-        if v.size == 6:
-            table[row, 3:] = np.radians(v[3:])
-    return table
-
+#: Fanuc's ISO program number after ':' (digits, maybe a comment)
+_PROGRAM_NUMBER = re.compile(r"(\d+)\s*(?:\([^()]*\)\s*)?")
 
 def read_program(path: str | os.PathLike, **options) -> Program:
     """Read a G-code file; see :func:`parse_program` for ``options``.
@@ -91,6 +86,8 @@ def read_program(path: str | os.PathLike, **options) -> Program:
         raise NCParseError("expected text (UTF-8 or ASCII), found a non-text byte "
                            f"0x{data[exc.start]:02x}", file=name, line=line,
                            column=col) from None
+    if text.startswith("\ufeff"):  # a byte-order mark some editors write: not code
+        text = text[1:]
     return parse_program(text, file=name, **options)
 
 
@@ -101,6 +98,8 @@ def parse_program(
     allow: Iterable[str] = (),
     block_delete: bool = False,
     work_offsets: Mapping[str, Sequence[float]] | None = None,
+    strict: bool = False,
+    reference_points: Mapping[str, Sequence[float]] | None = None,
 ) -> Program:
     """Interpret G-code text.
 
@@ -111,28 +110,43 @@ def parse_program(
     file : str
         Name used in error messages and kept in the result.
     allow : iterable of str
-        Codes (``"G64"``, ``"M8"``) that may appear and are passed over.
+        Codes (``"G64"``, ``"M8"``) that may appear and are passed over, beyond
+        those passed over anyway (:data:`nc.dialect.PASSIVE`: coolant, clamps,
+        dwell, path blending, look-ahead...). Every code passed over is
+        counted in :attr:`Program.ignored`.
     block_delete : bool
         Skip lines that start with ``/`` (the operator's block-delete switch);
         when False they run like any other line.
     work_offsets : mapping, optional
         ``{"G55": (x, y, z)}`` or ``(x, y, z, a, b, c)`` [mm, deg]: the work
         offset table, used by :attr:`Program.end_machine`.
+    strict : bool
+        Refuse what the reader once refused: codes that do nothing here
+        (coolant, G64...) unless listed in ``allow``, and the frame and
+        reference codes (G10, G28, G30, G52, G53, G92) and G95.
+    reference_points : mapping, optional
+        ``{"G28": (x, y, z)}`` or ``(x, y, z, a, b, c)`` [mm, deg]: the machine's
+        G28 and G30 points in machine coordinates. Where a program goes to a
+        point not given here, the axes it sends there are unknown (NaN in
+        :attr:`Program.end`, False in :attr:`Program.known`) until absolute
+        coordinates give them a value again (see :mod:`nc.frames`).
 
     Returns
     -------
     Program
     """
     return _Interpreter(text, file, normalise_allow(allow), block_delete,
-                        _offset_table(work_offsets)).run()
+                        work_offset_table(work_offsets), strict,
+                        reference_table(reference_points)).run()
 
 
 # ---------------------------------------------------------------------------
-class _Interpreter:
+class _Interpreter(BlockReader):
     """One pass over the lines; appends columns as plain Python lists."""
 
     def __init__(self, text: str, file: str, allow: dict[str, set[int]],
-                 block_delete: bool, offsets: np.ndarray) -> None:
+                 block_delete: bool, offsets: np.ndarray, strict: bool = False,
+                 references: dict | None = None) -> None:
         # split on "\n" only, as controls count lines (str.splitlines would also
         # split on form feeds and other separators and shift line numbers)
         lines = text.split("\n")
@@ -149,21 +163,15 @@ class _Interpreter:
             code_name(letter, k) for letter, ks in allow.items() for k in ks)
         self.block_delete = block_delete
         self.offsets = offsets
+        self.strict = strict
+        self.frames = Frames(offsets, references or reference_table(None))
+        #: distinct offsets program -> machine [mm, rad] (Modal.frame indexes them)
+        self.frame_rows: list[list[float]] = []
+        #: line of the G28/G30 that made the position unknown
+        self.unknown_line = 0
         self.number: str | None = None
-
-    # -- errors -----------------------------------------------------------
-    def _error(self, lineno: int, message: str, token: int | None = None,
-               column: int | None = None) -> NCParseError:
-        raw = self.lines[lineno - 1]
-        if token is not None and column is None:
-            column = token_column(raw, token)
-        if column is None:  # the block as a whole: its first character
-            column = len(raw) - len(raw.lstrip()) + 1
-        return NCParseError(message, file=self.file, line=lineno, column=column, text=raw)
-
-    def _word_error(self, lineno: int, toks: list, letter: str, message: str) -> NCParseError:
-        idx = next((i for i, t in enumerate(toks) if t[0] == letter), None)
-        return self._error(lineno, message, token=idx)
+        #: code name -> [count, first line] of codes passed over
+        self.ignored: dict[str, list[int]] = {}
 
     # -- main loop -------------------------------------------------------
     def run(self) -> Program:  # noqa: C901 - one flat loop is the fast form
@@ -182,6 +190,14 @@ class _Interpreter:
         scale = 1.0
         tv = (math.nan, math.nan, math.nan)
         pos = [0.0] * 6
+        frames = self.frames
+        total = frames.total(wcs)
+        frame_id = self._frame_id(total)
+        reframe = False  # the position was converted to a new frame since the last row
+        rotary_used = False
+        reframed: list[int] = []
+        reframed_start: list[float] = []
+        machine_rows: list[int] = []
         modal_ids: dict[tuple, int] = {}
         modals: list[Modal] = []
         modal_id = -1
@@ -200,7 +216,6 @@ class _Interpreter:
         arc_sweep: list[float] = []
         arc_plane: list[int] = []
 
-        percent_seen = False
         first_content = True
         ended = False
         for lineno0, raw in enumerate(lines):
@@ -214,11 +229,27 @@ class _Interpreter:
                 continue  # after M2/M30 the control reads no further
             c0 = s[0]
             if c0 == "%":
+                if first_content:
+                    # the tape start, maybe with a name: '%_N_PART_MPF' (Siemens),
+                    # '%PM' / '%1234' (other controls' headers)
+                    if s.rstrip().endswith("*"):
+                        raise self._error(lineno, foreign_syntax(s.upper()), column=1)
+                    first_content = False
+                    continue
                 if s.strip("% \t") and not s.lstrip("%").lstrip().startswith("("):
                     raise self._error(lineno, "expected '%' alone on its line", column=1)
-                if percent_seen or not first_content:
-                    break  # the closing '%': the tape ends here
-                percent_seen = True
+                break  # the closing '%': the tape ends here
+            if first_content and c0 == "$":
+                # Okuma's header '$NAME.MIN%': the tape start with the file's name
+                first_content = False
+                continue
+            if c0 == ":" and s[1:2].isdigit():
+                # Fanuc's ISO program number ':1234' (the EIA 'O')
+                m = _PROGRAM_NUMBER.fullmatch(s[1:])
+                if m is None:
+                    raise self._error(lineno, "expected a program number ':1234' alone on "
+                                      "its line", column=raw.index(":") + 1)
+                self.number = m.group(1)
                 first_content = False
                 continue
             first_content = False
@@ -267,12 +298,16 @@ class _Interpreter:
             gcodes: dict[str, int] = {}
             mcodes: dict[str, int] = {}
             allowed_here = False
+            owned = ""
             if gs is not None:
-                gcodes, allowed_here = self._group_codes(lineno, toks, "G", gs, G_GROUPS,
-                                                         allow_g)
+                gcodes, owned, allowed_here = self._group_codes(lineno, toks, "G", gs,
+                                                                G_GROUPS, allow_g, w)
             if ms is not None:
-                mcodes, allowed_m = self._group_codes(lineno, toks, "M", ms, M_GROUPS, allow_m)
+                mcodes, owned_m, allowed_m = self._group_codes(lineno, toks, "M", ms,
+                                                               M_GROUPS, allow_m, w)
                 allowed_here = allowed_here or allowed_m
+                owned += owned_m
+            pvals = self._take_words(lineno, toks, w, owned) if owned else None
 
             # values; axis words are noted on the way
             vals: dict[str, float] = {}
@@ -308,9 +343,9 @@ class _Interpreter:
                 if f < 0:
                     raise self._word_error(lineno, toks, "F", "negative feed; expected F >= 0")
                 if 0 < f < K.MIN_FEED:
-                    raise self._word_error(lineno, toks, "F", f"feed F{num} below "
+                    raise self._word_error(lineno, toks, "F", f"feed F{w['F']} below "
                                            f"{K.MIN_FEED:g}; expected F0 or F >= {K.MIN_FEED:g}")
-                feed = f * (scale if feed_mode == 94 else 1.0)
+                feed = f * (1.0 if feed_mode == 93 else scale)
             if "S" in vals:
                 if vals["S"] < 0:
                     raise self._word_error(lineno, toks, "S",
@@ -342,7 +377,7 @@ class _Interpreter:
                     units = v // 10
                     scale = K.MM_PER_INCH if units == 20 else 1.0
                     changed = True
-                    if "F" in vals and feed_mode == 94:
+                    if "F" in vals and feed_mode != 93:
                         feed = vals["F"] * scale
                 v = gcodes.get("length")
                 if v is not None:
@@ -366,7 +401,12 @@ class _Interpreter:
                                            "or G43.5; expected it with a tool length code")
                 v = gcodes.get("wcs")
                 if v is not None:
-                    wcs = v // 10 - 53
+                    if v // 10 - 53 != wcs:
+                        wcs = v // 10 - 53
+                        new_total = frames.total(wcs)
+                        if new_total != total:  # the tool stays: convert its position
+                            pos = convert_position(pos, total, new_total)
+                            total, frame_id, reframe = new_total, self._frame_id(new_total), True
                     changed = True
                 v = gcodes.get("distance")
                 if v is not None:
@@ -378,12 +418,46 @@ class _Interpreter:
                     changed = True
                 v = gcodes.get("motion")
                 if v is not None:
-                    motion_mode = MOTION_CODES.get(v)  # G80 -> None
+                    motion_mode = MOTION_CODES[v]
+                elif "cycle" in gcodes:
+                    motion_mode = None  # G80 alone: no motion mode (LinuxCNC)
             elif "H" in vals:
                 raise self._word_error(lineno, toks, "H", "H word without G43, G43.4 or "
                                        "G43.5; expected it with a tool length code")
             if changed:
                 dirty = True
+
+            fc = gcodes.get("frame") if gcodes else None
+            if fc is not None and fc != 530:
+                # G10, G28/G30 (.1), G52, G92 (.1 .2 .3): the axis words are theirs
+                rows, pos, new_total, rotary_used = self._frame_block(
+                    fc, lineno, toks, gs, vals, axes, pvals, scale, distance == 91, pos, wcs,
+                    tcp, total, rotary_used)
+                if new_total is not None:
+                    total, frame_id, reframe, dirty = (
+                        new_total, self._frame_id(new_total), True, True)
+                if rows:  # G28/G30: to the intermediate point, then to the reference
+                    if dirty:
+                        modal_id = self._modal_id(modal_ids, modals, (
+                            plane, units, distance, arc_distance, feed_mode, spindle_rpm,
+                            spindle_dir, tool, length_offset, tcp, wcs, frame_id))
+                        dirty = False
+                    if reframe:
+                        reframed.append(len(out_line))
+                        reframed_start.extend(rows[0])
+                        reframe = False
+                    for row in rows[1:]:
+                        out_line.append(lineno)
+                        out_motion.append(0)
+                        out_end.extend(row)
+                        out_feed.append(feed)
+                        out_modal.append(modal_id)
+                        out_tv.extend(tv)
+                        out_arc.append(-1)
+                    machine_rows.append(len(out_line) - 1)
+                if mcodes and mcodes.get("stop") in (20, 300):
+                    ended = True
+                continue
 
             # 3. motion
             has_axes = axes is not None
@@ -410,7 +484,15 @@ class _Interpreter:
             start = pos
             new = pos[:]
             inc = distance == 91
-            if axes is not None:
+            if fc == 530:  # G53: this block's axis words are machine coordinates
+                if motion_mode not in (0, 1) or inc or tcp != TCP_OFF:
+                    raise self._error(lineno, "G53 needs G0 or G1, G90 and no tool centre "
+                                      "point control", token=find_token(toks, "G", gs[0]))
+                for i, v in axes or ():
+                    v = v * scale if i < 3 else math.radians(v)
+                    new[i] = frames.machine_to_program(i, v, wcs)
+                machine_rows.append(len(out_line))
+            elif axes is not None:
                 for i, v in axes:
                     if i < 3:
                         v *= scale
@@ -420,9 +502,16 @@ class _Interpreter:
                             raise self._word_error(lineno, toks, c, f"rotary word {c} under "
                                                    "G43.5; expected the tool vector as I J K")
                         v = math.radians(v)
+                        rotary_used = True
                     new[i] = new[i] + v if inc else v
 
             if motion_mode >= 2:
+                if not (start[0] == start[0] and start[1] == start[1] and start[2] == start[2]
+                        and new[0] == new[0] and new[1] == new[1] and new[2] == new[2]):
+                    raise self._error(lineno, "arc at a position that is not known (after "
+                                      f"G28/G30 at line {self.unknown_line}, whose point was "
+                                      "not given); expected an absolute move in X Y Z first, "
+                                      "or the machine's reference point")
                 try:
                     arc = arc_from_words(vals, motion_mode, plane, scale, arc_distance,
                                          start, new)
@@ -462,15 +551,22 @@ class _Interpreter:
                 elif not feed > 0:
                     raise self._error(lineno, "cutting move with no feed; expected an F > 0 "
                                       "in this block or before it")
+                elif feed_mode == 95 and not spindle_rpm > 0:
+                    raise self._error(lineno, "feed per revolution (G95) with no spindle "
+                                      "speed; expected an S > 0 in this block or before it")
 
             if dirty:
                 key = (plane, units, distance, arc_distance, feed_mode, spindle_rpm,
-                       spindle_dir, tool, length_offset, tcp, wcs)
+                       spindle_dir, tool, length_offset, tcp, wcs, frame_id)
                 modal_id = modal_ids.get(key, -1)
                 if modal_id < 0:
                     modal_id = modal_ids[key] = len(modals)
                     modals.append(Modal(*key))
                 dirty = False
+            if reframe:
+                reframed.append(len(out_line))
+                reframed_start.extend(pos)
+                reframe = False
             out_line.append(lineno)
             out_motion.append(motion_mode)
             out_end.extend(new)
@@ -501,86 +597,16 @@ class _Interpreter:
             arc_plane=np.array(arc_plane, dtype=np.int64),
             work_offsets=self.offsets,
             number=self.number,
+            frames=np.array(self.frame_rows, dtype=float).reshape(-1, 6),
+            reframed=np.array(reframed, dtype=np.int64),
+            reframed_start=np.array(reframed_start, dtype=float).reshape(-1, 6),
+            machine_moves=np.array(machine_rows, dtype=np.int64),
             newline=self.newline,
             allowed=self.allowed_names,
             block_delete=self.block_delete,
+            ignored=tuple((name, c, first) for name, (c, first) in
+                          sorted(self.ignored.items(), key=lambda kv: (kv[1][1], kv[0]))),
+            strict=self.strict,
         )
 
     # -- pieces ------------------------------------------------------------
-    def _group_codes(self, lineno: int, toks: list, letter: str, nums: list[str],
-                     groups: dict[int, str], allowed: set[int]) -> tuple[dict[str, int], bool]:
-        """The block's G (or M) codes by modal group; refuses unknown and clashing codes."""
-        out: dict[str, int] = {}
-        allowed_here = False
-        for num in nums:
-            key = code_key(letter, num)
-            group = groups.get(key) if key is not None else None
-            if group is None:
-                if key is not None and key in allowed:
-                    allowed_here = True
-                    continue
-                raise self._error(lineno, f"unknown or unsupported code {letter}{num}"
-                                  + why_not(letter, key), token=find_token(toks, letter, num))
-            if group in out:
-                raise self._error(lineno, f"two codes of the {group} group in one block; "
-                                  "expected at most one", token=find_token(toks, letter, num))
-            out[group] = key
-        return out, allowed_here
-
-    def _strip_comments(self, s: str, lineno: int) -> str:
-        out = []
-        i = 0
-        n = len(s)
-        while i < n:
-            c = s[i]
-            if c == "(":
-                j = s.find(")", i + 1)
-                if j < 0:
-                    raise self._error(lineno, "comment not closed; expected ')'",
-                                      column=raw_column(self.lines[lineno - 1], s, i))
-                if "(" in s[i + 1:j]:
-                    raise self._error(lineno, "nested comment; expected ')' before '('",
-                                      column=raw_column(self.lines[lineno - 1], s,
-                                                         s.index("(", i + 1)))
-                out.append(" ")
-                i = j + 1
-            elif c == ";":
-                break
-            elif c == ")":
-                raise self._error(lineno, "')' without '('",
-                                  column=raw_column(self.lines[lineno - 1], s, i))
-            else:
-                out.append(c)
-                i += 1
-        return "".join(out)
-
-    def _bad_token(self, lineno: int, i: int, bad: str, s: str) -> NCParseError:
-        raw = self.lines[lineno - 1]
-        blank = blank_comments(raw)
-        if "#" in blank or "[" in blank:
-            col = min(k for k in (blank.find("#"), blank.find("[")) if k >= 0) + 1
-            return self._error(lineno, "parameters and expressions ('#', '[') are not "
-                               "supported; expected plain numbers", column=col)
-        if s.startswith("O"):
-            return self._error(lineno, "O-word subroutines and control flow are not "
-                               "supported; expected O and a number alone (a program number)",
-                               column=blank.find("O") + 1)
-        if bad.isalpha():
-            msg = f"expected a number after {bad}"
-        elif bad in "#[":
-            msg = ("parameters and expressions ('#', '[') are not supported; "
-                   "expected plain numbers")
-        elif bad == "%":
-            msg = "expected '%' alone on its line"
-        else:
-            msg = f"unexpected character {bad!r}; expected a letter followed by a number"
-        return self._error(lineno, msg, token=i)
-
-    def _tool_vector(self, lineno, toks, vals, tv):
-        vec = [vals.get(c, tv[k] if not math.isnan(tv[k]) else 0.0)
-               for k, c in enumerate("IJK")]
-        norm = math.sqrt(vec[0] ** 2 + vec[1] ** 2 + vec[2] ** 2)
-        if not norm > 1e-9:
-            raise self._word_error(lineno, toks, next(c for c in "IJK" if c in vals),
-                                   "tool vector I J K of zero length; expected a direction")
-        return (vec[0] / norm, vec[1] / norm, vec[2] / norm)

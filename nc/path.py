@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import constants as K
-from .errors import CLFileError, NCParseError
+from .errors import CLFileError, InputError, NCParseError
 from .lexer import words_with_spans
 from .program import PLANE_AXES, RAPID, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Program
 
@@ -163,8 +163,9 @@ def block_minutes(program: Program, lengths_mm: np.ndarray | None = None) -> np.
     """Time of each block at its programmed feed, shape (n,) [min].
 
     G94: path length of the programmed axes X Y Z / feed; a move that only
-    turns rotary axes takes its feed in deg/min (LinuxCNC's rule). G93:
-    1 / F. Rapids: 0 (their speed is the machine's, not the program's).
+    turns rotary axes takes its feed in deg/min (LinuxCNC's rule). G95: the
+    same with feed x spindle speed (F per revolution). G93: 1 / F. Rapids: 0
+    (their speed is the machine's, not the program's).
     """
     length = block_lengths(program) if lengths_mm is None else lengths_mm
     feed_mode = program.modal_column("feed_mode")
@@ -176,6 +177,10 @@ def block_minutes(program: Program, lengths_mm: np.ndarray | None = None) -> np.
     travel = np.where(length > 0, length,
                       np.degrees(np.abs(program.end[:, 3:] - program.start[:, 3:]).max(axis=1)))
     minutes[per_min] = travel[per_min] / program.feed[per_min]
+    per_rev = cut & (feed_mode == 95)  # G95: F per spindle revolution
+    if np.any(per_rev):
+        rpm = program.modal_column("spindle_rpm")[per_rev]
+        minutes[per_rev] = travel[per_rev] / (program.feed[per_rev] * rpm)
     return minutes
 
 
@@ -319,6 +324,12 @@ def cutter_locations(program: Program, machine: "Machine | None" = None, *,
         One point per chord end; rapids flagged, their feed NaN. Feeds in
         inverse time (G93) are turned into tip speed [mm/min].
     """
+    known = program.known
+    if not known.all():
+        i = int(np.argmin(known))
+        raise _block_error(program, i, "position not known from this block on (a G28/G30 "
+                           "to a reference point that was not given); give the machine's "
+                           "point, or program absolute X Y Z before cutting", "XYZ")
     pts, block = expand_arcs(program, chord_tol_mm)
     tcp = program.modal_column("tcp")[block] if len(program) else np.zeros(0, int)
     tip = pts[:, :3].copy()

@@ -76,6 +76,9 @@ class Modal:
         Tool centre point mode: 0 off, 1 G43.4 (angles), 2 G43.5 (vector).
     wcs : int
         Work coordinate system: 1...6 for G54...G59.
+    frame : int
+        Row of :attr:`Program.frames`: the offset from the program frame to
+        machine coordinates (work offset plus G92/G52 offset) at this block.
     """
 
     plane: int = 17
@@ -89,6 +92,7 @@ class Modal:
     length_offset: int = 0
     tcp: int = TCP_OFF
     wcs: int = 1
+    frame: int = 0
 
     @property
     def wcs_code(self) -> str:
@@ -216,6 +220,24 @@ class Program:
         Codes the caller allowed to pass without effect.
     block_delete : bool
         Whether lines starting with ``/`` were skipped.
+    frames : ndarray, shape (k, 6) [mm, rad]
+        The distinct offsets from the program frame to machine coordinates
+        (work offset + G92/G52 offset) the program ran under; NaN where a
+        G92/G10 L20 was programmed at a position not known.
+    reframed : ndarray, shape (j,), int
+        Blocks whose start is not the previous block's end as written, because
+        the frame changed before them (G92, G52, G10, a switch of work offset):
+        the tool did not move, its coordinates did.
+    reframed_start : ndarray, shape (j, 6) [mm, rad]
+        The start of those blocks in their own frame.
+    machine_moves : ndarray, shape (k,), int
+        Blocks whose end was given in machine coordinates: G53 moves and the
+        second move of G28/G30 (to the reference point).
+    ignored : tuple of (str, int, int)
+        Codes read and passed over (coolant, dwell, path blending, the
+        caller's ``allow``...): code, count, first line; in order of first line.
+    strict : bool
+        Whether the program was read strictly (see :func:`nc.parse_program`).
     """
 
     file: str
@@ -238,11 +260,18 @@ class Program:
     newline: str = "\n"
     allowed: frozenset[str] = frozenset()
     block_delete: bool = False
+    ignored: tuple[tuple[str, int, int], ...] = ()
+    strict: bool = False
+    frames: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    reframed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    reframed_start: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    machine_moves: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def __post_init__(self) -> None:
         for name in ("line", "motion", "end", "initial", "feed", "modal_index",
                      "tool_vector", "arc_index", "arc_centre", "arc_radius",
-                     "arc_sweep", "arc_plane", "work_offsets"):
+                     "arc_sweep", "arc_plane", "work_offsets", "frames", "reframed",
+                     "reframed_start", "machine_moves"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
 
     # --- sequence protocol ---------------------------------------------
@@ -283,8 +312,27 @@ class Program:
     # --- derived columns -------------------------------------------------
     @property
     def start(self) -> np.ndarray:
-        """Start of each block, shape (n, 6) [mm, rad]: the previous end."""
-        return np.vstack([self.initial[None, :], self.end[:-1]]) if len(self) else self.end
+        """Start of each block, shape (n, 6) [mm, rad]: the previous end, in the
+        block's own frame where the frame changed before it (:attr:`reframed`)."""
+        if not len(self):
+            return self.end
+        start = np.vstack([self.initial[None, :], self.end[:-1]])
+        if len(self.reframed):
+            start[self.reframed] = self.reframed_start
+        return start
+
+    @property
+    def known(self) -> np.ndarray:
+        """Whether each block's start and end are known, shape (n,), bool.
+
+        False from a G28/G30 whose reference point was not given (the reader
+        was not told where the machine's point is) until absolute coordinates
+        have given every axis a value again. Positions not known are NaN in
+        :attr:`end`; nothing may be predicted or cut-simulated there
+        (:func:`nc.path.cutter_locations` refuses such programs).
+        """
+        start = self.start
+        return np.isfinite(start).all(axis=1) & np.isfinite(self.end).all(axis=1)
 
     def modal_column(self, name: str) -> np.ndarray:
         """One field of :class:`Modal` for every block, shape (n,)."""
@@ -293,6 +341,9 @@ class Program:
 
     @property
     def end_machine(self) -> np.ndarray:
-        """End points plus each block's work offset, shape (n, 6) [mm, rad]."""
+        """End points in machine coordinates, shape (n, 6) [mm, rad]: plus each
+        block's work offset and G92/G52 offset (NaN where not known)."""
+        if len(self.frames):
+            return self.end + self.frames[self.modal_column("frame").astype(int)]
         wcs = self.modal_column("wcs").astype(int) - 1
         return self.end + self.work_offsets[wcs]

@@ -104,6 +104,11 @@ def rewrite_coordinates(
         under G43.5, or when the result does not read back as requested.
     """
     n = len(program)
+    if len(program.reframed) or len(program.machine_moves):
+        i = int((list(program.reframed) + list(program.machine_moves))[0])
+        raise RewriteError(f"line {program.line[i]}: the program changes its frame or moves "
+                           "in machine coordinates (G92, G52, G10, G28/G30, G53, a work "
+                           "offset switch); rewriting such programs is not supported yet")
     target = program.end.copy()
     for i, e in (ends or {}).items():
         if not 0 <= i < n:

@@ -34,6 +34,12 @@ class ProgramSummary:
     spindle_rpm: tuple[float, float]
     units: tuple[str, ...]
     tcp_modes: tuple[str, ...]
+    #: codes read and passed over: (code, count, first line)
+    ignored: tuple[tuple[str, int, int], ...] = ()
+    #: motion blocks at a position not known (after G28/G30 to a point not
+    #: given): left out of the lengths, time and box
+    unknown_blocks: int = 0
+    unknown_first_line: int | None = None
 
     def as_dict(self) -> dict:
         """Plain types, ready for JSON."""
@@ -42,11 +48,14 @@ class ProgramSummary:
 
 def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> ProgramSummary:
     """Summarize a program; the bounding box covers arcs between their ends."""
-    length = block_lengths(program)
+    known = program.known
+    length = np.where(known, block_lengths(program), 0.0)
     rapid = program.motion == RAPID
-    if len(program):
-        pts, _ = expand_arcs(program, chord_tol_mm)
-        pts = np.vstack([program.start[:1], pts])
+    if np.any(known):
+        pts, block = expand_arcs(program, chord_tol_mm)
+        # every known block's start too: after a position not known, a known
+        # block starts where the last unknown one ended
+        pts = np.vstack([program.start[known], pts[known[block]]])
         lo, hi = pts[:, :3].min(axis=0), pts[:, :3].max(axis=0)
     else:
         pts = np.zeros((0, 6))
@@ -68,7 +77,7 @@ def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> Program
         arc_blocks=int(np.sum((program.motion == ARC_CW) | (program.motion == ARC_CCW))),
         cutting_length_mm=float(length[~rapid].sum()),
         rapid_length_mm=float(length[rapid].sum()),
-        cutting_time_min=float(block_minutes(program, length).sum()),
+        cutting_time_min=float(block_minutes(program, length)[known].sum()),
         bbox_min_mm=tuple(float(v) for v in lo),
         bbox_max_mm=tuple(float(v) for v in hi),
         rotary_range_deg=rotary,
@@ -76,6 +85,9 @@ def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> Program
         spindle_rpm=(min(rpm), max(rpm)) if rpm else (0.0, 0.0),
         units=tuple(sorted({"inch" if m.units == 20 else "mm" for m in used})),
         tcp_modes=tuple(sorted({tcp_names[m.tcp] for m in used})),
+        ignored=program.ignored,
+        unknown_blocks=int(np.sum(~known)),
+        unknown_first_line=int(program.line[np.argmin(known)]) if not known.all() else None,
     )
 
 
@@ -83,7 +95,8 @@ def blocks_as_json(program: Program) -> list[dict]:
     """Every motion block as a dict: line, motion code, end point, feed.
 
     End points are absolute in the program frame: ``xyz_mm`` [mm] and
-    ``abc_deg`` [deg]. ``feed`` is as programmed in ``feed_mode``: [mm/min]
+    ``abc_deg`` [deg]; ``null`` on axes whose position is not known (after a
+    G28/G30 whose point was not given). ``feed`` is as programmed in ``feed_mode``: [mm/min]
     for G94, [1/min] for G93; ``null`` when unset (rapids before any F).
     """
     feed_mode = program.modal_column("feed_mode")
@@ -91,6 +104,9 @@ def blocks_as_json(program: Program) -> list[dict]:
     end = program.end
     xyz = np.round(end[:, :3], 9).tolist()
     abc = np.round(np.degrees(end[:, 3:]), 9).tolist()
+    if not np.isfinite(end).all():  # not known after G28/G30: null
+        xyz = [[None if v != v else v for v in row] for row in xyz]
+        abc = [[None if v != v else v for v in row] for row in abc]
     feed = [None if math.isnan(f) else f for f in program.feed.tolist()]
     out = []
     for i in range(len(program)):

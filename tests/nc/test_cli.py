@@ -93,10 +93,15 @@ def test_bad_program_one_line_from_the_shell(tmp_path):
 
 def test_allow_option(tmp_path, capsys):
     path = tmp_path / "p.nc"
-    path.write_text("G21 G64 P0.01\nM8\nG0 X1\nM30\n")
-    assert main(["parse", str(path)]) == 2
+    path.write_text("G21 G64 P0.01\nM8\nG0 X1\nM8\nM30\n")
+    assert main(["parse", str(path), "--strict"]) == 2
     assert "--allow G64" in capsys.readouterr().err
-    assert main(["parse", str(path), "--allow", "G64,M8"]) == 0
+    assert main(["parse", str(path), "--strict", "--allow", "G64,M8"]) == 0
+    capsys.readouterr()
+    # without --strict they are passed over, and the summary says which
+    assert main(["parse", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "passed over" in out and "G64 x1 (line 1)" in out and "M8 x2 (line 2)" in out
 
 
 def test_offsets_file(tmp_path, capsys):
@@ -175,7 +180,7 @@ def test_check_takes_relative_paths_and_reports_refusals(tmp_path, capsys, rs274
     ('[G55]\nxyz_mm = [1, "a", 3]\n', "expected three finite numbers"),
     ("[G55]\nxyz_mm = [1, nan, 3]\n", "expected three finite numbers"),
     ("[G55]\nxyz_mm = [1, 2, 3]\nabc_deg = true\n", "abc_deg = True; expected three"),
-    ("[G60]\nxyz_mm = [1, 2, 3]\n", "[G60]; expected tables [G54] ... [G59]"),
+    ("[G60]\nxyz_mm = [1, 2, 3]\n", "[G60]; expected tables [G54] ... [G59], [G28], [G30]"),
     ("[G55\n", "not valid TOML"),
 ])
 def test_bad_offsets_file_ends_in_one_line(tmp_path, capsys, toml, part):
@@ -201,3 +206,17 @@ def test_check_rs274_refusal_is_one_line(tmp_path, capsys, rs274):
     assert err.count("\n") == 1
     with pytest.raises(Rs274Error, match="did not finish"):
         run_rs274(path, timeout_s=1e-6)
+
+
+def test_parse_reports_unknown_position_and_reference_points(tmp_path, capsys):
+    path = tmp_path / "p.nc"
+    path.write_text("G21 G90\nG0 X1 Y1 Z5\nG91 G28 Z0\nG90 G0 X2 Y2\nG0 Z5\nG1 Z0 F100\nM30\n")
+    assert main(["parse", str(path)]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    # G28's second row, the G0 X Y from there, the G0 Z from the unknown Z
+    assert "position not known" in out and "3 blocks from line 3" in out
+    setup = tmp_path / "setup.toml"
+    setup.write_text("[G54]\nxyz_mm = [0.0, 0.0, -100.0]\n[G28]\nxyz_mm = [0.0, 0.0, 0.0]\n")
+    assert main(["parse", str(path), "--offsets", str(setup), "--json"]) == 0
+    blocks = json.loads(capsys.readouterr().out)
+    assert [b["xyz_mm"][2] for b in blocks] == [5.0, 5.0, 100.0, 100.0, 5.0, 0.0]

@@ -67,6 +67,12 @@ CASES = [
     ("allowed-codes", "G21 G90 G64 P0.01\nM8\nG0 X1\nG4 P0.5\nM9\nM2\n",
      {"allow": ["G64", "M8", "M9", "G4"]},
      [(3, 0, (1, 0, 0), (0, 0, 0), math.nan)], True),
+    ("passive-codes", "G0 G17 G40 G49 G80 G90\nG21 G94 G61\nM7\nM8\nG64 P0.01 Q0.001\n"
+     "G1 X1 F100\nM1\nG4 P0.1\nM9\nG61.1\nM48\nG0 G80 X2\nM5 M9\n", {},
+     [(1, 0, (0, 0, 0), (0, 0, 0), math.nan), (6, 1, (1, 0, 0), (0, 0, 0), 100.0),
+      (12, 0, (2, 0, 0), (0, 0, 0), 100.0)], True),
+    ("feed-per-revolution", "G21 S1000 M3\nG95 G1 X10 F0.1\nG94 G1 X0 F50\n", {},
+     [(2, 1, (10, 0, 0), (0, 0, 0), 0.1), (3, 1, (0, 0, 0), (0, 0, 0), 50.0)], True),
     ("crlf-lines", "G21 G90\r\nG0 X1\r\nG1 Y2 F10\r\n", {},
      [(2, 0, (1, 0, 0), (0, 0, 0), math.nan), (3, 1, (1, 2, 0), (0, 0, 0), 10.0)], True),
 ]
@@ -190,7 +196,10 @@ def test_modal_state_carried():
     assert (m2.length_offset, m2.feed_mode, m2.distance) == (0, 94, 90)
     assert m3.spindle_dir == 0
     assert m0.wcs_code == "G55"
-    np.testing.assert_allclose(prog.end_machine[0], [101, 0, -50, 0, 0, math.pi / 2])
+    # the switch to G55 does not move the tool: Z and C, not programmed, stay
+    # where they were on the machine (LinuxCNC's rs274 prints 1, 0, 50, C-90)
+    np.testing.assert_allclose(prog.end[0], [1, 0, 50, 0, 0, -math.pi / 2])
+    np.testing.assert_allclose(prog.end_machine[0], [101, 0, 0, 0, 0, 0], atol=1e-12)
 
 
 def test_tool_vector_normalized_and_modal():
@@ -217,13 +226,19 @@ ERRORS = [
     ("G21\nG1 XNAN F10\n", {}, 2, "XNAN", "expected a number after X"),
     ("G21\nG1 X123456789012 F10\n", {}, 2, "X123456789012", "out of range"),
     ("G21\nG12 X1\n", {}, 2, "G12", "unknown or unsupported code G12"),
-    ("G21\nM8\n", {}, 2, "M8", "allow"),
+    ("G21\nM8\n", {"strict": True}, 2, "M8", "allow"),
+    ("G21\nG64 P0.01\n", {"strict": True}, 2, "G64", "without strict"),
+    ("G21\nM13\n", {}, 2, "M13", "allow"),
+    ("G21\nG5 X1 Y1 I1 J1 P1 Q1\n", {}, 2, "G5", "spline"),
+    ("G21\nG5.1 X1 I1 J1\n", {}, 2, "G5.1", "spline"),
+    ("G21\nG0 G80 X1\nG80\nX2\n", {}, 4, "X2", "G80 cancels it"),
+    ("G21 G95 G1 X1 F0.1\n", {}, 1, None, "no spindle speed"),
     ("G21\nG1 G0 X1 F1\n", {}, 2, "G0", "motion group"),
     ("G21\nG1 X#1 F10\n", {}, 2, "#", "parameters and expressions"),
     ("G21\nG1 X1 F100 (unclosed\n", {}, 2, "(", "not closed"),
     ("X1\n", {}, 1, "X1", "without a motion mode"),
     ("G93 G1 X1 F1\nG1 X2\n", {}, 2, None, "inverse-time"),
-    ("G21\nG28 X0\n", {}, 2, "G28", "return to home"),
+    ("G21\nG28 X0\n", {"strict": True}, 2, "G28", "return to home"),
     ("G21\nO100 SUB\n", {}, 2, None, None),
     ("G21 G1 X1 Y1 F100\nG2 X1 Y1 R1\n", {}, 2, "R1", "end point is its start"),
     ("G21 G17 G1 X1 F100\nG2 X3 I1 K1\n", {}, 2, "K1", "K word in a G17 arc"),
@@ -256,6 +271,9 @@ def test_allow_list_is_explicit_and_refuses_motion_codes():
     assert len(parse_program(src, allow=["M8"])) == 1
     with pytest.raises(ValueError, match="return to home"):
         parse_program(src, allow=["G28"])
+    for code in ("G54.1", "G59.1", "G44", "G12", "G71", "G68.2", "M98"):
+        with pytest.raises(ValueError, match="would misplace the tool"):
+            parse_program(src, allow=[code])
     with pytest.raises(ValueError, match="not a G or M code"):
         parse_program(src, allow=["coolant"])
     # an allowed code's own words belong to it; elsewhere they are refused
@@ -270,6 +288,9 @@ def test_read_program_names_the_file(tmp_path):
     with pytest.raises(NCParseError) as info:
         read_program(path)
     assert str(info.value).startswith(f"{path}:3:7:")
+    bom = tmp_path / "bom.nc"
+    bom.write_bytes(b"\xef\xbb\xbfG21 G0 X1\nG1 Y2 F10\n")  # a byte-order mark: not code
+    assert read_program(bom).end[1, 1] == 2
     binary = tmp_path / "binary.nc"
     binary.write_bytes(b"G21\nG0 X1\nG1 \xff\n")
     with pytest.raises(NCParseError, match="non-text byte") as info:
@@ -287,3 +308,112 @@ def test_work_offset_table_is_checked():
         parse_program("G0 X1\n", work_offsets={"G60": (0, 0, 0)})
     with pytest.raises(ValueError, match="finite"):
         parse_program("G0 X1\n", work_offsets={"G54": (0, math.nan, 0)})
+
+
+# --- codes that do not move the tool: read without flags, counted -----------
+POST_HEADER = """%
+O1001 (HEADER OF A FANUC-STYLE POST)
+G00 G17 G40 G49 G80 G90
+G21 G94 G61
+G05.1 Q1
+G05 P10000
+G08 P1
+T5 M06
+S12000 M03
+M08
+G04 X1.5
+G04 P500
+G00 G54 X10. Y5.
+G43 H5 Z25. M08
+G01 Z-1. F500.
+M09
+M01
+G05.1 Q0
+G64
+M05
+M30
+%
+"""
+
+
+def test_post_header_codes_are_read_and_counted():
+    prog = parse_program(POST_HEADER)
+    # the safety line is a (zero-length) rapid, as LinuxCNC makes it; the
+    # dwell's X (Fanuc: seconds) is not an axis word
+    assert [b.line for b in prog] == [3, 13, 14, 15]
+    np.testing.assert_allclose(prog.end[:, :3], [[0, 0, 0], [10, 5, 0], [10, 5, 25],
+                                                 [10, 5, -1]])
+    assert prog[1].modal.tool == 5 and prog[1].modal.spindle_rpm == 12000
+    ignored = {code: (count, first) for code, count, first in prog.ignored}
+    assert ignored == {"G61": (1, 4), "G5.1": (2, 5), "G5": (1, 6), "G8": (1, 7),
+                       "M8": (2, 10), "G4": (2, 11), "M9": (1, 16), "G64": (1, 19)}
+    assert [c for c, _, _ in prog.ignored] == ["G61", "G5.1", "G5", "G8", "M8", "G4",
+                                                 "M9", "G64"]
+    with pytest.raises(NCParseError, match="G61"):
+        parse_program(POST_HEADER, strict=True)
+    allow = ["G61", "G8", "M8", "G4", "M9", "G64"]
+    with pytest.raises(NCParseError, match="read without strict to pass it over\\)"):
+        parse_program(POST_HEADER, strict=True, allow=allow)
+    no_fanuc = "\n".join(ln for ln in POST_HEADER.split("\n") if not ln.startswith("G05"))
+    allowed = parse_program(no_fanuc, strict=True, allow=allow)
+    np.testing.assert_array_equal(allowed.end, prog.end)
+
+
+def test_g80_with_motion_code_in_one_block():
+    prog = parse_program("G21\nG1 X1 F100\nG0 G80 X2\nG80 G1 X3\n")
+    assert list(prog.motion) == [1, 0, 1]
+    with pytest.raises(NCParseError, match="motion group"):
+        parse_program("G21\nG0 G1 X1 F10\n")
+
+
+def test_passed_over_codes_own_their_words():
+    # G64 P Q, M66 P E L Q, M19 R: none is read as an arc or axis word
+    prog = parse_program("G21 G0 X1\nG64 P0.01 Q0.005\nM66 P0 L0 Q1 E0\nM19 R90\n"
+                         "G2 X3 I1 F100\n")
+    assert prog[1].arc.turns == 1 and prog.end[1, 0] == 3
+    # G4 in a motion block owns P only
+    prog = parse_program("G21 G0 X1\nG4 P0.5 G1 X2 F10\n")
+    assert prog.end[1, 0] == 2
+
+
+def test_feed_per_revolution():
+    prog = parse_program("G21 S1000 M3\nG95 G1 X10 F0.1\nG20 G1 X1 F0.01\n")
+    assert prog[0].modal.feed_mode == 95 and prog.feed[0] == pytest.approx(0.1)
+    assert prog.feed[1] == pytest.approx(0.254)
+    from nc.path import block_minutes
+    # 10 mm at 0.1 mm/rev and 1000 rev/min: 0.1 min
+    assert block_minutes(prog)[0] == pytest.approx(0.1)
+
+
+# --- program headers and numbers ---------------------------------------------
+@pytest.mark.parametrize("header,number", [
+    ("%_N_PART1_MPF\n;$PATH=/_N_MPF_DIR\n", None),
+    ("%PM\n", None),
+    ("%\nO1234 (PART NAME)\n", "1234"),
+    ("%\n:1234\n", "1234"),
+    (":0042 (FANUC ISO NUMBER)\n", "0042"),
+    ("$PART1.MIN%\n", None),
+])
+def test_program_headers(header, number):
+    prog = parse_program(header + "G21 G90\nG0 X1\nG1 Y2 F100\nM30\n%\n")
+    assert prog.number == number
+    assert len(prog) == 2 and prog.end[1, 1] == 2
+    assert prog.line[0] == header.count("\n") + 2
+
+
+@pytest.mark.parametrize("src,bad,fragment", [
+    ("%_N_PART_MPF\nDEF REAL DEPTH=5\nG0 X1\n", "DEF", "Siemens Sinumerik syntax (DEF)"),
+    ("G21\nR1=5\n", "R1", "Siemens Sinumerik assignments"),
+    ("G21\nN10 CYCLE800(1,\"TC1\",0)\n", "N10", "Siemens Sinumerik syntax (CYCLE800)"),
+    ("G21\nX=R1 Y=2\n", "X", "Siemens Sinumerik assignments"),
+    ("0 BEGIN PGM PART MM\n", "0", "Heidenhain conversational"),
+    ("%PART G71 *\nN10 G00 X+0 *\n", "%", "Heidenhain ISO"),
+    ("G21\nIF [#1 GT 5] GOTO 10\n", "IF", "macro B control flow (IF)"),
+    ("G21\n#100=5\n", "#", "parameters and expressions"),
+])
+def test_foreign_dialects_are_named(src, bad, fragment):
+    with pytest.raises(NCParseError) as info:
+        parse_program(src, file="p.nc")
+    err = info.value
+    assert fragment in err.message and "not supported" in err.message
+    assert err.column == err.text.index(bad) + 1

@@ -12,7 +12,7 @@ import os
 import numpy as np
 import pytest
 
-from nc import read_program
+from nc import NCParseError, read_program
 from nc.linuxcnc import compare_with_rs274, parse_canon
 
 NCFILES = "/usr/share/linuxcnc/ncfiles"
@@ -20,11 +20,12 @@ TRT = ("/usr/share/doc/linuxcnc/examples/sample-configs/sim/gmoccapy/"
        "non_trivial_kinematics/table-rotary-tilting/examples")
 SAMPLES = [
     (f"{NCFILES}/3dtest.ngc", []),             # inch, full circles in G17/G18/G19
-    (f"{NCFILES}/arcspiral.ngc", ["G64"]),     # 1000 R-form arcs, radius shrinking
-    (f"{NCFILES}/cds.ngc", ["M9"]),            # G43 H, inch, R arcs
+    (f"{NCFILES}/arcspiral.ngc", []),          # 1000 R-form arcs, radius shrinking; G64
+    (f"{NCFILES}/cds.ngc", []),                # G43 H, inch, R arcs; M9
     (f"{NCFILES}/tort.ngc", []),               # helical arcs in all three planes
     (f"{TRT}/impeller-7bl-xyzac.ngc", []),     # 5-axis A/C, inverse time, 4,492 moves
-    (f"{TRT}/boat-xyzac.ngc", ["M8", "M9"]),   # 5-axis A/C, coolant codes allowed
+    (f"{TRT}/boat-xyzac.ngc", []),             # 5-axis A/C; coolant M8 M9 passed over
+    (f"{TRT}/boat-xyzbc.ngc", []),             # 5-axis B/C; M8 M9, G53 G49 Z30 at the end
 ]
 
 
@@ -35,6 +36,20 @@ def test_sample_program_matches_rs274(path, allow, rs274):
     prog = read_program(path, allow=allow)
     result = compare_with_rs274(path, prog)
     assert result.ok and result.moves == len(prog) > 0, result.message
+
+
+@pytest.mark.parametrize("path,codes", [
+    (f"{NCFILES}/arcspiral.ngc", {"G64"}), (f"{NCFILES}/cds.ngc", {"M9"}),
+    (f"{TRT}/boat-xyzac.ngc", {"M8", "M9"})], ids=["arcspiral", "cds", "boat-xyzac"])
+def test_samples_refused_strictly_list_what_was_passed_over(path, codes):
+    if not os.path.exists(path):
+        pytest.skip(f"{path} not shipped with this linuxcnc-uspace")
+    with pytest.raises(NCParseError, match="allow"):
+        read_program(path, strict=True)
+    prog = read_program(path)
+    assert {code for code, _, _ in prog.ignored} == codes
+    strict = read_program(path, strict=True, allow=sorted(codes))
+    np.testing.assert_array_equal(strict.end, prog.end)
 
 
 def test_parse_canon_units_and_planes():
