@@ -216,6 +216,9 @@ class Program:
         Codes the caller allowed to pass without effect.
     block_delete : bool
         Whether lines starting with ``/`` were skipped.
+    metadata : dict
+        What a reader keeps beside the moves (the Heidenhain reader:
+        ``dialect``, ``name``, ``units``, ``blk_form``); empty for G-code.
     """
 
     file: str
@@ -238,6 +241,7 @@ class Program:
     newline: str = "\n"
     allowed: frozenset[str] = frozenset()
     block_delete: bool = False
+    metadata: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name in ("line", "motion", "end", "initial", "feed", "modal_index",
