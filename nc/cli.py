@@ -82,8 +82,23 @@ def _print_summary(s, console=None) -> None:
 
 
 def _cmd_parse(args) -> int:
-    prog = read_program(args.file, allow=_allow_list(args.allow),
-                        block_delete=args.block_delete, work_offsets=_offsets(args.offsets))
+    from .dialects import detect_dialect, read_any
+
+    dialect = None if args.dialect == "auto" else args.dialect
+    if dialect is None:
+        with open(args.file, "rb") as fh:
+            dialect = detect_dialect(fh.read(4096).decode("latin-1"))
+    if dialect == "heidenhain":
+        if args.offsets:
+            raise ValueError("--offsets applies to G-code (G54...G59); a Heidenhain "
+                             "program sets its datum with cycle 7")
+        prog = read_any(args.file, "heidenhain", allow=_allow_list(args.allow),
+                        block_delete=args.block_delete,
+                        retract_limit_mm=args.retract_limit)
+    else:
+        prog = read_program(args.file, allow=_allow_list(args.allow),
+                            block_delete=args.block_delete,
+                            work_offsets=_offsets(args.offsets))
     if args.json:
         json.dump(blocks_as_json(prog), sys.stdout, separators=(",", ":"))
         sys.stdout.write("\n")
@@ -152,6 +167,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"comma-separated codes to pass over, e.g. {','.join(ALLOWABLE_EXAMPLES[:3])}")
     p.add_argument("--block-delete", action="store_true", help="skip lines starting with '/'")
     p.add_argument("--offsets", metavar="TOML", help="work offsets: [G55] xyz_mm = [x, y, z]")
+    p.add_argument("--dialect", default="auto", choices=["auto", "gcode", "heidenhain"],
+                   help="reader to use; auto: Heidenhain if the program starts with BEGIN PGM")
+    p.add_argument("--retract-limit", type=float, metavar="MM",
+                   help="Heidenhain: the Z that M140 MB MAX retracts to (else refused)")
     p.set_defaults(func=_cmd_parse)
 
     p = sub.add_parser("post", help="write an NC program from a cutter-location CSV")

@@ -123,6 +123,11 @@ class _Runner:
             raise self.err(first, f"expected 'BEGIN PGM name MM' or '... INCH' as the first "
                            f"block, found {first.stmt[:30]!r}")
         name, unit = m.group(1), m.group(2)
+        m_orig = HB.BEGIN.fullmatch(first.orig.upper())
+        if m_orig:  # the name as written (upper-case only for matching END PGM)
+            name_as_written = first.orig[m_orig.start(1):m_orig.end(1)]
+        else:  # pragma: no cover - the upper-case form matched
+            name_as_written = name
         last = blocks[-1]
         m_end = HB.END.fullmatch(last.stmt)
         if not m_end:
@@ -133,7 +138,7 @@ class _Runner:
                            f"BEGIN PGM {name} {unit}")
         st = self.state
         st.set_units(unit)
-        st.metadata.update(dialect="heidenhain", name=name, units=unit)
+        st.metadata.update(dialect="heidenhain", name=name_as_written, units=unit)
 
         labels: dict[str, int] = {}
         for i, b in enumerate(blocks):
@@ -203,6 +208,6 @@ class _Runner:
                 b = blocks[n]
                 raise self.err(b, "END PGM reached inside a subprogram: expected LBL 0 "
                                "at its end")
-        return st.program(self.file, tuple(self.lines), self.newline, name,
+        return st.program(self.file, tuple(self.lines), self.newline, name_as_written,
                           self.block_delete)
 

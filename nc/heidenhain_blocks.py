@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from .errors import NCParseError
 
@@ -36,11 +36,11 @@ _NUMBER = re.compile(r"^\s*(\d+)(?=\s|$)")
 _WORD = re.compile(
     r"(FMAX|FAUTO|F\s*AUTO|FU|FZ|IPA|IPR|PA|PR|DR|NX|NY|NZ|TX|TY|TZ|MB|RL|RR|"
     r"IX|IY|IZ|IA|IB|IC|IU|IV|IW|[XYZABCUVWRFMS])"
-    r"\s*([+-]?\s*(?:\d+(?:[.,]\d*)?|[.,]\d+)|[+-]?\s*Q[LR]?\d+|MAX|[+-](?![\d.,Q]))?")
+    r"\s*([+-]?\s*(?:\d+(?:[.,]\d*)?|[.,]\d+)|[+-]?\s*Q[LR]?\d+|MAX|[+-](?![\d.,Q]))?"
+    r"|(\S)")
 
 
-@dataclass(frozen=True, slots=True)
-class TNCBlock:
+class TNCBlock(NamedTuple):
     """One block: 1-based ``line``, ``col`` of the statement, upper-case ``stmt``."""
 
     line: int
@@ -118,22 +118,16 @@ def words(b: TNCBlock, start: int, lines: list[str], file: str
     """The words of ``b.stmt[start:]``: (name, value text or None, column)."""
     s = b.stmt
     out = []
-    pos = start
-    n = len(s)
-    match = _WORD.match
-    while pos < n:
-        c = s[pos]
-        if c == " ":
-            pos += 1
-            continue
-        m = match(s, pos)
-        if not m:
+    col = b.col
+    for m in _WORD.finditer(s, start):
+        name = m.group(1)
+        if name is None:
+            pos = m.start()
             tok = s[pos:].split()[0]
             raise NCParseError(f"unexpected {tok[:16]!r}; expected words such as X+10, "
                                "IX-5, F500, FMAX, R0, DR+, M3", file=file, line=b.line,
-                               column=b.col + pos, text=lines[b.line - 1])
-        out.append((m.group(1), m.group(2), b.col + pos))
-        pos = m.end()
+                               column=col + pos, text=lines[b.line - 1])
+        out.append((name, m.group(2), col + m.start()))
     return out
 
 

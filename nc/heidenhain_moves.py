@@ -195,7 +195,7 @@ def _m140(st, d, ms) -> bool:
     if val == "MAX":
         if st.retract_limit is None:
             raise st.err("M140 MB MAX retracts to the machine's travel limit, unknown to the "
-                         "reader; pass retract_limit_mm (the Z it reaches) to read it", col)
+                         "reader; pass retract_limit_mm (CLI: --retract-limit), the Z it reaches, to read it", col)
         if st.tool_axis != 2 or (st.tcpm and st.vector is not None) or st.tilted:
             raise st.err("M140 MB MAX is read only with the tool along Z of an untilted "
                          "frame", col)

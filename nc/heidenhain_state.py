@@ -19,6 +19,7 @@ from .heidenhain_blocks import M_NOT_ALLOWABLE, M_SUPPORTED, TNCBlock, words
 from .heidenhain_expr import SUPPORTED as EXPR_SUPPORTED
 from .heidenhain_expr import ExprError, evaluate
 from .heidenhain_geom import arc_points, spatial_rotation
+from .heidenhain_moves import MOVES
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
 __all__ = ["TNCState"]
@@ -26,6 +27,7 @@ __all__ = ["TNCState"]
 _AX = {"X": 0, "Y": 1, "Z": 2}
 _ROT = {"A": 0, "B": 1, "C": 2}
 _M_START = {3: 1, 4: -1, 13: 1, 14: -1}          # spindle on at the block's start
+_VALUE = re.compile(r"[+-]?(?:\d+(?:[.,]\d*)?|[.,]\d+|Q[LR]?\d+)")
 _Q_ASSIGN = re.compile(r"(Q[LR]?\d+)\s*=\s*(.+)")
 _FN = re.compile(r"FN\s*(\d+)\s*:\s*(.*)")
 _TOOL_CALL = re.compile(r"TOOL\s+CALL(?:\s+(\d+(?:\.\d+)?|\"[^\"]*\"|'[^']*'|Q\d+))?"
@@ -63,6 +65,7 @@ class TNCState:
         self.R = np.eye(3)
         self.tilted = False
         self.shift = np.zeros(3)
+        self.shifted = False
         self.tool_axis = 2
         self.feed = math.nan
         self.auto_feed = math.nan
@@ -103,6 +106,9 @@ class TNCState:
         if text is None or text in "+-" or text == "MAX":
             raise self.err(f"expected a number after {name}", col)
         t = text.replace(" ", "")
+        if not _VALUE.fullmatch(t):
+            raise self.err(f"expected a number or a Q parameter after {name}, found "
+                           f"{text[:16]!r}", col)
         if "Q" in t:
             neg = t.startswith("-")
             key = t.lstrip("+-")
@@ -134,11 +140,14 @@ class TNCState:
         return d, ms
 
     def world(self, p: np.ndarray) -> np.ndarray:
+        if not self.tilted and not self.shifted:
+            return p
         return self.shift + (self.R @ p if self.tilted else p)
 
     def reframe(self, R: np.ndarray, tilted: bool, shift: np.ndarray) -> None:
         w = self.world(self.ppos)
         self.R, self.tilted, self.shift = R, tilted, shift
+        self.shifted = bool(np.any(shift != 0))
         self.ppos = (R.T @ (w - shift)) if tilted else (w - shift)
         self.cc = None
         self.tangent = None
@@ -193,7 +202,8 @@ class TNCState:
     def _row(self, motion, w, feed, plane, tcp, tv, k) -> None:
         self.o_line.append(self.b.line)
         self.o_motion.append(motion)
-        self.o_end.extend((float(w[0]), float(w[1]), float(w[2]), *self.rot))
+        self.o_end.extend(w.tolist())
+        self.o_end.extend(self.rot)
         self.o_feed.append(feed)
         self.o_modal.append(self.modal_id(plane, tcp))
         self.o_tv.extend(tv)
@@ -205,8 +215,6 @@ class TNCState:
         self.b = b
         s = b.stmt
         verb = s.split(" ", 1)[0]
-        from .heidenhain_moves import MOVES  # the motion blocks, one function each
-
         fn = MOVES.get(verb)
         if fn is not None:
             return fn(self)
@@ -252,6 +260,8 @@ class TNCState:
                        "FUNCTION TCPM/RESET TCPM, BLK FORM, STOP")
 
     def m_functions(self, ms: list[tuple[int, int]], at_end: bool) -> bool:
+        if not ms:
+            return False
         end = False
         for m, col in ms:
             if m not in M_SUPPORTED and m not in self.allowed:
