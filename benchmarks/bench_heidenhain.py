@@ -53,7 +53,8 @@ def main() -> None:
         prog = parse_heidenhain(text)
         best = min(best, time.process_time() - t0)
     n = text.count("\n")
-    print(f"{n:,} lines, {len(prog):,} moves: {best:.2f} CPU s, {n / best:,.0f} lines per CPU-second")
+    print(f"{n:,} lines, {len(prog):,} moves: {best:.2f} CPU s, "
+          f"{n / best:,.0f} lines per CPU-second")
 
 
 if __name__ == "__main__":

@@ -115,6 +115,22 @@ def _cmd_post(args) -> int:
     machine = _machine(args.machine)
     if args.tool_length is not None:
         machine = machine.with_tool_length(args.tool_length)
+    if args.dialect.startswith("heidenhain"):
+        from .heidenhain_writer import TNCPostOptions, write_heidenhain
+
+        name = os.path.splitext(os.path.basename(args.output))[0]
+        name = "".join(c if c.isalnum() or c in "_-" else "_" for c in name)[:64] or "NCPATH"
+        topts = TNCPostOptions(
+            form="tcpm-angles" if args.dialect == "heidenhain-tcpm" else "ln-vector",
+            program_name=name, tool=args.tool, spindle_rpm=args.spindle,
+            linear_decimals=args.decimals, header=not args.no_header,
+            source=os.path.basename(args.cl),
+            singular_cone_rad=math.radians(args.singular_cone_deg))
+        res = write_heidenhain(args.output, cl, machine, topts)
+        print(f"wrote {args.output}: {len(cl)} cutter locations, Klartext "
+              f"{topts.form}, read back within 1 um / 1e-4 deg, "
+              f"{res.singular_points} points at the singularity (free axis held)")
+        return 0
     opts = PostOptions(
         dialect=args.dialect, tool=args.tool, spindle_rpm=args.spindle,
         linear_decimals=args.decimals, line_numbers=args.line_numbers,
@@ -178,7 +194,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--machine", required=True,
                    help="a named machine (see 'machines') or a machine TOML file")
     p.add_argument("--dialect", default="linuxcnc",
-                   choices=["linuxcnc", "fanuc-g43.4", "fanuc-g43.5"])
+                   choices=["linuxcnc", "fanuc-g43.4", "fanuc-g43.5", "heidenhain-tcpm",
+                            "heidenhain-ln"],
+                   help="heidenhain-tcpm: Klartext L X Y Z + rotary angles under FUNCTION "
+                        "TCPM; heidenhain-ln: LN with the tool vector")
     p.add_argument("-o", "--output", required=True)
     p.add_argument("--tool", type=int, default=1)
     p.add_argument("--tool-length", type=float, metavar="MM",

@@ -137,7 +137,7 @@ def _tangent_after_arc(axes, c, end, sweep):
     return t
 
 
-def _arc(st, motion_sign, plane, end, centre, sweep, used, d, ms):
+def _arc(st, plane, end, centre, sweep, used, d, ms):
     axes = PLANE_AXES[plane]
     a1, a2, _ = axes
     s = st.ppos
@@ -195,7 +195,8 @@ def _m140(st, d, ms) -> bool:
     if val == "MAX":
         if st.retract_limit is None:
             raise st.err("M140 MB MAX retracts to the machine's travel limit, unknown to the "
-                         "reader; pass retract_limit_mm (CLI: --retract-limit), the Z it reaches, to read it", col)
+                         "reader; pass retract_limit_mm (CLI: --retract-limit), the Z it "
+                         "reaches, to read it", col)
         if st.tool_axis != 2 or (st.tcpm and st.vector is not None) or st.tilted:
             raise st.err("M140 MB MAX is read only with the tool along Z of an untilted "
                          "frame", col)
@@ -273,7 +274,7 @@ def C(st) -> bool:
     end, _ = _linear(st, d, used)
     s = st.ppos
     sweep = sweep_to(c1, c2, s[axes[0]], s[axes[1]], end[axes[0]], end[axes[1]], sign)
-    return _arc(st, sign, plane, end, (c1, c2), sweep, used, d, ms)
+    return _arc(st, plane, end, (c1, c2), sweep, used, d, ms)
 
 
 def _plane_of(st, axes_prog):
@@ -303,7 +304,7 @@ def CR(st) -> bool:
     except ArcWordError as exc:
         raise st.err(str(exc), d["R"][1]) from None
     a1, a2, _ = PLANE_AXES[plane]
-    return _arc(st, sign, plane, end, (centre[a1], centre[a2]), sweep, used, d, ms)
+    return _arc(st, plane, end, (centre[a1], centre[a2]), sweep, used, d, ms)
 
 
 def CT(st) -> bool:
@@ -322,7 +323,7 @@ def CT(st) -> bool:
     except GeomError as exc:
         raise st.err(str(exc)) from None
     sweep = sweep_to(c1, c2, s[a1], s[a2], end[a1], end[a2], sign)
-    return _arc(st, sign, plane, end, (c1, c2), sweep, used, d, ms)
+    return _arc(st, plane, end, (c1, c2), sweep, used, d, ms)
 
 
 def _polar_start(st, plane, c1, c2):
@@ -366,7 +367,7 @@ def CP(st) -> bool:
     end[axes[0]] = c1 + r * math.cos(a0 + sweep)
     end[axes[1]] = c2 + r * math.sin(a0 + sweep)
     end[axes[2]] = _axial(st, d, used, plane)
-    return _arc(st, sign, plane, end, (c1, c2), sweep, used, d, ms)
+    return _arc(st, plane, end, (c1, c2), sweep, used, d, ms)
 
 
 def LP(st) -> bool:

@@ -58,7 +58,8 @@ class TNCState:
 
     def __init__(self, file: str, lines: list[str], allowed: frozenset[int],
                  retract_limit: float | None) -> None:
-        self.file, self.lines, self.allowed, self.retract_limit = file, lines, allowed, retract_limit
+        self.file, self.lines, self.allowed = file, lines, allowed
+        self.retract_limit = retract_limit
         self.scale, self.feed_scale, self.units = 1.0, 1.0, 21
         self.ppos = np.zeros(3)        # program frame [mm]
         self.rot = [0.0, 0.0, 0.0]     # A B C [rad]
@@ -348,8 +349,9 @@ class TNCState:
                     raise self.err("negative feed; expected F >= 0")
                 self.auto_feed = self.feed = v * self.feed_scale
             elif v != 0:
-                raise self.err(f"{name}{w.group(2)}: a delta {'length' if name == 'DL' else 'radius'}"
-                               " moves the tool off the programmed path; expected 0")
+                what = "length" if name == "DL" else "radius"
+                raise self.err(f"{name}{w.group(2)}: a delta {what} moves the tool off the "
+                               "programmed path; expected 0")
             pos = w.end()
         return False
 

@@ -140,6 +140,9 @@ KNOWN = [
 ]
 
 
+BY_NAME = {k[0]: k for k in KNOWN}
+
+
 def _check_rows(prog, rows):
     assert len(prog) == len(rows)
     for b, r in zip(prog, rows):
@@ -204,7 +207,7 @@ def test_tilted_arc_is_chords_on_the_tilted_circle():
 
 
 def test_program_goes_to_cutter_locations():
-    prog = parse_heidenhain(tnc(*KNOWN[3][1]))
+    prog = parse_heidenhain(tnc(*BY_NAME["c-ccw"][1]))
     cl = cutter_locations(prog)
     assert np.allclose(np.linalg.norm(cl.tip[1:, :2], axis=1), 10)
 
@@ -227,7 +230,7 @@ def test_known_pairs_write_ln():
     assert ("LN X+1.0000 Y+2.0000 Z+3.0000 NX+0.0000000 NY+0.6000000 NZ+0.8000000 "
             "TX+0.0000000 TY+0.6000000 TZ+0.8000000 F500") in res.text
     prog = parse_heidenhain(res.text)
-    _check_rows(prog.take if False else _Rows(prog, 1, 2), KNOWN[15][2][:1])
+    _check_rows(_Rows(prog, 1, 2), BY_NAME["m128-ln"][2][:1])
 
 
 def test_known_pairs_write_angles():
@@ -394,7 +397,7 @@ def test_endless_repeat_hits_the_limit(monkeypatch):
 
 def test_fuzz_never_crashes():
     rng = random.Random(1234)
-    base = tnc(*KNOWN[3][1], *KNOWN[19][1], "Q1 = 3", "L X+Q1 FMAX",
+    base = tnc(*BY_NAME["c-ccw"][1], *BY_NAME["lbl-rep"][1], "Q1 = 3", "L X+Q1 FMAX",
                "FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS", "L X+1 B+10 C+5 F10",
                "FUNCTION RESET TCPM", "PLANE SPATIAL SPA+0 SPB+30 SPC+0 STAY",
                "CC X+1 Y+1", "CP IPA+30 DR+", "PLANE RESET STAY", "M30")
@@ -443,3 +446,16 @@ def test_cli_parse_dialect(tmp_path, capsys):
     assert "retract-limit" in capsys.readouterr().err
     assert main(["parse", str(h), "--json", "--retract-limit", "50"]) == 0
     assert '"line":' in capsys.readouterr().out
+
+
+def test_cli_post_heidenhain(tmp_path, capsys):
+    from nc.cli import main
+
+    blade = os.path.join(os.path.dirname(__file__), "..", "..", "nc", "data", "blade_cl.csv")
+    for dialect, verb in (("heidenhain-tcpm", "L "), ("heidenhain-ln", "LN ")):
+        out = tmp_path / f"p-{dialect}.h"
+        assert main(["post", blade, "--machine", "xyzbc-trt", "--dialect", dialect,
+                     "-o", str(out)]) == 0
+        text = out.read_text()
+        assert text.startswith(f"0 BEGIN PGM p-{dialect} MM") and f" {verb}X" in text
+        assert len(read_any(out)) > 100
