@@ -134,6 +134,25 @@ KNOWN = [
     # M140 MB 50: 50 mm up the tool axis, rapid
     ("m140-mb", ["L X+1 Y+1 Z+2 R0 F100", "L M140 MB+50"],
      [dict(m=1, xyz=(1, 1, 2), f=100), dict(m=0, xyz=(1, 1, 52), f=100)]),
+    # CT after an arc: the arc ends at (10, 10) going +Y; the tangential arc to
+    # (0, 20) continues the same circle about (0, 10): another +90 deg
+    ("ct-after-arc", ["L X+0 Y+0 R0 F100", "CC X+0 Y+10", "C X+10 Y+10 DR+", "CT X+0 Y+20"],
+     [dict(m=1, xyz=(0, 0, 0), f=100),
+      dict(m=3, xyz=(10, 10, 0), f=100, arc=((0, 10, 0), 90, 17)),
+      dict(m=3, xyz=(0, 20, 0), f=100, arc=((0, 10, 0), 90, 17))]),
+    # 7.1 IX+5 adds to the active shift (100): program X1 -> 106
+    ("datum-incremental", ["CYCL DEF 7.0 DATUM SHIFT", "CYCL DEF 7.1 X+100",
+                           "CYCL DEF 7.0 DATUM SHIFT", "CYCL DEF 7.1 IX+5",
+                           "L X+1 Y+0 Z+0 R0 F100"],
+     [dict(m=1, xyz=(106, 0, 0), f=100)]),
+    # shift, then tilt about the shifted datum: SPC+90 turns (10, 0, 0) to (0, 10, 0)
+    ("plane-after-shift", ["CYCL DEF 7.0 DATUM SHIFT", "CYCL DEF 7.1 X+100",
+                           "PLANE SPATIAL SPA+0 SPB+0 SPC+90 TURN MB MAX FMAX SEQ- TABLE ROT",
+                           "L X+10 Y+0 Z+0 R0 F100"],
+     [dict(m=1, xyz=(100, 10, 0), f=100, tcp=TCP_VECTOR, tv=(0, 0, 1))]),
+    ("lbl-name-rep-slash", ["L X+0 R0 F100", 'LBL "EDGE"', "L IX+2", 'CALL LBL "EDGE" REP 1/1'],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(2, 0, 0), f=100),
+      dict(m=1, xyz=(4, 0, 0), f=100)]),
     # tool axis Y: working plane ZX (G18), tool vector +Y
     ("tool-axis-y", ["TOOL CALL 1 Y S1000", "L X+1 R0 F100"],
      [dict(m=1, xyz=(1, 0, 0), f=100, tcp=TCP_VECTOR, tv=(0, 1, 0))]),
@@ -459,3 +478,11 @@ def test_cli_post_heidenhain(tmp_path, capsys):
         text = out.read_text()
         assert text.startswith(f"0 BEGIN PGM p-{dialect} MM") and f" {verb}X" in text
         assert len(read_any(out)) > 100
+
+
+def test_rewrite_refuses_klartext():
+    from nc.rewrite import RewriteError, rewrite_coordinates
+
+    prog = parse_heidenhain(tnc("L X+1 R0 F100"), file="p.h")
+    with pytest.raises(RewriteError, match="Heidenhain"):
+        rewrite_coordinates(prog, {0: np.array([2.0, 0.0, 0.0])})
