@@ -74,6 +74,11 @@ ROTARY_STILL_RAD = math.radians(1.0e-6)
 #: Decimals of the unit vectors (LN NX..TZ) in written Heidenhain programs:
 #: the TNC's input allows 7 [-].
 TNC_VECTOR_DECIMALS = 7
+#: Largest coordinate a TNC accepts (its input format, 5 digits and 4
+#: decimals) [mm] ...
+TNC_MAX_COORDINATE_MM = 99_999.9999
+#: ... and largest feed [mm/min] or spindle speed [rev/min] (5 digits, 3 decimals).
+TNC_MAX_FEED = 99_999.999
 
 # --- kinematics (nc.kinematics, nc.machines) --------------------------------
 

@@ -156,6 +156,15 @@ def post_heidenhain(cl: CutterLocations, machine: Machine,
     add(f"TOOL CALL {o.tool} Z S{_f(spindle)}")
     add("FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS" if o.tcpm == "function" else "M128")
 
+    first = int(np.argmax(~cl.rapid)) if np.any(~cl.rapid) else 0
+    app = tip[first] + o.clearance_mm * axis[first]
+    ret = tip[-1] + o.clearance_mm * axis[-1]
+    big = max(float(np.max(np.abs(tip))), float(np.max(np.abs(app))), float(np.max(np.abs(ret))))
+    fmax = float(np.nanmax(np.where(cl.rapid, 0.0, cl.feed_mm_min)))
+    if big > K.TNC_MAX_COORDINATE_MM or fmax > K.TNC_MAX_FEED or spindle > K.TNC_MAX_FEED:
+        raise InputError(f"a coordinate ({big:.6g} mm), feed ({fmax:.6g} mm/min) or spindle "
+                         f"speed ({spindle:.6g} rev/min) beyond what a TNC accepts "
+                         f"({K.TNC_MAX_COORDINATE_MM:g} mm, {K.TNC_MAX_FEED:g})")
     xyz = tip.tolist()
     if o.form == "tcpm-angles":
         deg = np.degrees(joints[:, 3:]).tolist()
@@ -173,8 +182,6 @@ def post_heidenhain(cl: CutterLocations, machine: Machine,
 
     rapid = cl.rapid.tolist()
     feed = cl.feed_mm_min.tolist()
-    first = int(np.argmax(~cl.rapid)) if np.any(~cl.rapid) else 0
-    app = tip[first] + o.clearance_mm * axis[first]
     r0 = " R0" if verb == "L" else ""
     add(f"{verb} {xyz_words(app)}{tails[first]}{r0} FMAX M3")
     last_feed = None
@@ -188,7 +195,6 @@ def post_heidenhain(cl: CutterLocations, machine: Machine,
             words += f" F{_f(f)}"
             last_feed = f
         add(words)
-    ret = tip[-1] + o.clearance_mm * axis[-1]
     add(f"{verb} {xyz_words(ret)}{tails[-1]}{r0} FMAX")
     add("FUNCTION RESET TCPM" if o.tcpm == "function" else "M129")
     add("M5")

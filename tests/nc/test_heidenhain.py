@@ -325,6 +325,12 @@ def test_writer_round_trip_random_paths(data):
     assert e_tip <= 1e-3 and e_ang <= 1e-4
 
 
+def test_write_refuses_values_a_tnc_cannot_take():
+    cl = CutterLocations.from_arrays([[1e5, 0, 0], [2, 0, 0]], [0, 0, 1], 100.0)
+    with pytest.raises(InputError, match="beyond what a TNC accepts"):
+        post_heidenhain(cl, get_machine("xyzbc-trt"))
+
+
 def test_write_refuses_when_read_back_differs(tmp_path):
     cl = CutterLocations.from_arrays([[1.23456, 0, 0], [2, 0, 0]], [0, 0, 1], 100.0)
     with pytest.raises(InputError, match="not written"):
@@ -398,6 +404,15 @@ def test_bad_input_one_error(blocks, what):
     first = str(exc.value).splitlines()[0]
     assert re.match(r"p\.h:\d+(:\d+)?: ", first), first
     assert what in first
+
+
+def test_allow_list():
+    prog = parse_heidenhain(tnc("L X+1 R0 F100 M110"), allow=["M110"])
+    assert len(prog) == 1
+    with pytest.raises(NCParseError, match="unsupported M110"):
+        parse_heidenhain(tnc("L X+1 R0 F100 M110"))
+    with pytest.raises(ValueError, match="M91 is a move in machine coordinates"):
+        parse_heidenhain(tnc("L X+1 R0 F100"), allow=["M91"])
 
 
 def test_missing_end_and_begin():
