@@ -157,23 +157,56 @@ def _begin(st, verb_len):
     return d, ms, set()
 
 
+_L_LINEAR = {"X": (0, False), "Y": (1, False), "Z": (2, False),
+             "IX": (0, True), "IY": (1, True), "IZ": (2, True)}
+_L_ROTARY = frozenset(("A", "B", "C", "IA", "IB", "IC"))
+_L_OTHER = frozenset(("F", "FMAX", "FAUTO", "R", "RL", "RR", "FU", "FZ"))
+
+
 def L(st) -> bool:
+    """Straight line: one pass over the words (most blocks of a CAM program)."""
     d, ms = st.parse_words(1)
-    if any(m == 140 for m, _ in ms):
-        return _m140(st, d, ms)
-    st.m_functions(ms, at_end=False)
-    used: set = set()
-    rapid = _feed(st, d, used)
-    _comp(st, d, used)
+    if ms:
+        if any(m == 140 for m, _ in ms):
+            return _m140(st, d, ms)
+        st.m_functions(ms, at_end=False)
     start = st.ppos
-    target, axes = _linear(st, d, used)
-    turned = _rotary(st, d, used)
-    _finish(st, d, used)
-    if axes or turned:
-        st.emit(0 if rapid else 1, target, _WORKING[st.tool_axis])
-        if axes:
+    target = None
+    seen = 0
+    rot = False
+    other = False
+    for name, (val, col) in d.items():
+        lin = _L_LINEAR.get(name)
+        if lin is not None:
+            a, inc = lin
+            bit = 1 << a
+            if seen & bit:
+                raise st.err(f"{name}: axis {name[-1]} programmed twice", col)
+            seen |= bit
+            if target is None:
+                target = start.copy()
+            v = st.value(name, val, col) * st.scale
+            target[a] = target[a] + v if inc else v
+        elif name in _L_ROTARY:
+            rot = True
+        elif name in _L_OTHER:
+            other = True
+        else:
+            if name in ("U", "V", "W", "IU", "IV", "IW"):
+                raise st.err(f"axis {name[-1]} is not supported; expected X Y Z A B C", col)
+            raise st.err(f"word {name} is not used by this block", col)
+    rapid = False
+    if other:
+        used: set = set()
+        rapid = _feed(st, d, used)
+        _comp(st, d, used)
+    turned = _rotary(st, d, set()) if rot else False
+    if target is not None or turned:
+        st.emit(0 if rapid else 1, start if target is None else target,
+                _WORKING[st.tool_axis])
+        if target is not None:
             st.tangent = target - start
-    return st.m_functions(ms, at_end=True)
+    return st.m_functions(ms, at_end=True) if ms else False
 
 
 def _m140(st, d, ms) -> bool:

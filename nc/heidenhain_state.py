@@ -106,7 +106,14 @@ class TNCState:
     def value(self, name: str, text: str | None, col: int) -> float:
         if text is None or text in "+-" or text == "MAX":
             raise self.err(f"expected a number after {name}", col)
-        t = text.replace(" ", "")
+        t = text.replace(" ", "") if " " in text else text
+        if "Q" not in t and "," not in t:
+            try:
+                v = float(t)
+            except ValueError:
+                v = math.nan
+            if abs(v) <= K.MAX_ABS_WORD_VALUE and _VALUE.fullmatch(t):
+                return v
         if not _VALUE.fullmatch(t):
             raise self.err(f"expected a number or a Q parameter after {name}, found "
                            f"{text[:16]!r}", col)
@@ -133,7 +140,7 @@ class TNCState:
                     raise self.err(f"M{val}: expected a whole number", col)
                 ms.append((int(v), col))
                 continue
-            if name.replace(" ", "") in ("FAUTO",):
+            if name[0] == "F" and " " in name:  # "F AUTO"
                 name = "FAUTO"
             if name in d:
                 raise self.err(f"word {name} appears twice in one block; expected it once", col)
