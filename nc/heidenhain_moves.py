@@ -62,6 +62,7 @@ def _rotary(st, d, used) -> bool:
                 st.rot[k] = v
             used.add(name)
             changed = True
+            st.rot_unknown = False
     for name in ("U", "V", "W", "IU", "IV", "IW"):
         if name in d:
             raise st.err(f"axis {name[-1]} is not supported; expected X Y Z A B C", d[name][1])

@@ -74,6 +74,7 @@ class TNCState:
         self.tcpm = False
         self.vector: tuple[float, float, float] | None = None
         self.m126 = False
+        self.rot_unknown = False  # rotary axes turned by PLANE ... TURN|MOVE
         self.cc: tuple[int, float, float] | None = None
         self.tangent: np.ndarray | None = None
         self.q: dict[str, float] = {}
@@ -183,6 +184,10 @@ class TNCState:
     def emit(self, motion: int, pend: np.ndarray, plane: int, arc=None) -> None:
         """One row ending at program-frame ``pend``; ``arc`` = (centre2, radii, sweep, axes)."""
         tcp, tv = self.tcp_and_vector()
+        if self.rot_unknown and tcp != TCP_VECTOR:
+            raise self.err("the rotary axes stand where PLANE ... TURN|MOVE put them, at angles "
+                           "the reader does not know; expected PLANE RESET TURN|MOVE or "
+                           "rotary words (L B.. C..) before this move")
         if motion != 0 and not self.feed > 0:
             raise self.err("cutting move with no feed; expected F > 0 in this block or "
                            "before it (FMAX is rapid for its block only)")
@@ -418,6 +423,9 @@ class TNCState:
                 raise self.err("unexpected words after PLANE RESET; expected TURN, MOVE or "
                                "STAY and their options")
             self.set_tilt((0.0, 0.0, 0.0))
+            if re.search(r"\b(?:TURN|MOVE)\b", s):
+                self.rot = [0.0, 0.0, 0.0]  # the axes go back to their zero posture
+                self.rot_unknown = False
             return False
         m = _SPATIAL.fullmatch(s)
         if not m:
@@ -430,6 +438,8 @@ class TNCState:
         ang = [self.value(nm, v, self.b.col) for nm, v in zip(("SPA", "SPB", "SPC"),
                                                                m.group(1, 2, 3))]
         self.set_tilt(ang)
+        if re.search(r"\b(?:TURN|MOVE)\b", m.group(4)):
+            self.rot_unknown = True
         return False
 
     def function(self, s: str) -> bool:
