@@ -509,3 +509,48 @@ def test_rewrite_refuses_klartext():
     prog = parse_heidenhain(tnc("L X+1 R0 F100"), file="p.h")
     with pytest.raises(RewriteError, match="Heidenhain"):
         rewrite_coordinates(prog, {0: np.array([2.0, 0.0, 0.0])})
+
+
+def test_cam_style_program():
+    # the shape CAM posts write for a TNC 640 (written here, not copied): tool axis
+    # first, retract, structure lines, feeds in Q parameters, a lead-in arc in the
+    # YZ plane, cycle 32, retract at the end
+    text = """0  BEGIN PGM slot MM
+1  BLK FORM 0.1 Z  X+0  Y-25  Z-35
+2  BLK FORM 0.2  X+220  Y+0  Z+0
+3  ;-------------------------------------
+4  ;  #3 D=10 - flat end mill
+5  * - Slot1 (3)
+6  TOOL CALL 3 Z S4043
+7  L M140 MB MAX
+8  M3
+9  L  X+10  Y-12.5 R0 FMAX
+10 L  Z+85 R0 FMAX
+11 M8
+12 CYCL DEF 32.0 TOLERANCE
+13 CYCL DEF 32.1
+14 FN 0: Q50 =+550 ; Cutting
+15 FN 0: Q53 =+300 ; Entry
+16 L  Z+5 FMAX
+17 L  Z+1 FQ53
+18 CC  Y-11.5  Z+1
+19 CP IPA+90 DR+ FQ50
+20 L  X+40
+21 L  Z+85 FMAX
+22 M9
+23 M5
+24 L M140 MB MAX
+25 M30
+26 END PGM slot MM
+"""
+    prog = parse_heidenhain(text, file="slot.h", retract_limit_mm=200.0)
+    z = prog.end[:, 2]
+    assert prog.number == "slot" and len(prog) == 9
+    np.testing.assert_allclose(z[[0, 2, 3, 4]], [200, 85, 5, 1])
+    # CP: from Y-12.5 (angle 180 deg about Y-11.5 Z+1 in Y-Z) +90 deg -> Y-11.5 Z+0
+    np.testing.assert_allclose(prog.end[5, :3], (10, -11.5, 0), atol=1e-12)
+    assert prog.arc_plane.tolist() == [19] and prog.feed[5] == 550 and prog.feed[4] == 300
+    np.testing.assert_allclose(prog.end[-1, :3], (40, -11.5, 200))
+    assert prog.modal_column("spindle_dir").tolist() == [0, 1, 1, 1, 1, 1, 1, 1, 0]
+    cl = cutter_locations(prog)
+    assert np.all(cl.feed_mm_min[~cl.rapid] > 0)
