@@ -1,5 +1,8 @@
 """``nc``: read G-code, hold tool paths, 5-axis kinematics, write NC programs."""
+from .dialects import detect_dialect, read_any
 from .errors import NCParseError
 from .gcode import parse_program, read_program
+from .heidenhain import parse_heidenhain, read_heidenhain
 
-__all__ = ["parse_program", "read_program", "NCParseError"]
+__all__ = ["parse_program", "read_program", "parse_heidenhain", "read_heidenhain",
+           "read_any", "detect_dialect", "NCParseError"]

@@ -113,10 +113,24 @@ def _print_summary(s, console=None) -> None:
 
 
 def _cmd_parse(args) -> int:
-    offsets, refs = _setup(args.offsets)
-    prog = read_program(args.file, allow=_allow_list(args.allow),
-                        block_delete=args.block_delete, work_offsets=offsets,
-                        strict=args.strict, reference_points=refs)
+    from .dialects import detect_dialect, read_any
+
+    dialect = None if args.dialect == "auto" else args.dialect
+    if dialect is None:
+        with open(args.file, "rb") as fh:
+            dialect = detect_dialect(fh.read(4096).decode("latin-1"))
+    if dialect == "heidenhain":
+        if args.offsets:
+            raise InputError("--offsets applies to G-code (G54...G59); a Heidenhain "
+                             "program sets its datum with cycle 7")
+        prog = read_any(args.file, "heidenhain", allow=_allow_list(args.allow),
+                        block_delete=args.block_delete,
+                        retract_limit_mm=args.retract_limit)
+    else:
+        offsets, refs = _setup(args.offsets)
+        prog = read_program(args.file, allow=_allow_list(args.allow),
+                            block_delete=args.block_delete, work_offsets=offsets,
+                            strict=args.strict, reference_points=refs)
     if args.json:
         json.dump(blocks_as_json(prog), sys.stdout, separators=(",", ":"))
         sys.stdout.write("\n")
@@ -133,6 +147,22 @@ def _cmd_post(args) -> int:
     machine = _machine(args.machine)
     if args.tool_length is not None:
         machine = machine.with_tool_length(args.tool_length)
+    if args.dialect.startswith("heidenhain"):
+        from .heidenhain_writer import TNCPostOptions, write_heidenhain
+
+        name = os.path.splitext(os.path.basename(args.output))[0]
+        name = "".join(c if c.isalnum() or c in "_-" else "_" for c in name)[:64] or "NCPATH"
+        topts = TNCPostOptions(
+            form="tcpm-angles" if args.dialect == "heidenhain-tcpm" else "ln-vector",
+            program_name=name, tool=args.tool, spindle_rpm=args.spindle,
+            linear_decimals=args.decimals, header=not args.no_header,
+            source=os.path.basename(args.cl),
+            singular_cone_rad=math.radians(args.singular_cone_deg))
+        res = write_heidenhain(args.output, cl, machine, topts)
+        print(f"wrote {args.output}: {len(cl)} cutter locations, Klartext "
+              f"{topts.form}, read back within 1 um / 1e-4 deg, "
+              f"{res.singular_points} points at the singularity (free axis held)")
+        return 0
     opts = PostOptions(
         dialect=args.dialect, tool=args.tool, spindle_rpm=args.spindle,
         linear_decimals=args.decimals, line_numbers=args.line_numbers,
@@ -194,6 +224,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--offsets", metavar="TOML",
                    help="work offsets: [G55] xyz_mm = [x, y, z]; the machine's G28/G30 "
                         "points (machine coordinates): [G28] xyz_mm = [x, y, z]")
+    p.add_argument("--dialect", default="auto", choices=["auto", "gcode", "heidenhain"],
+                   help="reader to use; auto: Heidenhain if the program starts with BEGIN PGM")
+    p.add_argument("--retract-limit", type=float, metavar="MM",
+                   help="Heidenhain: the Z that M140 MB MAX retracts to (else refused)")
     p.set_defaults(func=_cmd_parse)
 
     p = sub.add_parser("post", help="write an NC program from a cutter-location CSV")
@@ -201,7 +235,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--machine", required=True,
                    help="a named machine (see 'machines') or a machine TOML file")
     p.add_argument("--dialect", default="linuxcnc",
-                   choices=["linuxcnc", "fanuc-g43.4", "fanuc-g43.5"])
+                   choices=["linuxcnc", "fanuc-g43.4", "fanuc-g43.5", "heidenhain-tcpm",
+                            "heidenhain-ln"],
+                   help="heidenhain-tcpm: Klartext L X Y Z + rotary angles under FUNCTION "
+                        "TCPM; heidenhain-ln: LN with the tool vector")
     p.add_argument("-o", "--output", required=True)
     p.add_argument("--tool", type=int, default=1)
     p.add_argument("--tool-length", type=float, metavar="MM",

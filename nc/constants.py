@@ -55,6 +55,13 @@ MAX_ARC_TURNS = 1000
 #: ``allow`` option.
 IMPLIED_DEFAULT_CODES = frozenset({"G40", "G80", "M0", "M1", "M2", "M30"})
 
+#: Heidenhain reader: most blocks executed in one read, counting every pass
+#: through a label repeat or subprogram, before the read stops with an error
+#: (a loop that does not end, or repeats nested too deep) [-].
+TNC_MAX_EXECUTED_BLOCKS = 20_000_000
+#: ... and deepest nesting of subprogram calls (CALL LBL without REP) [-].
+TNC_MAX_CALL_DEPTH = 19
+
 # --- paths ------------------------------------------------------------------
 
 #: Chord tolerance when arcs are expanded into lines [mm].
@@ -95,6 +102,14 @@ ROTARY_ONLY_FEED_DEG_MIN = 3600.0
 #: Rotary motion below this counts as "no rotary motion" when the writer
 #: decides between G93 and G94 [rad].
 ROTARY_STILL_RAD = math.radians(1.0e-6)
+#: Decimals of the unit vectors (LN NX..TZ) in written Heidenhain programs:
+#: the TNC's input allows 7 [-].
+TNC_VECTOR_DECIMALS = 7
+#: Largest coordinate a TNC accepts (its input format, 5 digits and 4
+#: decimals) [mm] ...
+TNC_MAX_COORDINATE_MM = 99_999.9999
+#: ... and largest feed [mm/min] or spindle speed [rev/min] (5 digits, 3 decimals).
+TNC_MAX_FEED = 99_999.999
 
 # --- kinematics (nc.kinematics, nc.machines) --------------------------------
 

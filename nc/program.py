@@ -238,6 +238,9 @@ class Program:
         caller's ``allow``...): code, count, first line; in order of first line.
     strict : bool
         Whether the program was read strictly (see :func:`nc.parse_program`).
+    metadata : dict
+        What a reader keeps beside the moves (the Heidenhain reader:
+        ``dialect``, ``name``, ``units``, ``blk_form``); empty for G-code.
     """
 
     file: str
@@ -266,6 +269,7 @@ class Program:
     reframed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     reframed_start: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     machine_moves: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    metadata: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name in ("line", "motion", "end", "initial", "feed", "modal_index",

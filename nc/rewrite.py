@@ -103,6 +103,10 @@ def rewrite_coordinates(
         For an unknown block index, non-finite coordinates, a rotary change
         under G43.5, or when the result does not read back as requested.
     """
+    if program.metadata.get("dialect") == "heidenhain":
+        raise RewriteError(f"{program.file}: rewriting Heidenhain (Klartext) programs is not "
+                           "supported; expected a G-code program (post the corrected path "
+                           "with nc.heidenhain_writer instead)")
     n = len(program)
     if len(program.reframed) or len(program.machine_moves):
         i = int((list(program.reframed) + list(program.machine_moves))[0])
