@@ -216,3 +216,43 @@ WORKER_MALLOC_MMAP_BYTES = 32 << 20
 #: by more (the micro edges of neighbouring ``resolution.micro_edges``
 #: settings are hundredths of a millimetre apart).
 TOOL_STATE_MATCH_MM = 1.0e-6
+
+# --- limits of a scenario's values (errpred/limits.py; checked when it is loaded) --------
+# Each bounds a value that would otherwise run for hours or exhaust memory before any
+# answer, or that no real end mill has: a scenario beyond one is refused at once.
+#: Memory one prediction process may plan for the arrays that a resolution implies
+#: (one point's bottom and side views and its micro-edge samples over a revolution)
+#: [bytes]: the machine has 24 GiB for two worker processes and the parent, shared.
+MEMORY_BUDGET_BYTES = 2 << 30
+#: What one pixel of a view costs [bytes]: the bottom template's per-pixel arrays
+#: (measured: 89 bytes a pixel, mold-ball's tool at D/64 and D/256) plus a view's four
+#: float64 intervals and the rasterizer's depth buffers, rounded up.
+BYTES_PER_PIXEL = 256
+#: What one micro-edge sample of a revolution costs [bytes]: the template's (measured:
+#: about 100 bytes a sample) and a point's per-revolution arrays (cutting, weights,
+#: shifts, the T1 memo, forces), rounded up.
+BYTES_PER_SAMPLE = 1024
+#: Most flutes an end mill in a scenario may have [-] (solid end mills have 2-8,
+#: large high-feed ones up to about 12).
+MAX_FLUTES = 24
+#: Largest tool diameter [mm] (end mills beyond 100 mm are face mills, not modelled).
+MAX_TOOL_DIAMETER_MM = 200.0
+#: Longest tool length (flute length, overhang, holder) [mm].
+MAX_TOOL_LENGTH_MM = 2000.0
+#: Most micro edges along the envelope [-] (the default is 80; the convergence test
+#: shows 4x finer changes the error by less than 0.5 um).
+MAX_MICRO_EDGES = 2000
+#: Largest rotation step [deg]: the engagement needs several steps per tooth pitch
+#: (errpred.engagement.revolution_angles refuses more than 90).
+MAX_ANGLE_STEP_DEG = 90.0
+#: Finest chord tolerance for arcs [mm]: 10 nm, 25 times below the default; finer
+#: only multiplies the chords of every arc.
+MIN_CHORD_TOL_MM = 1.0e-5
+#: Closest spacing of prediction points along a block [mm]: every point costs a full
+#: engagement; 0.01 mm is a fifth of the dense verification's spacing.
+MIN_POINT_SPACING_MM = 1.0e-2
+#: Most predict-correct passes of an iterated correction [-].
+MAX_CORRECTION_ITERATIONS = 100
+#: Largest mesh file read [bytes]: 1 GiB of STL is 20 million triangles, beyond what
+#: the triangle grid and the interference check can hold in the memory budget.
+MAX_MESH_FILE_BYTES = 1 << 30

@@ -44,7 +44,8 @@ from .geometry import Resolution
 from .tool import TOOL_KINDS, Holder, Tool
 
 __all__ = ["ScenarioError", "StockSpec", "ShapeError", "Resolution", "CorrectionOptions",
-           "Scenario", "TableReader", "load_scenario", "BUNDLED", "bundled_scenario"]
+           "Scenario", "TableReader", "load_scenario", "check_program_lines", "BUNDLED",
+           "bundled_scenario"]
 
 _HERE = Path(__file__).resolve().parent / "scenarios"
 #: Bundled scenarios: name -> path of their ``scenario.toml``.
@@ -113,9 +114,9 @@ class StockSpec:
         """The design mesh as a ``trimesh.Trimesh``, or None without one."""
         if self.design_path is None:
             return None
-        import trimesh
+        from .meshio import load_mesh
 
-        return trimesh.load(os.fspath(self.design_path), force="mesh")
+        return load_mesh(self.design_path, what="design mesh")
 
 
 @dataclass(frozen=True, eq=False)
@@ -261,7 +262,9 @@ class TableReader:
         return k in d
 
     def number(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
-               sign: str = "") -> float:
+               sign: str = "", maximum: float = math.inf, limit: str = "") -> float:
+        """A finite number (``sign``: ``">0"`` or ``">=0"``) at most ``maximum`` (the
+        constant ``limit`` names it in the message)."""
         key = _dot(prefix, k)
         if not self.given(d, k, key, default):
             return default
@@ -273,10 +276,13 @@ class TableReader:
             raise self.fail(key, f"expected a finite number, got {v}")
         if (sign == ">0" and v <= 0) or (sign == ">=0" and v < 0):
             raise self.fail(key, f"expected a value {sign[:-1]} 0, got {v:g}")
+        if v > maximum:
+            raise self.fail(key, f"expected at most {maximum:g}{_named(limit)}, got {v:g}")
         return v
 
     def integer(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
-                minimum: int = 1) -> int:
+                minimum: int = 1, maximum: float = math.inf, limit: str = "") -> int:
+        """A whole number from ``minimum`` to ``maximum`` (named by ``limit``)."""
         key = _dot(prefix, k)
         if not self.given(d, k, key, default):
             return default
@@ -285,6 +291,8 @@ class TableReader:
             raise self.fail(key, f"expected a whole number, got {_kind(v)}")
         if v < minimum:
             raise self.fail(key, f"expected a whole number >= {minimum}, got {v}")
+        if v > maximum:
+            raise self.fail(key, f"expected at most {maximum:g}{_named(limit)}, got {v}")
         return v
 
     def string(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
@@ -311,6 +319,17 @@ class TableReader:
         return [self.number({f"{k}[{i}]": x}, f"{k}[{i}]", prefix, sign=sign)
                 for i, x in enumerate(v)]
 
+    def read_program(self, gcode: Path, allow: tuple[str, ...]):
+        """The program (``nc.read_program``; its errors name file, line and column),
+        refused under ``program.gcode`` when it has no motion block."""
+        from nc import read_program
+
+        program = read_program(gcode, allow=allow)
+        if len(program) == 0:
+            raise self.fail("program.gcode", f"{gcode}: no motion block (G0-G3); expected a "
+                                             f"program that moves the tool")
+        return program
+
     def path(self, d: dict, k: str, prefix: str) -> Path:
         key = _dot(prefix, k)
         v = self.string(d, k, prefix)
@@ -318,6 +337,17 @@ class TableReader:
         if not p.is_file():
             raise self.fail(key, f"file not found: {p}")
         return p
+
+
+def _limit(name: str) -> dict:
+    """``maximum`` and ``limit`` for :meth:`TableReader.number`: the constant ``name`` of
+    :mod:`errpred.constants`."""
+    return {"maximum": getattr(K, name), "limit": f"errpred.constants.{name}"}
+
+
+def _named(limit: str) -> str:
+    """`` (NAME)`` for a limit's constant in a message, or nothing."""
+    return f" ({limit})" if limit else ""
 
 
 def _dot(prefix: str, k: str) -> str:
@@ -341,15 +371,29 @@ def _suggest(k: str, allowed: tuple) -> str | None:
     return close[0] if close else None
 
 
+def check_program_lines(program, lines: tuple[int, int] | None, file: str,
+                        key: str = "program.lines") -> None:
+    """Refuse a line range (``[program] lines`` or ``--lines``) that selects no motion
+    block of ``program``; ``file`` and ``key`` name where the range was given."""
+    if lines is None:
+        return
+    lo, hi = lines
+    if np.any((program.line >= lo) & (program.line <= hi)):
+        return
+    raise ScenarioError(file, key, f"lines {lo}-{hi} hold no motion block of {program.file} "
+                                   f"({len(program.lines)} lines; motion blocks on lines "
+                                   f"{int(program.line.min())}-{int(program.line.max())})")
+
+
 # --------------------------------------------------------------------------- sections
 def _stock(r: TableReader, d: dict) -> StockSpec:
     r.keys(d, "stock", (), ("stl", "box_min_mm", "box_max_mm", "design_stl"))
-    design = r.path(d, "design_stl", "stock") if "design_stl" in d else None
+    design = _mesh(r, d, "design_stl", closed=False) if "design_stl" in d else None
     box = [k for k in ("box_min_mm", "box_max_mm") if k in d]
     if "stl" in d and box:
         raise r.fail("stock.stl", "give either stl or box_min_mm and box_max_mm, not both")
     if "stl" in d:
-        return StockSpec("stl", path=r.path(d, "stl", "stock"), design_path=design)
+        return StockSpec("stl", path=_mesh(r, d, "stl", closed=True), design_path=design)
     if not box:
         raise r.fail("stock.stl", "missing; expected stl = \"file.stl\" or box_min_mm and "
                                   "box_max_mm")
@@ -364,6 +408,19 @@ def _stock(r: TableReader, d: dict) -> StockSpec:
     return StockSpec("box", bounds=(tuple(lo), tuple(hi)), design_path=design)
 
 
+def _mesh(r: TableReader, d: dict, k: str, *, closed: bool) -> Path:
+    """A mesh file's path, read once here (:func:`errpred.meshio.load_mesh`) so that an
+    empty, corrupt or (``closed``: a stock) open mesh is refused before any work."""
+    from .meshio import MeshFileError, load_mesh
+
+    path = r.path(d, k, "stock")
+    try:
+        load_mesh(path, what="stock mesh" if closed else "design mesh", closed=closed)
+    except MeshFileError as exc:
+        raise r.fail(f"stock.{k}", str(exc)) from None
+    return path
+
+
 def _tool(r: TableReader, d: dict) -> Tool:
     p = "tool"
     r.keys(d, p, ("type", "diameter_mm", "flutes", "helix_deg"),
@@ -373,7 +430,7 @@ def _tool(r: TableReader, d: dict) -> Tool:
     if kind not in TOOL_KINDS:
         raise r.fail("tool.type", f"unknown tool type {kind!r}; expected one of "
                                   f"{', '.join(TOOL_KINDS)}")
-    dia = r.number(d, "diameter_mm", p, sign=">0")
+    dia = r.number(d, "diameter_mm", p, sign=">0", **_limit("MAX_TOOL_DIAMETER_MM"))
     corner = 0.0
     if kind == "radius":
         corner = r.number(d, "corner_radius_mm", p, sign=">0")
@@ -390,15 +447,17 @@ def _tool(r: TableReader, d: dict) -> Tool:
     helix = r.number(d, "helix_deg", p)
     if abs(helix) > 60:
         raise r.fail("tool.helix_deg", f"expected -60 to 60 degrees, got {helix:g}")
-    opt = {k: r.number(d, k, p, default=None, sign=">0")
+    opt = {k: r.number(d, k, p, default=None, sign=">0", **_limit(
+        "MAX_TOOL_DIAMETER_MM" if k == "shank_diameter_mm" else "MAX_TOOL_LENGTH_MM"))
            for k in ("flute_length_mm", "overhang_mm", "shank_diameter_mm")}
     holder = None
     if "holder" in d:
         h = r.table(d["holder"], "tool.holder")
         r.keys(h, "tool.holder", ("diameter_mm", "length_mm"))
-        holder = Holder(r.number(h, "diameter_mm", "tool.holder", sign=">0"),
-                        r.number(h, "length_mm", "tool.holder", sign=">0"))
-    flutes = r.integer(d, "flutes", p)
+        holder = Holder(*(r.number(h, k, "tool.holder", sign=">0",
+                                   **_limit("MAX_TOOL_LENGTH_MM"))
+                          for k in ("diameter_mm", "length_mm")))
+    flutes = r.integer(d, "flutes", p, **_limit("MAX_FLUTES"))
     rotation = r.string(d, "rotation", p, default="cw", choices=("cw", "ccw"))
     try:
         return Tool(kind, dia, corner, flutes, helix, rotation=rotation, holder=holder, **opt)
@@ -593,14 +652,54 @@ def _resolution(r: TableReader, d: dict, tool: Tool) -> Resolution:
     p = "resolution"
     r.keys(d, p, (), ("pixel_mm", "micro_edges", "angle_step_deg", "chord_tol_mm",
                       "point_spacing_mm"))
-    return Resolution(
+    res = Resolution(
         r.number(d, "pixel_mm", p, default=tool.diameter_mm * K.PIXEL_PER_DIAMETER, sign=">0"),
-        r.integer(d, "micro_edges", p, default=K.MICRO_EDGES_ENVELOPE, minimum=2),
-        math.radians(r.number(d, "angle_step_deg", p,
-                              default=math.degrees(K.ANGLE_STEP_RAD), sign=">0")),
+        r.integer(d, "micro_edges", p, default=K.MICRO_EDGES_ENVELOPE, minimum=2,
+                  **_limit("MAX_MICRO_EDGES")),
+        math.radians(r.number(d, "angle_step_deg", p, default=math.degrees(K.ANGLE_STEP_RAD),
+                              sign=">0", **_limit("MAX_ANGLE_STEP_DEG"))),
         r.number(d, "chord_tol_mm", p, default=K.CHORD_TOL_MM, sign=">0"),
         r.number(d, "point_spacing_mm", p, default=K.POINT_SPACING_MM, sign=">0")
         if "point_spacing_mm" in d else K.POINT_SPACING_MM)
+    for k, least in (("chord_tol_mm", K.MIN_CHORD_TOL_MM),
+                     ("point_spacing_mm", K.MIN_POINT_SPACING_MM)):
+        if getattr(res, k) < least:
+            raise r.fail(f"resolution.{k}", f"expected at least {least:g} "
+                                            f"(errpred.constants.MIN_{k.upper()}), got "
+                                            f"{getattr(res, k):g}")
+    _within_budget(r, d, tool, res)
+    return res
+
+
+def _within_budget(r: TableReader, d: dict, tool: Tool, res: Resolution) -> None:
+    """Refuse a resolution whose arrays would not fit :data:`K.MEMORY_BUDGET_BYTES`."""
+    from .limits import resolution_cost
+
+    def cost(pixel_mm: float):
+        return resolution_cost(tool.diameter_mm, tool.corner_radius_mm, tool.flute_length_mm,
+                               tool.flutes, pixel_mm, res.micro_edges, res.angle_step_rad)
+
+    c, budget = cost(res.pixel_mm), K.MEMORY_BUDGET_BYTES
+    if c.bytes <= budget:
+        return
+    over = (f"about {c.bytes / 2**30:.3g} GiB a prediction point, over the budget of "
+            f"{budget / 2**30:g} GiB (errpred.constants.MEMORY_BUDGET_BYTES)")
+    if c.sample_bytes < budget / 2:
+        # the views dominate: the coarsest pixel that fits (their size goes as 1/pixel^2)
+        p = res.pixel_mm * math.sqrt(c.pixel_bytes / (budget - c.sample_bytes))
+        while cost(p).bytes > budget:
+            p *= 1.01
+        raise r.fail("resolution.pixel_mm", f"{res.pixel_mm:g} mm makes views of "
+                                            f"{c.bottom_pixels:.3g} + {c.side_pixels:.3g} "
+                                            f"pixels (tool {tool.diameter_mm:g} mm, flutes "
+                                            f"{tool.flute_length_mm:g} mm long), {over}; "
+                                            f"expected pixel_mm >= {p:.3g}")
+    key = "angle_step_deg" if "angle_step_deg" in d or "micro_edges" not in d else "micro_edges"
+    raise r.fail(f"resolution.{key}", f"micro_edges {res.micro_edges} and angle_step_deg "
+                                      f"{math.degrees(res.angle_step_rad):g} make "
+                                      f"{c.samples:.3g} micro-edge samples a revolution, "
+                                      f"{over}; expected a coarser angle_step_deg or fewer "
+                                      f"micro_edges")
 
 
 def _correction(r: TableReader, d: dict) -> CorrectionOptions:
@@ -610,7 +709,8 @@ def _correction(r: TableReader, d: dict) -> CorrectionOptions:
     if not isinstance(it, bool):
         raise r.fail("correction.iterate", f"expected true or false, got {_kind(it)}")
     return CorrectionOptions(it, r.number(d, "tolerance_um", p, default=1.0, sign=">0"),
-                             r.integer(d, "max_iterations", p, default=5),
+                             r.integer(d, "max_iterations", p, default=5,
+                                       **_limit("MAX_CORRECTION_ITERATIONS")),
                              r.number(d, "verify_tolerance_um", p,
                                       default=K.VERIFY_TOLERANCE_UM, sign=">=0"))
 
@@ -659,6 +759,7 @@ def load_scenario(path: str | os.PathLike, *, extra_sections: tuple[str, ...] = 
     stock = _stock(r, sec["stock"])
     tool = _tool(r, sec["tool"])
     gcode, allow, lines, machine = _program(r, sec["program"])
+    check_program_lines(r.read_program(gcode, allow), lines, r.file)
     coeffs, cut_src = _cutting(r, sec["cutting"])
     compliance, dyn_src = _dynamics(r, sec["dynamics"])
     shape = _shape_error(r, sec["shape_error"]) if "shape_error" in sec else ShapeError()

@@ -104,3 +104,15 @@ SPINDLE_STEPS = 120
 WALL_DAMPING_RATIO = 0.01
 #: Modes of the thin wall's finite-element model used [-].
 WALL_MODES = 6
+
+# --- limits of a planning scenario's values (orient/scenario.py; checked when loaded) ---
+#: Most spindle speeds tried when the speed is chosen from the lobes [-]: each costs
+#: every contact point's margins once more (the bundled wall: 71).
+MAX_SPINDLE_STEPS = 1000
+#: Highest spindle speed of a range to choose from [rev/min] (fastest HSC spindles).
+MAX_SPINDLE_RPM = 100_000.0
+#: Most thin-wall modes kept [-]: each is a lowest eigenpair of the finite-element
+#: model, and the planner's margins take them all at every contact point.
+MAX_WALL_MODES = 50
+#: Most modes of a workpiece given mode by mode, and of the tool's dynamics [-].
+MAX_WORKPIECE_MODES = 50
