@@ -256,3 +256,33 @@ MAX_CORRECTION_ITERATIONS = 100
 #: Largest mesh file read [bytes]: 1 GiB of STL is 20 million triangles, beyond what
 #: the triangle grid and the interference check can hold in the memory budget.
 MAX_MESH_FILE_BYTES = 1 << 30
+#: Largest cutting coefficient in magnitude [N/mm^2 for chip, N/mm for edge, N/mm^2
+#: per m for wear growth]: hardened steels and titanium have chip coefficients of
+#: 2,000-6,000 N/mm^2; 1e5 is beyond any metal, and near 1e300 the forces overflow.
+MAX_CUTTING_COEFFICIENT = 1.0e5
+#: Highest natural frequency of a tool or workpiece mode [Hz]: tool-tip modes are
+#: 0.5-10 kHz; a mode far above the tooth frequencies only adds static compliance.
+MAX_MODE_FREQUENCY_HZ = 1.0e5
+#: Largest modal damping ratio [-]: structural modes are under-damped (0.5-10 %); a
+#: ratio above 1 has no resonance left.
+MAX_DAMPING_RATIO = 1.0
+#: Stiffest mode [N/m]: a tool tip is 1e6-1e8 N/m; 1e12 is rigid for any cut.
+MAX_STIFFNESS_N_M = 1.0e12
+#: Largest modal mass [kg] and damping [N s/m] (a machine column: hundreds of kg).
+MAX_MODE_MASS_KG = 1.0e4
+MAX_MODE_DAMPING_NS_M = 1.0e7
+#: Largest static compliance [m/N] (1e-3 m/N: a millimetre per newton, rubber).
+MAX_STATIC_COMPLIANCE_M_N = 1.0e-3
+#: Fastest wear, radius lost per metre of actual cutting distance [um/m]: 1 mm/m
+#: wears a tool out within a metre (representative rates are 0.01-1 um/m).
+MAX_WEAR_RATE_UM_PER_M = 1.0e3
+#: Longest cutting distance a used tool may have behind it [m] (100 km).
+MAX_CUTTING_DISTANCE_M = 1.0e5
+#: Coarsest chord tolerance for arcs [mm]: a chord cuts up to this deeper than its arc,
+#: which shifts the predicted surface by as much; 10 um drowns the errors predicted.
+MAX_CHORD_TOL_MM = 1.0e-2
+#: The bottom view spans at least this many pixels across the tool [-]: fewer cannot
+#: place the micro edges' samples (the default is 64).
+MIN_PIXELS_PER_DIAMETER = 8.0
+#: Largest shape-error deviation of the effective radius [um] (1 mm: a broken tool).
+MAX_RADIUS_DEVIATION_UM = 1.0e3

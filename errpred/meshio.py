@@ -77,7 +77,8 @@ def load_mesh(path: str | os.PathLike, *, what: str = "mesh", closed: bool = Fal
                                f"{K.MAX_MESH_FILE_BYTES / 2**20:.0f} MiB "
                                f"(errpred.constants.MAX_MESH_FILE_BYTES)")
     try:
-        mesh = trimesh.load(p, force="mesh")
+        # unprocessed first: processing drops triangles with NaN corners without a word
+        mesh = trimesh.load(p, force="mesh", process=False)
     except ImportError:  # a missing dependency is not the file's fault
         raise
     except Exception as exc:  # trimesh raises many kinds for a corrupt file
@@ -87,6 +88,7 @@ def load_mesh(path: str | os.PathLike, *, what: str = "mesh", closed: bool = Fal
         raise MeshFileError(p, f"no triangles read; expected a {what} (STL)")
     if not np.isfinite(mesh.vertices).all():
         raise MeshFileError(p, f"the {what} has coordinates that are not finite numbers")
+    mesh.process()  # merge the corners an STL repeats per triangle (trimesh's default)
     if closed:
         check_closed(mesh, p, what)
     return mesh

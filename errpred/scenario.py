@@ -60,7 +60,7 @@ def bundled_scenario(name: str) -> Path:
     try:
         return BUNDLED[name]
     except KeyError:
-        raise ValueError(f"no bundled scenario {name!r}; expected one of "
+        raise InputError(f"no bundled scenario {name!r}; expected one of "
                          f"{', '.join(BUNDLED)}") from None
 
 
@@ -263,8 +263,8 @@ class TableReader:
 
     def number(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
                sign: str = "", maximum: float = math.inf, limit: str = "") -> float:
-        """A finite number (``sign``: ``">0"`` or ``">=0"``) at most ``maximum`` (the
-        constant ``limit`` names it in the message)."""
+        """A finite number (``sign``: ``">0"`` or ``">=0"``) at most ``maximum`` in
+        magnitude (the constant ``limit`` names it in the message)."""
         key = _dot(prefix, k)
         if not self.given(d, k, key, default):
             return default
@@ -276,8 +276,9 @@ class TableReader:
             raise self.fail(key, f"expected a finite number, got {v}")
         if (sign == ">0" and v <= 0) or (sign == ">=0" and v < 0):
             raise self.fail(key, f"expected a value {sign[:-1]} 0, got {v:g}")
-        if v > maximum:
-            raise self.fail(key, f"expected at most {maximum:g}{_named(limit)}, got {v:g}")
+        if abs(v) > maximum:
+            bound = f"at most {maximum:g}" if sign else f"-{maximum:g} to {maximum:g}"
+            raise self.fail(key, f"expected {bound}{_named(limit)}, got {v:g}")
         return v
 
     def integer(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
@@ -309,22 +310,27 @@ class TableReader:
         return v
 
     def numbers(self, d: dict, k: str, prefix: str, *, length: int | None = None,
-                sign: str = "") -> list[float]:
+                sign: str = "", maximum: float = math.inf, limit: str = "") -> list[float]:
         key = _dot(prefix, k)
         v = d[k]
         if not isinstance(v, list) or not v:
             raise self.fail(key, f"expected a non-empty array of numbers, got {_kind(v)}")
         if length is not None and len(v) != length:
             raise self.fail(key, f"expected {length} numbers, got {len(v)}")
-        return [self.number({f"{k}[{i}]": x}, f"{k}[{i}]", prefix, sign=sign)
-                for i, x in enumerate(v)]
+        return [self.number({f"{k}[{i}]": x}, f"{k}[{i}]", prefix, sign=sign,
+                            maximum=maximum, limit=limit) for i, x in enumerate(v)]
 
     def read_program(self, gcode: Path, allow: tuple[str, ...]):
-        """The program (``nc.read_program``; its errors name file, line and column),
-        refused under ``program.gcode`` when it has no motion block."""
+        """The program (``nc.read_program``), refused under ``program.gcode`` (with the
+        program's file, line and column) when it cannot be read or has no motion block."""
         from nc import read_program
+        from nc.errors import NCParseError
 
-        program = read_program(gcode, allow=allow)
+        try:
+            program = read_program(gcode, allow=allow)
+        except NCParseError as exc:  # one line: where, and what was expected
+            where = ":".join(str(x) for x in (exc.file, exc.line, exc.column) if x is not None)
+            raise self.fail("program.gcode", f"{where}: {exc.message}") from None
         if len(program) == 0:
             raise self.fail("program.gcode", f"{gcode}: no motion block (G0-G3); expected a "
                                              f"program that moves the tool")
@@ -474,7 +480,8 @@ def _tool_start(r: TableReader, d: dict, tool: Tool, res: Resolution) -> tuple[A
         raise r.fail("tool.used_cutting_distance_m", "give state or used_cutting_distance_m, "
                                                      "not both")
     if "used_cutting_distance_m" in d:
-        v = r.number(d, "used_cutting_distance_m", "tool", sign=">=0")
+        v = r.number(d, "used_cutting_distance_m", "tool", sign=">=0",
+                     **_limit("MAX_CUTTING_DISTANCE_M"))
         return v * 1e3, f"used tool: every micro edge has cut {v:g} m"
     if "state" in d:
         path = r.path(d, "state", "tool")
@@ -529,9 +536,10 @@ def _cutting(r: TableReader, d: dict):
 
     p = "cutting"
     r.keys(d, p, CHIP_AND_EDGE_NAMES, WEAR_NAMES + ("source",))
-    vals = {k: r.number(d, k, p, sign=">0" if k == "Ktc_N_mm2" else "")
-            for k in CHIP_AND_EDGE_NAMES}
-    vals.update({k: r.number(d, k, p, default=0.0) for k in WEAR_NAMES})
+    vals = {k: r.number(d, k, p, sign=">0" if k == "Ktc_N_mm2" else "",
+                        **_limit("MAX_CUTTING_COEFFICIENT")) for k in CHIP_AND_EDGE_NAMES}
+    vals.update({k: r.number(d, k, p, default=0.0, **_limit("MAX_CUTTING_COEFFICIENT"))
+                 for k in WEAR_NAMES})
     src = r.string(d, "source", p, default="")
     return CuttingCoefficients(**vals, source=src), src
 
@@ -552,7 +560,8 @@ def _dynamics(r: TableReader, d: dict):
     if "static_compliance_m_N" in d:
         t = r.table(d["static_compliance_m_N"], "dynamics.static_compliance_m_N")
         r.keys(t, "dynamics.static_compliance_m_N", (), _DIRECTIONS)
-        static = {k: r.number(t, k, "dynamics.static_compliance_m_N", sign=">0") for k in t}
+        static = {k: r.number(t, k, "dynamics.static_compliance_m_N", sign=">0",
+                              **_limit("MAX_STATIC_COMPLIANCE_M_N")) for k in t}
     if not given and not (model == "static" and static):
         raise r.fail("dynamics.modes", "missing; expected [[dynamics.modes]], frf_uff or "
                                        "frf_csv (or model = \"static\" with "
@@ -606,13 +615,21 @@ def _modes(r: TableReader, v: Any, Mode) -> dict:
         else:
             r.keys(m, p, ("direction", "mass_kg", "damping_Ns_m", "stiffness_N_m"))
         dr = r.string(m, "direction", p, choices=_DIRECTIONS)
-        k = r.number(m, "stiffness_N_m", p, sign=">0")
+        k = r.number(m, "stiffness_N_m", p, sign=">0", **_limit("MAX_STIFFNESS_N_M"))
         if by_freq:
-            mode = Mode.from_frequency(r.number(m, "frequency_hz", p, sign=">0"),
-                                       r.number(m, "damping_ratio", p, sign=">=0"), k)
+            mode = Mode.from_frequency(
+                r.number(m, "frequency_hz", p, sign=">0", **_limit("MAX_MODE_FREQUENCY_HZ")),
+                r.number(m, "damping_ratio", p, sign=">=0", **_limit("MAX_DAMPING_RATIO")), k)
         else:
-            mode = Mode(k, r.number(m, "mass_kg", p, sign=">0"),
-                        r.number(m, "damping_Ns_m", p, sign=">=0"))
+            mode = Mode(k, r.number(m, "mass_kg", p, sign=">0", **_limit("MAX_MODE_MASS_KG")),
+                        r.number(m, "damping_Ns_m", p, sign=">=0",
+                                 **_limit("MAX_MODE_DAMPING_NS_M")))
+            f = math.sqrt(mode.k_N_m / mode.m_kg) / (2 * math.pi)
+            if f > K.MAX_MODE_FREQUENCY_HZ:
+                raise r.fail(f"{p}.mass_kg", f"stiffness_N_m and mass_kg give a natural "
+                                             f"frequency of {f:.3g} Hz, above "
+                                             f"{K.MAX_MODE_FREQUENCY_HZ:g} "
+                                             f"(errpred.constants.MAX_MODE_FREQUENCY_HZ)")
         out.setdefault(dr, []).append(mode)
     _need_xy(r, tuple(out), "dynamics.modes")
     return out
@@ -622,7 +639,8 @@ def _shape_error(r: TableReader, d: dict) -> ShapeError:
     p = "shape_error"
     r.keys(d, p, (), ("kappa_deg", "z_mm", "radius_deviation_um", "wear_rate_um_per_m",
                       "source"))
-    wear = r.number(d, "wear_rate_um_per_m", p, default=0.0, sign=">=0") * 1e-6
+    wear = r.number(d, "wear_rate_um_per_m", p, default=0.0, sign=">=0",
+                    **_limit("MAX_WEAR_RATE_UM_PER_M")) * 1e-6
     src = r.string(d, "source", p, default="")
     axes = [k for k in ("kappa_deg", "z_mm") if k in d]
     if len(axes) > 1:
@@ -635,7 +653,8 @@ def _shape_error(r: TableReader, d: dict) -> ShapeError:
     if "radius_deviation_um" not in d:
         raise r.fail("shape_error.radius_deviation_um", "missing")
     x = r.numbers(d, axes[0], p, sign=">=0")
-    dev = r.numbers(d, "radius_deviation_um", p, length=len(x))
+    dev = r.numbers(d, "radius_deviation_um", p, length=len(x),
+                    **_limit("MAX_RADIUS_DEVIATION_UM"))
     if any(b <= a for a, b in zip(x, x[1:])):
         raise r.fail(f"shape_error.{axes[0]}", "expected strictly increasing values")
     if axes[0] == "kappa_deg":
@@ -653,12 +672,15 @@ def _resolution(r: TableReader, d: dict, tool: Tool) -> Resolution:
     r.keys(d, p, (), ("pixel_mm", "micro_edges", "angle_step_deg", "chord_tol_mm",
                       "point_spacing_mm"))
     res = Resolution(
-        r.number(d, "pixel_mm", p, default=tool.diameter_mm * K.PIXEL_PER_DIAMETER, sign=">0"),
+        r.number(d, "pixel_mm", p, default=tool.diameter_mm * K.PIXEL_PER_DIAMETER, sign=">0",
+                 maximum=tool.diameter_mm / K.MIN_PIXELS_PER_DIAMETER,
+                 limit="tool.diameter_mm / errpred.constants.MIN_PIXELS_PER_DIAMETER"),
         r.integer(d, "micro_edges", p, default=K.MICRO_EDGES_ENVELOPE, minimum=2,
                   **_limit("MAX_MICRO_EDGES")),
         math.radians(r.number(d, "angle_step_deg", p, default=math.degrees(K.ANGLE_STEP_RAD),
                               sign=">0", **_limit("MAX_ANGLE_STEP_DEG"))),
-        r.number(d, "chord_tol_mm", p, default=K.CHORD_TOL_MM, sign=">0"),
+        r.number(d, "chord_tol_mm", p, default=K.CHORD_TOL_MM, sign=">0",
+                 **_limit("MAX_CHORD_TOL_MM")),
         r.number(d, "point_spacing_mm", p, default=K.POINT_SPACING_MM, sign=">0")
         if "point_spacing_mm" in d else K.POINT_SPACING_MM)
     for k, least in (("chord_tol_mm", K.MIN_CHORD_TOL_MM),

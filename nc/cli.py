@@ -15,6 +15,7 @@ import tomllib
 
 from .command import run_command
 from .constants import SINGULAR_CONE_RAD
+from .errors import InputError
 from .gcode import ALLOWABLE_EXAMPLES, read_program
 from .linuxcnc import Rs274Error
 from .summary import blocks_as_json, summarize
@@ -33,14 +34,23 @@ def _offsets(path: str | None) -> dict | None:
     with open(path, "rb") as fh:
         try:
             data = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
-            raise ValueError(f"{path}: not valid TOML: {exc}") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise InputError(f"{path}: not valid TOML: {exc}") from None
     out = {}
     for key, table in data.items():
         if not isinstance(table, dict) or "xyz_mm" not in table:
-            raise ValueError(f"{path}: [{key}] needs xyz_mm = [x, y, z] (and optionally "
+            raise InputError(f"{path}: [{key}] needs xyz_mm = [x, y, z] (and optionally "
                              "abc_deg = [a, b, c])")
-        out[key] = list(table["xyz_mm"]) + list(table.get("abc_deg", []))
+        values = []
+        for name, n in (("xyz_mm", 3), ("abc_deg", 3)):
+            v = table.get(name, [])
+            if not (isinstance(v, list) and len(v) in ((n,) if name == "xyz_mm" else (0, n))
+                    and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                            and math.isfinite(x) for x in v)):
+                raise InputError(f"{path}: {key}.{name}: expected {n} finite numbers, got "
+                                 f"{v!r}")
+            values += v
+        out[key] = values
     return out
 
 
@@ -99,14 +109,20 @@ def _cmd_post(args) -> int:
     cl = read_cl_csv(args.cl, spindle_rpm=args.spindle or 0.0)
     machine = _machine(args.machine)
     if args.tool_length is not None:
+        if not (math.isfinite(args.tool_length) and args.tool_length >= 0):
+            raise InputError(f"--tool-length: expected a finite value >= 0, got "
+                             f"{args.tool_length}")
         machine = machine.with_tool_length(args.tool_length)
-    opts = PostOptions(
-        dialect=args.dialect, tool=args.tool, spindle_rpm=args.spindle,
-        linear_decimals=args.decimals, line_numbers=args.line_numbers,
-        header=not args.no_header, end_code=None if args.end == "none" else args.end,
-        source=os.path.basename(args.cl),
-        singular_cone_rad=math.radians(args.singular_cone_deg),
-    )
+    try:  # the options' own checks name the option (tool, spindle_rpm, ...)
+        opts = PostOptions(
+            dialect=args.dialect, tool=args.tool, spindle_rpm=args.spindle,
+            linear_decimals=args.decimals, line_numbers=args.line_numbers,
+            header=not args.no_header, end_code=None if args.end == "none" else args.end,
+            source=os.path.basename(args.cl),
+            singular_cone_rad=math.radians(args.singular_cone_deg),
+        )
+    except ValueError as exc:
+        raise InputError(f"post options: {exc}") from None
     res = write_program(args.output, cl, machine, opts)
     print(f"wrote {args.output}: {len(cl)} cutter locations -> {len(res.tip)} points "
           f"({len(res.tip) - len(cl)} inserted by linearization), "

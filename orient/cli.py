@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from errpred.cluster import dask_client
+from nc.errors import InputError
 
 from .constants import INFEASIBLE_LISTED
 
@@ -159,10 +160,10 @@ def _job(args) -> int:
                            ("--spindle-rpm", args.spindle_rpm), ("--report", args.report),
                            ("--plots", args.plots)) if v is not None]
     if only:
-        raise ValueError(f"{', '.join(only)}: options of the plan-only run; give -o OUT.nc "
+        raise InputError(f"{', '.join(only)}: options of the plan-only run; give -o OUT.nc "
                          f"(the job takes the scenario's machine, dialect and speed)")
     if args.scheduler and args.dask is not None:
-        raise ValueError("--scheduler and --dask: give one")
+        raise InputError("--scheduler and --dask: give one")
     from sim.job_cli import run
 
     return run(args)
@@ -178,7 +179,7 @@ def _cmd_lobes(args) -> int:
     if args.rpm:
         lo, hi = args.rpm
         if not (0 < lo < hi and math.isfinite(hi)):
-            raise ValueError(f"--rpm: expected 0 < LOW < HIGH, got {lo:g} {hi:g}")
+            raise InputError(f"--rpm: expected 0 < LOW < HIGH, got {lo:g} {hi:g}")
         rpm = np.linspace(lo, hi, args.speeds)
     methods = ("zoa", "sdm") if args.method == "both" else (args.method,)
     t0 = time.perf_counter()

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from errpred import constants as EK
 from errpred.scenario import Scenario, ScenarioError, TableReader, load_scenario
 
 from nc.errors import InputError
@@ -264,11 +265,15 @@ def _options(r: TableReader, d: dict, radius_mm: float) -> OrientOptions:
         grid=grid,
         min_inclination_rad=math.radians(lo_i), max_inclination_rad=math.radians(hi_i),
         max_rate_rad_per_mm=math.radians(r.number(d, "max_rate_deg_per_mm", p,
-                                                  default=K.MAX_RATE_DEG_PER_MM, sign=">0")),
-        margin_target=r.number(d, "margin_target", p, default=K.MARGIN_TARGET, sign=">0"),
+                                                  default=K.MAX_RATE_DEG_PER_MM, sign=">0",
+                                                  **_limit("MAX_RATE_LIMIT_DEG_PER_MM"))),
+        margin_target=r.number(d, "margin_target", p, default=K.MARGIN_TARGET, sign=">0",
+                               **_limit("MAX_MARGIN_TARGET")),
         verify_sdm=verify, allow_fallback=fallback,
-        clearance_mm=r.number(d, "clearance_mm", p, default=K.CLEARANCE_MM, sign=">=0"),
-        gouge_tol_mm=r.number(d, "gouge_tol_mm", p, default=K.GOUGE_TOL_MM, sign=">=0"),
+        clearance_mm=r.number(d, "clearance_mm", p, default=K.CLEARANCE_MM, sign=">=0",
+                              **_limit("MAX_CLEARANCE_MM")),
+        gouge_tol_mm=r.number(d, "gouge_tol_mm", p, default=K.GOUGE_TOL_MM, sign=">=0",
+                              **_limit("MAX_GOUGE_TOL_MM")),
         safety_factor=safety,
         dialect=r.string(d, "dialect", p, default="linuxcnc", choices=DIALECTS),
         cut=_cut(r, r.table(d["cut"], "orient.cut"), radius_mm) if "cut" in d else None,
@@ -302,9 +307,12 @@ def _workpiece(r: TableReader, d: dict) -> WorkpieceSpec:
             q = f"workpiece.modes[{i}]"
             m = r.table(m, q)
             r.keys(m, q, ("direction", "frequency_hz", "damping_ratio", "stiffness_N_m"))
-            mode = Mode.from_frequency(r.number(m, "frequency_hz", q, sign=">0"),
-                                       r.number(m, "damping_ratio", q, sign=">=0"),
-                                       r.number(m, "stiffness_N_m", q, sign=">0"))
+            mode = Mode.from_frequency(*(r.number(m, k, q, sign=s, maximum=getattr(EK, lim),
+                                                  limit=f"errpred.constants.{lim}")
+                                         for k, s, lim in (
+                                             ("frequency_hz", ">0", "MAX_MODE_FREQUENCY_HZ"),
+                                             ("damping_ratio", ">=0", "MAX_DAMPING_RATIO"),
+                                             ("stiffness_N_m", ">0", "MAX_STIFFNESS_N_M"))))
             modes.append((mode, _vector(r, m, "direction", q, unit=True)))
         return WorkpieceSpec("modes", tuple(modes), source=src)
     q = "workpiece.thin_wall"
@@ -320,10 +328,13 @@ def _workpiece(r: TableReader, d: dict) -> WorkpieceSpec:
     }
     if abs(float(wall["along"] @ wall["normal"])) > 1e-6:
         raise r.fail(f"{q}.normal", "expected a direction perpendicular to 'along'")
-    for k in ("length_mm", "height_mm", "thickness_mm", "young_GPa", "density_kg_m3"):
-        wall[k] = r.number(t, k, q, sign=">0")
+    for k, lim in (("length_mm", "MAX_WALL_MM"), ("height_mm", "MAX_WALL_MM"),
+                   ("thickness_mm", "MAX_WALL_MM"), ("young_GPa", "MAX_YOUNG_GPA"),
+                   ("density_kg_m3", "MAX_DENSITY_KG_M3")):
+        wall[k] = r.number(t, k, q, sign=">0", **_limit(lim))
     wall["stock_thickness_mm"] = r.number(t, "stock_thickness_mm", q,
-                                          default=wall["thickness_mm"], sign=">0")
+                                          default=wall["thickness_mm"], sign=">0",
+                                          **_limit("MAX_WALL_MM"))
     if wall["stock_thickness_mm"] < wall["thickness_mm"]:
         raise r.fail(f"{q}.stock_thickness_mm", f"expected >= thickness_mm "
                                                 f"({wall['thickness_mm']:g} mm), got "
@@ -332,7 +343,8 @@ def _workpiece(r: TableReader, d: dict) -> WorkpieceSpec:
     if not wall["poisson"] < 0.5:
         raise r.fail(f"{q}.poisson", f"expected 0 <= poisson < 0.5, got {wall['poisson']:g}")
     wall["damping_ratio"] = r.number(t, "damping_ratio", q, default=K.WALL_DAMPING_RATIO,
-                                     sign=">=0")
+                                     sign=">=0", maximum=EK.MAX_DAMPING_RATIO,
+                                     limit="errpred.constants.MAX_DAMPING_RATIO")
     wall["modes"] = r.integer(t, "modes", q, default=K.WALL_MODES, minimum=1,
                               **_limit("MAX_WALL_MODES"))
     wall["element_mm"] = r.number(t, "element_mm", q, default=0.0, sign=">=0") or None
