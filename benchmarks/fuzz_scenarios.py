@@ -190,6 +190,7 @@ def _specific() -> list[Case]:
     c = [
         Case("flutes-1e30", E, "tool.flutes", _set("tool.flutes", 1e30)),
         Case("flutes-1e9", E, "tool.flutes", _set("tool.flutes", 10**9)),
+        Case("flutes-int64-max", E, "tool.flutes", _set("tool.flutes", 2**63 - 1)),
         Case("flutes-0", E, "tool.flutes", _set("tool.flutes", 0)),
         Case("diameter-1e300", E, "tool.diameter_mm", _set("tool.diameter_mm", 1e300)),
         Case("pixel-1e-7", E, "resolution.pixel_mm", _set("resolution.pixel_mm", 1e-7)),
