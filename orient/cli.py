@@ -58,6 +58,16 @@ def _cmd_plan(args) -> int:
 
     if args.output is None:
         return _job(args)
+    from nc.writer import DIALECTS
+
+    from .constants import MAX_SPINDLE_RPM
+
+    # the options, before the scenario and the planning
+    if args.dialect is not None and args.dialect not in DIALECTS:
+        raise InputError(f"--dialect: {args.dialect!r}; expected one of {', '.join(DIALECTS)}")
+    if args.spindle_rpm is not None and not (0 < args.spindle_rpm <= MAX_SPINDLE_RPM):
+        raise InputError(f"--spindle-rpm: expected 0 < RPM <= {MAX_SPINDLE_RPM:g}, got "
+                         f"{args.spindle_rpm:g}")
     scn = _scenario(args.scenario)
     out = os.path.abspath(args.output)
     for p in [out] + ([os.path.abspath(args.report)] if args.report else []):
