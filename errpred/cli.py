@@ -11,6 +11,7 @@ import time
 
 from nc.atomic import atomic_write
 from nc.command import run_command
+from nc.errors import InputError
 
 __all__ = ["main"]
 
@@ -130,8 +131,6 @@ def _dask_client(args):
 
 def _with_lines(scenario, lines):
     import dataclasses
-
-    from nc.errors import InputError
 
     from .scenario import check_program_lines
 

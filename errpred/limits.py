@@ -14,10 +14,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from . import constants as K
 
-__all__ = ["ResolutionCost", "resolution_cost", "revolution_steps"]
+if TYPE_CHECKING:
+    from .geometry import Resolution
+    from .tables import TableReader
+    from .tool import Tool
+
+__all__ = ["ResolutionCost", "check_resolution_budget", "resolution_cost", "revolution_steps"]
 
 
 def revolution_steps(angle_step_rad: float, flutes: int) -> int:
@@ -85,3 +91,36 @@ def resolution_cost(diameter_mm: float, corner_radius_mm: float, flute_length_mm
     samples = edges * revolution_steps(angle_step_rad, flutes)
     total = (bottom + side) * K.BYTES_PER_PIXEL + samples * K.BYTES_PER_SAMPLE
     return ResolutionCost(float(bottom), float(side), float(samples), float(total))
+
+
+def check_resolution_budget(r: TableReader, d: dict, tool: Tool, res: Resolution) -> None:
+    """Refuse (``r.fail``: the scenario file and the key to change) a resolution whose
+    arrays would not fit :data:`errpred.constants.MEMORY_BUDGET_BYTES`; ``d`` is the
+    ``[resolution]`` table as given (which keys the file sets)."""
+    def cost(pixel_mm: float):
+        return resolution_cost(tool.diameter_mm, tool.corner_radius_mm, tool.flute_length_mm,
+                               tool.flutes, pixel_mm, res.micro_edges, res.angle_step_rad)
+
+    c, budget = cost(res.pixel_mm), K.MEMORY_BUDGET_BYTES
+    if c.bytes <= budget:
+        return
+    over = (f"about {c.bytes / 2**30:.3g} GiB a prediction point, over the budget of "
+            f"{budget / 2**30:g} GiB (errpred.constants.MEMORY_BUDGET_BYTES)")
+    if c.sample_bytes < budget / 2:
+        # the views dominate: the coarsest pixel that fits (their size goes as 1/pixel^2)
+        p = res.pixel_mm * math.sqrt(c.pixel_bytes / (budget - c.sample_bytes))
+        while cost(p).bytes > budget:
+            p *= 1.01
+        step = 10.0 ** (math.floor(math.log10(p)) - 2)  # 3 digits, rounded up: it fits
+        p = math.ceil(p / step) * step
+        raise r.fail("resolution.pixel_mm", f"{res.pixel_mm:g} mm makes views of "
+                                            f"{c.bottom_pixels:.3g} + {c.side_pixels:.3g} "
+                                            f"pixels (tool {tool.diameter_mm:g} mm, flutes "
+                                            f"{tool.flute_length_mm:g} mm long), {over}; "
+                                            f"expected pixel_mm >= {p:.3g}")
+    key = "angle_step_deg" if "angle_step_deg" in d or "micro_edges" not in d else "micro_edges"
+    raise r.fail(f"resolution.{key}", f"micro_edges {res.micro_edges} and angle_step_deg "
+                                      f"{math.degrees(res.angle_step_rad):g} make "
+                                      f"{c.samples:.3g} micro-edge samples a revolution, "
+                                      f"{over}; expected a coarser angle_step_deg or fewer "
+                                      f"micro_edges")

@@ -27,7 +27,6 @@ are made by ``scripts/make_errpred_scenarios.py``.
 
 from __future__ import annotations
 
-import difflib
 import math
 import os
 import tomllib
@@ -41,6 +40,7 @@ from nc.errors import InputError
 
 from . import constants as K
 from .geometry import Resolution
+from .tables import ScenarioError, TableReader, _kind, _limit, check_program_lines
 from .tool import TOOL_KINDS, Holder, Tool
 
 __all__ = ["ScenarioError", "StockSpec", "ShapeError", "Resolution", "CorrectionOptions",
@@ -51,7 +51,6 @@ _HERE = Path(__file__).resolve().parent / "scenarios"
 #: Bundled scenarios: name -> path of their ``scenario.toml``.
 BUNDLED: dict[str, Path] = {n: _HERE / n / "scenario.toml" for n in ("mold-ball", "wall-radius")}
 
-_MISSING = object()
 _DIRECTIONS = ("x", "y", "z")
 
 
@@ -62,22 +61,6 @@ def bundled_scenario(name: str) -> Path:
     except KeyError:
         raise InputError(f"no bundled scenario {name!r}; expected one of "
                          f"{', '.join(BUNDLED)}") from None
-
-
-class ScenarioError(InputError):
-    """A scenario file that cannot be used: names the file and the dotted key.
-
-    Attributes
-    ----------
-    file : str
-        The scenario file as given.
-    key : str or None
-        Dotted key (``tool.diameter_mm``), None for the file as a whole.
-    """
-
-    def __init__(self, file: str, key: str | None, message: str) -> None:
-        self.file, self.key = file, key
-        super().__init__(f"{file}: {key}: {message}" if key else f"{file}: {message}")
 
 
 # --------------------------------------------------------------------------- results
@@ -221,174 +204,6 @@ class Scenario:
         from nc import read_program
 
         return read_program(self.program_path, allow=self.allow)
-
-
-# --------------------------------------------------------------------------- reading
-class TableReader:
-    """Typed access to one TOML file's tables; every error names file and key.
-
-    Public so that packages whose scenarios extend this format (``orient``)
-    read their own sections with the same checks and messages.
-    """
-
-    def __init__(self, path: str | os.PathLike) -> None:
-        self.file = os.fspath(path)
-        self.base = Path(self.file).resolve().parent
-
-    def fail(self, key: str | None, message: str) -> ScenarioError:
-        return ScenarioError(self.file, key, message)
-
-    def table(self, value: Any, key: str) -> dict:
-        if not isinstance(value, dict):
-            raise self.fail(key, f"expected a table ([{key}]), got {_kind(value)}")
-        return value
-
-    def keys(self, d: dict, prefix: str, required: tuple, optional: tuple = ()) -> None:
-        allowed = required + optional
-        for k in d:
-            if k not in allowed:
-                hint = _suggest(k, allowed)
-                raise self.fail(_dot(prefix, k), "unknown key" + (
-                    f"; did you mean {_dot(prefix, hint)!r}?" if hint else "")
-                    + f" (expected {', '.join(allowed)})")
-        for k in required:
-            if k not in d:
-                raise self.fail(_dot(prefix, k), "missing")
-
-    def given(self, d: dict, k: str, key: str, default: Any) -> bool:
-        """True if ``k`` is in ``d``; False if absent with a default; else 'missing'."""
-        if k not in d and default is _MISSING:
-            raise self.fail(key, "missing")
-        return k in d
-
-    def number(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
-               sign: str = "", maximum: float = math.inf, limit: str = "") -> float:
-        """A finite number (``sign``: ``">0"`` or ``">=0"``) at most ``maximum`` in
-        magnitude (the constant ``limit`` names it in the message)."""
-        key = _dot(prefix, k)
-        if not self.given(d, k, key, default):
-            return default
-        v = d[k]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.fail(key, f"expected a number, got {_kind(v)}")
-        v = float(v)
-        if not math.isfinite(v):
-            raise self.fail(key, f"expected a finite number, got {v}")
-        if (sign == ">0" and v <= 0) or (sign == ">=0" and v < 0):
-            raise self.fail(key, f"expected a value {sign[:-1]} 0, got {v:g}")
-        if abs(v) > maximum:
-            bound = f"at most {maximum:g}" if sign else f"-{maximum:g} to {maximum:g}"
-            raise self.fail(key, f"expected {bound}{_named(limit)}, got {v:g}")
-        return v
-
-    def integer(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
-                minimum: int = 1, maximum: float = math.inf, limit: str = "") -> int:
-        """A whole number from ``minimum`` to ``maximum`` (named by ``limit``)."""
-        key = _dot(prefix, k)
-        if not self.given(d, k, key, default):
-            return default
-        v = d[k]
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise self.fail(key, f"expected a whole number, got {_kind(v)}")
-        if v < minimum:
-            raise self.fail(key, f"expected a whole number >= {minimum}, got {v}")
-        if v > maximum:
-            raise self.fail(key, f"expected at most {maximum:g}{_named(limit)}, got {v}")
-        return v
-
-    def string(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
-               choices: tuple = ()) -> str:
-        key = _dot(prefix, k)
-        if not self.given(d, k, key, default):
-            return default
-        v = d[k]
-        if not isinstance(v, str):
-            raise self.fail(key, f"expected a string, got {_kind(v)}")
-        if choices and v not in choices:
-            raise self.fail(key, f"unknown value {v!r}; expected one of "
-                                 f"{', '.join(map(repr, choices))}")
-        return v
-
-    def numbers(self, d: dict, k: str, prefix: str, *, length: int | None = None,
-                sign: str = "", maximum: float = math.inf, limit: str = "") -> list[float]:
-        key = _dot(prefix, k)
-        v = d[k]
-        if not isinstance(v, list) or not v:
-            raise self.fail(key, f"expected a non-empty array of numbers, got {_kind(v)}")
-        if length is not None and len(v) != length:
-            raise self.fail(key, f"expected {length} numbers, got {len(v)}")
-        return [self.number({f"{k}[{i}]": x}, f"{k}[{i}]", prefix, sign=sign,
-                            maximum=maximum, limit=limit) for i, x in enumerate(v)]
-
-    def read_program(self, gcode: Path, allow: tuple[str, ...]):
-        """The program (``nc.read_program``), refused under ``program.gcode`` (with the
-        program's file, line and column) when it cannot be read or has no motion block."""
-        from nc import read_program
-        from nc.errors import NCParseError
-
-        try:
-            program = read_program(gcode, allow=allow)
-        except NCParseError as exc:  # one line: where, and what was expected
-            where = ":".join(str(x) for x in (exc.file, exc.line, exc.column) if x is not None)
-            raise self.fail("program.gcode", f"{where}: {exc.message}") from None
-        if len(program) == 0:
-            raise self.fail("program.gcode", f"{gcode}: no motion block (G0-G3); expected a "
-                                             f"program that moves the tool")
-        return program
-
-    def path(self, d: dict, k: str, prefix: str) -> Path:
-        key = _dot(prefix, k)
-        v = self.string(d, k, prefix)
-        p = (self.base / v).resolve()
-        if not p.is_file():
-            raise self.fail(key, f"file not found: {p}")
-        return p
-
-
-def _limit(name: str) -> dict:
-    """``maximum`` and ``limit`` for :meth:`TableReader.number`: the constant ``name`` of
-    :mod:`errpred.constants`."""
-    return {"maximum": getattr(K, name), "limit": f"errpred.constants.{name}"}
-
-
-def _named(limit: str) -> str:
-    """`` (NAME)`` for a limit's constant in a message, or nothing."""
-    return f" ({limit})" if limit else ""
-
-
-def _dot(prefix: str, k: str) -> str:
-    return f"{prefix}.{k}" if prefix else k
-
-
-def _kind(v: Any) -> str:
-    if isinstance(v, dict):
-        return "a table"
-    names = {bool: "a boolean", str: "a string", list: "an array", int: "an integer",
-             float: "a number"}
-    return f"{names.get(type(v), type(v).__name__)} ({v!r})"
-
-
-def _suggest(k: str, allowed: tuple) -> str | None:
-    stem = k.split("_")[0]
-    same_stem = [a for a in allowed if a.split("_")[0] == stem]
-    if len(same_stem) == 1:
-        return same_stem[0]
-    close = difflib.get_close_matches(k, allowed, n=1, cutoff=0.6)
-    return close[0] if close else None
-
-
-def check_program_lines(program, lines: tuple[int, int] | None, file: str,
-                        key: str = "program.lines") -> None:
-    """Refuse a line range (``[program] lines`` or ``--lines``) that selects no motion
-    block of ``program``; ``file`` and ``key`` name where the range was given."""
-    if lines is None:
-        return
-    lo, hi = lines
-    if np.any((program.line >= lo) & (program.line <= hi)):
-        return
-    raise ScenarioError(file, key, f"lines {lo}-{hi} hold no motion block of {program.file} "
-                                   f"({len(program.lines)} lines; motion blocks on lines "
-                                   f"{int(program.line.min())}-{int(program.line.max())})")
 
 
 # --------------------------------------------------------------------------- sections
@@ -668,6 +483,8 @@ def _shape_error(r: TableReader, d: dict) -> ShapeError:
 
 
 def _resolution(r: TableReader, d: dict, tool: Tool) -> Resolution:
+    from .limits import check_resolution_budget
+
     p = "resolution"
     r.keys(d, p, (), ("pixel_mm", "micro_edges", "angle_step_deg", "chord_tol_mm",
                       "point_spacing_mm"))
@@ -689,39 +506,8 @@ def _resolution(r: TableReader, d: dict, tool: Tool) -> Resolution:
             raise r.fail(f"resolution.{k}", f"expected at least {least:g} "
                                             f"(errpred.constants.MIN_{k.upper()}), got "
                                             f"{getattr(res, k):g}")
-    _within_budget(r, d, tool, res)
+    check_resolution_budget(r, d, tool, res)
     return res
-
-
-def _within_budget(r: TableReader, d: dict, tool: Tool, res: Resolution) -> None:
-    """Refuse a resolution whose arrays would not fit :data:`K.MEMORY_BUDGET_BYTES`."""
-    from .limits import resolution_cost
-
-    def cost(pixel_mm: float):
-        return resolution_cost(tool.diameter_mm, tool.corner_radius_mm, tool.flute_length_mm,
-                               tool.flutes, pixel_mm, res.micro_edges, res.angle_step_rad)
-
-    c, budget = cost(res.pixel_mm), K.MEMORY_BUDGET_BYTES
-    if c.bytes <= budget:
-        return
-    over = (f"about {c.bytes / 2**30:.3g} GiB a prediction point, over the budget of "
-            f"{budget / 2**30:g} GiB (errpred.constants.MEMORY_BUDGET_BYTES)")
-    if c.sample_bytes < budget / 2:
-        # the views dominate: the coarsest pixel that fits (their size goes as 1/pixel^2)
-        p = res.pixel_mm * math.sqrt(c.pixel_bytes / (budget - c.sample_bytes))
-        while cost(p).bytes > budget:
-            p *= 1.01
-        raise r.fail("resolution.pixel_mm", f"{res.pixel_mm:g} mm makes views of "
-                                            f"{c.bottom_pixels:.3g} + {c.side_pixels:.3g} "
-                                            f"pixels (tool {tool.diameter_mm:g} mm, flutes "
-                                            f"{tool.flute_length_mm:g} mm long), {over}; "
-                                            f"expected pixel_mm >= {p:.3g}")
-    key = "angle_step_deg" if "angle_step_deg" in d or "micro_edges" not in d else "micro_edges"
-    raise r.fail(f"resolution.{key}", f"micro_edges {res.micro_edges} and angle_step_deg "
-                                      f"{math.degrees(res.angle_step_rad):g} make "
-                                      f"{c.samples:.3g} micro-edge samples a revolution, "
-                                      f"{over}; expected a coarser angle_step_deg or fewer "
-                                      f"micro_edges")
 
 
 def _correction(r: TableReader, d: dict) -> CorrectionOptions:

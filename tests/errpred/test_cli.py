@@ -83,3 +83,6 @@ def test_bad_scenarios_end_in_one_message_and_no_output(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--lines" in err[0] and "no motion block" in err[0], err
     assert not rep.exists()
+    out = tmp_path / "never.nc"
+    assert main(["compensate", WALL, "-o", str(out), "--tolerance-um", "nan", "-q"]) == 2
+    assert "--tolerance-um" in capsys.readouterr().err and not out.exists()
