@@ -307,7 +307,7 @@ def _generic(rng: random.Random, per_key: int) -> list[Case]:
             values = [(n, v) for n, v in GENERIC
                       if not (key in SIGNED and n in ("negative", "zero"))
                       and not (key in ZERO_OK and n == "zero")]
-            picked = rng.sample(values, per_key)
+            picked = rng.sample(values, min(per_key, len(values)))
             for n, v in picked:
                 out.append(Case(f"{package}:{key}={n}", package, key, _set(key, v)))
             if not optional:
@@ -425,7 +425,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seed", type=int, default=19)
     ap.add_argument("--per-key", type=int, default=3,
-                    help="generic bad values tried per numeric key")
+                    help="generic bad values tried per numeric key (9: all)")
     ap.add_argument("--limit-s", type=float, default=10.0, help="time limit of a case [s]")
     ap.add_argument("--only", choices=("errpred", "orient"))
     ap.add_argument("-v", "--verbose", action="store_true", help="print every case's line")
