@@ -221,9 +221,11 @@ TOOL_STATE_MATCH_MM = 1.0e-6
 # Each bounds a value that would otherwise run for hours or exhaust memory before any
 # answer, or that no real end mill has: a scenario beyond one is refused at once.
 #: Memory one prediction process may plan for the arrays that a resolution implies
-#: (one point's bottom and side views and its micro-edge samples over a revolution)
-#: [bytes]: the machine has 24 GiB for two worker processes and the parent, shared.
-MEMORY_BUDGET_BYTES = 2 << 30
+#: (one point's bottom and side views and its micro-edge samples over a revolution,
+#: estimated at their worst: the side view over the whole flute length) [bytes]. The
+#: machine has 24 GiB for two worker processes and the parent; the convergence test's
+#: setting (every discretization 4x finer) estimates 2.9 GB on mold-ball and fits.
+MEMORY_BUDGET_BYTES = 4 << 30
 #: What one pixel of a view costs [bytes]: the bottom template's per-pixel arrays
 #: (measured: 89 bytes a pixel, mold-ball's tool at D/64 and D/256) plus a view's four
 #: float64 intervals and the rasterizer's depth buffers, rounded up.

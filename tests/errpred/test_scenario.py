@@ -383,10 +383,15 @@ def test_resolution_cost_counts_what_the_model_makes(name):
     bt = BottomTemplate(t, edges, theta, r.pixel_mm)
     assert c.bottom_pixels == bt.n ** 2
     assert c.samples == pytest.approx(len(edges.rho) * len(theta), rel=0.01)
-    # the bundled scenarios are well inside the budget
+    # the bundled scenarios are well inside the budget, and so is the convergence
+    # test's setting (every discretization 4x finer)
     from errpred import constants as EK
 
     assert c.bytes < EK.MEMORY_BUDGET_BYTES / 4
+    f = r.finer(4)
+    assert resolution_cost(t.diameter_mm, t.corner_radius_mm, t.flute_length_mm, t.flutes,
+                           f.pixel_mm, f.micro_edges, f.angle_step_rad
+                           ).bytes < EK.MEMORY_BUDGET_BYTES
 
 
 @pytest.mark.parametrize("program, expected", [
