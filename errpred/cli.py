@@ -11,6 +11,7 @@ import time
 
 from nc.atomic import atomic_write
 from nc.command import run_command
+from nc.errors import InputError
 
 __all__ = ["main"]
 
@@ -131,9 +132,13 @@ def _dask_client(args):
 def _with_lines(scenario, lines):
     import dataclasses
 
+    from .scenario import check_program_lines
+
     lo, hi = lines
     if not (0 < lo <= hi):
-        raise ValueError(f"--lines: expected 0 < FIRST <= LAST, got {lo} {hi}")
+        raise InputError(f"--lines: expected 0 < FIRST <= LAST, got {lo} {hi}")
+    check_program_lines(scenario.read_program(), (lo, hi), str(scenario.program_path),
+                        "--lines")
     return dataclasses.replace(scenario, lines=(lo, hi))
 
 
@@ -150,7 +155,7 @@ def _cmd_compensate(args) -> int:
         scenario = _with_lines(scenario, args.lines)
     if args.tolerance_um is not None:
         if not (args.tolerance_um >= 0 and args.tolerance_um < float("inf")):
-            raise ValueError(f"--tolerance-um: expected a finite value >= 0, got "
+            raise InputError(f"--tolerance-um: expected a finite value >= 0, got "
                              f"{args.tolerance_um}")
         scenario = dataclasses.replace(scenario, correction=dataclasses.replace(
             scenario.correction, verify_tolerance_um=args.tolerance_um))

@@ -6,6 +6,8 @@ import contextlib
 from collections.abc import Iterator
 from typing import Any
 
+from nc.errors import InputError
+
 __all__ = ["dask_client", "keep_freed_memory"]
 
 
@@ -33,7 +35,7 @@ def dask_client(scheduler: str | None = None, workers: int = 0) -> Iterator[Any]
             yield client
         return
     if workers < 1:
-        raise ValueError(f"--dask: expected >= 1 workers, got {workers}")
+        raise InputError(f"--dask: expected >= 1 workers, got {workers}")
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                       host="127.0.0.1", dashboard_address=None) as cluster, \
             Client(cluster) as client:

@@ -242,3 +242,75 @@ TOOL_STATE_MATCH_MM = 1.0e-6
 #: (every chunk's future used to be held until the pass ended: 2.1-2.6 GB a
 #: worker in the main job).
 DASK_CHUNKS_IN_FLIGHT = 3
+
+# --- limits of a scenario's values (errpred/limits.py; checked when it is loaded) --------
+# Each bounds a value that would otherwise run for hours or exhaust memory before any
+# answer, or that no real end mill has: a scenario beyond one is refused at once.
+#: Memory one prediction process may plan for the arrays that a resolution implies
+#: (one point's bottom and side views and its micro-edge samples over a revolution,
+#: estimated at their worst: the side view over the whole flute length) [bytes]. The
+#: machine has 24 GiB for two worker processes and the parent; the convergence test's
+#: setting (every discretization 4x finer) estimates 2.9 GB on mold-ball and fits.
+MEMORY_BUDGET_BYTES = 4 << 30
+#: What one pixel of a view costs [bytes]: the bottom template's per-pixel arrays
+#: (measured: 89 bytes a pixel, mold-ball's tool at D/64 and D/256) plus a view's four
+#: float64 intervals and the rasterizer's depth buffers, rounded up.
+BYTES_PER_PIXEL = 256
+#: What one micro-edge sample of a revolution costs [bytes]: the template's (measured:
+#: about 100 bytes a sample) and a point's per-revolution arrays (cutting, weights,
+#: shifts, the T1 memo, forces), rounded up.
+BYTES_PER_SAMPLE = 1024
+#: Most flutes an end mill in a scenario may have [-] (solid end mills have 2-8,
+#: large high-feed ones up to about 12).
+MAX_FLUTES = 24
+#: Largest tool diameter [mm] (end mills beyond 100 mm are face mills, not modelled).
+MAX_TOOL_DIAMETER_MM = 200.0
+#: Longest tool length (flute length, overhang, holder) [mm].
+MAX_TOOL_LENGTH_MM = 2000.0
+#: Most micro edges along the envelope [-] (the default is 80; the convergence test
+#: shows 4x finer changes the error by less than 0.5 um).
+MAX_MICRO_EDGES = 2000
+#: Largest rotation step [deg]: the engagement needs several steps per tooth pitch
+#: (errpred.engagement.revolution_angles refuses more than 90).
+MAX_ANGLE_STEP_DEG = 90.0
+#: Finest chord tolerance for arcs [mm]: 10 nm, 25 times below the default; finer
+#: only multiplies the chords of every arc.
+MIN_CHORD_TOL_MM = 1.0e-5
+#: Closest spacing of prediction points along a block [mm]: every point costs a full
+#: engagement; 0.01 mm is a fifth of the dense verification's spacing.
+MIN_POINT_SPACING_MM = 1.0e-2
+#: Most predict-correct passes of an iterated correction [-].
+MAX_CORRECTION_ITERATIONS = 100
+#: Largest mesh file read [bytes]: 1 GiB of STL is 20 million triangles, beyond what
+#: the triangle grid and the interference check can hold in the memory budget.
+MAX_MESH_FILE_BYTES = 1 << 30
+#: Largest cutting coefficient in magnitude [N/mm^2 for chip, N/mm for edge, N/mm^2
+#: per m for wear growth]: hardened steels and titanium have chip coefficients of
+#: 2,000-6,000 N/mm^2; 1e5 is beyond any metal, and near 1e300 the forces overflow.
+MAX_CUTTING_COEFFICIENT = 1.0e5
+#: Highest natural frequency of a tool or workpiece mode [Hz]: tool-tip modes are
+#: 0.5-10 kHz; a mode far above the tooth frequencies only adds static compliance.
+MAX_MODE_FREQUENCY_HZ = 1.0e5
+#: Largest modal damping ratio [-]: structural modes are under-damped (0.5-10 %); a
+#: ratio above 1 has no resonance left.
+MAX_DAMPING_RATIO = 1.0
+#: Stiffest mode [N/m]: a tool tip is 1e6-1e8 N/m; 1e12 is rigid for any cut.
+MAX_STIFFNESS_N_M = 1.0e12
+#: Largest modal mass [kg] and damping [N s/m] (a machine column: hundreds of kg).
+MAX_MODE_MASS_KG = 1.0e4
+MAX_MODE_DAMPING_NS_M = 1.0e7
+#: Largest static compliance [m/N] (1e-3 m/N: a millimetre per newton, rubber).
+MAX_STATIC_COMPLIANCE_M_N = 1.0e-3
+#: Fastest wear, radius lost per metre of actual cutting distance [um/m]: 1 mm/m
+#: wears a tool out within a metre (representative rates are 0.01-1 um/m).
+MAX_WEAR_RATE_UM_PER_M = 1.0e3
+#: Longest cutting distance a used tool may have behind it [m] (100 km).
+MAX_CUTTING_DISTANCE_M = 1.0e5
+#: Coarsest chord tolerance for arcs [mm]: a chord cuts up to this deeper than its arc,
+#: which shifts the predicted surface by as much; 10 um drowns the errors predicted.
+MAX_CHORD_TOL_MM = 1.0e-2
+#: The bottom view spans at least this many pixels across the tool [-]: fewer cannot
+#: place the micro edges' samples (the default is 64).
+MIN_PIXELS_PER_DIAMETER = 8.0
+#: Largest shape-error deviation of the effective radius [um] (1 mm: a broken tool).
+MAX_RADIUS_DEVIATION_UM = 1.0e3

@@ -27,7 +27,6 @@ are made by ``scripts/make_errpred_scenarios.py``.
 
 from __future__ import annotations
 
-import difflib
 import math
 import os
 import tomllib
@@ -41,16 +40,17 @@ from nc.errors import InputError
 
 from . import constants as K
 from .geometry import Resolution
+from .tables import ScenarioError, TableReader, _kind, _limit, check_program_lines
 from .tool import TOOL_KINDS, Holder, Tool
 
 __all__ = ["ScenarioError", "StockSpec", "ShapeError", "Resolution", "CorrectionOptions",
-           "Scenario", "TableReader", "load_scenario", "BUNDLED", "bundled_scenario"]
+           "Scenario", "TableReader", "load_scenario", "check_program_lines", "BUNDLED",
+           "bundled_scenario"]
 
 _HERE = Path(__file__).resolve().parent / "scenarios"
 #: Bundled scenarios: name -> path of their ``scenario.toml``.
 BUNDLED: dict[str, Path] = {n: _HERE / n / "scenario.toml" for n in ("mold-ball", "wall-radius")}
 
-_MISSING = object()
 _DIRECTIONS = ("x", "y", "z")
 
 
@@ -59,24 +59,8 @@ def bundled_scenario(name: str) -> Path:
     try:
         return BUNDLED[name]
     except KeyError:
-        raise ValueError(f"no bundled scenario {name!r}; expected one of "
+        raise InputError(f"no bundled scenario {name!r}; expected one of "
                          f"{', '.join(BUNDLED)}") from None
-
-
-class ScenarioError(InputError):
-    """A scenario file that cannot be used: names the file and the dotted key.
-
-    Attributes
-    ----------
-    file : str
-        The scenario file as given.
-    key : str or None
-        Dotted key (``tool.diameter_mm``), None for the file as a whole.
-    """
-
-    def __init__(self, file: str, key: str | None, message: str) -> None:
-        self.file, self.key = file, key
-        super().__init__(f"{file}: {key}: {message}" if key else f"{file}: {message}")
 
 
 # --------------------------------------------------------------------------- results
@@ -113,9 +97,9 @@ class StockSpec:
         """The design mesh as a ``trimesh.Trimesh``, or None without one."""
         if self.design_path is None:
             return None
-        import trimesh
+        from .meshio import load_mesh
 
-        return trimesh.load(os.fspath(self.design_path), force="mesh")
+        return load_mesh(self.design_path, what="design mesh")
 
 
 @dataclass(frozen=True, eq=False)
@@ -222,134 +206,15 @@ class Scenario:
         return read_program(self.program_path, allow=self.allow)
 
 
-# --------------------------------------------------------------------------- reading
-class TableReader:
-    """Typed access to one TOML file's tables; every error names file and key.
-
-    Public so that packages whose scenarios extend this format (``orient``)
-    read their own sections with the same checks and messages.
-    """
-
-    def __init__(self, path: str | os.PathLike) -> None:
-        self.file = os.fspath(path)
-        self.base = Path(self.file).resolve().parent
-
-    def fail(self, key: str | None, message: str) -> ScenarioError:
-        return ScenarioError(self.file, key, message)
-
-    def table(self, value: Any, key: str) -> dict:
-        if not isinstance(value, dict):
-            raise self.fail(key, f"expected a table ([{key}]), got {_kind(value)}")
-        return value
-
-    def keys(self, d: dict, prefix: str, required: tuple, optional: tuple = ()) -> None:
-        allowed = required + optional
-        for k in d:
-            if k not in allowed:
-                hint = _suggest(k, allowed)
-                raise self.fail(_dot(prefix, k), "unknown key" + (
-                    f"; did you mean {_dot(prefix, hint)!r}?" if hint else "")
-                    + f" (expected {', '.join(allowed)})")
-        for k in required:
-            if k not in d:
-                raise self.fail(_dot(prefix, k), "missing")
-
-    def given(self, d: dict, k: str, key: str, default: Any) -> bool:
-        """True if ``k`` is in ``d``; False if absent with a default; else 'missing'."""
-        if k not in d and default is _MISSING:
-            raise self.fail(key, "missing")
-        return k in d
-
-    def number(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
-               sign: str = "") -> float:
-        key = _dot(prefix, k)
-        if not self.given(d, k, key, default):
-            return default
-        v = d[k]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.fail(key, f"expected a number, got {_kind(v)}")
-        v = float(v)
-        if not math.isfinite(v):
-            raise self.fail(key, f"expected a finite number, got {v}")
-        if (sign == ">0" and v <= 0) or (sign == ">=0" and v < 0):
-            raise self.fail(key, f"expected a value {sign[:-1]} 0, got {v:g}")
-        return v
-
-    def integer(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
-                minimum: int = 1) -> int:
-        key = _dot(prefix, k)
-        if not self.given(d, k, key, default):
-            return default
-        v = d[k]
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise self.fail(key, f"expected a whole number, got {_kind(v)}")
-        if v < minimum:
-            raise self.fail(key, f"expected a whole number >= {minimum}, got {v}")
-        return v
-
-    def string(self, d: dict, k: str, prefix: str, *, default: Any = _MISSING,
-               choices: tuple = ()) -> str:
-        key = _dot(prefix, k)
-        if not self.given(d, k, key, default):
-            return default
-        v = d[k]
-        if not isinstance(v, str):
-            raise self.fail(key, f"expected a string, got {_kind(v)}")
-        if choices and v not in choices:
-            raise self.fail(key, f"unknown value {v!r}; expected one of "
-                                 f"{', '.join(map(repr, choices))}")
-        return v
-
-    def numbers(self, d: dict, k: str, prefix: str, *, length: int | None = None,
-                sign: str = "") -> list[float]:
-        key = _dot(prefix, k)
-        v = d[k]
-        if not isinstance(v, list) or not v:
-            raise self.fail(key, f"expected a non-empty array of numbers, got {_kind(v)}")
-        if length is not None and len(v) != length:
-            raise self.fail(key, f"expected {length} numbers, got {len(v)}")
-        return [self.number({f"{k}[{i}]": x}, f"{k}[{i}]", prefix, sign=sign)
-                for i, x in enumerate(v)]
-
-    def path(self, d: dict, k: str, prefix: str) -> Path:
-        key = _dot(prefix, k)
-        v = self.string(d, k, prefix)
-        p = (self.base / v).resolve()
-        if not p.is_file():
-            raise self.fail(key, f"file not found: {p}")
-        return p
-
-
-def _dot(prefix: str, k: str) -> str:
-    return f"{prefix}.{k}" if prefix else k
-
-
-def _kind(v: Any) -> str:
-    if isinstance(v, dict):
-        return "a table"
-    names = {bool: "a boolean", str: "a string", list: "an array", int: "an integer",
-             float: "a number"}
-    return f"{names.get(type(v), type(v).__name__)} ({v!r})"
-
-
-def _suggest(k: str, allowed: tuple) -> str | None:
-    stem = k.split("_")[0]
-    same_stem = [a for a in allowed if a.split("_")[0] == stem]
-    if len(same_stem) == 1:
-        return same_stem[0]
-    close = difflib.get_close_matches(k, allowed, n=1, cutoff=0.6)
-    return close[0] if close else None
-
-
 # --------------------------------------------------------------------------- sections
 def _stock(r: TableReader, d: dict) -> StockSpec:
     r.keys(d, "stock", (), ("stl", "box_min_mm", "box_max_mm", "design_stl"))
-    design = r.path(d, "design_stl", "stock") if "design_stl" in d else None
+    design = _mesh(r, d, "design_stl", closed=False) if "design_stl" in d else None
     box = [k for k in ("box_min_mm", "box_max_mm") if k in d]
     if "stl" in d and box:
         raise r.fail("stock.stl", "give either stl or box_min_mm and box_max_mm, not both")
     if "stl" in d:
-        return StockSpec("stl", path=r.path(d, "stl", "stock"), design_path=design)
+        return StockSpec("stl", path=_mesh(r, d, "stl", closed=True), design_path=design)
     if not box:
         raise r.fail("stock.stl", "missing; expected stl = \"file.stl\" or box_min_mm and "
                                   "box_max_mm")
@@ -364,6 +229,19 @@ def _stock(r: TableReader, d: dict) -> StockSpec:
     return StockSpec("box", bounds=(tuple(lo), tuple(hi)), design_path=design)
 
 
+def _mesh(r: TableReader, d: dict, k: str, *, closed: bool) -> Path:
+    """A mesh file's path, read once here (:func:`errpred.meshio.load_mesh`) so that an
+    empty, corrupt or (``closed``: a stock) open mesh is refused before any work."""
+    from .meshio import MeshFileError, load_mesh
+
+    path = r.path(d, k, "stock")
+    try:
+        load_mesh(path, what="stock mesh" if closed else "design mesh", closed=closed)
+    except MeshFileError as exc:
+        raise r.fail(f"stock.{k}", str(exc)) from None
+    return path
+
+
 def _tool(r: TableReader, d: dict) -> Tool:
     p = "tool"
     r.keys(d, p, ("type", "diameter_mm", "flutes", "helix_deg"),
@@ -373,7 +251,7 @@ def _tool(r: TableReader, d: dict) -> Tool:
     if kind not in TOOL_KINDS:
         raise r.fail("tool.type", f"unknown tool type {kind!r}; expected one of "
                                   f"{', '.join(TOOL_KINDS)}")
-    dia = r.number(d, "diameter_mm", p, sign=">0")
+    dia = r.number(d, "diameter_mm", p, sign=">0", **_limit("MAX_TOOL_DIAMETER_MM"))
     corner = 0.0
     if kind == "radius":
         corner = r.number(d, "corner_radius_mm", p, sign=">0")
@@ -390,15 +268,17 @@ def _tool(r: TableReader, d: dict) -> Tool:
     helix = r.number(d, "helix_deg", p)
     if abs(helix) > 60:
         raise r.fail("tool.helix_deg", f"expected -60 to 60 degrees, got {helix:g}")
-    opt = {k: r.number(d, k, p, default=None, sign=">0")
+    opt = {k: r.number(d, k, p, default=None, sign=">0", **_limit(
+        "MAX_TOOL_DIAMETER_MM" if k == "shank_diameter_mm" else "MAX_TOOL_LENGTH_MM"))
            for k in ("flute_length_mm", "overhang_mm", "shank_diameter_mm")}
     holder = None
     if "holder" in d:
         h = r.table(d["holder"], "tool.holder")
         r.keys(h, "tool.holder", ("diameter_mm", "length_mm"))
-        holder = Holder(r.number(h, "diameter_mm", "tool.holder", sign=">0"),
-                        r.number(h, "length_mm", "tool.holder", sign=">0"))
-    flutes = r.integer(d, "flutes", p)
+        holder = Holder(*(r.number(h, k, "tool.holder", sign=">0",
+                                   **_limit("MAX_TOOL_LENGTH_MM"))
+                          for k in ("diameter_mm", "length_mm")))
+    flutes = r.integer(d, "flutes", p, **_limit("MAX_FLUTES"))
     rotation = r.string(d, "rotation", p, default="cw", choices=("cw", "ccw"))
     try:
         return Tool(kind, dia, corner, flutes, helix, rotation=rotation, holder=holder, **opt)
@@ -415,7 +295,8 @@ def _tool_start(r: TableReader, d: dict, tool: Tool, res: Resolution) -> tuple[A
         raise r.fail("tool.used_cutting_distance_m", "give state or used_cutting_distance_m, "
                                                      "not both")
     if "used_cutting_distance_m" in d:
-        v = r.number(d, "used_cutting_distance_m", "tool", sign=">=0")
+        v = r.number(d, "used_cutting_distance_m", "tool", sign=">=0",
+                     **_limit("MAX_CUTTING_DISTANCE_M"))
         return v * 1e3, f"used tool: every micro edge has cut {v:g} m"
     if "state" in d:
         path = r.path(d, "state", "tool")
@@ -470,9 +351,10 @@ def _cutting(r: TableReader, d: dict):
 
     p = "cutting"
     r.keys(d, p, CHIP_AND_EDGE_NAMES, WEAR_NAMES + ("source",))
-    vals = {k: r.number(d, k, p, sign=">0" if k == "Ktc_N_mm2" else "")
-            for k in CHIP_AND_EDGE_NAMES}
-    vals.update({k: r.number(d, k, p, default=0.0) for k in WEAR_NAMES})
+    vals = {k: r.number(d, k, p, sign=">0" if k == "Ktc_N_mm2" else "",
+                        **_limit("MAX_CUTTING_COEFFICIENT")) for k in CHIP_AND_EDGE_NAMES}
+    vals.update({k: r.number(d, k, p, default=0.0, **_limit("MAX_CUTTING_COEFFICIENT"))
+                 for k in WEAR_NAMES})
     src = r.string(d, "source", p, default="")
     return CuttingCoefficients(**vals, source=src), src
 
@@ -493,7 +375,8 @@ def _dynamics(r: TableReader, d: dict):
     if "static_compliance_m_N" in d:
         t = r.table(d["static_compliance_m_N"], "dynamics.static_compliance_m_N")
         r.keys(t, "dynamics.static_compliance_m_N", (), _DIRECTIONS)
-        static = {k: r.number(t, k, "dynamics.static_compliance_m_N", sign=">0") for k in t}
+        static = {k: r.number(t, k, "dynamics.static_compliance_m_N", sign=">0",
+                              **_limit("MAX_STATIC_COMPLIANCE_M_N")) for k in t}
     if not given and not (model == "static" and static):
         raise r.fail("dynamics.modes", "missing; expected [[dynamics.modes]], frf_uff or "
                                        "frf_csv (or model = \"static\" with "
@@ -547,13 +430,21 @@ def _modes(r: TableReader, v: Any, Mode) -> dict:
         else:
             r.keys(m, p, ("direction", "mass_kg", "damping_Ns_m", "stiffness_N_m"))
         dr = r.string(m, "direction", p, choices=_DIRECTIONS)
-        k = r.number(m, "stiffness_N_m", p, sign=">0")
+        k = r.number(m, "stiffness_N_m", p, sign=">0", **_limit("MAX_STIFFNESS_N_M"))
         if by_freq:
-            mode = Mode.from_frequency(r.number(m, "frequency_hz", p, sign=">0"),
-                                       r.number(m, "damping_ratio", p, sign=">=0"), k)
+            mode = Mode.from_frequency(
+                r.number(m, "frequency_hz", p, sign=">0", **_limit("MAX_MODE_FREQUENCY_HZ")),
+                r.number(m, "damping_ratio", p, sign=">=0", **_limit("MAX_DAMPING_RATIO")), k)
         else:
-            mode = Mode(k, r.number(m, "mass_kg", p, sign=">0"),
-                        r.number(m, "damping_Ns_m", p, sign=">=0"))
+            mode = Mode(k, r.number(m, "mass_kg", p, sign=">0", **_limit("MAX_MODE_MASS_KG")),
+                        r.number(m, "damping_Ns_m", p, sign=">=0",
+                                 **_limit("MAX_MODE_DAMPING_NS_M")))
+            f = math.sqrt(mode.k_N_m / mode.m_kg) / (2 * math.pi)
+            if f > K.MAX_MODE_FREQUENCY_HZ:
+                raise r.fail(f"{p}.mass_kg", f"stiffness_N_m and mass_kg give a natural "
+                                             f"frequency of {f:.3g} Hz, above "
+                                             f"{K.MAX_MODE_FREQUENCY_HZ:g} "
+                                             f"(errpred.constants.MAX_MODE_FREQUENCY_HZ)")
         out.setdefault(dr, []).append(mode)
     _need_xy(r, tuple(out), "dynamics.modes")
     return out
@@ -563,7 +454,8 @@ def _shape_error(r: TableReader, d: dict) -> ShapeError:
     p = "shape_error"
     r.keys(d, p, (), ("kappa_deg", "z_mm", "radius_deviation_um", "wear_rate_um_per_m",
                       "source"))
-    wear = r.number(d, "wear_rate_um_per_m", p, default=0.0, sign=">=0") * 1e-6
+    wear = r.number(d, "wear_rate_um_per_m", p, default=0.0, sign=">=0",
+                    **_limit("MAX_WEAR_RATE_UM_PER_M")) * 1e-6
     src = r.string(d, "source", p, default="")
     axes = [k for k in ("kappa_deg", "z_mm") if k in d]
     if len(axes) > 1:
@@ -576,7 +468,8 @@ def _shape_error(r: TableReader, d: dict) -> ShapeError:
     if "radius_deviation_um" not in d:
         raise r.fail("shape_error.radius_deviation_um", "missing")
     x = r.numbers(d, axes[0], p, sign=">=0")
-    dev = r.numbers(d, "radius_deviation_um", p, length=len(x))
+    dev = r.numbers(d, "radius_deviation_um", p, length=len(x),
+                    **_limit("MAX_RADIUS_DEVIATION_UM"))
     if any(b <= a for a, b in zip(x, x[1:])):
         raise r.fail(f"shape_error.{axes[0]}", "expected strictly increasing values")
     if axes[0] == "kappa_deg":
@@ -590,17 +483,31 @@ def _shape_error(r: TableReader, d: dict) -> ShapeError:
 
 
 def _resolution(r: TableReader, d: dict, tool: Tool) -> Resolution:
+    from .limits import check_resolution_budget
+
     p = "resolution"
     r.keys(d, p, (), ("pixel_mm", "micro_edges", "angle_step_deg", "chord_tol_mm",
                       "point_spacing_mm"))
-    return Resolution(
-        r.number(d, "pixel_mm", p, default=tool.diameter_mm * K.PIXEL_PER_DIAMETER, sign=">0"),
-        r.integer(d, "micro_edges", p, default=K.MICRO_EDGES_ENVELOPE, minimum=2),
-        math.radians(r.number(d, "angle_step_deg", p,
-                              default=math.degrees(K.ANGLE_STEP_RAD), sign=">0")),
-        r.number(d, "chord_tol_mm", p, default=K.CHORD_TOL_MM, sign=">0"),
+    res = Resolution(
+        r.number(d, "pixel_mm", p, default=tool.diameter_mm * K.PIXEL_PER_DIAMETER, sign=">0",
+                 maximum=tool.diameter_mm / K.MIN_PIXELS_PER_DIAMETER,
+                 limit="tool.diameter_mm / errpred.constants.MIN_PIXELS_PER_DIAMETER"),
+        r.integer(d, "micro_edges", p, default=K.MICRO_EDGES_ENVELOPE, minimum=2,
+                  **_limit("MAX_MICRO_EDGES")),
+        math.radians(r.number(d, "angle_step_deg", p, default=math.degrees(K.ANGLE_STEP_RAD),
+                              sign=">0", **_limit("MAX_ANGLE_STEP_DEG"))),
+        r.number(d, "chord_tol_mm", p, default=K.CHORD_TOL_MM, sign=">0",
+                 **_limit("MAX_CHORD_TOL_MM")),
         r.number(d, "point_spacing_mm", p, default=K.POINT_SPACING_MM, sign=">0")
         if "point_spacing_mm" in d else K.POINT_SPACING_MM)
+    for k, least in (("chord_tol_mm", K.MIN_CHORD_TOL_MM),
+                     ("point_spacing_mm", K.MIN_POINT_SPACING_MM)):
+        if getattr(res, k) < least:
+            raise r.fail(f"resolution.{k}", f"expected at least {least:g} "
+                                            f"(errpred.constants.MIN_{k.upper()}), got "
+                                            f"{getattr(res, k):g}")
+    check_resolution_budget(r, d, tool, res)
+    return res
 
 
 def _correction(r: TableReader, d: dict) -> CorrectionOptions:
@@ -610,7 +517,8 @@ def _correction(r: TableReader, d: dict) -> CorrectionOptions:
     if not isinstance(it, bool):
         raise r.fail("correction.iterate", f"expected true or false, got {_kind(it)}")
     return CorrectionOptions(it, r.number(d, "tolerance_um", p, default=1.0, sign=">0"),
-                             r.integer(d, "max_iterations", p, default=5),
+                             r.integer(d, "max_iterations", p, default=5,
+                                       **_limit("MAX_CORRECTION_ITERATIONS")),
                              r.number(d, "verify_tolerance_um", p,
                                       default=K.VERIFY_TOLERANCE_UM, sign=">=0"))
 
@@ -659,6 +567,7 @@ def load_scenario(path: str | os.PathLike, *, extra_sections: tuple[str, ...] = 
     stock = _stock(r, sec["stock"])
     tool = _tool(r, sec["tool"])
     gcode, allow, lines, machine = _program(r, sec["program"])
+    check_program_lines(r.read_program(gcode, allow), lines, r.file)
     coeffs, cut_src = _cutting(r, sec["cutting"])
     compliance, dyn_src = _dynamics(r, sec["dynamics"])
     shape = _shape_error(r, sec["shape_error"]) if "shape_error" in sec else ShapeError()

@@ -45,7 +45,7 @@ def _offsets(path: str | None) -> dict | None:
     with open(path, "rb") as fh:
         try:
             data = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise InputError(f"{path}: not valid TOML: {exc}") from None
     out = {}
     for key, table in data.items():
@@ -146,6 +146,9 @@ def _cmd_post(args) -> int:
     cl = read_cl_csv(args.cl, spindle_rpm=args.spindle or 0.0)
     machine = _machine(args.machine)
     if args.tool_length is not None:
+        if not (math.isfinite(args.tool_length) and args.tool_length >= 0):
+            raise InputError(f"--tool-length: expected a finite value >= 0, got "
+                             f"{args.tool_length}")
         machine = machine.with_tool_length(args.tool_length)
     if args.dialect.startswith("heidenhain"):
         from .heidenhain_writer import TNCPostOptions, write_heidenhain
@@ -163,13 +166,16 @@ def _cmd_post(args) -> int:
               f"{topts.form}, read back within 1 um / 1e-4 deg, "
               f"{res.singular_points} points at the singularity (free axis held)")
         return 0
-    opts = PostOptions(
-        dialect=args.dialect, tool=args.tool, spindle_rpm=args.spindle,
-        linear_decimals=args.decimals, line_numbers=args.line_numbers,
-        header=not args.no_header, end_code=None if args.end == "none" else args.end,
-        source=os.path.basename(args.cl),
-        singular_cone_rad=math.radians(args.singular_cone_deg),
-    )
+    try:  # the options' own checks name the option (tool, spindle_rpm, ...)
+        opts = PostOptions(
+            dialect=args.dialect, tool=args.tool, spindle_rpm=args.spindle,
+            linear_decimals=args.decimals, line_numbers=args.line_numbers,
+            header=not args.no_header, end_code=None if args.end == "none" else args.end,
+            source=os.path.basename(args.cl),
+            singular_cone_rad=math.radians(args.singular_cone_deg),
+        )
+    except ValueError as exc:
+        raise InputError(f"post options: {exc}") from None
     res = write_program(args.output, cl, machine, opts)
     print(f"wrote {args.output}: {len(cl)} cutter locations -> {len(res.tip)} points "
           f"({len(res.tip) - len(cl)} inserted by linearization), "

@@ -3,11 +3,14 @@
 A result the command refuses (:class:`Refused`: a program that must not be cut)
 ends in one line ``error: ...`` on stderr and exit status 1.
 
-Bad input -- any ``ValueError`` (the packages' input errors all derive from it:
-``NCParseError``, ``KinematicsError``, ``ScenarioError``, ...) or a file that is
-missing, exists, is a directory or may not be read -- ends in one line
-``error: ...`` on stderr and exit status 2; output piped into ``head`` and the
-like ends quietly.
+Bad input -- an :class:`nc.errors.InputError` (the one base class of every
+package's input errors: ``NCParseError``, ``KinematicsError``, ``ScenarioError``,
+``MeshFileError``, ...) or a file that is missing, exists, is a directory or may
+not be read -- ends in one line ``error: ...`` on stderr and exit status 2;
+output piped into ``head`` and the like ends quietly.
+
+Anything else is a bug, not the user's fault: it is not caught here, so Python
+prints its traceback and the exit status is 1.
 """
 
 from __future__ import annotations
@@ -17,11 +20,14 @@ import os
 import sys
 from collections.abc import Callable
 
+from .errors import InputError
+
 __all__ = ["INPUT_ERRORS", "Refused", "run_command"]
 
-#: Exceptions that mean bad input, not a bug.
+#: Exceptions that mean bad input, not a bug: the project's input errors and the
+#: operating system's answers about a file named on the command line or in a scenario.
 INPUT_ERRORS: tuple[type[BaseException], ...] = (
-    ValueError, FileNotFoundError, FileExistsError, IsADirectoryError, PermissionError)
+    InputError, FileNotFoundError, FileExistsError, IsADirectoryError, PermissionError)
 
 
 class Refused(Exception):
@@ -34,6 +40,9 @@ class Refused(Exception):
 def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namespace,
                 extra: tuple[type[BaseException], ...] = ()) -> int:
     """``func(args)``, with bad input (``INPUT_ERRORS`` and ``extra``) reported in one line.
+
+    Any other exception (a ``ValueError`` that is not an :class:`~nc.errors.InputError`
+    included) propagates: a bug, shown with its traceback, exit status 1.
 
     Returns
     -------
@@ -53,3 +62,4 @@ def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namesp
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+

@@ -77,7 +77,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import constants as K
-from .errors import KinematicsError
+from .errors import InputError, KinematicsError
 from .linearize import Linearized, linearize
 from .machines import (
     _TWO_PI,
@@ -161,7 +161,7 @@ def get_machine(name: str, /, **overrides: Any) -> Machine:
     """
     kind = _ALIASES.get(name, name)
     if kind not in MACHINES:
-        raise ValueError(f"unknown machine {name!r}; known: {', '.join(MACHINES)}")
+        raise InputError(f"unknown machine {name!r}; known: {', '.join(MACHINES)}")
     return MACHINES[kind](**overrides)
 
 
@@ -200,7 +200,7 @@ def linuxcnc_trt_machine(kins: str, *, x_rot_point: float = 0.0, y_rot_point: fl
     elif kind == "xyzbc-trt":
         tilt = (x_rot_point + x_offset, y_rot_point, z_rot_point + z_offset)
     else:
-        raise ValueError(f"kins: expected 'xyzac-trt' or 'xyzbc-trt', got {kins!r}")
+        raise InputError(f"kins: expected 'xyzac-trt' or 'xyzbc-trt', got {kins!r}")
     return get_machine(kind, tilt_pivot_mm=tilt, rotary_pivot_mm=rot, **overrides)
 
 

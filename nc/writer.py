@@ -33,7 +33,7 @@ import numpy as np
 
 from . import constants as K
 from .atomic import atomic_write
-from .errors import KinematicsError
+from .errors import InputError, KinematicsError
 from .kinematics import Machine, linearize, solve_path
 from .path import CutterLocations
 
@@ -197,7 +197,7 @@ def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptio
         When a point cannot be reached within the machine's limits.
     """
     if len(cl) == 0:
-        raise ValueError("cl: no cutter locations to post")
+        raise InputError("cl: no cutter locations to post")
     o = options
     sol = solve_path(machine, cl.tip, cl.axis, singular_cone_rad=o.singular_cone_rad)
     tip, axis, joints = cl.tip, cl.axis, sol.joints

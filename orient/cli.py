@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from errpred.cluster import dask_client
+from nc.errors import InputError
 
 from .constants import INFEASIBLE_LISTED
 
@@ -57,6 +58,16 @@ def _cmd_plan(args) -> int:
 
     if args.output is None:
         return _job(args)
+    from nc.writer import DIALECTS
+
+    from .constants import MAX_SPINDLE_RPM
+
+    # the options, before the scenario and the planning
+    if args.dialect is not None and args.dialect not in DIALECTS:
+        raise InputError(f"--dialect: {args.dialect!r}; expected one of {', '.join(DIALECTS)}")
+    if args.spindle_rpm is not None and not (0 < args.spindle_rpm <= MAX_SPINDLE_RPM):
+        raise InputError(f"--spindle-rpm: expected 0 < RPM <= {MAX_SPINDLE_RPM:g}, got "
+                         f"{args.spindle_rpm:g}")
     scn = _scenario(args.scenario)
     out = os.path.abspath(args.output)
     for p in [out] + ([os.path.abspath(args.report)] if args.report else []):
@@ -159,10 +170,10 @@ def _job(args) -> int:
                            ("--spindle-rpm", args.spindle_rpm), ("--report", args.report),
                            ("--plots", args.plots)) if v is not None]
     if only:
-        raise ValueError(f"{', '.join(only)}: options of the plan-only run; give -o OUT.nc "
+        raise InputError(f"{', '.join(only)}: options of the plan-only run; give -o OUT.nc "
                          f"(the job takes the scenario's machine, dialect and speed)")
     if args.scheduler and args.dask is not None:
-        raise ValueError("--scheduler and --dask: give one")
+        raise InputError("--scheduler and --dask: give one")
     from sim.job_cli import run
 
     return run(args)
@@ -178,7 +189,7 @@ def _cmd_lobes(args) -> int:
     if args.rpm:
         lo, hi = args.rpm
         if not (0 < lo < hi and math.isfinite(hi)):
-            raise ValueError(f"--rpm: expected 0 < LOW < HIGH, got {lo:g} {hi:g}")
+            raise InputError(f"--rpm: expected 0 < LOW < HIGH, got {lo:g} {hi:g}")
         rpm = np.linspace(lo, hi, args.speeds)
     methods = ("zoa", "sdm") if args.method == "both" else (args.method,)
     t0 = time.perf_counter()

@@ -104,3 +104,33 @@ SPINDLE_STEPS = 120
 WALL_DAMPING_RATIO = 0.01
 #: Modes of the thin wall's finite-element model used [-].
 WALL_MODES = 6
+
+# --- limits of a planning scenario's values (orient/scenario.py; checked when loaded) ---
+#: Most spindle speeds tried when the speed is chosen from the lobes [-]: each costs
+#: every contact point's margins once more (the bundled wall: 71).
+MAX_SPINDLE_STEPS = 1000
+#: Highest spindle speed of a range to choose from [rev/min] (fastest HSC spindles).
+MAX_SPINDLE_RPM = 100_000.0
+#: Most thin-wall modes kept [-]: each is a lowest eigenpair of the finite-element
+#: model, and the planner's margins take them all at every contact point.
+MAX_WALL_MODES = 50
+#: Most modes of a workpiece given mode by mode, and of the tool's dynamics [-].
+MAX_WORKPIECE_MODES = 50
+#: Highest stability margin aimed at [-] (critical over actual depth: 1.5 is the
+#: default; a target beyond 10 leaves every posture infeasible, found only after the
+#: whole search).
+MAX_MARGIN_TARGET = 10.0
+#: Largest clearance of shank and holder to the stock [mm] (the default is 1 mm; more
+#: than this refuses every posture of a finishing cut after the whole search).
+MAX_CLEARANCE_MM = 50.0
+#: Largest gouge tolerance [mm] (the default is 0.01 mm; a millimetre is no check).
+MAX_GOUGE_TOL_MM = 1.0
+#: Fastest lead/tilt change allowed along the path [deg/mm] (the default is 2; 180
+#: deg/mm is no limit at all).
+MAX_RATE_LIMIT_DEG_PER_MM = 180.0
+#: Largest thin wall [mm] (length, height, thicknesses): a part on a machine table.
+MAX_WALL_MM = 10_000.0
+#: Stiffest wall material [GPa] (diamond: about 1,050) ...
+MAX_YOUNG_GPA = 1.2e3
+#: ... and densest [kg/m^3] (osmium: 22,600).
+MAX_DENSITY_KG_M3 = 2.5e4

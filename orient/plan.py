@@ -66,7 +66,7 @@ from .engagement import LocalCut
 from .gain import process_gain, process_gain_batch
 from .geometry import inclination, lead_tilt_of, local_frame, posture_axis
 from .interference import InterferenceChecker, ToolAssembly
-from .scenario import PlanScenario
+from .scenario import PlanScenario, ScenarioError
 from .choice import (
     _FEASIBLE,
     _OUTSIDE_INCLINATION,
@@ -424,8 +424,9 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
 
     Raises
     ------
-    ValueError
-        No spindle speed in the program, or the ball never touches the design.
+    ScenarioError
+        No spindle speed in the program, or the ball never touches the design (an
+        input error: the scenario's program and design do not go together).
     """
     t0 = time.perf_counter()
     opt = scn.options
@@ -439,11 +440,13 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     feed_pts = ~cam.rapid
     rpm = float(spindle_rpm) if spindle_rpm else float(np.max(cam.spindle_rpm))
     if not rpm > 0:
-        raise ValueError(f"{scn.base.program_path}: no spindle speed in the program (S word)")
+        raise ScenarioError(str(scn.path), "program.gcode", f"{scn.base.program_path}: no "
+                            f"spindle speed in the program (S word)")
     idx = np.flatnonzero(contacts.touching)
     if len(idx) == 0:
-        raise ValueError(f"{scn.base.program_path}: the ball never touches the design surface "
-                         f"{scn.base.stock.design_path}; nothing to plan")
+        raise ScenarioError(str(scn.path), "program.gcode", f"{scn.base.program_path}: the "
+                            f"ball never touches the design surface "
+                            f"{scn.base.stock.design_path}; nothing to plan")
     lead_g, tilt_g = candidate_grid(opt)
     nl, nt = len(lead_g), len(tilt_g)
     Lg, Tg = np.meshgrid(lead_g, tilt_g, indexing="ij")
@@ -608,9 +611,11 @@ def stock_mesh(scn: PlanScenario, design: Any) -> Any:
     """The stock as a mesh (shank and holder must clear the material still standing)."""
     import trimesh
 
+    from errpred.meshio import load_mesh
+
     st = scn.base.stock
     if st.kind == "stl":
-        return trimesh.load(str(st.path), force="mesh")
+        return load_mesh(st.path, what="stock mesh", closed=True)
     lo, hi = np.asarray(st.bounds[0]), np.asarray(st.bounds[1])
     return trimesh.creation.box(extents=hi - lo,
                                 transform=trimesh.transformations.translation_matrix(

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nc.errors import InputError
 from nc.path import cutter_locations
 
 from .contacts import Contacts, ball_contacts
@@ -69,11 +70,11 @@ def point_setup(scn: PlanScenario, point: int | None = None, axis=None,
     contacts = ball_contacts(cam, scn.base.tool.radius_mm, scn.base.stock.load_design())
     idx = np.flatnonzero(contacts.touching)
     if len(idx) == 0:
-        raise ValueError(f"{scn.base.program_path}: the ball never touches the design")
+        raise InputError(f"{scn.base.program_path}: the ball never touches the design")
     if point is None:
         point = int(idx[0])
     if not (0 <= point < len(cam)) or not contacts.touching[point]:
-        raise ValueError(f"point: {point} is not a cutter location where the ball touches "
+        raise InputError(f"--point: {point} is not a cutter location where the ball touches "
                          f"the design (the first such point is {int(idx[0])}, the last "
                          f"{int(idx[-1])})")
     rpm0 = float(cam.spindle_rpm[point])

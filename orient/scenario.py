@@ -31,7 +31,10 @@ from typing import Any
 
 import numpy as np
 
+from errpred import constants as EK
 from errpred.scenario import Scenario, ScenarioError, TableReader, load_scenario
+
+from nc.errors import InputError
 
 from . import constants as K
 
@@ -59,7 +62,7 @@ def bundled_scenario(name: str = DEFAULT_SCENARIO) -> Path:
     try:
         return BUNDLED[name]
     except KeyError:
-        raise ValueError(f"no bundled planning scenario {name!r}; expected one of "
+        raise InputError(f"no bundled planning scenario {name!r}; expected one of "
                          f"{', '.join(BUNDLED)}") from None
 
 
@@ -152,13 +155,13 @@ class PlanScenario:
 
         Raises
         ------
-        ValueError
+        ScenarioError
             Neither given.
         """
         m = override if override is not None else self.base.machine
         if m is None:
-            raise ValueError(f"{self.path}: program.machine is missing; the planner needs "
-                             f"the machine (axis limits, kinematics)")
+            raise ScenarioError(str(self.path), "program.machine", "missing; the planner "
+                                "needs the machine (axis limits, kinematics)")
         if isinstance(m, str):
             from nc.kinematics import get_machine
 
@@ -192,26 +195,38 @@ def _vector(r: TableReader, d: dict, k: str, p: str, *, unit: bool, allow_zero: 
     return v / n if unit else v
 
 
-def _cut(r: TableReader, d: dict) -> CutSpec:
+def _limit(name: str) -> dict:
+    """``maximum`` and ``limit`` for the reader: the constant ``name`` of
+    :mod:`orient.constants`."""
+    return {"maximum": getattr(K, name), "limit": f"orient.constants.{name}"}
+
+
+def _cut(r: TableReader, d: dict, radius_mm: float) -> CutSpec:
     p = "orient.cut"
     r.keys(d, p, ("depth_mm", "pick_mm"), ("machined_side",))
     side = (_vector(r, d, "machined_side", p, unit=True, allow_zero=True)
             if "machined_side" in d else np.zeros(3))
-    return CutSpec(r.number(d, "depth_mm", p, sign=">0"), r.number(d, "pick_mm", p, sign=">0"),
-                   side)
+    # a finishing cut of a ball end mill: shallower than its radius, passes closer than
+    # its diameter (the engagement's model of the cut assumes both)
+    return CutSpec(r.number(d, "depth_mm", p, sign=">0", maximum=radius_mm,
+                            limit="the tool's radius"),
+                   r.number(d, "pick_mm", p, sign=">0", maximum=2 * radius_mm,
+                            limit="the tool's diameter"), side)
 
 
 def _spindle(r: TableReader, d: dict) -> SpindleChoice:
     p = "orient.spindle"
     r.keys(d, p, ("range_rpm",), ("steps",))
     lo, hi = r.numbers(d, "range_rpm", p, length=2, sign=">0")
-    if hi <= lo:
-        raise r.fail(f"{p}.range_rpm", f"expected [low, high] with low < high, got "
-                                       f"[{lo:g}, {hi:g}]")
-    return SpindleChoice((lo, hi), r.integer(d, "steps", p, default=K.SPINDLE_STEPS, minimum=2))
+    if not lo < hi <= K.MAX_SPINDLE_RPM:
+        raise r.fail(f"{p}.range_rpm", f"expected [low, high] with low < high <= "
+                                       f"{K.MAX_SPINDLE_RPM:g} (orient.constants."
+                                       f"MAX_SPINDLE_RPM), got [{lo:g}, {hi:g}]")
+    return SpindleChoice((lo, hi), r.integer(d, "steps", p, default=K.SPINDLE_STEPS, minimum=2,
+                                             **_limit("MAX_SPINDLE_STEPS")))
 
 
-def _options(r: TableReader, d: dict) -> OrientOptions:
+def _options(r: TableReader, d: dict, radius_mm: float) -> OrientOptions:
     p = "orient"
     r.keys(d, p, (), ("lead_deg", "tilt_deg", "grid", "min_inclination_deg",
                       "max_inclination_deg", "max_rate_deg_per_mm", "margin_target",
@@ -250,14 +265,18 @@ def _options(r: TableReader, d: dict) -> OrientOptions:
         grid=grid,
         min_inclination_rad=math.radians(lo_i), max_inclination_rad=math.radians(hi_i),
         max_rate_rad_per_mm=math.radians(r.number(d, "max_rate_deg_per_mm", p,
-                                                  default=K.MAX_RATE_DEG_PER_MM, sign=">0")),
-        margin_target=r.number(d, "margin_target", p, default=K.MARGIN_TARGET, sign=">0"),
+                                                  default=K.MAX_RATE_DEG_PER_MM, sign=">0",
+                                                  **_limit("MAX_RATE_LIMIT_DEG_PER_MM"))),
+        margin_target=r.number(d, "margin_target", p, default=K.MARGIN_TARGET, sign=">0",
+                               **_limit("MAX_MARGIN_TARGET")),
         verify_sdm=verify, allow_fallback=fallback,
-        clearance_mm=r.number(d, "clearance_mm", p, default=K.CLEARANCE_MM, sign=">=0"),
-        gouge_tol_mm=r.number(d, "gouge_tol_mm", p, default=K.GOUGE_TOL_MM, sign=">=0"),
+        clearance_mm=r.number(d, "clearance_mm", p, default=K.CLEARANCE_MM, sign=">=0",
+                              **_limit("MAX_CLEARANCE_MM")),
+        gouge_tol_mm=r.number(d, "gouge_tol_mm", p, default=K.GOUGE_TOL_MM, sign=">=0",
+                              **_limit("MAX_GOUGE_TOL_MM")),
         safety_factor=safety,
         dialect=r.string(d, "dialect", p, default="linuxcnc", choices=DIALECTS),
-        cut=_cut(r, r.table(d["cut"], "orient.cut")) if "cut" in d else None,
+        cut=_cut(r, r.table(d["cut"], "orient.cut"), radius_mm) if "cut" in d else None,
         spindle=_spindle(r, r.table(d["spindle"], "orient.spindle")) if "spindle" in d
         else None)
 
@@ -279,16 +298,21 @@ def _workpiece(r: TableReader, d: dict) -> WorkpieceSpec:
                                         "workpiece")
     if "modes" in d:
         v = d["modes"]
-        if not isinstance(v, list) or not v:
-            raise r.fail("workpiece.modes", "expected [[workpiece.modes]] tables")
+        if not isinstance(v, list) or not v or len(v) > K.MAX_WORKPIECE_MODES:
+            raise r.fail("workpiece.modes", f"expected 1 to {K.MAX_WORKPIECE_MODES} "
+                                            f"[[workpiece.modes]] tables (orient.constants."
+                                            f"MAX_WORKPIECE_MODES), got {_count(v)}")
         modes = []
         for i, m in enumerate(v):
             q = f"workpiece.modes[{i}]"
             m = r.table(m, q)
             r.keys(m, q, ("direction", "frequency_hz", "damping_ratio", "stiffness_N_m"))
-            mode = Mode.from_frequency(r.number(m, "frequency_hz", q, sign=">0"),
-                                       r.number(m, "damping_ratio", q, sign=">=0"),
-                                       r.number(m, "stiffness_N_m", q, sign=">0"))
+            mode = Mode.from_frequency(*(r.number(m, k, q, sign=s, maximum=getattr(EK, lim),
+                                                  limit=f"errpred.constants.{lim}")
+                                         for k, s, lim in (
+                                             ("frequency_hz", ">0", "MAX_MODE_FREQUENCY_HZ"),
+                                             ("damping_ratio", ">=0", "MAX_DAMPING_RATIO"),
+                                             ("stiffness_N_m", ">0", "MAX_STIFFNESS_N_M"))))
             modes.append((mode, _vector(r, m, "direction", q, unit=True)))
         return WorkpieceSpec("modes", tuple(modes), source=src)
     q = "workpiece.thin_wall"
@@ -304,10 +328,13 @@ def _workpiece(r: TableReader, d: dict) -> WorkpieceSpec:
     }
     if abs(float(wall["along"] @ wall["normal"])) > 1e-6:
         raise r.fail(f"{q}.normal", "expected a direction perpendicular to 'along'")
-    for k in ("length_mm", "height_mm", "thickness_mm", "young_GPa", "density_kg_m3"):
-        wall[k] = r.number(t, k, q, sign=">0")
+    for k, lim in (("length_mm", "MAX_WALL_MM"), ("height_mm", "MAX_WALL_MM"),
+                   ("thickness_mm", "MAX_WALL_MM"), ("young_GPa", "MAX_YOUNG_GPA"),
+                   ("density_kg_m3", "MAX_DENSITY_KG_M3")):
+        wall[k] = r.number(t, k, q, sign=">0", **_limit(lim))
     wall["stock_thickness_mm"] = r.number(t, "stock_thickness_mm", q,
-                                          default=wall["thickness_mm"], sign=">0")
+                                          default=wall["thickness_mm"], sign=">0",
+                                          **_limit("MAX_WALL_MM"))
     if wall["stock_thickness_mm"] < wall["thickness_mm"]:
         raise r.fail(f"{q}.stock_thickness_mm", f"expected >= thickness_mm "
                                                 f"({wall['thickness_mm']:g} mm), got "
@@ -316,10 +343,43 @@ def _workpiece(r: TableReader, d: dict) -> WorkpieceSpec:
     if not wall["poisson"] < 0.5:
         raise r.fail(f"{q}.poisson", f"expected 0 <= poisson < 0.5, got {wall['poisson']:g}")
     wall["damping_ratio"] = r.number(t, "damping_ratio", q, default=K.WALL_DAMPING_RATIO,
-                                     sign=">=0")
-    wall["modes"] = r.integer(t, "modes", q, default=K.WALL_MODES, minimum=1)
+                                     sign=">=0", maximum=EK.MAX_DAMPING_RATIO,
+                                     limit="errpred.constants.MAX_DAMPING_RATIO")
+    wall["modes"] = r.integer(t, "modes", q, default=K.WALL_MODES, minimum=1,
+                              **_limit("MAX_WALL_MODES"))
     wall["element_mm"] = r.number(t, "element_mm", q, default=0.0, sign=">=0") or None
+    _wall_dofs_within_limit(r, wall)
     return WorkpieceSpec("thin_wall", thin_wall=wall, source=src)
+
+
+def _count(v: Any) -> str:
+    return f"{len(v)}" if isinstance(v, list) else type(v).__name__
+
+
+def _wall_dofs_within_limit(r: TableReader, wall: dict) -> None:
+    """Refuse a thin wall whose finite-element model would exceed
+    :data:`orient.workpiece_fem.MAX_DOFS` (estimated as :func:`orient.fem.wall.wall_mesh`
+    counts its elements: 27-node hexahedra, 3 DOFs a node), before it is built."""
+    from .fem.wall import DEFAULT_ELEMENTS_SHORT_SIDE, DEFAULT_MAX_ELEMENTS_PER_DIRECTION
+    from .workpiece_fem import MAX_DOFS
+
+    L, H, T = wall["length_mm"], wall["height_mm"], wall["stock_thickness_mm"]
+    size = wall["element_mm"]
+    if size is None:
+        size = min(L, H) / DEFAULT_ELEMENTS_SHORT_SIDE
+        nx = min(L / size, DEFAULT_MAX_ELEMENTS_PER_DIRECTION)
+        nz = min(H / size, DEFAULT_MAX_ELEMENTS_PER_DIRECTION)
+    else:
+        nx, nz = max(1.0, L / size), max(1.0, H / size)
+    ny = max(1.0, T / size)
+    dofs = 3.0 * (2 * nx + 1) * (2 * ny + 1) * (2 * nz + 1)
+    if dofs > MAX_DOFS:
+        key = "element_mm" if wall["element_mm"] is not None else "thickness_mm"
+        raise r.fail(f"workpiece.thin_wall.{key}", f"the wall's finite-element model would "
+                                                   f"have about {dofs:.3g} degrees of freedom, "
+                                                   f"more than {MAX_DOFS} (orient."
+                                                   f"workpiece_fem.MAX_DOFS); expected a "
+                                                   f"coarser element_mm or a smaller wall")
 
 
 def load_plan_scenario(path: str | os.PathLike) -> PlanScenario:
@@ -332,16 +392,16 @@ def load_plan_scenario(path: str | os.PathLike) -> PlanScenario:
     """
     base = load_scenario(path, extra_sections=("orient", "workpiece"))
     r = TableReader(base.path)
-    options = _options(r, base.extra.get("orient", {}))
     if base.tool.kind != "ball":
         raise r.fail("tool.type", f"orient plans ball end mills; got {base.tool.kind!r}")
+    options = _options(r, r.table(base.extra.get("orient", {}), "orient"), base.tool.radius_mm)
     if options.cut is None:
         raise r.fail("orient.cut", "missing; expected [orient.cut] with depth_mm and pick_mm")
     if base.stock.design_path is None:
         raise r.fail("stock.design_stl", "missing; the planner needs the design surface (its "
                                          "normals at the contact points, the interference "
                                          "check)")
-    wp = (_workpiece(r, base.extra["workpiece"]) if "workpiece" in base.extra
+    wp = (_workpiece(r, r.table(base.extra["workpiece"], "workpiece")) if "workpiece" in base.extra
           else WorkpieceSpec())
     return PlanScenario(base, options, wp)
 

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from nc.atomic import atomic_write
+from nc.errors import InputError
 
 from .constants import DEFAULT_POINTS, DEFAULT_PORT
 
@@ -48,6 +49,14 @@ def _nc(args: argparse.Namespace):
     from .machine import SimulatedNC
     from .sensors import Accelerometers
 
+    if not (math.isfinite(args.noise) and args.noise >= 0):
+        raise InputError(f"--noise: expected a finite value >= 0, got {args.noise}")
+    scale = getattr(args, "time_scale", 1.0)
+    if not (math.isfinite(scale) and scale > 0):
+        raise InputError(f"--time-scale: expected a finite value > 0, got {scale}")
+    port = getattr(args, "port", 0)
+    if not 0 <= port <= 65535:
+        raise InputError(f"--port: expected 0 to 65535, got {port}")
     scn = _scenario(args.scenario)
     return scn, SimulatedNC(scn, points=tuple(args.points),
                             sensors=Accelerometers(noise_rms_m_s2=args.noise), seed=args.seed)

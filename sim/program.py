@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 
+from nc.errors import InputError
 from nc.path import cutter_locations
 from orient.contacts import ball_contacts
 from orient.geometry import lead_tilt_of
@@ -67,7 +68,8 @@ class PartProgram:
         n = len(self.cam)
         first, last = (0, n - 1) if points is None else (int(points[0]), int(points[1]))
         if not 0 <= first < last < n:
-            raise ValueError(f"points: expected 0 <= first < last < {n}, got {points!r}")
+            raise InputError(f"--points: expected 0 <= FIRST < LAST < {n} (the program's "
+                             f"cutter locations), got {points!r}")
         self.first, self.last = first, last
         self.design = base.stock.load_design()
         # a corrected program's ball stands micrometres off the design and still cuts; a

@@ -31,6 +31,7 @@ import os
 import numpy as np
 
 from ..constants import COLUMN_ENTRIES, COLUMNS_PER_AXIS
+from ..meshio import MeshFileError, check_closed
 from . import _kernels as KR
 from .camera import View
 from .depth import _NO_MASK, StockInterval, rasterize_interval
@@ -153,16 +154,15 @@ def _check_mesh(mesh, name: str, allow_open: bool):
     if not isinstance(mesh, trimesh.Trimesh):
         raise TypeError(f"{name}: expected a trimesh.Trimesh, got {type(mesh).__name__}")
     if len(mesh.faces) == 0:
-        raise ValueError(f"{name}: the stock mesh has no triangles")
+        raise MeshFileError(name, "the stock mesh has no triangles")
     if not mesh.is_watertight:
         if not allow_open:
-            raise ValueError(
-                f"{name}: the stock mesh is not watertight (closed); material inside it is "
+            raise MeshFileError(
+                name, "the stock mesh is not watertight (closed); material inside it is "
                 "undefined. Repair the STL, or pass allow_open=True for a surface whose "
                 "back side (against its normals) counts as material")
         return mesh
-    if not mesh.is_winding_consistent:
-        raise ValueError(f"{name}: the stock mesh's triangles are not consistently oriented")
+    check_closed(mesh, name)
     if mesh.volume < 0:
         mesh = mesh.copy()
         mesh.invert()
@@ -233,16 +233,11 @@ class Stock:
     @classmethod
     def from_stl(cls, path, allow_open: bool = False) -> "Stock":
         """From an STL (or any mesh file trimesh reads); see :meth:`from_mesh`."""
-        import trimesh
+        from ..meshio import load_mesh
 
         p = os.fspath(path)
-        if not os.path.isfile(p):
-            raise FileNotFoundError(f"{p}: stock mesh file not found")
-        try:
-            mesh = trimesh.load(p, force="mesh")
-        except Exception as exc:  # trimesh raises many kinds
-            raise ValueError(f"{p}: cannot read the stock mesh: {exc}") from exc
-        return cls.from_mesh(mesh, allow_open=allow_open, name=p)
+        return cls.from_mesh(load_mesh(p, what="stock mesh", closed=not allow_open),
+                             allow_open=allow_open, name=p)
 
     # --- geometry ---------------------------------------------------------
     @property

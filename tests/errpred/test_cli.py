@@ -78,3 +78,11 @@ def test_bad_scenarios_end_in_one_message_and_no_output(tmp_path, capsys):
     assert not rep.exists()
     assert main(["predict", WALL, "--lines", "10", "5"]) == 2
     assert "--lines" in capsys.readouterr().err
+    # a range beyond the program selects nothing: refused before any prediction
+    assert main(["predict", WALL, "--lines", "100000", "100010", "-o", str(rep)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--lines" in err[0] and "no motion block" in err[0], err
+    assert not rep.exists()
+    out = tmp_path / "never.nc"
+    assert main(["compensate", WALL, "-o", str(out), "--tolerance-um", "nan", "-q"]) == 2
+    assert "--tolerance-um" in capsys.readouterr().err and not out.exists()

@@ -9,7 +9,9 @@ import pytest
 import trimesh
 
 from errpred.frames import tool_frame
+from errpred.meshio import MeshFileError
 from errpred.raster import Stock, TriangleGrid, View, coverage, rasterize_interval
+from nc.errors import InputError
 
 TOL = 1e-9  # float rounding on depths of tens of mm
 
@@ -498,20 +500,21 @@ def test_grid_index_superset_and_selective():
 
 def test_from_stl_errors_name_the_file(tmp_path):
     missing = tmp_path / "nope.stl"
-    with pytest.raises(FileNotFoundError, match="nope.stl"):
+    with pytest.raises(MeshFileError, match="nope.stl.*not found"):
         Stock.from_stl(missing)
     box = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
     open_mesh = trimesh.Trimesh(box.vertices, box.faces[:-1])
     path = tmp_path / "open_part.stl"
     open_mesh.export(path)
-    with pytest.raises(ValueError, match="open_part.stl.*not watertight"):
+    with pytest.raises(MeshFileError, match="open_part.stl.*not watertight"):
         Stock.from_stl(path)
     s = Stock.from_stl(path, allow_open=True)
     assert not s.is_box and s.faces.shape[0] == 11
     bad = tmp_path / "garbage.stl"
     bad.write_text("this is not an stl")
-    with pytest.raises(ValueError, match="garbage.stl"):
+    with pytest.raises(MeshFileError, match="garbage.stl"):
         Stock.from_stl(bad)
+    assert issubclass(MeshFileError, InputError)
 
 
 # --- masks, membership ---------------------------------------------------------------

@@ -284,6 +284,28 @@ def test_shape_error_interpolates_holds_ends_and_signs():
     ('allow = ["M8"]', 'allow = ["M8"]\nmachine = "xyzzy"', "program.machine"),
     ("= 0.1\n", '= 0.1\n[resolution]\npixel_mm = 0.0\n', "resolution.pixel_mm"),
     ("= 0.1\n", '= 0.1\n[correction]\niterate = "yes"\n', "correction.iterate"),
+    # bounds (errpred.constants): values that would run for hours or describe no tool
+    ("flutes = 2", "flutes = 25", "tool.flutes"),
+    ("flutes = 2", "flutes = 9223372036854775807", "tool.flutes"),
+    ("diameter_mm = 10.0", "diameter_mm = 1e300", "tool.diameter_mm"),
+    ("Ktc_N_mm2 = 2000.0", "Ktc_N_mm2 = 1e300", "cutting.Ktc_N_mm2"),
+    ("Kre0_N_mm = 35.0", "Kre0_N_mm = -1e300", "cutting.Kre0_N_mm"),
+    ("damping_ratio = 0.03", "damping_ratio = 1e300", "dynamics.modes[0].damping_ratio"),
+    ("mass_kg = 0.03", "mass_kg = 1e-30", "dynamics.modes[1].mass_kg"),
+    ("= 0.1\n", '= 0.1\n[correction]\nmax_iterations = 1000000000\n',
+     "correction.max_iterations"),
+    # the program: a line range must select a motion block (line 4 is M8)
+    ('allow = ["M8"]', 'allow = ["M8"]\nlines = [4, 4]', "program.lines"),
+    ('allow = ["M8"]', 'allow = ["M8"]\nlines = [100, 200]', "program.lines"),
+    # sizes against the memory budget
+    ("= 0.1\n", '= 0.1\n[resolution]\npixel_mm = 1e-7\n', "resolution.pixel_mm"),
+    ("= 0.1\n", '= 0.1\n[resolution]\npixel_mm = 5.0\n', "resolution.pixel_mm"),
+    ("= 0.1\n", '= 0.1\n[resolution]\nmicro_edges = 100000\n', "resolution.micro_edges"),
+    ("= 0.1\n", '= 0.1\n[resolution]\nangle_step_deg = 1e-5\n', "resolution.angle_step_deg"),
+    ("= 0.1\n", '= 0.1\n[resolution]\nangle_step_deg = 120.0\n', "resolution.angle_step_deg"),
+    ("= 0.1\n", '= 0.1\n[resolution]\nchord_tol_mm = 1e-12\n', "resolution.chord_tol_mm"),
+    ("= 0.1\n", '= 0.1\n[resolution]\npoint_spacing_mm = 1e-9\n',
+     "resolution.point_spacing_mm"),
 ])
 def test_bad_files_name_file_and_key(tmp_path, old, new, key):
     assert old in VALID
@@ -322,3 +344,83 @@ def test_static_model_from_static_compliance_only(tmp_path):
     with pytest.raises(ScenarioError, match="dynamics.static_compliance_m_N"):
         load_scenario(_write(tmp_path, VALID.replace(
             "[dynamics]\n", "[dynamics]\nstatic_compliance_m_N = { x = 2.0e-7 }\n")))
+
+
+def test_memory_budget_names_the_coarsest_pixel_that_fits(tmp_path):
+    """The refusal's suggested pixel_mm loads; 5 % finer is refused again (the suggestion
+    is the least that fits, rounded up by under 2 %)."""
+    import re
+
+    from errpred import constants as EK
+    from errpred.limits import resolution_cost
+
+    path = _write(tmp_path, VALID + "[resolution]\npixel_mm = 1e-7\n")
+    with pytest.raises(ScenarioError, match="MEMORY_BUDGET_BYTES") as exc:
+        load_scenario(path)
+    least = float(re.search(r"pixel_mm >= ([0-9.e+-]+)$", str(exc.value)).group(1))
+    s = load_scenario(_write(tmp_path, VALID + f"[resolution]\npixel_mm = {least!r}\n"))
+    t, r = s.tool, s.resolution
+    fits = resolution_cost(t.diameter_mm, t.corner_radius_mm, t.flute_length_mm, t.flutes,
+                           r.pixel_mm, r.micro_edges, r.angle_step_rad)
+    assert fits.bytes <= EK.MEMORY_BUDGET_BYTES
+    with pytest.raises(ScenarioError, match="resolution.pixel_mm"):
+        load_scenario(_write(tmp_path, VALID + f"[resolution]\npixel_mm = {least * 0.95!r}\n"))
+
+
+@pytest.mark.parametrize("name", sorted(BUNDLED))
+def test_resolution_cost_counts_what_the_model_makes(name):
+    """The estimate's pixels and samples are the bottom template's and the revolution's."""
+    from errpred.bottomview import BottomTemplate
+    from errpred.engagement import revolution_angles
+    from errpred.limits import resolution_cost
+
+    s = load_scenario(bundled_scenario(name))
+    t, r = s.tool, s.resolution
+    c = resolution_cost(t.diameter_mm, t.corner_radius_mm, t.flute_length_mm, t.flutes,
+                        r.pixel_mm, r.micro_edges, r.angle_step_rad)
+    edges = t.micro_edges(r.micro_edges)
+    theta = revolution_angles(r.angle_step_rad, t.flutes)
+    bt = BottomTemplate(t, edges, theta, r.pixel_mm)
+    assert c.bottom_pixels == bt.n ** 2
+    assert c.samples == pytest.approx(len(edges.rho) * len(theta), rel=0.01)
+    # the bundled scenarios are well inside the budget, and so is the convergence
+    # test's setting (every discretization 4x finer)
+    from errpred import constants as EK
+
+    assert c.bytes < EK.MEMORY_BUDGET_BYTES / 4
+    f = r.finer(4)
+    assert resolution_cost(t.diameter_mm, t.corner_radius_mm, t.flute_length_mm, t.flutes,
+                           f.pixel_mm, f.micro_edges, f.angle_step_rad
+                           ).bytes < EK.MEMORY_BUDGET_BYTES
+
+
+@pytest.mark.parametrize("program, expected", [
+    ("", "no motion block"),
+    ("%\n(only a comment)\nM30\n%\n", "no motion block"),
+    ("G21 G90\nG0 X0 Y0 Z5\nG1 X10 F100 Q7\n", r"p.nc:3:\d+: unknown word Q"),
+])
+def test_program_is_read_when_the_scenario_is_loaded(tmp_path, program, expected):
+    path = _write(tmp_path, VALID)
+    (tmp_path / "p.nc").write_text(program)
+    with pytest.raises(ScenarioError, match=expected) as exc:
+        load_scenario(path)
+    assert exc.value.key == "program.gcode" and "\n" not in str(exc.value)
+
+
+@pytest.mark.parametrize("stl, expected", [
+    (b"", "empty file"),
+    (b"solid x\n  facet normal what\nendsolid\n", "no triangles|cannot read"),
+    ("open", "not watertight"),
+])
+def test_stock_mesh_is_read_and_must_be_closed(tmp_path, stl, expected):
+    text = VALID.replace("box_min_mm = [0.0, 0.0, 0.0]\nbox_max_mm = [50.0, 40.0, 20.0]\n",
+                         'stl = "s.stl"\n')
+    path = _write(tmp_path, text)
+    if stl == "open":
+        box = trimesh.creation.box(extents=(50.0, 40.0, 20.0))
+        trimesh.Trimesh(box.vertices, box.faces[:-1], process=False).export(tmp_path / "s.stl")
+    else:
+        (tmp_path / "s.stl").write_bytes(stl)
+    with pytest.raises(ScenarioError, match=expected) as exc:
+        load_scenario(path)
+    assert exc.value.key == "stock.stl" and "s.stl" in str(exc.value)
