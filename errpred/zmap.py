@@ -71,7 +71,7 @@ class SweepMap:
         self.time = 0  # sweeps 0 .. time - 1 are in every allocated tile
         self.tile_index = np.full(tuple(self.shape), -1, dtype=np.int64)
         cap = min(64, self.max_tiles)
-        self._vals = np.empty((cap, self.size, self.size, FIELDS))
+        self._vals = np.broadcast_to(self._empty, (cap,) + self._empty.shape).copy()
         self._owner = np.full(cap, -1, dtype=np.int64)  # flat tile key of each slot
         self._used = np.zeros(cap, dtype=np.int64)  # last query that touched it
         self._free = list(range(cap - 1, -1, -1))
@@ -84,7 +84,7 @@ class SweepMap:
         kept = 0 if self._snapshot is None else self._snapshot[2].nbytes
         return int(self._vals.nbytes + self.tile_index.nbytes + kept)
 
-    def _advance(self, t1_end: float) -> None:
+    def _advance(self, t1_end: float) -> bool:
         """Insert the sweeps that end by path length ``t1_end``, no later one.
 
         A query earlier than the map's time goes back to the state kept at the
@@ -102,8 +102,7 @@ class SweepMap:
             ids = np.arange(self.time, target, dtype=np.int64)
             self._insert(ids)
             self.time = target
-        if fresh:
-            self._keep()
+        return fresh
 
     def _keep(self) -> None:
         self._snapshot = (self.time, self.tile_index.copy(), self._vals.copy(),
@@ -150,7 +149,7 @@ class SweepMap:
             if cap < self.max_tiles:
                 grow = min(cap, self.max_tiles - cap)
                 self._vals = np.concatenate(
-                    [self._vals, np.empty((grow,) + self._vals.shape[1:])])
+                    [self._vals, np.broadcast_to(self._empty, (grow,) + self._empty.shape)])
                 self._owner = np.concatenate([self._owner, np.full(grow, -1, dtype=np.int64)])
                 self._used = np.concatenate([self._used, np.zeros(grow, dtype=np.int64)])
                 self._free = list(range(cap + grow - 1, cap - 1, -1))
@@ -216,9 +215,11 @@ class SweepMap:
         ndarray, shape (k,), int8
         """
         self._clock += 1
-        self._advance(t1_end)
+        fresh = self._advance(t1_end)
         keys = tiles_of(points, self.origin, self.cell, self.size, self.shape)
         self._allocate(keys)
+        if fresh:  # the state a later query earlier than the map's time goes back to
+            self._keep()
         slots = self.tile_index.ravel()[keys]
         self._used[slots[slots >= 0]] = self._clock
         return classify(points, self._vals, self.tile_index, self.origin, self.cell, self.size,
