@@ -143,8 +143,11 @@ def read_frf_csv(path: Any) -> tuple[np.ndarray, np.ndarray]:
             low = [h.lower() for h in header]
             units = [u for u in ("m", "mm", "um") if f"real_{u}_n" in low and f"imag_{u}_n" in low]
             if "frequency_hz" not in low or not units:
+                hint = (" (a CutPro .frf file? read it with Compliance.from_cutpro, "
+                        "scenario key dynamics.frf_cutpro)"
+                        if os.fspath(path).lower().endswith(".frf") else "")
                 raise FRFDataError(f"expected a header 'frequency_hz,real_m_N,imag_m_N' (comma "
-                                   f"or tab separated), found {text!r}", path=path, line=ln)
+                                   f"or tab separated), found {text!r}{hint}", path=path, line=ln)
             fac = _LENGTH_M[units[0]]
             cols = {name: low.index(name) for name in
                     ("frequency_hz", f"real_{units[0]}_n", f"imag_{units[0]}_n")}
