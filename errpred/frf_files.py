@@ -203,7 +203,8 @@ def read_frf_cutpro(path: Any) -> tuple[np.ndarray, np.ndarray, list[str]]:
     Real``. Accepted beyond that: fields separated by tabs or spaces, a
     trailing separator, and a header block of lines that do not start with a
     number before the first row. A unit label ``m/N``, ``mm/N`` or ``um/N``
-    (in the header or the first row's labels) scales the values; without one
+    (in the header or the first row's labels; also in brackets, ``(m/N)``)
+    scales the values; without one
     m/N is assumed (noted). Frequencies >= 0 and strictly increasing; at least
     two rows.
 
@@ -256,7 +257,7 @@ def read_frf_cutpro(path: Any) -> tuple[np.ndarray, np.ndarray, list[str]]:
                            f"{len(rows)}", path=path)
     units = {}
     for ln, text in labels:
-        key = text.strip().lower().replace("µ", "u").replace("μ", "u")
+        key = text.strip("()[]{}").lower().replace("µ", "u").replace("μ", "u")
         if key in _CUTPRO_UNITS:
             units.setdefault(key, ln)
         elif key in ("rad/s", "rad/sec"):
