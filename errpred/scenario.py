@@ -21,6 +21,12 @@ A used tool starts from its wear state: ``[tool] state = "tool-state.json"``
 checked against the scenario's tool and micro edges here) or ``[tool]
 used_cutting_distance_m = 12.5`` (every micro edge has cut that far).
 
+The tool may come from a library: ``[tool] library = "tools.json"`` and
+``number = 3`` (a Fusion 360 tool library, or a LinuxCNC ``.tbl`` with
+``library_units``), the other ``[tool]`` keys overriding or completing it
+(:mod:`errpred.toollib`). Measured FRFs: ``dynamics.frf_uff``, ``frf_csv`` or
+``frf_cutpro`` (:mod:`errpred.frf_files`).
+
 Two scenarios are bundled (:data:`BUNDLED`, :func:`bundled_scenario`); they
 are made by ``scripts/make_errpred_scenarios.py``.
 """
