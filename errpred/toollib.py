@@ -131,7 +131,8 @@ class LibraryTool:
     description : str
         The library's description or comment of the tool.
     extra : dict
-        Values read but not used (a ``.tbl``'s offsets, a Fusion ``OAL``), mm.
+        Values read but not used (a ``.tbl``'s offsets, a Fusion ``OAL``), mm
+        (a ``.tbl``'s A, B, C offsets in degrees).
     """
 
     number: int
@@ -277,7 +278,8 @@ def _tbl_tool(path: Path, number: int, units: str | None) -> LibraryTool:
             "helix_deg": f"{why}, no helix angle",
             "corner_radius_mm": f"{why}, no corner radius",
             "flute_length_mm": f"{why}, no flute length"}
-    extra = {k: v * fac for k, v in words.items() if k in "XYZABCUVW"}
+    extra = {k: v * (fac if k in "XYZUVW" else 1.0) for k, v in words.items()
+             if k in "XYZABCUVW"}                     # A, B, C in degrees
     return LibraryTool(number, os.fspath(path), f"line {ln}", "LinuxCNC tool table",
                        {"diameter_mm": dia}, gaps, ("flute_length_mm",), comment, extra)
 

@@ -151,10 +151,10 @@ def test_library_values_in_millimetres(tmp_path):
     assert t.values["corner_radius_mm"] == pytest.approx(0.79375)
     assert t.values["holder"] == {"diameter_mm": 44.0, "length_mm": 40.0}
     assert t.where == "data[0]" and t.format == "Fusion 360 tool library"
-    (tmp_path / "t.tbl").write_text("T4 P1 D0.5 Z2.0 X0.1 ;half inch\n")
+    (tmp_path / "t.tbl").write_text("T4 P1 D0.5 Z2.0 X0.1 A15 ;half inch\n")
     t = library_tool(tmp_path / "t.tbl", 4, units="inch")
     assert t.values == {"diameter_mm": pytest.approx(12.7)} and t.description == "half inch"
-    assert t.extra == {"Z": pytest.approx(50.8), "X": pytest.approx(2.54)}
+    assert t.extra == {"Z": pytest.approx(50.8), "X": pytest.approx(2.54), "A": 15.0}
 
 
 # --------------------------------------------------------------------------- what a .tbl lacks
