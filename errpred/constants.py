@@ -314,3 +314,18 @@ MAX_CHORD_TOL_MM = 1.0e-2
 MIN_PIXELS_PER_DIAMETER = 8.0
 #: Largest shape-error deviation of the effective radius [um] (1 mm: a broken tool).
 MAX_RADIUS_DEVIATION_UM = 1.0e3
+
+# --- tool libraries (errpred/toollib.py) ------------------------------------------
+#: Millimetres per inch (exact, by the 1959 definition) [mm/in]: inch tool
+#: libraries are converted at the reader, nothing beyond it sees inches.
+INCH_MM = 25.4
+#: A library's corner radius below this counts as a sharp corner, so a "flat end
+#: mill" may carry it [mm]. Libraries store inch values to 6 decimals (0.025 um);
+#: a corner radius of 1 um changes the predicted error by well under 1 um, the
+#: prediction's own resolution (docs/method.md §9). A flat end mill with a larger
+#: corner radius is refused: it is a bull-nose end mill and must be modelled as one.
+LIBRARY_SHARP_CORNER_MM = 1.0e-3
+#: A ball end mill's corner radius in a library may differ from D/2 by this
+#: much and still be the ball [mm] (inch values to 6 decimals; see above). A
+#: larger difference is a contradiction in the library and is refused.
+LIBRARY_BALL_RADIUS_TOL_MM = 1.0e-3

@@ -6,15 +6,17 @@ bending directions (world X and Y projected onto the plane normal to the tool
 axis), ``'z'`` (optional) the axis. Cross terms are not modelled. It comes
 from modal parameters (``G = sum_k 1 / (k_k - m_k omega^2 + i c_k omega)``),
 from the static model ``D = C F`` (``G = sum_k 1 / k_k`` at every frequency)
-or from a measured FRF (impact test: arrays, UFF type 58 or CSV files).
+or from a measured FRF (impact test: arrays, UFF type 58, CSV or CutPro ``.frf``
+files; the file readers are in :mod:`errpred.frf_files`).
 
 Sign convention: a force ``Re(F e^{i omega t})`` gives the displacement
 ``Re(G(omega) F e^{i omega t})``; numpy's forward FFT uses ``e^{-i...}``, so
 ``D = irfft(G rfft(F))`` and a lightly damped mode driven at resonance lags
 the force by 90 degrees. ``G(-omega) = conj(G(omega))`` (a real structure).
 
-Only :meth:`Compliance.from_uff`, :meth:`Compliance.from_csv` and
-:meth:`Compliance.to_uff` touch files; everything else is pure computation.
+Only :meth:`Compliance.from_uff`, :meth:`Compliance.from_csv`,
+:meth:`Compliance.from_cutpro` and :meth:`Compliance.to_uff` touch files;
+everything else is pure computation.
 """
 
 from __future__ import annotations
@@ -29,29 +31,13 @@ from typing import Any
 import numpy as np
 
 from nc.atomic import atomic_path
-from nc.errors import InputError
 from nc.checks import real_number as _real
+
+from .frf_files import DIRECTIONS, FRFDataError, read_frf_csv, read_frf_cutpro, read_uff_record
 
 __all__ = ["DIRECTIONS", "Compliance", "FRFDataError", "Mode"]
 
-#: Allowed direction names, in the column order used everywhere.
-DIRECTIONS = ("x", "y", "z")
 _UFF_DIR = {"x": 1, "y": 2, "z": 3}
-#: Length units accepted for FRF ordinates, as factors to metres.
-_LENGTH_M = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "micron": 1e-6, "microns": 1e-6}
-
-
-class FRFDataError(InputError):
-    """Bad FRF input. Attributes ``path``, ``record``, ``line``, ``column``
-    (None where not applicable) locate the problem; the message names them."""
-
-    def __init__(self, message: str, *, path: Any = None, record: int | None = None,
-                 line: int | None = None, column: int | None = None) -> None:
-        where = [] if path is None else [os.fspath(path)]
-        where += [f"{k} {v}" for k, v in (("record", record), ("line", line), ("column", column))
-                  if v is not None]
-        super().__init__(f"{', '.join(where)}: {message}" if where else message)
-        self.path, self.record, self.line, self.column = path, record, line, column
 
 
 @dataclass(frozen=True)
@@ -110,10 +96,10 @@ def _check_directions(keys: Any, where: str) -> tuple[str, ...]:
 class Compliance:
     """Direct tool-tip compliance ``G(omega)`` [m/N] per direction.
 
-    Build it with :meth:`from_modes`, :meth:`from_frf`, :meth:`from_uff` or
-    :meth:`from_csv`. Columns of :meth:`response` and of the force and
-    deflection arrays of :meth:`deflection` follow :attr:`directions`
-    (``'x'``, ``'y'``, ``'z'`` order, those present).
+    Build it with :meth:`from_modes`, :meth:`from_frf`, :meth:`from_uff`,
+    :meth:`from_csv` or :meth:`from_cutpro`. Columns of :meth:`response` and
+    of the force and deflection arrays of :meth:`deflection` follow
+    :attr:`directions` (``'x'``, ``'y'``, ``'z'`` order, those present).
 
     Measured FRFs are evaluated by linear interpolation of the real and the
     imaginary parts between measured frequencies. Below the first measured
@@ -275,10 +261,10 @@ class Compliance:
                         or not 0 <= i < len(types) or types[i] != 58:
                     raise FRFDataError(f"direction {d!r}: record {i!r} is not a type-58 record "
                                        f"(record types: {types})", path=path)
-                chosen[d] = (int(i), _read_uff_record(uff, path, int(i), strict=True))
+                chosen[d] = (int(i), read_uff_record(uff, path, int(i), strict=True))
         else:
             for i in (i for i, t in enumerate(types) if t == 58):
-                rec = _read_uff_record(uff, path, i, strict=False)
+                rec = read_uff_record(uff, path, i, strict=False)
                 if isinstance(rec, str):
                     notes.append(f"record {i}: skipped ({rec})")
                 elif rec["direction"] in chosen:
@@ -315,8 +301,30 @@ class Compliance:
         dirs = _check_directions(paths.keys(), "Compliance.from_csv")
         freq, frf = {}, {}
         for d in dirs:
-            freq[d], frf[d] = _read_frf_csv(paths[d])
+            freq[d], frf[d] = read_frf_csv(paths[d])
         return cls.from_frf(freq, frf, static_m_N)
+
+    @classmethod
+    def from_cutpro(cls, paths: Mapping[str, str | os.PathLike], *,
+                    static_m_N: Mapping[str, float] | None = None) -> Compliance:
+        """Read one CutPro ``.frf`` file per direction (``{'x': path, 'y': path}``).
+
+        Each file holds one direct FRF: rows of frequency [Hz], real and
+        imaginary receptance [m/N] (see :func:`errpred.frf_files.read_frf_cutpro`
+        for what is accepted, and the assumption behind it). ``static_m_N`` as in
+        :meth:`from_frf`.
+
+        Raises
+        ------
+        FRFDataError (a ValueError)
+            Naming the file, line and column (1-based) of the first bad field.
+        """
+        dirs = _check_directions(paths.keys(), "Compliance.from_cutpro")
+        freq, frf, notes = {}, {}, []
+        for d in dirs:
+            freq[d], frf[d], n = read_frf_cutpro(paths[d])
+            notes += [f"{d}: {x}" for x in n]
+        return cls.from_frf(freq, frf, static_m_N, notes=notes)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -487,139 +495,3 @@ class Compliance:
         with atomic_path(path) as tmp:
             # pyuff writes by file name; 'add' to the fresh empty file
             pyuff.UFF(tmp).write_sets(sets, mode="add")
-
-
-# ---------------------------------------------------------------------- file readers
-def _uff_units(rec: dict, path: Any, i: int) -> tuple[float, list[str]]:
-    """Factor from the record's ordinate units to m/N."""
-    num = str(rec.get("ordinate_axis_units_lab", "") or "").strip()
-    den = str(rec.get("orddenom_axis_units_lab", "") or "").strip()
-    num = "" if num.upper() == "NONE" else num
-    den = "" if den.upper() == "NONE" else den
-    if "/" in num:
-        num, _, den2 = num.partition("/")
-        den = den or den2
-    if not num:
-        if den.lower() not in ("n", ""):
-            raise FRFDataError(f"ordinate denominator units {den!r}; expected N", path=path,
-                               record=i)
-        return 1.0, ["no ordinate units label; m/N assumed"]
-    fac = _LENGTH_M.get(num.strip().lower().replace("µ", "u").replace("μ", "u"))
-    if fac is None or den.strip().lower() not in ("n", ""):
-        raise FRFDataError(f"ordinate units {num!r}/{den!r} not understood; expected "
-                           f"m, mm or um per N", path=path, record=i)
-    return fac, []
-
-
-def _read_uff_record(uff: Any, path: Any, i: int, *, strict: bool) -> dict | str:
-    """Read and check record ``i`` of the ``pyuff.UFF`` object. Returns a dict, or
-    (``strict=False``) a reason string for a record that is not a direct
-    translational FRF."""
-    try:
-        rec = uff.read_sets(i)
-    except Exception as exc:
-        raise FRFDataError(f"cannot read the record ({exc})", path=path, record=i) from exc
-    ft = int(rec.get("func_type", -1))
-    if ft != 4:
-        if not strict:
-            return f"function type {ft}, not 4 (FRF)"
-        raise FRFDataError(f"function type {ft}, not 4 (frequency response function)",
-                           path=path, record=i)
-    rsp, ref = int(rec.get("rsp_dir", 0)), int(rec.get("ref_dir", 0))
-    notes: list[str] = []
-    if not strict:
-        if abs(rsp) not in (1, 2, 3):
-            return f"response direction {rsp} is not a translation"
-        if ref != 0 and abs(ref) != abs(rsp):
-            return f"cross FRF (response direction {rsp}, reference {ref})"
-        if ref == 0:
-            notes.append("reference direction 0 taken as the response direction")
-    sign = -1.0 if rsp * ref < 0 and abs(rsp) in (1, 2, 3) and abs(ref) in (1, 2, 3) else 1.0
-    spec = int(rec.get("ordinate_spec_data_type", 0))
-    if spec in (11, 12):
-        raise FRFDataError(f"ordinate is {'velocity' if spec == 11 else 'acceleration'} "
-                           f"(spec data type {spec}); convert to receptance (displacement/"
-                           f"force) first", path=path, record=i)
-    if int(rec.get("abscissa_spec_data_type", 18)) not in (0, 1, 18):
-        raise FRFDataError(f"abscissa spec data type {rec['abscissa_spec_data_type']} is not "
-                           f"frequency", path=path, record=i)
-    xu = str(rec.get("abscissa_axis_units_lab", "") or "").strip().lower()
-    if xu in ("", "none", "hz"):
-        xfac = 1.0
-    elif xu in ("rad/s", "rad/sec"):
-        xfac = 1.0 / (2.0 * math.pi)
-    else:
-        raise FRFDataError(f"abscissa units {xu!r}; expected Hz", path=path, record=i)
-    x, data = rec.get("x"), rec.get("data")
-    if x is None or data is None or not np.iscomplexobj(data):
-        raise FRFDataError("ordinate is not complex (an FRF needs real and imaginary parts)",
-                           path=path, record=i)
-    x = np.asarray(x, dtype=float) * xfac
-    data = np.asarray(data, dtype=complex)
-    bad = ~(np.isfinite(x) & np.isfinite(data))
-    if np.any(bad):
-        raise FRFDataError(f"non-finite value at point {int(np.flatnonzero(bad)[0])}",
-                           path=path, record=i)
-    if x.size < 2 or x[0] < 0 or np.any(np.diff(x) <= 0):
-        raise FRFDataError("need >= 2 frequencies, >= 0 and strictly increasing",
-                           path=path, record=i)
-    fac, unotes = _uff_units(rec, path, i)
-    return {"direction": DIRECTIONS[abs(rsp) - 1] if abs(rsp) in (1, 2, 3) else None,
-            "freq_hz": x, "frf_m_N": data * (sign * fac), "notes": notes + unotes}
-
-
-def _read_frf_csv(path: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Read one ``frequency_hz,real_m_N,imag_m_N`` file; returns (f [Hz], G [m/N])."""
-    try:
-        with open(path, encoding="utf-8-sig") as fh:
-            lines = fh.read().splitlines()
-    except FileNotFoundError as exc:
-        raise FRFDataError("no such file", path=path) from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FRFDataError(f"cannot read ({exc})", path=path) from exc
-    header, sep, cols, fac = None, ",", {}, 1.0
-    rows: list[tuple[float, float, float]] = []
-    for ln, raw in enumerate(lines, start=1):
-        text = raw.strip()
-        if not text or text.startswith("#"):
-            continue
-        if header is None:
-            sep = "\t" if "\t" in text else ","
-            header = [h.strip() for h in text.split(sep)]
-            low = [h.lower() for h in header]
-            units = [u for u in ("m", "mm", "um") if f"real_{u}_n" in low and f"imag_{u}_n" in low]
-            if "frequency_hz" not in low or not units:
-                raise FRFDataError(f"expected a header 'frequency_hz,real_m_N,imag_m_N' (comma "
-                                   f"or tab separated), found {text!r}", path=path, line=ln)
-            fac = _LENGTH_M[units[0]]
-            cols = {name: low.index(name) for name in
-                    ("frequency_hz", f"real_{units[0]}_n", f"imag_{units[0]}_n")}
-            continue
-        fields = text.split(sep)
-        if len(fields) > len(header):
-            raise FRFDataError(f"{len(fields)} fields, the header has {len(header)}",
-                               path=path, line=ln, column=len(header) + 1)
-        vals = []
-        for c in cols.values():
-            if c >= len(fields) or not fields[c].strip():
-                raise FRFDataError(f"missing value for {header[c]!r}", path=path, line=ln,
-                                   column=c + 1)
-            try:
-                v = float(fields[c].strip())
-            except ValueError:
-                raise FRFDataError(f"{header[c]}: {fields[c].strip()!r} is not a number",
-                                   path=path, line=ln, column=c + 1) from None
-            if not math.isfinite(v):
-                raise FRFDataError(f"{header[c]}: {fields[c].strip()!r} is not finite",
-                                   path=path, line=ln, column=c + 1)
-            vals.append(v)
-        if vals[0] < 0 or (rows and vals[0] <= rows[-1][0]):
-            raise FRFDataError(f"frequency {vals[0]!r} Hz: frequencies must be >= 0 and "
-                               f"strictly increasing", path=path, line=ln,
-                               column=cols["frequency_hz"] + 1)
-        rows.append((vals[0], vals[1], vals[2]))
-    if header is None or len(rows) < 2:
-        raise FRFDataError(f"need a header and at least 2 data rows, found "
-                           f"{'no header' if header is None else f'{len(rows)} rows'}", path=path)
-    a = np.array(rows)
-    return a[:, 0], (a[:, 1] + 1j * a[:, 2]) * fac

@@ -21,6 +21,12 @@ A used tool starts from its wear state: ``[tool] state = "tool-state.json"``
 checked against the scenario's tool and micro edges here) or ``[tool]
 used_cutting_distance_m = 12.5`` (every micro edge has cut that far).
 
+The tool may come from a library: ``[tool] library = "tools.json"`` and
+``number = 3`` (a Fusion 360 tool library, or a LinuxCNC ``.tbl`` with
+``library_units``), the other ``[tool]`` keys overriding or completing it
+(:mod:`errpred.toollib`). Measured FRFs: ``dynamics.frf_uff``, ``frf_csv`` or
+``frf_cutpro`` (:mod:`errpred.frf_files`).
+
 Two scenarios are bundled (:data:`BUNDLED`, :func:`bundled_scenario`); they
 are made by ``scripts/make_errpred_scenarios.py``.
 """
@@ -42,6 +48,7 @@ from . import constants as K
 from .geometry import Resolution
 from .tables import ScenarioError, TableReader, _kind, _limit, check_program_lines
 from .tool import TOOL_KINDS, Holder, Tool
+from .toollib import LIBRARY_KEYS, tool_table_from_library
 
 __all__ = ["ScenarioError", "StockSpec", "ShapeError", "Resolution", "CorrectionOptions",
            "Scenario", "TableReader", "load_scenario", "check_program_lines", "BUNDLED",
@@ -244,6 +251,9 @@ def _mesh(r: TableReader, d: dict, k: str, *, closed: bool) -> Path:
 
 def _tool(r: TableReader, d: dict) -> Tool:
     p = "tool"
+    origin = ""
+    if any(k in d for k in LIBRARY_KEYS):   # library + number: errpred.toollib
+        d, origin = tool_table_from_library(r, d)
     r.keys(d, p, ("type", "diameter_mm", "flutes", "helix_deg"),
            ("corner_radius_mm", "flute_length_mm", "overhang_mm", "rotation",
             "shank_diameter_mm", "holder", "state", "used_cutting_distance_m"))
@@ -283,7 +293,7 @@ def _tool(r: TableReader, d: dict) -> Tool:
     try:
         return Tool(kind, dia, corner, flutes, helix, rotation=rotation, holder=holder, **opt)
     except ValueError as exc:
-        raise r.fail("tool", str(exc)) from None
+        raise r.fail("tool", str(exc) + (f" (with {origin})" if origin else "")) from None
 
 
 def _tool_start(r: TableReader, d: dict, tool: Tool, res: Resolution) -> tuple[Any, str]:
@@ -363,14 +373,14 @@ def _dynamics(r: TableReader, d: dict):
     from .dynamics import Compliance, Mode
 
     p = "dynamics"
-    r.keys(d, p, (), ("model", "modes", "frf_uff", "frf_csv", "static_compliance_m_N",
-                      "source"))
+    r.keys(d, p, (), ("model", "modes", "frf_uff", "frf_csv", "frf_cutpro",
+                      "static_compliance_m_N", "source"))
     model = r.string(d, "model", p, default="dynamic", choices=("dynamic", "static"))
     src = r.string(d, "source", p, default="")
-    given = [k for k in ("modes", "frf_uff", "frf_csv") if k in d]
+    given = [k for k in ("modes", "frf_uff", "frf_csv", "frf_cutpro") if k in d]
     if len(given) > 1:
-        raise r.fail(f"dynamics.{given[1]}", f"give one of modes, frf_uff, frf_csv; got "
-                                             f"{', '.join(given)}")
+        raise r.fail(f"dynamics.{given[1]}", f"give one of modes, frf_uff, frf_csv, "
+                                             f"frf_cutpro; got {', '.join(given)}")
     static = None
     if "static_compliance_m_N" in d:
         t = r.table(d["static_compliance_m_N"], "dynamics.static_compliance_m_N")
@@ -378,8 +388,8 @@ def _dynamics(r: TableReader, d: dict):
         static = {k: r.number(t, k, "dynamics.static_compliance_m_N", sign=">0",
                               **_limit("MAX_STATIC_COMPLIANCE_M_N")) for k in t}
     if not given and not (model == "static" and static):
-        raise r.fail("dynamics.modes", "missing; expected [[dynamics.modes]], frf_uff or "
-                                       "frf_csv (or model = \"static\" with "
+        raise r.fail("dynamics.modes", "missing; expected [[dynamics.modes]], frf_uff, "
+                                       "frf_csv or frf_cutpro (or model = \"static\" with "
                                        "static_compliance_m_N)")
     if given == ["modes"] and static:
         raise r.fail("dynamics.static_compliance_m_N", "not with modes (their static "
@@ -392,11 +402,11 @@ def _dynamics(r: TableReader, d: dict):
             key = given[0]
             if key == "frf_uff":
                 comp = Compliance.from_uff(r.path(d, key, p), static_m_N=static)
-            else:
-                t = r.table(d[key], "dynamics.frf_csv")
-                r.keys(t, "dynamics.frf_csv", ("x", "y"), ("z",))
-                comp = Compliance.from_csv({k: r.path(t, k, "dynamics.frf_csv") for k in t},
-                                           static_m_N=static)
+            else:   # frf_csv, frf_cutpro: one file per direction
+                t = r.table(d[key], f"dynamics.{key}")
+                r.keys(t, f"dynamics.{key}", ("x", "y"), ("z",))
+                read = Compliance.from_csv if key == "frf_csv" else Compliance.from_cutpro
+                comp = read({k: r.path(t, k, f"dynamics.{key}") for k in t}, static_m_N=static)
             _need_xy(r, comp.directions, f"dynamics.{key}")
             if model == "dynamic":
                 return comp, src
