@@ -72,7 +72,7 @@ def segs(unit, *hlu):
 def write_scenario(tmp_path: Path, tool: str, files: dict, dynamics: str = MODES) -> Path:
     for name, text in files.items():
         (tmp_path / name).write_text(text)
-    (tmp_path / "prog.nc").write_text("G21 G90\nM30\n")
+    (tmp_path / "prog.nc").write_text("G21 G90\nS8000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F300\nM30\n")
     path = tmp_path / "scenario.toml"
     path.write_text(SCENARIO.format(tool=tool, dynamics=dynamics))
     return path
