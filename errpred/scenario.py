@@ -198,6 +198,9 @@ class Scenario:
     #: Tables of the sections named in ``load_scenario(extra_sections=...)``,
     #: unchecked: the package that asked for them reads them.
     extra: dict = field(default_factory=dict)
+    #: The program's dialect: "auto" (detected from its first block), "gcode"
+    #: or "heidenhain" (``[program] dialect``).
+    dialect: str = "auto"
     #: The tool's wear at the start [mm]: None (a fresh tool), one actual
     #: cutting distance for every micro edge (``tool.used_cutting_distance_m``),
     #: or one per micro edge (``tool.state``, checked against this tool and
@@ -207,10 +210,11 @@ class Scenario:
     tool_start: str = "new tool"
 
     def read_program(self):
-        """The NC program (``nc.read_program`` with the scenario's allow list)."""
-        from nc import read_program
+        """The NC program (``nc.read_any``: the scenario's dialect and allow list)."""
+        from nc import read_any
 
-        return read_program(self.program_path, allow=self.allow)
+        return read_any(self.program_path, None if self.dialect == "auto" else self.dialect,
+                        allow=self.allow)
 
 
 # --------------------------------------------------------------------------- sections
@@ -321,8 +325,12 @@ def _tool_start(r: TableReader, d: dict, tool: Tool, res: Resolution) -> tuple[A
 
 def _program(r: TableReader, d: dict) -> tuple:
     p = "program"
-    r.keys(d, p, ("gcode",), ("allow", "lines", "machine"))
+    r.keys(d, p, ("gcode",), ("allow", "lines", "machine", "dialect"))
     gcode = r.path(d, "gcode", p)
+    dialect = r.string(d, "dialect", p, default="auto") if "dialect" in d else "auto"
+    if dialect not in ("auto", "gcode", "heidenhain"):
+        raise r.fail("program.dialect", f"expected \"auto\", \"gcode\" or \"heidenhain\", "
+                                        f"got {dialect!r}")
     allow = d.get("allow", [])
     if not isinstance(allow, list) or not all(isinstance(a, str) for a in allow):
         raise r.fail("program.allow", f"expected an array of strings, got {_kind(allow)}")
@@ -353,7 +361,7 @@ def _program(r: TableReader, d: dict) -> tuple:
                 raise r.fail("program.machine", f"unknown machine {m!r}; expected one of "
                                                 f"{', '.join(sorted(MACHINES))} or a .toml file")
             machine = m
-    return gcode, tuple(allow), lines, machine
+    return gcode, tuple(allow), lines, machine, dialect
 
 
 def _cutting(r: TableReader, d: dict):
@@ -576,8 +584,8 @@ def load_scenario(path: str | os.PathLike, *, extra_sections: tuple[str, ...] = 
     description = r.string(doc, "description", "", default="")
     stock = _stock(r, sec["stock"])
     tool = _tool(r, sec["tool"])
-    gcode, allow, lines, machine = _program(r, sec["program"])
-    check_program_lines(r.read_program(gcode, allow), lines, r.file)
+    gcode, allow, lines, machine, dialect = _program(r, sec["program"])
+    check_program_lines(r.read_program(gcode, allow, dialect), lines, r.file)
     coeffs, cut_src = _cutting(r, sec["cutting"])
     compliance, dyn_src = _dynamics(r, sec["dynamics"])
     shape = _shape_error(r, sec["shape_error"]) if "shape_error" in sec else ShapeError()
@@ -591,7 +599,7 @@ def load_scenario(path: str | os.PathLike, *, extra_sections: tuple[str, ...] = 
                                  ("shape_error", shape.source)) if v}
     return Scenario(
         name=name, path=Path(r.file).resolve(), stock=stock, tool=tool, program_path=gcode,
-        allow=allow, lines=lines, machine=machine, coefficients=coeffs, compliance=compliance,
+        allow=allow, lines=lines, machine=machine, dialect=dialect, coefficients=coeffs, compliance=compliance,
         shape_error=shape, resolution=resolution,
         correction=_correction(r, sec.get("correction", {})), tool_change_tolerance_um=tol,
         sources=sources, description=description, extra=extra, initial_wear_mm=wear0,

@@ -139,14 +139,15 @@ class TableReader:
         return [self.number({f"{k}[{i}]": x}, f"{k}[{i}]", prefix, sign=sign,
                             maximum=maximum, limit=limit) for i, x in enumerate(v)]
 
-    def read_program(self, gcode: Path, allow: tuple[str, ...]):
-        """The program (``nc.read_program``), refused under ``program.gcode`` (with the
-        program's file, line and column) when it cannot be read or has no motion block."""
-        from nc import read_program
+    def read_program(self, gcode: Path, allow: tuple[str, ...], dialect: str = "auto"):
+        """The program (``nc.read_any`` in ``dialect``, "auto" to detect it), refused
+        under ``program.gcode`` (with the program's file, line and column) when it
+        cannot be read or has no motion block."""
+        from nc import read_any
         from nc.errors import NCParseError
 
         try:
-            program = read_program(gcode, allow=allow)
+            program = read_any(gcode, None if dialect == "auto" else dialect, allow=allow)
         except NCParseError as exc:  # one line: where, and what was expected
             where = ":".join(str(x) for x in (exc.file, exc.line, exc.column) if x is not None)
             raise self.fail("program.gcode", f"{where}: {exc.message}") from None

@@ -424,3 +424,59 @@ def test_stock_mesh_is_read_and_must_be_closed(tmp_path, stl, expected):
     with pytest.raises(ScenarioError, match=expected) as exc:
         load_scenario(path)
     assert exc.value.key == "stock.stl" and "s.stl" in str(exc.value)
+
+
+def test_a_heidenhain_program_predicts_as_the_same_path_in_g_code(tmp_path):
+    """``[program] dialect``: the mold-ball scenario with the start of its program
+    written as Heidenhain Klartext (L blocks, FMAX, TOOL CALL) predicts the same
+    points and errors as the same moves in G-code; "auto" detects it."""
+    import dataclasses
+    import json
+    import math
+
+    from nc import read_program
+    from nc.program import RAPID
+    from errpred.pipeline import predict
+    from errpred.scenario import bundled_scenario
+
+    src = bundled_scenario("mold-ball")
+    prog = read_program(src.parent / "finish.nc", allow=("M8", "M9"))
+    rows = range(min(len(prog), 60))
+    assert all(prog.arc_index[i] < 0 for i in rows)
+    gcode = ["G21 G90 G17 G94", "S10000 M3"]
+    tnc = ["0 BEGIN PGM START MM", "1 TOOL CALL 1 Z S10000"]
+    for i in rows:
+        x, y, z = (float(v) for v in prog.end[i, :3])
+        rapid = prog.motion[i] == RAPID
+        gcode.append(f"{'G0' if rapid else 'G1'} X{x:.4f} Y{y:.4f} Z{z:.4f}"
+                     + ("" if rapid else f" F{prog.feed[i]:.0f}"))
+        tnc.append(f"{len(tnc)} L X{x:+.4f} Y{y:+.4f} Z{z:+.4f} R0 "
+                   + ("FMAX" if rapid else f"F{prog.feed[i]:.0f}"))
+    gcode.append("M30")
+    tnc.append(f"{len(tnc)} END PGM START MM")
+    (tmp_path / "start.nc").write_text("\n".join(gcode) + "\n")
+    (tmp_path / "start.h").write_text("\n".join(tnc) + "\n")
+    text = src.read_text()
+    for name in ("stock.stl", "design.stl"):
+        text = text.replace(f'"{name}"', json.dumps(str(src.parent / name)))
+    out = {}
+    for prog_name, dialect in (("start.nc", None), ("start.h", None), ("start.h", "heidenhain")):
+        t = text.replace('gcode = "finish.nc"', f'gcode = "{prog_name}"')
+        if dialect:
+            t = t.replace("[program]\n", f'[program]\ndialect = "{dialect}"\n')
+        path = tmp_path / f"{prog_name}-{dialect}.toml"
+        path.write_text(t)
+        scn = load_scenario(path)
+        assert scn.dialect == (dialect or "auto")
+        points = predict(scn).points
+        out[(prog_name, dialect)] = [(p.status, p.result.E_um if p.result else None)
+                                     for p in points]
+    ref = out[("start.nc", None)]
+    assert sum(s == "predicted" for s, _ in ref) >= 3
+    assert all(math.isfinite(e) for s, e in ref if s == "predicted")
+    assert out[("start.h", None)] == ref and out[("start.h", "heidenhain")] == ref
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace('gcode = "finish.nc"', 'gcode = "start.nc"')
+                   .replace("[program]\n", '[program]\ndialect = "siemens"\n'))
+    with pytest.raises(ScenarioError, match="program.dialect"):
+        load_scenario(bad)
