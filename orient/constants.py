@@ -104,3 +104,12 @@ SPINDLE_STEPS = 120
 WALL_DAMPING_RATIO = 0.01
 #: Modes of the thin wall's finite-element model used [-].
 WALL_MODES = 6
+
+# --- linear algebra (orient/blas.py) -------------------------------------------
+#: BLAS threads (numpy's and scipy's OpenBLAS, through threadpoolctl) in the
+#: time-periodic stability's eigenvalues and the thin-wall FEM's solves [-]:
+#: one, as the job's main process and Dask's workers. With OpenBLAS's default
+#: (a thread a core) on cores kept busy by other processes, eigvals of the
+#: monodromy matrices ran 10 to 100 times slower; the matrices here (a few
+#: hundred rows) gain nothing from more threads.
+BLAS_THREADS = 1
