@@ -55,6 +55,7 @@ from orient.dynamics import ModalSystem, minimal_rotation
 from orient.plots_lobes import plot_lobes
 from orient.stability import (
     StraightEndMill2D,
+    default_steps,
     floquet_multipliers,
     sdm_margin,
     stability_lobes,
@@ -137,10 +138,14 @@ def test_mean_directional_matrix_closed_form_and_samples(ad, milling):
     # Altintas: P = depth N Kt / (4 pi) alpha
     ref = 1e-3 * 4 * KT_AB / (4 * math.pi) * _alpha(st, ex, KR_AB)
     assert np.allclose(p[:2, :2], ref, rtol=1e-12, atol=1e-9)
-    # hat-averaged node samples keep the mean (up to the sub-sampling)
-    for k in (20, 40):
-        assert np.allclose(tool.directional_samples(k).mean(axis=0), p,
-                           atol=2e-3 * np.abs(p).max())
+    # the step averages keep the mean exactly, and are the averages of the point values
+    for k in (20, 40, 37):
+        hk = tool.directional_samples(k)
+        assert np.allclose(hk.mean(axis=0), p, rtol=0, atol=1e-12 * np.abs(p).max())
+        sub = 4000                                  # midpoint rule on each step
+        phi = 2 * math.pi / (4 * k) * (np.arange(k)[:, None] + (np.arange(sub) + 0.5) / sub)
+        num = tool.directional_matrix(phi).mean(axis=1)
+        assert np.allclose(hk, num, rtol=0, atol=2e-3 * np.abs(hk).max())
 
 
 # ---------------------------------------------------------------------- ZOA
@@ -444,8 +449,8 @@ def test_fdm_equals_zoa_for_a_constant_directional_matrix():
     for rpm in (5000.0, 11000.0):
         exact = zoa_margin(p, sys, rpm, 4)
         e1 = abs(sdm_margin(h, sys, rpm, 4).margin / exact - 1)
-        k = math.ceil(24 * 60.0 / (rpm * 4) * 660.0)           # the default step count
-        e2 = abs(sdm_margin(h, sys, rpm, 4, steps=2 * max(k, 40)).margin / exact - 1)
+        k = default_steps(sys, rpm, 4)
+        e2 = abs(sdm_margin(h, sys, rpm, 4, steps=2 * k).margin / exact - 1)
         assert e1 < 0.01
         assert e2 < e1 / 3
 
@@ -465,7 +470,7 @@ def test_fdm_converges_under_refinement():
         b = sdm_margin(tool.directional_samples(80), sys, rpm, 2, steps=80).margin
         assert abs(a - b) < 0.01 * b
     low = StraightEndMill2D(KT_1DOF, KN_1DOF, 2, 0.05, "down", depth_mm=1.0)
-    k = low.recommended_samples()                      # 84: 12 samples in the cut
+    k = low.recommended_samples()                      # 168: 24 samples in the cut
     a = sdm_margin(low.directional_samples(k), sys, 18200.0, 2)
     b = sdm_margin(low.directional_samples(2 * k), sys, 18200.0, 2)
     assert a.kind == b.kind == "flip"
