@@ -9,7 +9,7 @@ per immersion and milling sense, the worst over the grid, the time per
 margin evaluation, and the zero-order (ZOA) error on the same grid for
 information.
 
-Usage: PYTHONPATH=$PWD python benchmarks/bench_sdm_defaults.py [--table PATH] [--every N]
+Usage: PYTHONPATH=$PWD python benchmarks/bench_sdm_defaults.py [--table PATH] [--every N] [--plain]
 """
 
 from __future__ import annotations
@@ -40,6 +40,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--table", type=Path, default=TABLE)
     ap.add_argument("--every", type=int, default=1, help="use every N-th row")
+    ap.add_argument("--plain", action="store_true",
+                    help="pass steps=default_steps explicitly: the margin at the default "
+                         "steps without the error control")
     args = ap.parse_args(argv)
     with open(args.table) as f:
         rows = list(csv.DictReader(line for line in f if not line.startswith("#")))[::args.every]
@@ -52,7 +55,12 @@ def main(argv: list[str] | None = None) -> int:
         tool = StraightEndMill2D(6e8, 2e8, 2, float(r["radial_immersion"]), r["milling"])
         t0 = time.perf_counter()
         h = tool.directional_samples(tool.recommended_samples())
-        s = sdm_margin(h, sys_, float(r["rpm"]), 2).margin
+        steps = None
+        if args.plain:
+            from orient.stability import default_steps
+
+            steps = default_steps(sys_, float(r["rpm"]), 2)
+        s = sdm_margin(h, sys_, float(r["rpm"]), 2, steps=steps).margin
         t_total += time.perf_counter() - t0
         ref = float(r["limit_mm"])
         e = s / ref - 1.0
