@@ -201,5 +201,6 @@ class StraightEndMill2D:
         st, ex = self.angles
         prim = self._primitive
         out = np.zeros((3, 3))
-        out[:2, :2] = (prim(np.float64(ex)) - prim(np.float64(st))) * self.depth_mm * 1e-3 * self.teeth / (2 * math.pi)
+        scale = self.depth_mm * 1e-3 * self.teeth / (2 * math.pi)
+        out[:2, :2] = (prim(np.float64(ex)) - prim(np.float64(st))) * scale
         return out

@@ -57,9 +57,9 @@ a geometric scan upward from a fraction of the ZOA critical margin brackets
 it, a finer scan of the last coarse interval finds an earlier crossing (the
 radius can cross 1 and come back), Brent's method on ``log rho(s)`` refines
 it. With the default steps, :func:`sdm_margin` also estimates the
-discretization error and returns a margin reduced by part of it (its Notes). The critical multiplier's
-kind is ``'fold'`` (real, +1), ``'flip'`` (real, -1, period doubling) or
-``'hopf'`` (complex pair).
+discretization error and returns a margin reduced by part of it (its
+Notes). The critical multiplier's kind is ``'fold'`` (real, +1), ``'flip'``
+(real, -1, period doubling) or ``'hopf'`` (complex pair).
 """
 
 from __future__ import annotations
