@@ -134,3 +134,12 @@ MAX_WALL_MM = 10_000.0
 MAX_YOUNG_GPA = 1.2e3
 #: ... and densest [kg/m^3] (osmium: 22,600).
 MAX_DENSITY_KG_M3 = 2.5e4
+
+# --- linear algebra (orient/blas.py) -------------------------------------------
+#: BLAS threads (numpy's and scipy's OpenBLAS, through threadpoolctl) in the
+#: time-periodic stability's eigenvalues and the thin-wall FEM's solves [-]:
+#: one, as the job's main process and Dask's workers. With OpenBLAS's default
+#: (a thread a core) on cores kept busy by other processes, eigvals of the
+#: monodromy matrices ran 10 to 100 times slower; the matrices here (a few
+#: hundred rows) gain nothing from more threads.
+BLAS_THREADS = 1

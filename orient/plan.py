@@ -77,7 +77,7 @@ from .choice import (
     _Inherited,
     _inherited,
 )
-from .stability import sdm_margin, zoa_margin_batch
+from .stability import recommended_samples, sdm_margin, zoa_margin_batch
 from .workpiece import WorkpieceModel
 
 __all__ = ["SDM_CHECK_POINTS", "PlanResult", "candidate_grid", "local_cuts", "plan", "stock_mesh"]
@@ -723,6 +723,11 @@ def _sdm_checks(scn, tool_sys, wp, contacts, idx, u_new, cuts, rpm, zoa, runs
         g = process_gain(tool, scn.base.coefficients, u_new[r], contacts.normal[i],
                          contacts.feed[i], cuts[r], spindle_rpm=rpm,
                          n_angles=GAIN_ANGLES_PER_REV)
+        if g.engaged_fraction > 0.0:     # H's step averages as fine as the analysis wants
+            n = recommended_samples(min(1.0, g.engaged_fraction)) * tool.flutes
+            if n > GAIN_ANGLES_PER_REV:
+                g = process_gain(tool, scn.base.coefficients, u_new[r], contacts.normal[i],
+                                 contacts.feed[i], cuts[r], spindle_rpm=rpm, n_angles=n)
         system = wp.system_at(tool_sys, contacts.point[i]).with_tool_axis(u_new[r])
         res = sdm_margin(g.H, system, rpm, tool.flutes)
         out.append({"point": i, "zoa_margin": float(zoa[r]), "sdm_margin": float(res.margin),

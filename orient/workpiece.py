@@ -19,6 +19,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from .blas import limited_blas
 from .dynamics import ModalSystem
 from .scenario import WorkpieceSpec
 
@@ -72,8 +73,10 @@ class WorkpieceModel:
                   if w["stock_thickness_mm"] > w["thickness_mm"] and cut_z < w["height_mm"]
                   else wall for cut_z in z]
         # the levels are independent and their time is in SuperLU and ARPACK, which
-        # release the GIL: threads solve them side by side
-        with ThreadPoolExecutor(max_workers=min(len(shapes), os.cpu_count() or 1)) as pool:
+        # release the GIL: threads solve them side by side (under one BLAS limit, set
+        # here for all of them: orient.blas)
+        with limited_blas(), \
+                ThreadPoolExecutor(max_workers=min(len(shapes), os.cpu_count() or 1)) as pool:
             self.levels = list(pool.map(
                 lambda shape: wall_modes(shape, n_modes=w["modes"], elements=w["element_mm"]),
                 shapes))

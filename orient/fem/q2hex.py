@@ -33,6 +33,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator, eigsh, splu
 
+from orient.blas import blas_limited
+
 __all__ = ["Q2Mesh", "assemble", "build_mesh", "lowest_modes", "shape_functions"]
 
 #: Elements assembled per batch (bounds the dense (batch, 81, 81) work array).
@@ -217,6 +219,7 @@ def assemble(mesh: Q2Mesh, lam: float, mu: float, rho: float) -> tuple[sp.csr_ma
     return K, M
 
 
+@blas_limited
 def lowest_modes(K: sp.spmatrix, M: sp.spmatrix, free: np.ndarray,
                  n_modes: int) -> tuple[np.ndarray, np.ndarray]:
     """Lowest eigenpairs of ``K x = w^2 M x`` with the DOFs not in ``free`` fixed at 0.

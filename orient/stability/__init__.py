@@ -10,7 +10,14 @@ from __future__ import annotations
 
 from orient.stability.lobes import Lobes, stability_lobes
 from orient.stability.milling2d import StraightEndMill2D
-from orient.stability.sdm import SdmResult, floquet_multipliers, sdm_lobes, sdm_margin
+from orient.stability.sdm import (
+    SdmResult,
+    default_steps,
+    floquet_multipliers,
+    recommended_samples,
+    sdm_lobes,
+    sdm_margin,
+)
 from orient.stability.zoa import (
     ZoaCritical,
     zoa_critical,
@@ -25,7 +32,9 @@ __all__ = [
     "SdmResult",
     "StraightEndMill2D",
     "ZoaCritical",
+    "default_steps",
     "floquet_multipliers",
+    "recommended_samples",
     "sdm_lobes",
     "sdm_margin",
     "stability_lobes",

@@ -70,7 +70,7 @@ def stability_lobes(H_samples: Any, system: ModalSystem, teeth: int, rpm: Any,
     Parameters
     ----------
     H_samples : array_like, shape (k, 3, 3) [N/m]
-        Directional matrix at the nodes ``t_i = i tau / k`` of one tooth period,
+        Directional matrix: its averages over ``k`` equal steps of one tooth period,
         for the cut at depth ``depth_mm``.
     system : ModalSystem
         Relative dynamics.

@@ -40,11 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["HAT_SUBSAMPLES", "StraightEndMill2D", "immersion_angles", "screen"]
+__all__ = ["StraightEndMill2D", "immersion_angles", "screen"]
 
-#: Sub-samples per half step of the hat-weighted node averages (see
-#: :meth:`StraightEndMill2D.directional_samples`) [-].
-HAT_SUBSAMPLES = 32
 _MILLING = ("up", "down")
 
 
@@ -158,14 +155,13 @@ class StraightEndMill2D:
     def directional_samples(self, samples: int, *, average: bool = True) -> np.ndarray:
         """``H`` over one tooth period at ``samples`` equal steps [N/m], shape (k, 3, 3).
 
-        Sample ``i`` belongs to the node ``t_i = i tau / k`` (flute 0 at
-        ``phi = 2 pi i / (N k)``), **not** to an interval midpoint. With
-        ``average`` (default) each node carries the hat-weighted average of
-        ``H`` over ``[t_{i-1}, t_{i+1}]`` (weights ``1 - |t - t_i| / dt``,
-        ``HAT_SUBSAMPLES`` sub-samples per half step): the function a
-        piecewise-linear interpolation represents best, which keeps the
-        period mean exact and makes entry/exit jumps converge smoothly.
-        Without it, the point values ``H(t_i)``.
+        With ``average`` (default) sample ``i`` is the exact average of ``H``
+        over the step ``[t_i, t_{i+1}]``, ``t_i = i tau / k`` (flute 0 at
+        ``phi = 2 pi i / (N k)``), in closed form: the semi-discretization's
+        step average that :func:`orient.stability.sdm_margin` expects (the
+        entry and exit jumps fall inside steps with their exact weight; the
+        period mean is :meth:`mean_directional_matrix`). Without it, the point
+        values ``H(t_i)``.
         """
         if isinstance(samples, (bool, np.bool_)) or not isinstance(samples, numbers.Integral) \
                 or samples < 2:
@@ -175,11 +171,27 @@ class StraightEndMill2D:
         nodes = dphi * np.arange(k)
         if not average:
             return self.directional_matrix(nodes)
-        m = HAT_SUBSAMPLES
-        u = (np.arange(2 * m) + 0.5) / m - 1.0                 # midpoints in (-1, 1)
-        wts = (1.0 - np.abs(u)) / m                            # sum = 1
-        h = self.directional_matrix(nodes[:, None] + u[None, :] * dphi)
-        return np.einsum("kuij,u->kij", h, wts)
+        st, ex = self.angles
+        acc = np.zeros((k, 2, 2))
+        for j in range(self.teeth):
+            for wrap in (-2.0 * math.pi, 0.0):          # flute angles in [0, 4 pi)
+                off = j * 2.0 * math.pi / self.teeth + wrap
+                a = np.clip(nodes + off, st, ex)
+                b = np.clip(nodes + dphi + off, st, ex)
+                acc += self._primitive(b) - self._primitive(a)
+        out = np.zeros((k, 3, 3))
+        out[:, :2, :2] = acc * (self.depth_mm * 1e-3 / dphi)
+        return out
+
+    def _primitive(self, p: np.ndarray) -> np.ndarray:
+        """``int^p (Kt t - Kn n) n^T dphi`` [N/m^2 rad], shape ``p.shape + (2, 2)``."""
+        kt, kn = self.kt_N_m2, self.kn_N_m2
+        # int sin^2 = p/2 - sin2p/4, int cos^2 = p/2 + sin2p/4, int sin cos = -cos2p/4
+        ss = p / 2 - np.sin(2 * p) / 4
+        cc = p / 2 + np.sin(2 * p) / 4
+        sc = -np.cos(2 * p) / 4
+        return np.stack([np.stack([-kt * sc - kn * ss, -kt * cc - kn * sc], axis=-1),
+                         np.stack([kt * ss - kn * sc, kt * sc - kn * cc], axis=-1)], axis=-2)
 
     def mean_directional_matrix(self) -> np.ndarray:
         """Exact period mean ``P`` of ``H`` [N/m], shape (3, 3) (closed form).
@@ -187,16 +199,8 @@ class StraightEndMill2D:
         ``P = depth N / (2 pi) int_{phi_st}^{phi_ex} (Kt t - Kn n) n^T dphi``.
         """
         st, ex = self.angles
-
-        def prim(p: float) -> np.ndarray:
-            kt, kn = self.kt_N_m2, self.kn_N_m2
-            # int sin^2 = p/2 - sin2p/4, int cos^2 = p/2 + sin2p/4, int sin cos = -cos2p/4
-            ss = p / 2 - math.sin(2 * p) / 4
-            cc = p / 2 + math.sin(2 * p) / 4
-            sc = -math.cos(2 * p) / 4
-            return np.array([[-kt * sc - kn * ss, -kt * cc - kn * sc],
-                             [kt * ss - kn * sc, kt * sc - kn * cc]])
-
+        prim = self._primitive
         out = np.zeros((3, 3))
-        out[:2, :2] = (prim(ex) - prim(st)) * self.depth_mm * 1e-3 * self.teeth / (2 * math.pi)
+        scale = self.depth_mm * 1e-3 * self.teeth / (2 * math.pi)
+        out[:2, :2] = (prim(np.float64(ex)) - prim(np.float64(st))) * scale
         return out
