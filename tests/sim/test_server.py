@@ -121,7 +121,13 @@ def test_watchdog_returns_the_orientation_to_the_program(scenario):
         cl.write(watchdog_ms=300, heartbeat=1)
         cl.write(lead_cmd=-5.0, tilt_cmd=5.0)
         cl.write(orient_seq=1)
-        assert _wait(lambda: cl.state()["orient_ack_seq"] == 1)
+        beat = iter(range(2, 10 ** 6))                      # alive until it is taken
+
+        def taken():
+            cl.write(heartbeat=next(beat))
+            return cl.state()["orient_ack_seq"] == 1
+
+        assert _wait(taken)
         st = cl.state()
         assert st["orient_ack_state"] == ACK["applied"]
         assert st["lead_now"] == pytest.approx(-5.0) and st["tilt_now"] == pytest.approx(5.0)
@@ -134,7 +140,7 @@ def test_watchdog_returns_the_orientation_to_the_program(scenario):
         assert st["lead_now"] == 0 and st["tilt_now"] == 0
         assert st["orient_ack_state"] == ACK["reset_by_watchdog"]
         assert st["status"] == STATUS["running"]
-        c2.write(heartbeat=2)                               # back: the trip clears
+        c2.write(heartbeat=next(beat))                      # back: the trip clears
         assert _wait(lambda: c2.state()["watchdog_tripped"] == 0)
         c2.close()
         assert srv.error is None
