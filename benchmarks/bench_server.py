@@ -113,7 +113,7 @@ def main(argv=None) -> int:
                       f"{os.getloadavg()[0]:.1f}", flush=True)
         print(f"   (simulated {nc.state.time_s:.2f} s in {time.monotonic() - t0:.1f} s wall; "
               f"server error {srv.error!r}; server real-time: "
-              f"{getattr(getattr(srv, '_process', None), 'realtime', 'n/a')})")
+              f"{getattr(srv, 'realtime', 'n/a')})")
 
     nc = SimulatedNC(scn, points=POINTS, workpiece=wp)
     with NCServer(nc, port=0, autostart=False) as srv:

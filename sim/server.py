@@ -108,6 +108,12 @@ class NCServer:
                 self.error = RuntimeError(err)
             self._process = None
 
+    @property
+    def realtime(self) -> bool:
+        """Whether the Modbus server's process runs in the real-time scheduling class
+        (``sim.constants.SERVER_RT_PRIORITY``; False before :meth:`start`)."""
+        return self._process is not None and self._process.realtime
+
     def __enter__(self) -> Self:
         return self.start()
 

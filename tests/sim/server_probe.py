@@ -30,15 +30,31 @@ the server's figures; the JSON says whether it got it (``realtime``).
 from __future__ import annotations
 
 import asyncio
+import importlib.util
 import json
 import os
+import socket
 import struct
 import sys
 import time
+from pathlib import Path
 
-from pymodbus.client import ModbusTcpClient
 
-from sim.registers import ACK, RING_SAMPLES, RING_START, by_name, decode, encode
+def _load_registers():
+    """``sim/registers.py`` alone: importing it through the ``sim`` package brings numba,
+    scipy and orient, seconds of start-up on a loaded machine for a probe that needs
+    only the map."""
+    path = Path(__file__).resolve().parents[2] / "sim" / "registers.py"
+    spec = importlib.util.spec_from_file_location("_probe_registers", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+_regs = _load_registers()
+ACK, RING_SAMPLES, RING_START = _regs.ACK, _regs.RING_SAMPLES, _regs.RING_START
+by_name, decode, encode = _regs.by_name, _regs.decode, _regs.encode
 
 COUNT = 125
 #: Offsets [deg] commanded in turn by the watchdog trials (small: feasible along the cut).
@@ -126,27 +142,51 @@ async def _reads(port: int, clients: int, seconds: float, commands: bool) -> dic
 
 
 class _Client:
+    """A blocking Modbus TCP client of its own (functions 3, 4 and 6; raw frames)."""
+
     def __init__(self, port: int) -> None:
-        self.c = ModbusTcpClient("127.0.0.1", port=port, timeout=2)
-        if not self.c.connect():
-            raise ConnectionError(f"no server on 127.0.0.1:{port}")
+        self.sock = socket.create_connection(("127.0.0.1", port), timeout=2.0)
+        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.tid = 0
+
+    def _recv(self, n: int) -> bytes:
+        out = b""
+        while len(out) < n:
+            chunk = self.sock.recv(n - len(out))
+            if not chunk:
+                raise ConnectionError("the server closed the connection")
+            out += chunk
+        return out
+
+    def _ask(self, fc: int, a: int, b: int) -> bytes:
+        self.tid = (self.tid + 1) & 0xFFFF
+        self.sock.sendall(struct.pack(">HHHBBHH", self.tid, 0, 6, 1, fc, a, b))
+        head = self._recv(8)
+        tid, _proto, length, _unit, rfc = struct.unpack(">HHHBB", head)
+        body = self._recv(length - 2)
+        if tid != self.tid or rfc != fc:
+            raise ConnectionError(f"function {fc} at {a}: answer {rfc} {body!r}")
+        return body
+
+    def registers(self, fc: int, address: int, count: int) -> list[int]:
+        body = self._ask(fc, address, count)
+        return list(struct.unpack(f">{count}H", body[1:1 + 2 * count]))
 
     def write(self, name: str, value: float) -> float:
         """Write one holding register; returns the wall time [s] the request was sent."""
         reg = by_name(name)
         t = time.perf_counter()
-        rr = self.c.write_register(reg.address, encode(reg, value)[0], device_id=1)
-        if rr.isError():
-            raise ConnectionError(f"write {name}={value}: {rr}")
+        self._ask(6, reg.address, encode(reg, value)[0])
         return t
+
+    def holding(self, name: str) -> float:
+        reg = by_name(name)
+        return decode(reg, self.registers(3, reg.address, reg.words))
 
     def state(self) -> tuple[dict, float]:
         """The input registers 0..20 decoded, and the wall time [s] the answer came."""
-        rr = self.c.read_input_registers(0, count=21, device_id=1)
+        w = self.registers(4, 0, 21)
         t = time.perf_counter()
-        if rr.isError():
-            raise ConnectionError(f"read state: {rr}")
-        w = rr.registers
         names = ("lead_now", "tilt_now", "orient_ack_seq", "orient_ack_state",
                  "watchdog_tripped", "cutting")
         out = {}
@@ -155,14 +195,14 @@ class _Client:
             out[n] = decode(reg, w[reg.address:reg.address + reg.words])
         return out, t
 
+    def close(self) -> None:
+        self.sock.close()
+
 
 def _watchdog(port: int, watchdog_ms: int, trials: int, heartbeat: bool) -> dict:
     c = _Client(port)
     c.write("watchdog_ms", watchdog_ms)
-    seq = int(decode(by_name("orient_seq"), c.c.read_holding_registers(
-        by_name("orient_seq").address, count=1, device_id=1).registers))
-    beat = int(decode(by_name("heartbeat"), c.c.read_holding_registers(
-        by_name("heartbeat").address, count=1, device_id=1).registers))
+    seq, beat = int(c.holding("orient_seq")), int(c.holding("heartbeat"))
     limit = watchdog_ms / 1000.0 + 3.0
     out = []
     for k in range(trials if heartbeat else 1):
@@ -204,7 +244,7 @@ def _watchdog(port: int, watchdog_ms: int, trials: int, heartbeat: bool) -> dict
             time.sleep(0.002)
         out.append({"delay_s": delay, "ack": ack, "offset": [lead, tilt],
                     "cutting_all": all(v == 1 for v in cutting)})
-    c.c.close()
+    c.close()
     return {"trials": out}
 
 
