@@ -6,7 +6,10 @@ written into one folder (default ``./NAME-job``): the final program
 ``NAME.nc``, the planned one before correction ``NAME-planned.nc``,
 ``report.html`` (self-contained) and ``report.json``. The folder is filled
 from a staging folder beside it only when the whole run has succeeded, so a
-failed run leaves nothing behind. Bad input ends in one line naming the file
+failed run leaves nothing behind; SIGINT and SIGTERM end the run with one line,
+exit status 128 + the signal's number and the staging folder removed, and a run
+killed outright (SIGKILL) has its staging folder removed by the next run
+(:mod:`sim.staging`). Bad input ends in one line naming the file
 and the key, exit status 2. A run whose checks do not all hold writes its report
 and its programs renamed ``NAME.NOT-FOR-CUTTING.nc`` (with a comment at their top
 saying which checks failed) and ends with one line and exit status 1; so does a
@@ -18,9 +21,7 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -28,6 +29,7 @@ from nc.atomic import atomic_write
 from nc.command import Refused
 
 from .constants import JOB_BLAS_THREADS
+from .staging import Interrupted, commit, staging_folder, terminate_as_interrupt
 
 __all__ = ["NOT_FOR_CUTTING_SUFFIX", "add_job_arguments", "run"]
 
@@ -83,33 +85,33 @@ def run(args: argparse.Namespace) -> int:
     workers = 0 if args.no_dask else (args.dask if args.dask is not None
                                       else max(1, len(os.sched_getaffinity(0))))
     con = Console(file=sys.stderr, width=None if sys.stderr.isatty() else 110)
-    stage = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
     t0 = time.perf_counter()
     try:
-        # this process's BLAS on one thread, as Dask's workers (JOB_BLAS_THREADS: beside a
-        # local cluster's workers its spinning threads made LAPACK 100 times slower; and
-        # OpenBLAS's results depend on its thread count: one process and a cluster alike)
-        with _progress(con) as bar, dask_client(args.scheduler, workers) as client, \
-                threadpool_limits(limits=JOB_BLAS_THREADS, user_api="blas"):
-            tasks: dict[str, int] = {}
+        with terminate_as_interrupt(), staging_folder(out) as stage:
+            # this process's BLAS on one thread, as Dask's workers (JOB_BLAS_THREADS: beside
+            # a local cluster's workers its spinning threads made LAPACK 100 times slower;
+            # and OpenBLAS's results depend on its thread count: one process and a cluster
+            # alike)
+            with _progress(con) as bar, dask_client(args.scheduler, workers) as client, \
+                    threadpool_limits(limits=JOB_BLAS_THREADS, user_api="blas"):
+                tasks: dict[str, int] = {}
 
-            def progress(name: str, done: int, total: int) -> None:
-                if name not in tasks:
-                    tasks[name] = bar.add_task(name, total=total)
-                bar.update(tasks[name], completed=done, total=total)
+                def progress(name: str, done: int, total: int) -> None:
+                    if name not in tasks:
+                        tasks[name] = bar.add_task(name, total=total)
+                    bar.update(tasks[name], completed=done, total=total)
 
-            res = run_job(scn, stage, client=client, progress=progress,
-                          allow_fallback=True if getattr(args, "allow_fallback", False)
-                          else None)
-            rep = write_job_report(res, stage)
-            failed = [k for k, v in rep["checks"].items() if not v]
-            if failed:
-                _not_for_cutting(stage, (res.final_path, res.planned_path), failed)
-        out.mkdir(exist_ok=True)
-        for f in sorted(stage.iterdir()):
-            os.replace(f, out / f.name)
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
+                res = run_job(scn, stage, client=client, progress=progress,
+                              allow_fallback=True if getattr(args, "allow_fallback", False)
+                              else None)
+                rep = write_job_report(res, stage)
+                failed = [k for k, v in rep["checks"].items() if not v]
+                if failed:
+                    _not_for_cutting(stage, (res.final_path, res.planned_path), failed)
+            commit(stage, out)
+    except Interrupted as exc:
+        print(f"error: {scn.name}: {exc}; nothing written to {out}", file=sys.stderr)
+        return 128 + exc.signum
     sim = rep["simulation"]
     p = rep["plan"]
     print(f"{scn.name}: planned {p['cutting_points']} cutting points at {p['spindle_rpm']:.0f} "

@@ -13,6 +13,17 @@ sits at pair ``k mod RING_SAMPLES``. ``accel_sequence`` is the number of
 samples written so far, so a client that last read up to ``k0`` knows that
 samples ``k0 .. sequence - 1`` are new, and that it missed some if
 ``sequence - k0 > RING_SAMPLES``.
+
+The watchdog runs on the wall clock in the server's process, independent of the
+simulation (:mod:`sim.modbus`). The controller counts as alive at every write that
+changes ``heartbeat`` or ``orient_seq``; the first such write arms the watchdog (a
+controller that commands an offset and never beats is covered). A silence longer than
+``watchdog_ms`` trips it within a few milliseconds: ``watchdog_tripped`` 1,
+``lead_now`` and ``tilt_now`` 0 and, when an offset was in effect, ``orient_ack_state``
+4; the NC holds the program's posture (0/0) from its next interpolation period while
+the trip lasts, and drops a command whose check ends during it. The next sign of life
+clears the trip (measured while cutting, ``watchdog_ms`` 100: reset 101-128 ms after
+the last write, send to answer).
 """
 
 from __future__ import annotations
@@ -139,11 +150,12 @@ REGISTERS: tuple[Register, ...] = (
     _r("tilt_cmd", HOLDING, 2, 1, True, 0.01, "deg", -30, 30,
        "Tilt offset command (taken when orient_seq changes)"),
     _r("orient_seq", HOLDING, 3, 1, False, 1, "-", 0, 65535,
-       "Write a new value to submit lead_cmd/tilt_cmd"),
+       "Write a new value to submit lead_cmd/tilt_cmd (counts as alive for the watchdog)"),
     _r("heartbeat", HOLDING, 4, 1, False, 1, "-", 0, 65535,
        "Controller heartbeat: any change counts as alive"),
     _r("watchdog_ms", HOLDING, 5, 1, False, 1, "ms", 100, 10000,
-       "Silence after which the orientation offset returns to 0/0"),
+       "Silence (no change of heartbeat or orient_seq, wall clock) after which the "
+       "orientation offset returns to 0/0"),
     _r("chatter_flag", HOLDING, 6, 1, False, 1, "-", 0, 1,
        "Controller's verdict: 1 chatter"),
     _r("chatter_cause", HOLDING, 7, 1, False, 1, "-", 0, 3,

@@ -1,13 +1,21 @@
 """The simulated NC over real Modbus TCP on loopback: the map read by mbpoll, refused
-writes, the watchdog, disconnects and a server restart."""
+writes, the watchdog, disconnects and a server restart; and the server while the NC cuts
+(issue 19): the watchdog's delay on the wall clock (heartbeat stopped; an offset
+commanded by a controller that never beats) and the latency of 125-register reads with
+1 and 50 clients. Those clients are ``tests/sim/server_probe.py`` processes (not this
+one's threads, which would share the simulation's interpreter lock), bounded in time."""
 
 from __future__ import annotations
 
+import json
+import os
 import re
 import shutil
 import socket
 import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -121,7 +129,13 @@ def test_watchdog_returns_the_orientation_to_the_program(scenario):
         cl.write(watchdog_ms=300, heartbeat=1)
         cl.write(lead_cmd=-5.0, tilt_cmd=5.0)
         cl.write(orient_seq=1)
-        assert _wait(lambda: cl.state()["orient_ack_seq"] == 1)
+        beat = iter(range(2, 10 ** 6))                      # alive until it is taken
+
+        def taken():
+            cl.write(heartbeat=next(beat))
+            return cl.state()["orient_ack_seq"] == 1
+
+        assert _wait(taken)
         st = cl.state()
         assert st["orient_ack_state"] == ACK["applied"]
         assert st["lead_now"] == pytest.approx(-5.0) and st["tilt_now"] == pytest.approx(5.0)
@@ -134,7 +148,7 @@ def test_watchdog_returns_the_orientation_to_the_program(scenario):
         assert st["lead_now"] == 0 and st["tilt_now"] == 0
         assert st["orient_ack_state"] == ACK["reset_by_watchdog"]
         assert st["status"] == STATUS["running"]
-        c2.write(heartbeat=2)                               # back: the trip clears
+        c2.write(heartbeat=next(beat))                      # back: the trip clears
         assert _wait(lambda: c2.state()["watchdog_tripped"] == 0)
         c2.close()
         assert srv.error is None
@@ -185,3 +199,101 @@ def test_server_restart_and_client_reconnect(scenario):
     finally:
         cl.close()
         srv2.stop()
+
+
+# --- while the NC cuts (issue 19) ----------------------------------------------------
+ROOT = Path(__file__).resolve().parents[2]
+WATCHDOG_MS = 100
+#: The watchdog's allowance past ``watchdog_ms`` [s] and the read latency bounds [s].
+WATCHDOG_LATE_S = 0.050
+P99_ONE_S, P99_FIFTY_S = 0.005, 0.050
+
+
+def _cutting_server(scenario) -> NCServer:
+    """The first pass in real time at 3 % feed override (the cut lasts about a minute of
+    wall time; the cutting simulation's work per wall second is that of 100 %), once
+    it cuts."""
+    srv = NCServer(_nc(scenario), port=0, autostart=False).start()
+    srv.store.set("feed_override", 3)
+    srv.store.set("cycle_start", 1)
+    t0 = time.monotonic()
+    while not srv.store.get("cutting"):
+        if time.monotonic() - t0 > 30.0:
+            srv.stop()
+            pytest.fail("the NC did not start cutting within 30 s")
+        time.sleep(0.01)
+    return srv
+
+
+def _probe(*args: object) -> dict:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+    r = subprocess.run([sys.executable, "-m", "tests.sim.server_probe", *map(str, args),
+                        "--realtime"], capture_output=True, text=True, timeout=60, cwd=ROOT,
+                       env=env, check=False)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return json.loads(r.stdout)
+
+
+@pytest.fixture(scope="module")
+def cutting(scenario):
+    srv = _cutting_server(scenario)
+    yield srv
+    srv.stop()
+
+
+def test_watchdog_resets_an_offset_of_a_controller_that_never_beats(scenario, cutting):
+    """No heartbeat ever: the orientation command arms the watchdog; the offset is back at
+    0/0 within watchdog_ms + 50 ms of the command, while cutting."""
+    fresh = cutting.store.get("heartbeat") != 0 or cutting.store.watchdog().armed
+    srv = _cutting_server(scenario) if fresh else cutting      # (run after the others)
+    try:
+        assert srv.store.get("heartbeat") == 0 and not srv.store.watchdog().armed
+        r = _probe("watchdog", srv.port, WATCHDOG_MS, 1, "--no-heartbeat")["trials"][0]
+        assert r["cutting_all"]
+        assert r["ack"] in (ACK["applied"], ACK["reset_by_watchdog"])
+        assert r["delay_s"] is not None, "the offset was never reset"
+        assert WATCHDOG_MS / 1e3 <= r["delay_s"] <= WATCHDOG_MS / 1e3 + WATCHDOG_LATE_S
+        assert srv.store.get("heartbeat") == 0
+        # the NC itself holds 0/0 from its next tick (the registers showed it at once)
+        assert _wait(lambda: any(w.startswith("watchdog") for _, w in srv.events))
+        st = srv.nc.state
+        assert st.watchdog_tripped == 1 and st.lead_offset_deg == st.tilt_offset_deg == 0
+        assert srv.error is None
+    finally:
+        if fresh:
+            srv.stop()
+
+
+def test_watchdog_resets_the_offset_on_time_while_cutting(cutting):
+    """Heartbeat stops after an applied offset (a new posture each trial: new cutting
+    models): the offset is back at 0/0 within watchdog_ms + 50 ms, every trial."""
+    res = _probe("watchdog", cutting.port, WATCHDOG_MS, 3)["trials"]
+    assert all(t["cutting_all"] for t in res)
+    assert all(t["ack"] == ACK["applied"] for t in res), res
+    delays = np.array([np.nan if t["delay_s"] is None else t["delay_s"] for t in res])
+    assert np.all(np.isfinite(delays)), res
+    assert np.all(delays >= WATCHDOG_MS / 1e3)
+    assert np.all(delays <= WATCHDOG_MS / 1e3 + WATCHDOG_LATE_S), delays
+    assert cutting.error is None
+
+
+@pytest.mark.parametrize("clients, bound_s", [(1, P99_ONE_S), (50, P99_FIFTY_S)])
+def test_read_latency_while_cutting(cutting, clients, bound_s):
+    """125-register reads while the NC cuts and a controller beats and commands a new
+    offset every 0.25 s: p99 within the bound, no error."""
+    if not cutting.realtime:
+        pytest.skip("the server's process could not take the real-time scheduling class "
+                    "(needs root or CAP_SYS_NICE): its latency is the machine's load's")
+    t_sim = cutting.nc.state.time_s
+    r = _probe("reads", cutting.port, clients, 1.0, 2, "--commands")
+    # the NC cut all along (on a loaded machine it runs behind the wall clock)
+    assert cutting.store.get("cutting") == 1 and cutting.nc.state.time_s > t_sim + 0.1
+    lat = np.concatenate([x["latency_s"] for x in r["rounds"]])
+    assert not any(x["errors"] for x in r["rounds"]), r["rounds"][0]["errors"][:3]
+    assert sum(x["commands"] for x in r["rounds"]) >= 4
+    assert lat.size >= 500 * clients ** 0.5
+    p99 = float(np.percentile(lat, 99))
+    assert p99 <= bound_s, (f"p99 {p99 * 1e3:.2f} ms with {clients} client(s) (p50 "
+                            f"{np.percentile(lat, 50) * 1e3:.2f} ms, load "
+                            f"{os.getloadavg()[0]:.1f}, probe real-time {r['realtime']})")
