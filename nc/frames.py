@@ -42,6 +42,19 @@ __all__ = ["Frames", "reference_table", "work_offset_table", "convert_position"]
 NAN = math.nan
 
 
+def _pose6(table: str, key, value) -> np.ndarray:
+    """``(x, y, z[, a, b, c])`` [mm, deg] -> 6 numbers [mm, rad]; a b c default 0."""
+    v = np.asarray(value, dtype=float)
+    if v.ndim != 1 or v.size not in (3, 6) or not np.all(np.isfinite(v)):
+        raise InputError(f"{table}[{key!r}]: expected 3 or 6 finite numbers "
+                         f"(x y z [mm], a b c [deg]), got {value!r}")
+    pose = np.zeros(6)
+    pose[:3] = v[:3]
+    if v.size == 6:
+        pose[3:] = np.radians(v[3:])
+    return pose
+
+
 def work_offset_table(work_offsets: Mapping[str, Sequence[float]] | None) -> np.ndarray:
     """G54...G59 offsets from ``{"G55": (x, y, z[, a, b, c])}`` [mm, deg]."""
     table = np.zeros((6, 6))
@@ -49,14 +62,7 @@ def work_offset_table(work_offsets: Mapping[str, Sequence[float]] | None) -> np.
         m = re.fullmatch(r"G5([4-9])", str(key).strip().upper())
         if not m:
             raise InputError(f"work_offsets: key {key!r} must be one of G54...G59")
-        v = np.asarray(value, dtype=float)
-        if v.ndim != 1 or v.size not in (3, 6) or not np.all(np.isfinite(v)):
-            raise InputError(f"work_offsets[{key!r}]: expected 3 or 6 finite numbers "
-                             f"(x y z [mm], a b c [deg]), got {value!r}")
-        row = int(m.group(1)) - 4
-        table[row, :3] = v[:3]
-        if v.size == 6:
-            table[row, 3:] = np.radians(v[3:])
+        table[int(m.group(1)) - 4] = _pose6("work_offsets", key, value)
     return table
 
 
@@ -67,14 +73,7 @@ def reference_table(points: Mapping[str, Sequence[float]] | None) -> dict[int, l
         m = re.fullmatch(r"G(28|30)", str(key).strip().upper())
         if not m:
             raise InputError(f"reference_points: key {key!r} must be G28 or G30")
-        v = np.asarray(value, dtype=float)
-        if v.ndim != 1 or v.size not in (3, 6) or not np.all(np.isfinite(v)):
-            raise InputError(f"reference_points[{key!r}]: expected 3 or 6 finite numbers "
-                             f"(x y z [mm], a b c [deg]), got {value!r}")
-        row = [float(x) for x in v[:3]] + [0.0, 0.0, 0.0]
-        if v.size == 6:
-            row[3:] = [math.radians(float(x)) for x in v[3:]]
-        out[int(m.group(1)) * 10] = row
+        out[int(m.group(1)) * 10] = [float(x) for x in _pose6("reference_points", key, value)]
     return out
 
 
