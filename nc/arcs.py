@@ -21,7 +21,7 @@ from . import constants as K
 from .errors import InputError
 from .program import PLANE_AXES
 
-__all__ = ["ArcWordError", "arc_from_words"]
+__all__ = ["ArcWordError", "arc_from_words", "arc_sweep"]
 
 
 class ArcWordError(InputError):
@@ -31,6 +31,23 @@ class ArcWordError(InputError):
         self.letter = letter
         super().__init__(message)
 
+
+
+def arc_sweep(c1: float, c2: float, s1: float, s2: float, e1: float, e2: float,
+              sign: float) -> float:
+    """Signed sweep [rad] about (c1, c2) from start (s1, s2) to end (e1, e2): in
+    ``(0, 2 pi]`` counter-clockwise (``sign`` > 0), ``[-2 pi, 0)`` clockwise; an end
+    on the start is a full turn [mm in, rad out]."""
+    ang_s = math.atan2(s2 - c2, s1 - c1)
+    ang_e = math.atan2(e2 - c2, e1 - c1)
+    sweep = ang_e - ang_s
+    if sign > 0:
+        while sweep <= 1e-12:
+            sweep += 2 * math.pi
+    else:
+        while sweep >= -1e-12:
+            sweep -= 2 * math.pi
+    return sweep
 
 def arc_from_words(vals: Mapping[str, float], motion_mode: int, plane: int, scale: float,
                    arc_distance: int, start: Sequence[float], end: Sequence[float]):
@@ -116,15 +133,7 @@ def arc_from_words(vals: Mapping[str, float], motion_mode: int, plane: int, scal
         raise ArcWordError(None, f"arc start radius {rs:.6g} mm and end radius "
                           f"{re_:.6g} mm differ by {abs(rs - re_):.3g} mm; expected "
                           f"them equal within {tol:.3g} mm")
-    ang_s = math.atan2(s2 - c2, s1 - c1)
-    ang_e = math.atan2(e2 - c2, e1 - c1)
-    sweep = ang_e - ang_s
-    if sign > 0:
-        while sweep <= 1e-12:
-            sweep += 2 * math.pi
-    else:
-        while sweep >= -1e-12:
-            sweep -= 2 * math.pi
+    sweep = arc_sweep(c1, c2, s1, s2, e1, e2, sign)
     sweep += sign * 2 * math.pi * (turns - 1)
     centre = [0.0, 0.0, 0.0]
     centre[a1], centre[a2], centre[ax] = c1, c2, start[ax]

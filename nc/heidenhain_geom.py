@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from . import constants as K
+from .arcs import arc_sweep
 from .errors import InputError
 
 __all__ = ["GeomError", "sweep_to", "check_radii", "tangent_centre", "spatial_rotation",
@@ -26,15 +27,7 @@ class GeomError(InputError):
 def sweep_to(c1: float, c2: float, s1: float, s2: float, e1: float, e2: float,
              sign: float) -> float:
     """Signed sweep [rad] from start to end about (c1, c2); a full turn if they meet."""
-    ang_s = math.atan2(s2 - c2, s1 - c1)
-    ang_e = math.atan2(e2 - c2, e1 - c1)
-    sweep = ang_e - ang_s
-    if sign > 0:
-        while sweep <= 1e-12:
-            sweep += 2 * math.pi
-    else:
-        while sweep >= -1e-12:
-            sweep -= 2 * math.pi
+    sweep = arc_sweep(c1, c2, s1, s2, e1, e2, sign)
     # an end that meets the start within rounding is a full circle, not a sliver
     if abs(abs(sweep) - 2 * math.pi) < 1e-9:
         sweep = sign * 2 * math.pi

@@ -30,10 +30,10 @@ from . import constants as K
 from .atomic import atomic_write
 from .errors import InputError
 from .heidenhain import parse_heidenhain
-from .kinematics import Machine, solve_path
+from .kinematics import Machine
 from .path import CutterLocations
 from .program import TCP_ANGLES, TCP_VECTOR
-from .writer import PostResult
+from .writer import PostResult, prepare_post
 
 __all__ = ["TNC_FORMS", "TNCPostOptions", "post_heidenhain", "write_heidenhain",
            "heidenhain_round_trip"]
@@ -137,14 +137,11 @@ def post_heidenhain(cl: CutterLocations, machine: Machine,
     nc.errors.KinematicsError
         When a point cannot be reached within the machine's limits.
     """
-    if len(cl) == 0:
-        raise ValueError("cl: no cutter locations to post")
     o = options
-    sol = solve_path(machine, cl.tip, cl.axis, singular_cone_rad=o.singular_cone_rad)
-    tip, axis, joints = cl.tip, cl.axis, sol.joints
+    tip, axis, sol, spindle = prepare_post(cl, machine, o.singular_cone_rad, o.spindle_rpm)
+    joints = sol.joints
     ld, ad, vd = o.linear_decimals, o.angle_decimals, o.vector_decimals
     names = machine.rotary_names
-    spindle = o.spindle_rpm if o.spindle_rpm is not None else float(cl.spindle_rpm[0])
     out: list[str] = []
     add = out.append
     add(f"BEGIN PGM {o.program_name} MM")

@@ -34,10 +34,11 @@ import numpy as np
 from . import constants as K
 from .atomic import atomic_write
 from .errors import InputError, KinematicsError
-from .kinematics import Machine, linearize, solve_path
+from .kinematics import Machine, PathSolution, linearize, solve_path
 from .path import CutterLocations
 
-__all__ = ["DIALECTS", "PostOptions", "PostResult", "post", "round_trip_error", "write_program"]
+__all__ = ["DIALECTS", "PostOptions", "PostResult", "post", "prepare_post", "round_trip_error",
+           "write_program"]
 
 DIALECTS = ("linuxcnc", "fanuc-g43.4", "fanuc-g43.5")
 
@@ -174,6 +175,28 @@ def _num(v: float, decimals: int) -> str:
     return s[1:] if s[0] == "-" and not s.strip("-0.") else s
 
 
+def prepare_post(cl: CutterLocations, machine: Machine, singular_cone_rad: float,
+                 spindle_rpm: float | None
+                 ) -> tuple[np.ndarray, np.ndarray, PathSolution, float]:
+    """What every writer starts from: the tips and axes of ``cl``, the machine's
+    solution for them (``solve_path``: joints on a continuous branch within the axis
+    limits, the points at the singularity), and the spindle speed written
+    (``spindle_rpm``, else the first point's) [mm, -, -, rev/min].
+
+    Raises
+    ------
+    nc.errors.InputError
+        For no cutter locations.
+    nc.errors.KinematicsError
+        When a point cannot be reached within the machine's limits.
+    """
+    if len(cl) == 0:
+        raise InputError("cl: no cutter locations to post")
+    sol = solve_path(machine, cl.tip, cl.axis, singular_cone_rad=singular_cone_rad)
+    spindle = spindle_rpm if spindle_rpm is not None else float(cl.spindle_rpm[0])
+    return cl.tip, cl.axis, sol, spindle
+
+
 def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptions()
          ) -> PostResult:
     """Turn cutter locations into an NC program for ``machine``.
@@ -196,11 +219,9 @@ def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptio
     nc.errors.KinematicsError
         When a point cannot be reached within the machine's limits.
     """
-    if len(cl) == 0:
-        raise InputError("cl: no cutter locations to post")
     o = options
-    sol = solve_path(machine, cl.tip, cl.axis, singular_cone_rad=o.singular_cone_rad)
-    tip, axis, joints = cl.tip, cl.axis, sol.joints
+    tip, axis, sol, spindle = prepare_post(cl, machine, o.singular_cone_rad, o.spindle_rpm)
+    joints = sol.joints
     source = np.arange(len(cl), dtype=float)
     if o.dialect == "linuxcnc":
         lin = linearize(machine, tip, axis, joints, tol_mm=o.linearize_tol_mm,
@@ -218,7 +239,6 @@ def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptio
     seg = np.clip(np.ceil(source - 1e-9).astype(int), 0, len(cl) - 1)
     feed = cl.feed_mm_min[seg]
     rapid = cl.rapid[seg]
-    spindle = o.spindle_rpm if o.spindle_rpm is not None else float(cl.spindle_rpm[0])
     names = machine.rotary_names
     L = _Lines(o)
     ld, ad, vd = o.linear_decimals, o.angle_decimals, o.vector_decimals
