@@ -122,15 +122,21 @@ def read_uff_record(uff: Any, path: Any, i: int, *, strict: bool) -> dict | str:
             "freq_hz": x, "frf_m_N": data * (sign * fac), "notes": notes + unotes}
 
 
-def read_frf_csv(path: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Read one ``frequency_hz,real_m_N,imag_m_N`` file; returns (f [Hz], G [m/N])."""
+def _text_lines(path: Any) -> list[str]:
+    """The lines of a text FRF file (a byte-order mark dropped); a file that is
+    missing or not text is an :class:`FRFDataError` naming it."""
     try:
         with open(path, encoding="utf-8-sig") as fh:
-            lines = fh.read().splitlines()
+            return fh.read().splitlines()
     except FileNotFoundError as exc:
         raise FRFDataError("no such file", path=path) from exc
     except (OSError, UnicodeDecodeError) as exc:
         raise FRFDataError(f"cannot read ({exc})", path=path) from exc
+
+
+def read_frf_csv(path: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Read one ``frequency_hz,real_m_N,imag_m_N`` file; returns (f [Hz], G [m/N])."""
+    lines = _text_lines(path)
     header, sep, cols, fac = None, ",", {}, 1.0
     rows: list[tuple[float, float, float]] = []
     for ln, raw in enumerate(lines, start=1):
@@ -213,13 +219,7 @@ def read_frf_cutpro(path: Any) -> tuple[np.ndarray, np.ndarray, list[str]]:
     FRFDataError
         Naming the file, line and column (1-based) of the first bad field.
     """
-    try:
-        with open(path, encoding="utf-8-sig") as fh:
-            lines = fh.read().splitlines()
-    except FileNotFoundError as exc:
-        raise FRFDataError("no such file", path=path) from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FRFDataError(f"cannot read ({exc})", path=path) from exc
+    lines = _text_lines(path)
     rows: list[tuple[float, float, float]] = []
     labels: list[tuple[int, str]] = []
     for ln, raw in enumerate(lines, start=1):
