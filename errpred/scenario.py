@@ -355,9 +355,9 @@ def _program(r: TableReader, d: dict) -> tuple:
         if m.endswith(".toml"):
             machine = r.path(d, "machine", p)
         else:
-            from nc.kinematics import _ALIASES, MACHINES
+            from nc.kinematics import MACHINES, machine_kind
 
-            if m not in MACHINES and m not in _ALIASES:
+            if machine_kind(m) is None:
                 raise r.fail("program.machine", f"unknown machine {m!r}; expected one of "
                                                 f"{', '.join(sorted(MACHINES))} or a .toml file")
             machine = m

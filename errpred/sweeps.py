@@ -25,10 +25,13 @@ from numba import njit
 from nc.path import CutterLocations
 
 from . import constants as K
-from ._kernels import sweeps_within
+from ._kernels import inside_any_sweep, sweep_distance, sweeps_within
 from .tool import Tool
 
-__all__ = ["Sweeps", "build_sweeps"]
+#: ``inside_any_sweep`` and ``sweep_distance`` (numba, usable inside other
+#: numba kernels) are the swept tool solid's membership and distance, public
+#: here for the packages above errpred.
+__all__ = ["Sweeps", "build_sweeps", "inside_any_sweep", "sweep_distance"]
 
 
 def _cylinder_bounds(p: np.ndarray, w: np.ndarray, height: float, radius: float):

@@ -70,18 +70,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import partial
-from typing import Any, Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import constants as K
-from .errors import InputError, KinematicsError
+from .errors import KinematicsError
 from .linearize import Linearized, linearize
 from .machines import (
     _TWO_PI,
-    _UNLIMITED,
     Machine,
     RotaryAxis,
     _angle_between,
@@ -89,119 +86,13 @@ from .machines import (
     _rows,
     _unit_rows,
     _wrap,
-    load_machine,
-    machine_to_toml,
 )
+from .machine_files import load_machine, machine_to_toml
+from .named_machines import MACHINES, get_machine, linuxcnc_trt_machine, machine_kind
 
 __all__ = ["RotaryAxis", "Machine", "PathSolution", "Linearized", "solve_path", "linearize",
-           "MACHINES", "get_machine", "load_machine", "machine_to_toml",
+           "MACHINES", "get_machine", "machine_kind", "load_machine", "machine_to_toml",
            "linuxcnc_trt_machine"]
-
-
-# --------------------------------------------------------------------------- named machines
-_DEG = math.pi / 180.0
-_TILT_LIMITS_RAD = (-90.0 * _DEG, 90.0 * _DEG)
-
-#: kind -> (tilt letter, tilt about, tilt carrier, rotary carrier)
-_KINDS = {
-    "xyzac-trt": ("A", "x", "table", "table"),
-    "xyzbc-trt": ("B", "y", "table", "table"),
-    "xyzbc-head-table": ("B", "y", "head", "table"),
-    "xyzbc-head-head": ("B", "y", "head", "head"),
-}
-_ALIASES = {"head-table-bc": "xyzbc-head-table", "head-head-bc": "xyzbc-head-head"}
-
-
-def _named(kind: str, *, name: str | None = None, tool_length_mm: float = 0.0,
-           tilt_pivot_mm: tuple[float, float, float] = (0.0, 0.0, 0.0),
-           rotary_pivot_mm: tuple[float, float, float] = (0.0, 0.0, 0.0),
-           tilt_direction: int = 1, rotary_direction: int = 1,
-           tilt_limits_rad: tuple[float, float] = _TILT_LIMITS_RAD,
-           rotary_limits_rad: tuple[float, float] = _UNLIMITED,
-           linear_limits_mm: tuple[tuple[float, float], ...] = (_UNLIMITED,) * 3,
-           ) -> Machine:
-    """Named machine ``kind`` (a key of :data:`MACHINES`); keywords: :func:`get_machine`."""
-    letter, about, tilt_carrier, rot_carrier = _KINDS[kind]
-    tilt = RotaryAxis(letter, about, tilt_carrier, tuple(tilt_pivot_mm), tilt_direction,
-                      *tilt_limits_rad)
-    rot = RotaryAxis("C", "z", rot_carrier, tuple(rotary_pivot_mm), rotary_direction,
-                     *rotary_limits_rad)
-    return Machine(name or kind, (tilt, rot), tool_length_mm, tuple(linear_limits_mm))
-
-
-#: Named machine factories; each takes the keywords of :func:`get_machine`.
-MACHINES: dict[str, Callable[..., Machine]] = {k: partial(_named, k) for k in _KINDS}
-
-
-def get_machine(name: str, /, **overrides: Any) -> Machine:
-    """A named machine, with geometry overrides.
-
-    Parameters
-    ----------
-    name : str
-        ``xyzac-trt``, ``xyzbc-trt``, ``xyzbc-head-table`` (alias
-        ``head-table-bc``) or ``xyzbc-head-head`` (alias ``head-head-bc``).
-    name : str, optional (keyword; the kind above is positional)
-        Machine name; default the kind.
-    tool_length_mm : float [mm]
-        Tool gauge length (spindle nose to tip).
-    tilt_pivot_mm, rotary_pivot_mm : tuple of 3 float [mm]
-        Points on the tilt / rotary axis at zero posture (table axis:
-        workpiece frame; head axis: from the spindle gauge point).
-    tilt_direction, rotary_direction : int
-        +1 or -1 (see "Signs" above).
-    tilt_limits_rad, rotary_limits_rad : tuple of 2 float [rad]
-        (min, max) travel; +-inf for unlimited.
-    linear_limits_mm : tuple of 3 (min, max) [mm]
-        X, Y, Z travel.
-
-    Returns
-    -------
-    Machine
-    """
-    kind = _ALIASES.get(name, name)
-    if kind not in MACHINES:
-        raise InputError(f"unknown machine {name!r}; known: {', '.join(MACHINES)}")
-    return MACHINES[kind](**overrides)
-
-
-def linuxcnc_trt_machine(kins: str, *, x_rot_point: float = 0.0, y_rot_point: float = 0.0,
-                         z_rot_point: float = 0.0, x_offset: float = 0.0,
-                         y_offset: float = 0.0, z_offset: float = 0.0,
-                         **overrides: Any) -> Machine:
-    """The machine of LinuxCNC's ``xyzac-trt-kins`` / ``xyzbc-trt-kins`` pins [mm].
-
-    LinuxCNC (src/emc/kinematics/trtfuncs.c) turns C about the vertical line
-    through (x-rot-point, y-rot-point) and A about the X-parallel line through
-    (y-rot-point + y-offset, z-rot-point + z-offset) (B: the Y-parallel line
-    through (x-rot-point + x-offset, z-rot-point + z-offset)), both
-    right-handed for positive angles (direction +1). Its joints equal ours when
-    the ``tool-offset`` pin is 0 (tool length applied by G43): its world
-    position is then our tool tip in the workpiece frame.
-
-    Parameters
-    ----------
-    kins : str
-        ``"xyzac-trt"`` or ``"xyzbc-trt"`` (a ``-kins`` suffix is accepted).
-    x_rot_point, y_rot_point, z_rot_point, x_offset, y_offset, z_offset : float [mm]
-        The HAL pin values (``x_offset`` is used by xyzbc only, ``y_offset``
-        by xyzac only).
-    **overrides
-        Further keywords of :func:`get_machine` (limits, directions, name).
-
-    Returns
-    -------
-    Machine
-    """
-    kind = kins.removesuffix("-kins")
-    rot = (x_rot_point, y_rot_point, z_rot_point)
-    if kind == "xyzac-trt":
-        tilt = (x_rot_point, y_rot_point + y_offset, z_rot_point + z_offset)
-    elif kind == "xyzbc-trt":
-        tilt = (x_rot_point + x_offset, y_rot_point, z_rot_point + z_offset)
-    else:
-        raise InputError(f"kins: expected 'xyzac-trt' or 'xyzbc-trt', got {kins!r}")
-    return get_machine(kind, tilt_pivot_mm=tilt, rotary_pivot_mm=rot, **overrides)
 
 
 # --------------------------------------------------------------------------- path solver

@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-from errpred._kernels import sweep_distance
+from errpred.sweeps import sweep_distance
 
 __all__ = [
     "BUF_ROWS",

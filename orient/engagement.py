@@ -53,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from errpred._kernels import inside_any_sweep
+from errpred.sweeps import inside_any_sweep
 from errpred.engagement import expand_flutes, revolution_angles
 from errpred.force import chip_thickness
 from errpred.frames import tool_frame

@@ -168,7 +168,7 @@ class PlanScenario:
             return get_machine(m)
         if hasattr(m, "inverse"):
             return m
-        from nc.machines import load_machine
+        from nc.kinematics import load_machine
 
         return load_machine(m)
 

@@ -7,13 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from errpred.coefficients import (
-    CHIP_AND_EDGE_NAMES,
-    WEAR_NAMES,
-    CuttingCoefficients,
-    ForceMeasurement,
-    fit_coefficients,
-)
+from errpred.calibration import ForceMeasurement, fit_coefficients
+from errpred.coefficients import CHIP_AND_EDGE_NAMES, WEAR_NAMES, CuttingCoefficients
 from errpred.force import chip_thickness, tool_forces
 from errpred.tool import Tool
 
