@@ -40,7 +40,8 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["capsule_low", "insert_sweeps", "classify", "tiles_of", "FIELDS"]
+__all__ = ["capsule_low", "insert_sweeps", "classify", "tiles_of", "empty_tile", "FIELDS",
+           "PLANES"]
 
 #: Tangent planes kept per cell (the sweeps lowest at its centre): where passes
 #: lie close in height (steep flanks of a raster), a sample below them all is

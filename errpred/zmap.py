@@ -12,23 +12,28 @@ on), go to the exact test as before; every answer is the exact one.
 
 The map is filled in program order: a query at path length ``L`` needs the
 sweeps that end by ``L`` inserted and no later one; a query earlier than the
-map's time starts it again. Cells are allocated by tiles where queries ask, so
-memory follows the part of the program around the tool, and the least recently
-used tiles are dropped beyond a budget.
+map's time goes back to the state kept at the map's first query, or starts the
+map again. Cells are allocated by tiles where sweeps reach and queries ask, and
+beyond a budget the least recently used tiles are dropped (to be filled again,
+from the sweep index, if asked for).
 """
 
 from __future__ import annotations
 
-import math
+from copy import copy
 
 import numpy as np
 
 from . import constants as K
-from ._zmap_kernels import FIELDS, classify, empty_tile, insert_sweeps, tiles_of
+from ._zmap_kernels import classify, empty_tile, insert_sweeps, tiles_of
 from .sweeps import Sweeps
 from .tool import Tool
 
 __all__ = ["SweepMap", "sweep_map"]
+
+
+#: What the map is at a given time (what the kept state copies and restores).
+_STATE = ("time", "tile_index", "_vals", "_owner", "_used", "_free")
 
 
 class SweepMap:
@@ -81,7 +86,7 @@ class SweepMap:
     @property
     def nbytes(self) -> int:
         """Memory held [bytes] (with the kept state)."""
-        kept = 0 if self._snapshot is None else self._snapshot[2].nbytes
+        kept = 0 if self._snapshot is None else self._snapshot["_vals"].nbytes
         return int(self._vals.nbytes + self.tile_index.nbytes + kept)
 
     def _advance(self, t1_end: float) -> bool:
@@ -93,7 +98,7 @@ class SweepMap:
         """
         target = int(np.searchsorted(self.sweeps.path_end, t1_end, side="right"))
         if target < self.time:
-            if self._snapshot is not None and self._snapshot[0] <= target:
+            if self._snapshot is not None and self._snapshot["time"] <= target:
                 self._restore()
             else:
                 self._reset()
@@ -105,17 +110,11 @@ class SweepMap:
         return fresh
 
     def _keep(self) -> None:
-        self._snapshot = (self.time, self.tile_index.copy(), self._vals.copy(),
-                          self._owner.copy(), self._used.copy(), list(self._free))
+        self._snapshot = {name: copy(getattr(self, name)) for name in _STATE}
 
     def _restore(self) -> None:
-        time, index, vals, owner, used, free = self._snapshot
-        self.time = time
-        self.tile_index = index.copy()
-        self._vals = vals.copy()
-        self._owner = owner.copy()
-        self._used = used.copy()
-        self._free = list(free)
+        for name in _STATE:
+            setattr(self, name, copy(self._snapshot[name]))
 
     def _insert(self, ids: np.ndarray) -> None:
         """Insert sweeps ``ids`` (the map's next ones) into every tile they reach,
