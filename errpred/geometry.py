@@ -756,10 +756,8 @@ class _RemovedMemo:
 
     def __init__(self, tool: Tool, t1, zmap: SweepMap | None = None, t1_end: float = math.inf,
                  t1_ids: np.ndarray | None = None) -> None:
-        tail = (tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm,
-                K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
-        self._args = (*t1, *tail)
-        self._tail = tail
+        self._tail = (tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm,
+                      K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
         self._t1 = t1
         self._zmap = zmap if t1_ids is not None else None
         self._t1_end = t1_end
@@ -771,12 +769,12 @@ class _RemovedMemo:
         ones = np.ones(world.shape[0], dtype=np.bool_)
         zmap = self._zmap
         if zmap is None or world.shape[0] == 0:
-            return inside_any_sweep_clustered(world, ones, *self._args)
+            return inside_any_sweep_clustered(world, ones, *self._t1, *self._tail)
         state = zmap.classify(world, self._t1_end)
         out = state > 0
         unsure = state == 0
         if unsure.any():
-            out |= inside_any_sweep_clustered(world, unsure, *self._args)
+            out |= inside_any_sweep_clustered(world, unsure, *self._t1, *self._tail)
         below = state < 0
         if below.any():
             if self._rest is None:

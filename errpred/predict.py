@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -107,8 +108,6 @@ def _on_cluster(client, model, blocks: list[int], chunk: int
     chunks in flight (``DASK_CHUNKS_IN_FLIGHT`` a worker): each chunk's future is
     released as soon as its result is taken, so the workers hold a few chunks'
     results at a time, not the whole pass's."""
-    from collections import deque
-
     chunks = [blocks[i:i + chunk] for i in range(0, len(blocks), chunk)]
     if not chunks:
         return
