@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -43,10 +42,11 @@ from typing import Any
 import numpy as np
 
 from nc.errors import InputError
+from nc.tables import value_kind
 
 from . import constants as K
 from .geometry import Resolution
-from .tables import ScenarioError, TableReader, _kind, _limit, check_program_lines
+from .tables import ScenarioError, TableReader, _limit, check_program_lines
 from .tool import TOOL_KINDS, Holder, Tool
 from .toollib import LIBRARY_KEYS, tool_table_from_library
 
@@ -333,7 +333,7 @@ def _program(r: TableReader, d: dict) -> tuple:
                                         f"got {dialect!r}")
     allow = d.get("allow", [])
     if not isinstance(allow, list) or not all(isinstance(a, str) for a in allow):
-        raise r.fail("program.allow", f"expected an array of strings, got {_kind(allow)}")
+        raise r.fail("program.allow", f"expected an array of strings, got {value_kind(allow)}")
     try:
         from nc.dialect import normalise_allow
 
@@ -347,7 +347,7 @@ def _program(r: TableReader, d: dict) -> tuple:
                 and all(isinstance(x, int) and not isinstance(x, bool) and x >= 1 for x in v)
                 and v[0] <= v[1]):
             raise r.fail("program.lines", f"expected [first, last], whole numbers >= 1 with "
-                                          f"first <= last, got {_kind(v)}")
+                                          f"first <= last, got {value_kind(v)}")
         lines = (v[0], v[1])
     machine: str | Path | None = None
     if "machine" in d:
@@ -437,7 +437,7 @@ def _need_xy(r: TableReader, dirs: tuple, key: str) -> None:
 
 def _modes(r: TableReader, v: Any, Mode) -> dict:
     if not isinstance(v, list) or not v:
-        raise r.fail("dynamics.modes", f"expected [[dynamics.modes]] tables, got {_kind(v)}")
+        raise r.fail("dynamics.modes", f"expected [[dynamics.modes]] tables, got {value_kind(v)}")
     out: dict[str, list] = {}
     for i, m in enumerate(v):
         p = f"dynamics.modes[{i}]"
@@ -533,7 +533,7 @@ def _correction(r: TableReader, d: dict) -> CorrectionOptions:
     r.keys(d, p, (), ("iterate", "tolerance_um", "max_iterations", "verify_tolerance_um"))
     it = d.get("iterate", False)
     if not isinstance(it, bool):
-        raise r.fail("correction.iterate", f"expected true or false, got {_kind(it)}")
+        raise r.fail("correction.iterate", f"expected true or false, got {value_kind(it)}")
     return CorrectionOptions(it, r.number(d, "tolerance_um", p, default=1.0, sign=">0"),
                              r.integer(d, "max_iterations", p, default=5,
                                        **_limit("MAX_CORRECTION_ITERATIONS")),
@@ -568,13 +568,7 @@ def load_scenario(path: str | os.PathLike, *, extra_sections: tuple[str, ...] = 
         The first problem found, naming the file and the dotted key.
     """
     r = TableReader(path)
-    try:
-        with open(r.file, "rb") as fh:
-            doc = tomllib.load(fh)
-    except FileNotFoundError:
-        raise r.fail(None, f"scenario file not found: {Path(r.file).resolve()}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise r.fail(None, f"not valid TOML: {exc}") from None
+    doc = r.load("scenario file")
     r.keys(doc, "", _TOP_REQUIRED, _TOP_OPTIONAL + tuple(extra_sections))
     extra = {k: r.table(doc[k], k) for k in extra_sections if k in doc}
     sec = {k: r.table(doc[k], k) for k in _TOP_REQUIRED[1:] + _TOP_OPTIONAL[1:] if k in doc}

@@ -11,7 +11,6 @@ import json
 import math
 import os
 import sys
-import tomllib
 
 from .command import run_command
 from .constants import SINGULAR_CONE_RAD
@@ -19,6 +18,7 @@ from .errors import InputError
 from .gcode import ALLOWABLE_EXAMPLES, read_program
 from .linuxcnc import Rs274Error
 from .summary import blocks_as_json, summarize
+from .tables import TableReader
 
 __all__ = ["main"]
 
@@ -42,29 +42,14 @@ def _offsets(path: str | None) -> dict | None:
     (machine coordinates)."""
     if path is None:
         return None
-    with open(path, "rb") as fh:
-        try:
-            data = tomllib.load(fh)
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise InputError(f"{path}: not valid TOML: {exc}") from None
+    r = TableReader(path)
     out = {}
-    for key, table in data.items():
+    for key, table in r.load("offsets file").items():
         if key.strip().upper() not in ("G54", "G55", "G56", "G57", "G58", "G59", "G28", "G30"):
-            raise InputError(f"{path}: [{key}]; expected tables [G54] ... [G59], [G28], [G30]")
-        if not isinstance(table, dict) or "xyz_mm" not in table:
-            raise InputError(f"{path}: [{key}] needs xyz_mm = [x, y, z] (and optionally "
-                             "abc_deg = [a, b, c])")
-        xyz, abc = table["xyz_mm"], table.get("abc_deg", [])
-        for name, value, what in (("xyz_mm", xyz, "x, y, z [mm]"),
-                                  ("abc_deg", abc, "a, b, c [deg]")):
-            if name == "abc_deg" and "abc_deg" not in table:
-                continue
-            if not (isinstance(value, list) and len(value) == 3 and all(
-                    isinstance(v, (int, float)) and not isinstance(v, bool)
-                    and math.isfinite(v) for v in value)):
-                raise InputError(f"{path}: [{key}] {name} = {value!r}; expected three "
-                                 f"finite numbers {what}")
-        out[key] = list(xyz) + list(abc)
+            raise r.fail(key, "expected tables [G54] ... [G59], [G28], [G30]")
+        r.keys(r.table(table, key), key, ("xyz_mm",), ("abc_deg",))
+        out[key] = r.numbers(table, "xyz_mm", key, length=3) + r.numbers(
+            table, "abc_deg", key, length=3, default=[])
     return out
 
 

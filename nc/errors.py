@@ -15,7 +15,8 @@ import re
 
 from . import constants as K
 
-__all__ = ["InputError", "NCParseError", "CLFileError", "KinematicsError", "MachineFileError"]
+__all__ = ["InputError", "NCParseError", "CLFileError", "TableError", "KinematicsError",
+           "MachineFileError"]
 
 
 class InputError(ValueError):
@@ -123,7 +124,26 @@ class CLFileError(InputError):
         super().__init__(f"{where}: {message}")
 
 
-class MachineFileError(InputError):
+class TableError(InputError):
+    """A TOML file's value that cannot be used (:class:`nc.tables.TableReader`).
+
+    The message is ``FILE: KEY: what was expected`` (``FILE: ...`` for the file as
+    a whole).
+
+    Attributes
+    ----------
+    file : str
+        The file as given.
+    key : str or None
+        Dotted key (``tool.diameter_mm``), None for the file as a whole.
+    """
+
+    def __init__(self, file: str, key: str | None, message: str) -> None:
+        self.file, self.key = file, key
+        super().__init__(f"{file}: {key}: {message}" if key else f"{file}: {message}")
+
+
+class MachineFileError(TableError):
     """A machine definition (TOML) is missing a key or has a bad value."""
 
 

@@ -175,12 +175,14 @@ def test_check_takes_relative_paths_and_reports_refusals(tmp_path, capsys, rs274
 
 
 @pytest.mark.parametrize("toml,part", [
-    ("[G55]\nxyz_mm = 5\n", "xyz_mm = 5; expected three finite numbers x, y, z [mm]"),
-    ("[G55]\nxyz_mm = [1, 2]\n", "expected three finite numbers"),
-    ('[G55]\nxyz_mm = [1, "a", 3]\n', "expected three finite numbers"),
-    ("[G55]\nxyz_mm = [1, nan, 3]\n", "expected three finite numbers"),
-    ("[G55]\nxyz_mm = [1, 2, 3]\nabc_deg = true\n", "abc_deg = True; expected three"),
-    ("[G60]\nxyz_mm = [1, 2, 3]\n", "[G60]; expected tables [G54] ... [G59], [G28], [G30]"),
+    ("[G55]\nxyz_mm = 5\n", "G55.xyz_mm: expected a non-empty array of numbers, got an integer"),
+    ("[G55]\nxyz_mm = [1, 2]\n", "G55.xyz_mm: expected 3 numbers, got 2"),
+    ('[G55]\nxyz_mm = [1, "a", 3]\n', "G55.xyz_mm[1]: expected a number"),
+    ("[G55]\nxyz_mm = [1, nan, 3]\n", "G55.xyz_mm[1]: expected a finite number"),
+    ("[G55]\nxyz_mm = [1, 2, 3]\nabc_deg = true\n", "G55.abc_deg: expected a non-empty array"),
+    ("[G55]\nabc_deg = [1, 2, 3]\n", "G55.xyz_mm: missing"),
+    ("[G55]\nxyz_mm = [1, 2, 3]\nabc = [1, 2, 3]\n", "G55.abc: unknown key"),
+    ("[G60]\nxyz_mm = [1, 2, 3]\n", "G60: expected tables [G54] ... [G59], [G28], [G30]"),
     ("[G55\n", "not valid TOML"),
 ])
 def test_bad_offsets_file_ends_in_one_line(tmp_path, capsys, toml, part):
