@@ -26,6 +26,8 @@ from numba import njit
 
 from errpred.sweeps import sweep_distance
 
+from ._root_kernels import illinois
+
 __all__ = [
     "BUF_ROWS",
     "GEO_SIZE",
@@ -233,41 +235,21 @@ def _material_sc(sp, cp, ox, oy, oz, rho, geo, c0, r, top, mem_eps):
 
 
 @njit(cache=True)
+def _margin_at(x, ox, oy, oz, rho, geo, c0, r, top, mem_eps):
+    """The material margin of :func:`_material_sc` at angle ``x`` [rad]."""
+    g, _kind = _material_sc(math.sin(x), math.cos(x), ox, oy, oz, rho, geo, c0, r, top, mem_eps)
+    return g
+
+
+@njit(cache=True)
 def _refine(a, ga, b, gb, ox, oy, oz, rho, geo, c0, r, top, mem_eps, tol, maxit):
     """Root of the material margin between a and b; (root, kind there).
 
-    Illinois regula falsi, with a bisection step whenever two steps have not
-    halved the bracket (a margin that is flat on one side, as the distance to
-    a flat end mill's core, would stall it).
+    :func:`orient._root_kernels.illinois` (a margin that is flat on one side, as
+    the distance to a flat end mill's core, takes its bisection steps).
     """
-    side = 0
-    width_before = abs(b - a)
-    for it in range(maxit):
-        width = abs(b - a)
-        if width <= tol:
-            break
-        if it % 2 == 0:
-            if it > 0 and width > 0.5 * width_before:
-                side = 2
-            width_before = width
-        den = gb - ga
-        x = (a * gb - b * ga) / den if den != 0.0 else 0.5 * (a + b)
-        if side == 2 or not (min(a, b) < x < max(a, b)):
-            x = 0.5 * (a + b)
-            side = 0
-        gx, _k = _material_sc(math.sin(x), math.cos(x), ox, oy, oz, rho, geo, c0, r, top,
-                              mem_eps)
-        if (gx > 0.0) == (ga > 0.0):
-            a, ga = x, gx
-            if side == -1:
-                gb *= 0.5
-            side = -1
-        else:
-            b, gb = x, gx
-            if side == 1:
-                ga *= 0.5
-            side = 1
-    x = 0.5 * (a + b)
+    x = illinois(_margin_at, (ox, oy, oz, rho, geo, c0, r, top, mem_eps), a, ga, b, gb, tol,
+                 0.0, maxit)
     _g, kind = _material_sc(math.sin(x), math.cos(x), ox, oy, oz, rho, geo, c0, r, top,
                             mem_eps)
     return x, kind

@@ -44,6 +44,7 @@ from ._engagement_kernels import (
     infinite_ball_sweep_distance,
     posture_geometry,
 )
+from ._root_kernels import illinois
 
 __all__ = [
     "BUF_ROWS",
@@ -144,31 +145,6 @@ def _lowest(s, geo, c0, r, R):
     on = ox * geo[_LN] + oy * geo[_LN + 1] + oz * geo[_LN + 2]
     a, b, c = _top_bound(ox, oy, oz, on, rho, geo)
     return -(c + math.sqrt(a * a + b * b))
-
-
-@njit(cache=True)
-def _crossing(geo, c0, r, R, a, ga, b, gb, tol, maxit):
-    """Arc length where _lowest changes sign between a and b (Illinois)."""
-    side = 0
-    for _ in range(maxit):
-        if abs(b - a) <= tol:
-            break
-        den = gb - ga
-        x = (a * gb - b * ga) / den if den != 0.0 else 0.5 * (a + b)
-        if not (min(a, b) < x < max(a, b)):
-            x = 0.5 * (a + b)
-        gx = _lowest(x, geo, c0, r, R)
-        if (gx < 0.0) == (ga < 0.0):
-            a, ga = x, gx
-            if side == -1:
-                gb *= 0.5
-            side = -1
-        else:
-            b, gb = x, gx
-            if side == 1:
-                ga *= 0.5
-            side = 1
-    return 0.5 * (a + b)
 
 
 @njit(cache=True)
@@ -400,10 +376,11 @@ def profile_band(geo, tp, set_par, wf, wi):
     if g_star >= -tol:   # (a zero depth touches the surface along one circle)
         return 0.0, -1.0
     g0 = _lowest(0.0, geo, c0, r, R)
-    s_lo = 0.0 if g0 < 0.0 else _crossing(geo, c0, r, R, 0.0, g0, s_star, g_star, tol, maxit)
+    s_lo = 0.0 if g0 < 0.0 else illinois(_lowest, (geo, c0, r, R), 0.0, g0, s_star, g_star,
+                                         tol, 0.0, maxit)
     g1 = _lowest(s_total, geo, c0, r, R)
-    s_hi = s_total if g1 < 0.0 else _crossing(geo, c0, r, R, s_star, g_star, s_total, g1, tol,
-                                                 maxit)
+    s_hi = s_total if g1 < 0.0 else illinois(_lowest, (geo, c0, r, R), s_star, g_star, s_total,
+                                             g1, tol, 0.0, maxit)
     fz_axial = geo[_FT + 2]
     if fz_axial > 0.0:   # h > 0 needs tan(kappa) > axial / normal feed
         kh = math.atan2(fz_axial, math.sqrt(geo[_FT] ** 2 + geo[_FT + 1] ** 2))

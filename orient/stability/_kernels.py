@@ -21,6 +21,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .._root_kernels import illinois
+
 __all__ = ["critical_one", "eig_small", "margin_batch", "margin_one", "margin_speeds",
            "receptance"]
 
@@ -349,39 +351,30 @@ def _nearest_eig(q, w, ref, mk, mm, mc, mr, group, g, ev):
 
 
 @njit(cache=True)
+def _eig_between(x, q, wa, wb, la, lb, mk, mm, mc, mr, group, g, ev):
+    """The eigenvalue at ``x`` continued from ``la`` at ``wa`` to ``lb`` at ``wb``."""
+    t = (x - wa) / (wb - wa)
+    return _nearest_eig(q, x, la + t * (lb - la), mk, mm, mc, mr, group, g, ev)
+
+
+@njit(cache=True)
+def _phase_gap(x, q, tau, wa, wb, la, lb, arg_a, level, mk, mm, mc, mr, group, g, ev):
+    """``F(x) - level``, the phase condition at ``x`` [rad/s] (see :func:`_refine_crossing`)."""
+    lam = _eig_between(x, q, wa, wb, la, lb, mk, mm, mc, mr, group, g, ev)
+    return x * tau - math.pi - 2.0 * (arg_a + _wrap(_angle(lam) - arg_a)) - level
+
+
+@njit(cache=True)
 def _refine_crossing(q, tau, wa, wb, la, lb, level, mk, mm, mc, mr, group, g, ev):
-    """Root of ``F(w) = level`` on [wa, wb] (Illinois); returns (s, w) or (inf, w)."""
+    """Root of ``F(w) = level`` on [wa, wb] (:func:`orient._root_kernels.illinois`);
+    returns (s, w) or (inf, w)."""
     arg_a = _angle(la)
     fa = wa * tau - math.pi - 2.0 * arg_a - level
     fb = wa * tau - math.pi - 2.0 * arg_a + tau * (wb - wa) \
         - 2.0 * _wrap(_angle(lb) - arg_a) - level
-    a, b = wa, wb
-    lam = la
-    side = 0
-    x = a
-    for _ in range(REFINE_ITERATIONS):
-        if fb == fa:
-            x = 0.5 * (a + b)
-        else:
-            x = b - fb * (b - a) / (fb - fa)
-            if not (min(a, b) < x < max(a, b)):
-                x = 0.5 * (a + b)
-        t = (x - wa) / (wb - wa)
-        ref = la + t * (lb - la)
-        lam = _nearest_eig(q, x, ref, mk, mm, mc, mr, group, g, ev)
-        fx = x * tau - math.pi - 2.0 * (arg_a + _wrap(_angle(lam) - arg_a)) - level
-        if fx * fb > 0:
-            b, fb = x, fx
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        else:
-            a, fa = x, fx
-            if side == 1:
-                fb *= 0.5
-            side = 1
-        if abs(b - a) <= REFINE_RTOL * abs(x):
-            break
+    x = illinois(_phase_gap, (q, tau, wa, wb, la, lb, arg_a, level, mk, mm, mc, mr, group, g,
+                              ev), wa, fa, wb, fb, 0.0, REFINE_RTOL, REFINE_ITERATIONS)
+    lam = _eig_between(x, q, wa, wb, la, lb, mk, mm, mc, mr, group, g, ev)
     if lam.real <= 0.0:
         return np.inf, x
     return 0.5 / lam.real, x
