@@ -34,6 +34,7 @@ from nc.atomic import atomic_path
 from nc.checks import real_number as _real
 
 from .frf_files import DIRECTIONS, FRFDataError, read_frf_csv, read_frf_cutpro, read_uff_record
+from .spindle import tooth_frequency
 
 __all__ = ["DIRECTIONS", "Compliance", "FRFDataError", "Mode"]
 
@@ -450,7 +451,7 @@ class Compliance:
         if not np.all(np.isfinite(f)):
             raise ValueError("Compliance.deflection: force_N has non-finite values")
         rpm = _real("Compliance.deflection: spindle_rpm", spindle_rpm, ">0")
-        omega = 2.0 * math.pi * rpm / 60.0 * np.arange(n // 2 + 1)
+        omega = 2.0 * math.pi * tooth_frequency(rpm) * np.arange(n // 2 + 1)
         spec = np.fft.rfft(f, axis=-2) * self.response(omega)
         return np.fft.irfft(spec, n=n, axis=-2) * 1000.0
 

@@ -70,6 +70,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
+from errpred.spindle import tooth_frequency
 from nc.checks import real_number as _real
 
 __all__ = [
@@ -408,7 +409,7 @@ class ChatterDetector:
     def _check_speed(self, spindle_rpm: float, teeth: int) -> tuple[float, float]:
         rpm = _real("spindle_rpm", spindle_rpm, ">0")
         z = _int("teeth", teeth, 1)
-        return rpm / 60.0, rpm / 60.0 * z
+        return tooth_frequency(rpm), tooth_frequency(rpm, z)
 
     def _masks(self, f_sp: float, f_tooth: float) -> tuple[np.ndarray, np.ndarray]:
         """(candidate bins, spindle-harmonic bins of order >= 1), shape (N//2+1,)."""

@@ -60,6 +60,7 @@ import numpy as np
 
 from errpred.coefficients import CuttingCoefficients
 from errpred.force import local_components, to_tool_frame
+from errpred.spindle import tooth_period
 from errpred.tool import MicroEdges, Tool
 
 from . import _kernels as KN
@@ -230,7 +231,7 @@ def _tooth_period(spindle_rpm: float | None, flutes: int) -> float | None:
                                                                       np.floating))
                                              and math.isfinite(spindle_rpm) and spindle_rpm > 0):
         raise ValueError(f"spindle_rpm: expected a finite value > 0, got {spindle_rpm!r}")
-    return 60.0 / (float(spindle_rpm) * flutes)
+    return tooth_period(float(spindle_rpm), flutes)
 
 
 def directional_matrices(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from errpred.spindle import tooth_frequency
 from nc.atomic import atomic_write
 from nc.errors import InputError
 
@@ -205,7 +206,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             oend = float(opened["t"][-1])
             panels.append(("end of the cut: open loop (before) and closed loop (after)",
                            _stretch(opened, oend - 0.5, 0.5), _stretch(closed, end - 0.5, 0.5)))
-        plot_spectra(plot_path, panels, closed["fs"], closed["rpm"] / 60.0 * closed["teeth"])
+        plot_spectra(plot_path, panels, closed["fs"], tooth_frequency(closed["rpm"], closed["teeth"]))
     if args.html:
         _write_html(args.html, report, lines, plot_path)
     print("\n".join(lines))

@@ -21,6 +21,7 @@ import numpy as np
 from pymodbus.client import ModbusTcpClient
 from pymodbus.exceptions import ModbusException
 
+from errpred.spindle import tooth_period
 from orient.detect import ChatterDetector, Detection
 from orient.dynamics import ModalSystem
 from orient.gain import process_gain_batch
@@ -370,7 +371,7 @@ class Controller:
         self.log.commands.append((t, dl, dt, change.reason, ack))
         # the detector's window still holds the chatter: start afresh after a hold-off
         self.detector.reset()
-        self._hold_until = t + CONTROLLER_HOLDOFF_REV * 60.0 / st["spindle_rpm"]
+        self._hold_until = t + CONTROLLER_HOLDOFF_REV * tooth_period(st["spindle_rpm"])
 
     def _wait_ack(self, timeout_s: float = 2.0) -> int:
         t0 = time.monotonic()

@@ -18,6 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from errpred.spindle import rpm_for_tooth_period
 from nc.checks import real_number
 from orient.dynamics import ModalSystem
 
@@ -228,7 +229,7 @@ class Cutter:
     def idle(self, dt_s: float, n_steps: int, system: ModalSystem) -> MillingRun:
         """Advance without cutting (the modes ring down; no force), ``dt_s`` [s] per step."""
         spr = self.steps_per_rev
-        model = CuttingModel(spindle_rpm=60.0 / (dt_s * spr), flutes=1, steps_per_rev=spr,
+        model = CuttingModel(spindle_rpm=rpm_for_tooth_period(dt_s, spr), flutes=1, steps_per_rev=spr,
                              dt_s=dt_s, system=system, normal=np.array([0.0, 0.0, 1.0]),
                              fz_mm=0.0, table=empty_table(spr), n_edges=self.n_edges,
                              step_map=_step_map(system, dt_s), generating=np.zeros(spr))

@@ -45,6 +45,7 @@ import scipy.linalg
 
 from errpred.engagement import revolution_angles
 from errpred.force import CuttingCoefficients, local_components, to_tool_frame
+from errpred.spindle import tooth_frequency, tooth_period
 from errpred.tool import MicroEdges, Tool
 from nc.checks import real_number
 from orient.dynamics import ModalSystem
@@ -130,7 +131,7 @@ class CuttingModel:
 
     @property
     def tooth_period_s(self) -> float:
-        return 60.0 / (self.spindle_rpm * self.flutes)
+        return tooth_period(self.spindle_rpm, self.flutes)
 
 
 @dataclass(frozen=True, eq=False)
@@ -185,8 +186,8 @@ def steps_per_rev_for(f_max_hz: float, spindle_rpm: float, flutes: int) -> int:
 
 
 def _steps_per_rev_raw(f_max_hz: float, spindle_rpm: float) -> int:
-    return max(MIN_STEPS_PER_REV, math.ceil(STEPS_PER_MODE_PERIOD * f_max_hz / (spindle_rpm
-                                                                              / 60.0)))
+    return max(MIN_STEPS_PER_REV, math.ceil(STEPS_PER_MODE_PERIOD * f_max_hz
+                                                  / tooth_frequency(spindle_rpm)))
 
 
 def _checked(n: int, spindle_rpm: float) -> int:
@@ -308,7 +309,7 @@ def prepare_cut(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, norm
     pos = ((i + f * spt) % spr).astype(np.int64)
     table = (ptr, pos, j.astype(np.int64), np.ascontiguousarray(eng.h[i, f, j]),
              np.ascontiguousarray(nrm), np.ascontiguousarray(f0), np.ascontiguousarray(f1))
-    dt = 60.0 / (rpm * spr)
+    dt = tooth_period(rpm, spr)
     n = np.asarray(eng.normal, dtype=float)
     gen = generating_weights(table, spr, tool.flutes, n, eng.f_tooth_world / cut.fz_mm, cut,
                              tool.corner_radius_mm, edge_spacing_rad(edges))

@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 
+from errpred.spindle import tooth_frequency
+
 __all__ = ["error_map_png", "lobes_png", "margin_png", "spectra_png"]
 
 #: Figure resolution [dpi].
@@ -110,7 +112,7 @@ def spectra_png(panels: list[tuple[str, np.ndarray, np.ndarray, float]], teeth: 
     fig, axes = _figure(nrows=len(panels), ncols=1, figsize=(9.0, 2.3 * len(panels)),
                         layout="constrained", squeeze=False, sharex=True)
     for ax, (title, f, a, rpm) in zip(axes.flat, panels, strict=True):
-        tooth = rpm / 60.0 * teeth
+        tooth = tooth_frequency(rpm, teeth)
         for k in range(1, int(max_hz / tooth) + 1):
             ax.axvline(k * tooth, color="0.85", lw=0.8, zorder=0)
         m = f <= max_hz

@@ -31,6 +31,7 @@ import numpy as np
 
 from errpred.dynamics import Mode
 from errpred.force import CuttingCoefficients
+from errpred.spindle import tooth_frequency, tooth_period
 from errpred.tool import Tool
 from orient.detect import ChatterDetector
 from orient.dynamics import ModalSystem
@@ -158,7 +159,7 @@ def labelled_run(case: LabelledCase, sensors: Accelerometers | None = None) -> L
         label = "tool" if tool_part >= rec.sum() - tool_part else "workpiece"
         chatter_hz = wc / (2 * math.pi)
     model = prepare_cut(TOOL, COEFFICIENTS, z, z, x, cut, system, rpm, edges=edges)
-    rev_s = 60.0 / rpm
+    rev_s = tooth_period(rpm)
     onset = math.nan if case.kind == "stable" else case.onset_revolution * rev_s
     lo, hi = STABLE_FRACTION * boundary, CHATTER_FRACTION * boundary
 
@@ -212,7 +213,7 @@ def score_detector(run: LabelledRun, detector: ChatterDetector) -> DetectorScore
     after = np.flatnonzero(chatter & ~quiet)
     if math.isfinite(onset) and after.size:
         first = int(after[0])
-        detected, latency = verdicts[first].cause, (end_s[first] - onset) * rpm / 60.0
+        detected, latency = verdicts[first].cause, (end_s[first] - onset) * tooth_frequency(rpm)
     else:
         detected, latency = None, math.nan
     return DetectorScore(label=run.label, detected=detected, latency_rev=float(latency),

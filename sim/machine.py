@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from errpred.spindle import tooth_period
 from nc.kinematics import solve_path
 from orient.dynamics import ModalSystem
 from orient.geometry import posture_axis
@@ -184,7 +185,7 @@ class SimulatedNC:
         for lev in self.workpiece.levels:
             f_max = max(f_max, float(np.max(lev.frequencies_hz)))
         self.steps_per_rev = steps_per_rev_for(f_max, self.rpm, self.tool.flutes)
-        self.dt_s = 60.0 / (self.rpm * self.steps_per_rev)
+        self.dt_s = tooth_period(self.rpm, self.steps_per_rev)
         self.edges = self.tool.micro_edges(MICRO_EDGES_ENVELOPE)
         self.cutter = Cutter(self.steps_per_rev, len(self.edges))
         self.sensors = sensors if sensors is not None else Accelerometers()

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from errpred.spindle import tooth_period
 from orient.detect import ChatterDetector
 
 from .constants import (
@@ -182,7 +183,7 @@ def summarize_run(time_s: np.ndarray, accel_m_s2: np.ndarray, surface: dict[str,
         k = np.clip(np.searchsorted(time_s, tl["end_s"]) - 1, 0, time_s.size - 1)
         keep = np.asarray(cutting, dtype=bool)[k]
         tl = {key: v[keep] for key, v in tl.items()}
-    rev_s = 60.0 / spindle_rpm
+    rev_s = tooth_period(spindle_rpm)
     hits = np.flatnonzero(tl["chatter"])
     window_s = detector.settings.window_samples / detector.settings.sample_rate_hz
     episodes = chatter_episodes(tl["end_s"], tl["chatter"], window_s)

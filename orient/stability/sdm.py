@@ -74,6 +74,7 @@ import scipy.linalg
 from numba import njit
 from scipy.optimize import brentq
 
+from errpred.spindle import tooth_period
 from orient.blas import blas_limited
 from orient.dynamics import ModalSystem
 from orient.stability.zoa import _positive, _teeth, zoa_critical
@@ -314,7 +315,7 @@ def default_steps(system: ModalSystem, spindle_rpm: float, teeth: int) -> int:
     if not isinstance(system, ModalSystem):
         raise TypeError(f"system: expected an orient.dynamics.ModalSystem, got "
                         f"{type(system).__name__}")
-    tau = 60.0 / (_positive("spindle_rpm", spindle_rpm) * _teeth(teeth))
+    tau = tooth_period(_positive("spindle_rpm", spindle_rpm), _teeth(teeth))
     return _default_steps(system, tau)
 
 
@@ -392,7 +393,7 @@ def _prepare(H_samples: Any, system: Any, spindle_rpm: Any, teeth: Any,
         raise TypeError(f"system: expected an orient.dynamics.ModalSystem, got "
                         f"{type(system).__name__}")
     rpm = _positive("spindle_rpm", spindle_rpm)
-    tau = 60.0 / (rpm * _teeth(teeth))
+    tau = tooth_period(rpm, _teeth(teeth))
     return _Fdm(h, system, tau, _steps(steps, h.shape[0], system, tau)), h
 
 
@@ -543,7 +544,7 @@ def sdm_margin(H_samples: Any, system: ModalSystem, spindle_rpm: float, teeth: i
     if steps is not None or not (0.0 < res.margin < math.inf):
         return res
     k = fdm.steps
-    tau = 60.0 / (float(spindle_rpm) * int(teeth))
+    tau = tooth_period(float(spindle_rpm), int(teeth))
     near = res.margin / SDM_SCAN_FACTOR           # the other levels scan from just below
     coarse = _margin(_Fdm(hs, system, tau, max(2, k // 2)), near, rtol).margin
     if not math.isfinite(coarse):

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from errpred.spindle import tooth_period
 from nc.checks import real_number, whole_number
 from orient.dynamics import ModalSystem
 from orient.stability import _kernels as _k
@@ -128,7 +129,7 @@ def _omega_grid(system: ModalSystem, omega_rad_s: Any) -> np.ndarray:
 
 
 def _tau(spindle_rpm: float, teeth: int) -> float:
-    return 60.0 / (spindle_rpm * teeth)
+    return tooth_period(spindle_rpm, teeth)
 
 
 # ---------------------------------------------------------------------- groups
@@ -364,7 +365,7 @@ def zoa_lobes(P: Any, system: ModalSystem, teeth: int, rpm: Any, omega_rad_s: An
     w = _omega_grid(system, omega_rad_s)
     group, first, gw, mk, mm, mc, mr = _setup(system, w)
     d = np.ascontiguousarray(system.direction[first])
-    return _k.margin_speeds(np.ascontiguousarray(p), d, w, gw, 60.0 / (r * n), mk, mm, mc,
+    return _k.margin_speeds(np.ascontiguousarray(p), d, w, gw, tooth_period(r, n), mk, mm, mc,
                             mr, group)
 
 
@@ -431,7 +432,7 @@ def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, 
             raise ValueError("mode_directions: modes that share a direction in system must "
                              "share it in every posture")
         d = md[:, first, :]
-    taus = 60.0 / (rpm * n)
+    taus = tooth_period(rpm, n)
     c = np.inf if cap is None else _positive("cap", cap)
     return _k.margin_batch(np.ascontiguousarray(p), np.ascontiguousarray(d), w, gw, taus,
                            mk, mm, mc, mr, group, c)
