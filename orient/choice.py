@@ -23,12 +23,10 @@ from nc.path import CutterLocations
 from .contacts import Contacts
 from .interference import InterferenceChecker
 from .smoothing import best_smooth_path
+from .constants import FALLBACK_SCORE
 
 __all__ = ["FALLBACK_SCORE"]
 
-#: Score of the CAM posture where no candidate is feasible (below any margin, so it
-#: is only taken where nothing else is left) [-].
-FALLBACK_SCORE = -1.0e6
 
 # why a candidate posture was rejected (PlanResult.reason): codes
 _FEASIBLE, _OUTSIDE_INCLINATION, _OUTSIDE_LIMITS = 0, 1, 2

@@ -1,4 +1,5 @@
-"""Defaults and tolerances of the ``orient`` package, in one place.
+"""Defaults and tolerances of the ``orient`` package, in one place, each with its unit
+and reason.
 
 Resolution defaults are the ones shown to converge by the tests named next to
 them (``docs/method.md`` §9).
@@ -17,6 +18,13 @@ N_PER_M_PER_N_PER_MM = 1000.0
 #: Vectors shorter than this (relative, for directions) are refused as
 #: having no direction [-].
 DIRECTION_MIN_NORM = 1.0e-12
+#: Rotations and orthonormal bases are accepted when ``R R^T`` is the identity
+#: within this [-] (what a rotation built in floating point keeps; a wrong one is
+#: off by far more).
+ORTHONORMAL_TOL = 1.0e-9
+#: Counts from ratios are ``ceil(x - this)`` (``floor(x + this)``) [-]: a ratio that
+#: is whole but for rounding (12.000000000000002) does not add one.
+ROUND_SLACK = 1.0e-9
 #: A tool axis must make at least this cosine with the surface normal (the
 #: tool axis points away from the workpiece) [-].
 AXIS_NORMAL_MIN_COS = 1.0e-6
@@ -143,3 +151,213 @@ MAX_DENSITY_KG_M3 = 2.5e4
 #: monodromy matrices ran 10 to 100 times slower; the matrices here (a few
 #: hundred rows) gain nothing from more threads.
 BLAS_THREADS = 1
+
+# --- the zero-order stability analysis (orient/stability/zoa.py) --------------
+#: ZOA's default chatter-frequency grid, built from the modes: a dense band around
+#: each natural frequency, +- this many ``zeta wn`` [-] (the receptance's peak is
+#: about ``2 zeta wn`` wide) ...
+ZOA_NEAR_HALF_WIDTH = 8.0
+#: ... with this many points (step 0.4 zeta wn) [-].
+ZOA_NEAR_POINTS = 25
+#: Wider band around each natural frequency: +- this fraction of ``wn`` [-] ...
+ZOA_BAND_HALF_WIDTH = 0.5
+#: ... with this many points [-].
+ZOA_BAND_POINTS = 16
+#: Global log-spaced grid from ``lo * wn_min`` to ``hi * wn_max`` [-] (chatter
+#: away from every mode, for the far lobes) ...
+ZOA_GLOBAL_RANGE = (0.2, 3.0)
+#: ... with this many points [-].
+ZOA_GLOBAL_POINTS = 32
+#: Damping ratios below this are taken as this for the grid's width [-].
+ZOA_MIN_ZETA = 1e-3
+#: Where the bands of several modes overlap, a point closer than this fraction
+#: of the finest step any band asks for there to the previous kept point is
+#: dropped (the union of the bands would otherwise be denser than any band) [-].
+ZOA_THIN_FRACTION = 0.5
+#: Mode directions with |d_a . d_b| above this share a group (add their receptances) [-].
+GROUP_PARALLEL_TOL = 1.0 - 1e-9
+
+# --- full discretization (orient/stability/sdm.py) ----------------------------
+#: Steps per tooth period: at least this many [-] ...
+SDM_DEFAULT_STEPS = 40
+#: ... and at least this many per period of the highest natural frequency [-]
+#: (the step's error scales with ``(f_max dt)^2``: on the 1-DOF benchmark grid
+#: 24 leave up to +6 %, 32 up to +4 % at lobe crossings and high-depth flip
+#: lobes, 64 about +1 %; the error control of :func:`sdm_margin` does the rest) ...
+SDM_STEPS_PER_MODE_PERIOD = 32
+#: ... but not beyond this [-] (cost: the monodromy matrix has ``(k + 2) m``
+#: rows; its eigenvalues cost ``k^3``).
+SDM_MAX_STEPS = 200
+#: Sub-steps per step on which ``H`` is integrated exactly against the
+#: Duhamel kernel: at least this many [-] ...
+SDM_SUBSTEPS = 4
+#: ... and up to this many to put every sample interval's edge on a sub-step
+#: edge (else the samples are averaged onto the sub-steps) [-].
+SDM_MAX_SUBSTEPS = 64
+#: Samples of ``H`` per tooth period recommended at least [-] ...
+SDM_MIN_SAMPLES = 320
+#: ... and that the engaged part of the tooth period should span
+#: (:func:`recommended_samples`): the samples are ``H``'s step averages, and
+#: their count bounds how well its shape inside the cut is known [-].
+SDM_MIN_SAMPLES_IN_CUT = 48
+#: Default steps: the margin at half the steps estimates the error ``D``;
+#: where ``D`` exceeds this fraction of the margin, the steps are doubled once
+#: [-] ...
+SDM_REFINE_TOL = 0.005
+#: ... if the monodromy matrix then has at most this many rows [-] (its
+#: eigenvalues cost ``rows^3``: about 30 ms at 400 rows on one thread) ...
+SDM_REFINE_MAX_ROWS = 400
+#: ... and the margin returned is the finest one less this multiple of ``D``
+#: [-] (1/3 would be Richardson's estimate of the error of a second-order
+#: method; more keeps the result below the converged limit where the
+#: refinement is not yet asymptotic: calibration on the 1-DOF benchmark grid).
+SDM_ERROR_WEIGHT = 0.5
+#: The scan in ``s`` starts at this fraction of the ZOA critical margin [-] ...
+SDM_SCAN_START = 0.25
+#: (without a finite ZOA margin, at that fraction of the stiffest mode's
+#: ``k zeta`` over the gain, the damping ratio taken at least this [-], so that an
+#: undamped mode does not start the scan at 0) ...
+SDM_SCAN_MIN_ZETA = 1.0e-3
+#: ... and multiplies ``s`` by this per step [-] ...
+SDM_SCAN_FACTOR = 1.3
+#: ... up to this many times the start (then the margin is taken as inf) [-].
+SDM_SCAN_MAX = 1e4
+#: The last coarse interval (stable to unstable) is scanned again by this
+#: factor [-]: the radius can cross 1 and come back within it (an unstable
+#: window 7 % wide below the boundary on the 1-DOF benchmark, up-milling
+#: a/D = 0.5 at 13,000 rev/min, which the coarse scan alone stepped over).
+SDM_SCAN_FINE_FACTOR = 1.04
+#: Relative tolerance of the margin [-] (the lower end of the root's
+#: interval is returned).
+SDM_RTOL = 5e-4
+#: A critical multiplier within this angle [rad] of the real axis is a fold (+1)
+#: or a flip (-1); otherwise a Hopf pair (rounding of the eigenvalues).
+KIND_ANGLE_TOL = 1e-6
+
+# --- one point's lobes (orient/pointwise.py) ----------------------------------
+#: Spindle speeds of a lobe diagram [-].
+LOBE_SPEEDS = 200
+#: Default speed range of a lobe diagram, as factors of the programmed speed [-].
+LOBE_RANGE = (0.5, 1.6)
+
+# --- the posture rules (orient/strategies.py, orient/strategy_types.py) -------
+#: Default step of the rules [rad]; the patent's example trial step ([0094]).
+DEFAULT_STEP_RAD = math.radians(10.0)
+#: Directions on a ring of candidate moves [-].
+RING_DIRECTIONS = 36
+#: Radii of the rings, as fractions of the step [-], largest first.
+STEP_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
+#: Smallest change of inclination [rad] or cut sense [-] that counts as one.
+CHANGE_TOL = 1e-9
+#: Smallest relative improvement of gain or margin worth a posture change [-].
+MIN_REL_IMPROVEMENT = 1e-3
+#: Postures closer than this in lead and tilt are the same [rad].
+SAME_POSTURE_RAD = 1e-6
+#: MemoryRule: matches farther than this are not similar [-] (see orient/memory.py).
+DEFAULT_MEMORY_MAX_DISTANCE = 2.0
+#: MemoryRule does not learn a posture already stored this near [-] (among the
+#: nearest LEARN_DEDUPE_K entries) ...
+LEARN_DEDUPE_DISTANCE = 0.05
+#: ... entries looked at for that [-] (the memory stays bounded by what it holds).
+LEARN_DEDUPE_K = 32
+#: Default candidate grid of the analytical rules: +-20 deg [rad] ...
+DEFAULT_GRID_HALF_WIDTH_RAD = math.radians(20.0)
+#: ... in 5 deg steps [rad] (81 postures, each one process gain).
+DEFAULT_GRID_STEP_RAD = math.radians(5.0)
+
+# --- the posture memory (orient/memory.py) ------------------------------------
+#: From this many entries of one tool on, queries use a k-d tree [-].
+KDTREE_MIN_ENTRIES = 64
+#: A normal or feed vector must have a norm at least this to be normalized [-].
+MIN_VECTOR_NORM = 1e-9
+#: The feed must make at least this sine with the normal [-].
+MIN_FEED_SINE = 1e-6
+#: Default distance scales of the memory's nearest recall (see orient/memory.py's
+#: docstring): one unit of distance is 10 % of spindle speed [-] ...
+DEFAULT_SPEED_REL = 0.10
+#: ... 0.1 mm of depth [mm] ...
+DEFAULT_DEPTH_MM = 0.1
+#: ... 0.1 mm of pick feed [mm] ...
+DEFAULT_PICK_MM = 0.1
+#: ... or 10 degrees of surface normal or feed direction [rad].
+DEFAULT_ANGLE_RAD = math.radians(10.0)
+
+# --- the chatter detector (orient/detect.py) ----------------------------------
+#: Default window length [samples] (0.1 s at 10 kHz: 17 revolutions at 10000 rev/min).
+DEFAULT_WINDOW_SAMPLES = 1024
+#: Default hop between windows [samples].
+DEFAULT_HOP_SAMPLES = 256
+#: Default harmonic exclusion half-width, in frequency bins of the window [-].
+DEFAULT_BAND_BINS = 3.0
+#: Default phase threshold between whirling (tool) and one-directional
+#: (workpiece) vibration [rad]: 45 degrees.
+DEFAULT_PHASE_THRESHOLD_RAD = math.pi / 4.0
+#: Windows accepted, with the half-width of their main lobe [bins]; the
+#: harmonic band must be at least that wide or a harmonic's own main lobe
+#: would leak into the candidate bins.
+WINDOW_MAINLOBE_BINS = {"hann": 2.0, "hamming": 2.0, "blackman": 3.0,
+                        "blackmanharris": 4.0, "boxcar": 1.0}
+#: Shortest window accepted [samples].
+MIN_WINDOW_SAMPLES = 16
+#: Floor added to the power spectrum before taking its logarithm [-], relative
+#: to the largest power of the window (avoids log(0) on synthetic silence).
+LOG_FLOOR_REL = 1e-30
+
+# --- modal systems (orient/dynamics.py) ---------------------------------------
+#: Mode directions must have unit length within this (they are then renormalized) [-].
+DIRECTION_TOL = 1e-6
+#: Tool axes closer than this to -Z (cos of the angle + 1) have no minimal rotation [-].
+ANTIPODAL_TOL = 1e-9
+#: Peaks of |Im G| below this fraction of the largest are not taken as modes [-].
+FIT_PEAK_FRACTION = 0.05
+#: At most this many modes are fitted per FRF [-].
+FIT_MAX_MODES = 6
+#: A peak's half-power damping estimate (the fit's start) is at least this [-]
+#: (a peak one frequency bin wide would give zero).
+FIT_MIN_ZETA = 1.0e-4
+
+# --- smoothing and choice (orient/smoothing.py, orient/choice.py, orient/contacts.py) ---
+#: Slack on the allowed axis change: numerical noise of the frames [rad].
+ANGLE_SLACK_RAD = 1e-6
+#: Score of the CAM posture where no candidate is feasible (below any margin, so it
+#: is only taken where nothing else is left) [-].
+FALLBACK_SCORE = -1.0e6
+#: The ball touches the design where its centre is within R + this of it [mm].
+CONTACT_TOL_MM = 0.01
+
+# --- the workpiece's modes (orient/workpiece.py, orient/workpiece_fem.py, orient/fem/) ---
+#: In-process cut levels at which the thin wall's modes are solved [-].
+WALL_LEVELS = 3
+#: A contact point this far outside the wall's material is taken at the
+#: nearest material point (the contact lies on the finished face) [mm].
+WALL_POINT_TOL_MM = 2.0
+#: Default number of the thin wall's modes solved for [-].
+DEFAULT_N_MODES = 6
+#: Refuse meshes with more free DOFs than this [-] (memory of the sparse LU).
+MAX_DOFS = 400_000
+#: A query point may lie this far outside the wall's material [mm].
+POINT_TOLERANCE_MM = 1.0
+#: modes_at skips modes whose static compliance at the point (along the
+#: direction) is below this fraction of the largest mode's [-].
+NEGLIGIBLE_MODE_FRACTION = 1e-6
+#: Elements assembled per batch [-] (bounds the dense (batch, 81, 81) work array).
+ASSEMBLY_BATCH = 512
+#: Relative tolerance of the Lanczos (ARPACK) eigen solve [-].
+EIGEN_TOL = 1e-10
+#: Seed of the Lanczos start vector [-] (deterministic modes, run to run).
+EIGEN_SEED = 0
+#: Default modal damping ratio of a wall [-] (measure it when it matters).
+DEFAULT_DAMPING_RATIO = 0.01
+#: Default mesh: element size = min(length, height) / this (one Q2 element per
+#: thickness layer for a thin wall) [-]; shown to be within 1 % of a finer mesh.
+DEFAULT_ELEMENTS_SHORT_SIDE = 12
+#: Default mesh: at most this many elements along the length or the height [-].
+DEFAULT_MAX_ELEMENTS_PER_DIRECTION = 48
+#: Face positions closer than this are merged when meshing [mm].
+MERGE_MM = 1e-6
+#: Largest |cosine| between the frame directions accepted as orthogonal [-].
+ORTHO_TOL = 1e-6
+
+# --- plots (orient/plots.py) --------------------------------------------------
+#: Margins above this are drawn at this value (the colour scale's top) [-].
+MARGIN_CLIP = 4.0

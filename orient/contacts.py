@@ -15,11 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from nc.path import CutterLocations
+from .constants import CONTACT_TOL_MM
 
 __all__ = ["CONTACT_TOL_MM", "Contacts", "ball_contacts", "feed_directions"]
 
-#: The ball touches the design where its centre is within R + this of it [mm].
-CONTACT_TOL_MM = 0.01
 
 
 @dataclass(frozen=True, eq=False)

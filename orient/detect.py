@@ -72,6 +72,15 @@ from scipy.signal import get_window
 
 from errpred.spindle import tooth_frequency
 from nc.checks import real_number as _real
+from .constants import (
+    DEFAULT_BAND_BINS,
+    DEFAULT_HOP_SAMPLES,
+    DEFAULT_PHASE_THRESHOLD_RAD,
+    DEFAULT_WINDOW_SAMPLES,
+    LOG_FLOOR_REL,
+    MIN_WINDOW_SAMPLES,
+    WINDOW_MAINLOBE_BINS,
+)
 
 __all__ = [
     "DEFAULT_HOP_SAMPLES",
@@ -82,25 +91,6 @@ __all__ = [
     "DetectorSettings",
 ]
 
-#: Default window length [samples] (0.1 s at 10 kHz: 17 revolutions at 10000 rev/min).
-DEFAULT_WINDOW_SAMPLES = 1024
-#: Default hop between windows [samples].
-DEFAULT_HOP_SAMPLES = 256
-#: Default harmonic exclusion half-width, in frequency bins of the window [-].
-DEFAULT_BAND_BINS = 3.0
-#: Default phase threshold between whirling (tool) and one-directional
-#: (workpiece) vibration [rad]: 45 degrees.
-DEFAULT_PHASE_THRESHOLD_RAD = math.pi / 4.0
-#: Windows accepted, with the half-width of their main lobe [bins]; the
-#: harmonic band must be at least that wide or a harmonic's own main lobe
-#: would leak into the candidate bins.
-WINDOW_MAINLOBE_BINS = {"hann": 2.0, "hamming": 2.0, "blackman": 3.0,
-                        "blackmanharris": 4.0, "boxcar": 1.0}
-#: Shortest window accepted [samples].
-MIN_WINDOW_SAMPLES = 16
-#: Floor added to the power spectrum before taking its logarithm [-], relative
-#: to the largest power of the window (avoids log(0) on synthetic silence).
-_LOG_FLOOR_REL = 1e-30
 _CAUSES = ("tool", "workpiece")
 
 
@@ -430,7 +420,7 @@ class ChatterDetector:
     def _refine(self, p: np.ndarray, k: np.ndarray) -> np.ndarray:
         """Offset [bins] of the log-parabola vertex through p[k-1], p[k], p[k+1]."""
         rows = np.arange(p.shape[0])
-        floor = np.maximum(_LOG_FLOOR_REL * p.max(axis=1), np.finfo(float).tiny)
+        floor = np.maximum(LOG_FLOOR_REL * p.max(axis=1), np.finfo(float).tiny)
         lp = np.log(p + floor[:, None])
         km = np.clip(k - 1, 0, p.shape[1] - 1)
         kp = np.clip(k + 1, 0, p.shape[1] - 1)

@@ -38,6 +38,14 @@ from typing import Any
 import numpy as np
 
 from errpred.dynamics import Compliance, Mode
+from .constants import (
+    ANTIPODAL_TOL,
+    DIRECTION_TOL,
+    FIT_MAX_MODES,
+    FIT_MIN_ZETA,
+    FIT_PEAK_FRACTION,
+    ORTHONORMAL_TOL,
+)
 
 __all__ = [
     "DIRECTION_TOL",
@@ -47,12 +55,8 @@ __all__ = [
     "minimal_rotation",
 ]
 
-#: Mode directions must have unit length within this (they are then renormalized) [-].
-DIRECTION_TOL = 1e-6
 #: Allowed mode sources.
 SOURCES = ("tool", "workpiece")
-#: Tool axes closer than this to -Z (cos of the angle + 1) have no minimal rotation [-].
-_ANTIPODAL_TOL = 1e-9
 #: Unit vectors of the compliance directions of a vertical tool.
 _AXIS_UNIT = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
@@ -101,7 +105,7 @@ def minimal_rotation(axis: Any) -> np.ndarray:
         raise ValueError("axis: expected non-zero vectors")
     u = u / n[:, None]
     c = u[:, 2]
-    if np.any(c <= -1.0 + _ANTIPODAL_TOL):
+    if np.any(c <= -1.0 + ANTIPODAL_TOL):
         raise ValueError("axis: a tool axis along -Z has no minimal rotation from +Z")
     vx, vy = -u[:, 1], u[:, 0]
     vx_ = np.zeros((u.shape[0], 3, 3))
@@ -380,7 +384,7 @@ class ModalSystem:
     def rotated(self, rotation: Any) -> ModalSystem:
         """All mode directions (and the tool axis) rotated by ``rotation`` (3, 3, proper)."""
         r = np.asarray(rotation, dtype=float)
-        if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-9) \
+        if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=ORTHONORMAL_TOL) \
                 or np.linalg.det(r) <= 0:
             raise ValueError("ModalSystem.rotated: rotation: expected a proper 3x3 rotation")
         return ModalSystem(self.k_N_m, self.m_kg, self.c_Ns_m, self.direction @ r.T,
@@ -424,10 +428,6 @@ class ModalSystem:
 
 
 # ---------------------------------------------------------------------- modal fit
-#: Peaks of |Im G| below this fraction of the largest are not taken as modes [-].
-FIT_PEAK_FRACTION = 0.05
-#: At most this many modes are fitted per FRF.
-FIT_MAX_MODES = 6
 
 
 def fit_modes(freq_hz: Any, frf_m_N: Any, n_modes: int | None = None) -> list[Mode]:
@@ -481,7 +481,7 @@ def fit_modes(freq_hz: Any, frf_m_N: Any, n_modes: int | None = None) -> list[Mo
             lo -= 1
         while hi < f.size - 1 and y[hi] > half:
             hi += 1
-        zeta = max((f[hi] - f[lo]) / (2.0 * f[p]), 1e-4)
+        zeta = max((f[hi] - f[lo]) / (2.0 * f[p]), FIT_MIN_ZETA)
         k = 1.0 / (2.0 * zeta * y[p])
         x0 += [math.log(f[p]), math.log(zeta), math.log(k)]
     w = 2.0 * math.pi * f

@@ -63,6 +63,7 @@ from . import _kernels as KN
 from .constants import (
     AXIS_NORMAL_MIN_COS,
     CHIP_EPS,
+    DIRECTION_MIN_NORM,
     GAIN_ANGLES_PER_REV,
     GAIN_BAND_BISECTIONS,
     GAIN_BAND_PROBES,
@@ -212,7 +213,7 @@ def place(tool: Tool, posture_axis: Any, normal: Any, feed_dir: Any) -> Placemen
     r, c0 = tool.corner_radius_mm, tool.core_radius_mm
     n_perp = n - un * u
     norm = float(np.linalg.norm(n_perp))
-    tip = r * (n - u) + (c0 / norm * n_perp if norm > 1e-12 else 0.0)
+    tip = r * (n - u) + (c0 / norm * n_perp if norm > DIRECTION_MIN_NORM else 0.0)
     return Placement(axis=u, f=f, b=b, n=n, frame=frame, tip=np.asarray(tip, dtype=float))
 
 

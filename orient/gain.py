@@ -66,6 +66,7 @@ from errpred.tool import MicroEdges, Tool
 from . import _kernels as KN
 from .constants import (
     AXIS_NORMAL_MIN_COS,
+    DIRECTION_MIN_NORM,
     GAIN_ANGLES_PER_REV,
     GAIN_BISECTIONS,
     GAIN_MICRO_EDGES_ENVELOPE,
@@ -73,6 +74,8 @@ from .constants import (
     GAIN_ROOT_STEP_RAD,
     GAIN_SCAN_POINTS,
     N_PER_M_PER_N_PER_MM,
+    ORTHONORMAL_TOL,
+    ROUND_SLACK,
 )
 from .engagement import (
     LocalCut,
@@ -414,7 +417,7 @@ def process_gain(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, nor
     tau = _tooth_period(spindle_rpm, tool.flutes)
     pl = place(tool, posture_axis, normal, feed_dir)
     geo = geometry_vector(tool, posture_axis, normal, feed_dir, cut)
-    k = max(1, math.ceil(n_angles / tool.flutes - 1e-9))
+    k = max(1, math.ceil(n_angles / tool.flutes - ROUND_SLACK))
     Ht = np.zeros((k, 3, 3))
     st = np.zeros(5)
     tp, kc = _tool_params(tool), np.array(coeffs.chip, dtype=float)
@@ -529,7 +532,7 @@ def process_gain_batch(tool: Tool, coeffs: CuttingCoefficients, posture_axis: An
         raise ValueError(f"posture_axis: the tool axis must point away from the workpiece "
                          f"(u . n > 0); posture {k} has u . n = {cosn[k]:.3g}")
     fn = Fd - np.sum(Fd * N, axis=1, keepdims=True) * N / np.sum(N * N, axis=1, keepdims=True)
-    if np.any(np.linalg.norm(fn, axis=1) <= 1e-12 * np.linalg.norm(Fd, axis=1)):
+    if np.any(np.linalg.norm(fn, axis=1) <= DIRECTION_MIN_NORM * np.linalg.norm(Fd, axis=1)):
         raise ValueError("feed_dir: a feed direction is parallel to its surface normal (or zero)")
     rows = _cut_rows(cut, shape)
     r = tool.corner_radius_mm
@@ -603,6 +606,7 @@ def restricted(P: Any, E: Any) -> np.ndarray:
         raise ValueError(f"P: expected shape (..., 3, 3), got {P.shape}")
     if E.ndim != 2 or E.shape[0] != 3 or not 1 <= E.shape[1] <= 3:
         raise ValueError(f"E: expected shape (3, d) with 1 <= d <= 3, got {E.shape}")
-    if not np.all(np.isfinite(E)) or not np.allclose(E.T @ E, np.eye(E.shape[1]), atol=1e-9):
+    if not np.all(np.isfinite(E)) or not np.allclose(E.T @ E, np.eye(E.shape[1]),
+                                                      atol=ORTHONORMAL_TOL):
         raise ValueError("E: expected orthonormal columns")
     return np.einsum("ip,...ij,jq->...pq", E, P, E)

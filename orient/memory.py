@@ -45,6 +45,15 @@ from scipy.spatial import cKDTree
 from nc.atomic import atomic_write
 from nc.errors import InputError
 from nc.checks import real_number as _real
+from .constants import (
+    DEFAULT_ANGLE_RAD,
+    DEFAULT_DEPTH_MM,
+    DEFAULT_PICK_MM,
+    DEFAULT_SPEED_REL,
+    KDTREE_MIN_ENTRIES,
+    MIN_FEED_SINE,
+    MIN_VECTOR_NORM,
+)
 
 __all__ = [
     "FILE_FORMAT",
@@ -60,20 +69,9 @@ __all__ = [
 #: ``format`` tag and ``version`` of the JSON file.
 FILE_FORMAT = "orient.posture_memory"
 FILE_VERSION = 1
-#: From this many entries of one tool on, queries use a k-d tree [-].
-KDTREE_MIN_ENTRIES = 64
-#: A normal or feed vector must have a norm at least this to be normalized [-].
-MIN_VECTOR_NORM = 1e-9
-#: The feed must make at least this sine with the normal [-].
-MIN_FEED_SINE = 1e-6
 #: Vectors within this of unit length (and feeds within this of perpendicular)
 #: are stored as given, so that normalizing twice changes no bit [-].
 _UNIT_TOL = 4.0 * np.finfo(float).eps
-#: Default distance scales (see the module docstring).
-DEFAULT_SPEED_REL = 0.10
-DEFAULT_DEPTH_MM = 0.1
-DEFAULT_PICK_MM = 0.1
-DEFAULT_ANGLE_RAD = math.radians(10.0)
 
 
 class PostureMemoryError(InputError):

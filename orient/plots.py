@@ -11,11 +11,10 @@ import os
 import numpy as np
 
 from nc.atomic import atomic_path
+from .constants import MARGIN_CLIP
 
 __all__ = ["plot_margin_along_path", "plot_margin_grid"]
 
-#: Margins above this are drawn at this value (the colour scale's top) [-].
-MARGIN_CLIP = 4.0
 
 
 def _figure(**kw):

@@ -22,13 +22,10 @@ from .gain import ProcessGain, process_gain
 from .scenario import PlanScenario
 from .stability import Lobes, stability_lobes
 from .workpiece import WorkpieceModel
+from .constants import LOBE_RANGE, LOBE_SPEEDS
 
 __all__ = ["LOBE_SPEEDS", "PointSetup", "point_lobes", "point_setup"]
 
-#: Spindle speeds of a lobe diagram [-].
-LOBE_SPEEDS = 200
-#: Default speed range of a lobe diagram, as factors of the programmed speed [-].
-LOBE_RANGE = (0.5, 1.6)
 
 
 @dataclass(frozen=True, eq=False)

@@ -15,11 +15,10 @@ A break (a rapid move between passes) lifts the limit.
 from __future__ import annotations
 
 import numpy as np
+from .constants import ANGLE_SLACK_RAD
 
 __all__ = ["best_smooth_path"]
 
-#: Slack on the allowed axis change: numerical noise of the frames [rad].
-ANGLE_SLACK_RAD = 1e-6
 
 
 def best_smooth_path(score: np.ndarray, axes: np.ndarray, step_mm: np.ndarray,

@@ -43,29 +43,22 @@ from orient.strategy_types import (
     PostureState,
     Strategy,
 )
+from orient.constants import (
+    CHANGE_TOL,
+    DEFAULT_MEMORY_MAX_DISTANCE,
+    DEFAULT_STEP_RAD,
+    LEARN_DEDUPE_DISTANCE,
+    LEARN_DEDUPE_K,
+    MIN_REL_IMPROVEMENT,
+    RING_DIRECTIONS,
+    SAME_POSTURE_RAD,
+    STEP_FRACTIONS,
+)
 
 __all__ = ["DEFAULT_STEP_RAD", "DetectorRule", "EigenCriterion", "GainMinimization",
            "MemoryRule", "OperatorInput", "OperatorRule", "PostureChange", "PostureGrid",
            "PostureModel", "PostureState", "Strategy", "TrialRule"]
 
-#: Default step of the rules [rad]; the patent's example trial step ([0094]).
-DEFAULT_STEP_RAD = math.radians(10.0)
-#: Directions on a ring of candidate moves [-].
-RING_DIRECTIONS = 36
-#: Radii of the rings, as fractions of the step [-], largest first.
-STEP_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
-#: Smallest change of inclination [rad] or cut sense [-] that counts as one.
-CHANGE_TOL = 1e-9
-#: Smallest relative improvement of gain or margin worth a posture change [-].
-MIN_REL_IMPROVEMENT = 1e-3
-#: Postures closer than this in lead and tilt are the same [rad].
-SAME_POSTURE_RAD = 1e-6
-#: MemoryRule: matches farther than this are not similar [-] (see orient/memory.py).
-DEFAULT_MEMORY_MAX_DISTANCE = 2.0
-#: MemoryRule does not learn a posture already stored this near [-] (among the
-#: nearest LEARN_DEDUPE_K entries).
-LEARN_DEDUPE_DISTANCE = 0.05
-LEARN_DEDUPE_K = 32
 
 
 # --- helpers ---------------------------------------------------------------------

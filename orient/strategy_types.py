@@ -15,6 +15,7 @@ import numpy as np
 
 from orient.detect import Detection
 from orient.memory import CuttingConditions, _real
+from orient.constants import DEFAULT_GRID_HALF_WIDTH_RAD, DEFAULT_GRID_STEP_RAD, ROUND_SLACK
 
 __all__ = [
     "DEFAULT_GRID_HALF_WIDTH_RAD",
@@ -27,9 +28,6 @@ __all__ = [
     "Strategy",
 ]
 
-#: Default candidate grid of the analytical rules: +-20 deg in 5 deg steps.
-DEFAULT_GRID_HALF_WIDTH_RAD = math.radians(20.0)
-DEFAULT_GRID_STEP_RAD = math.radians(5.0)
 
 
 # --- data ------------------------------------------------------------------------
@@ -165,7 +163,7 @@ class PostureGrid:
 
     def around(self, lead_rad: float, tilt_rad: float) -> np.ndarray:
         """Candidates, shape (m, 2) [rad] (lead, tilt); the current posture included."""
-        n = math.floor(self.half_width_rad / self.step_rad + 1e-9)
+        n = math.floor(self.half_width_rad / self.step_rad + ROUND_SLACK)
         off = np.arange(-n, n + 1) * self.step_rad
         dl, dt = np.meshgrid(off, off, indexing="ij")
         return np.column_stack([lead_rad + dl.ravel(), tilt_rad + dt.ravel()])

@@ -22,14 +22,10 @@ import numpy as np
 from .blas import limited_blas
 from .dynamics import ModalSystem
 from .scenario import WorkpieceSpec
+from .constants import WALL_LEVELS, WALL_POINT_TOL_MM
 
 __all__ = ["WALL_LEVELS", "WorkpieceModel"]
 
-#: In-process cut levels at which the thin wall's modes are solved [-].
-WALL_LEVELS = 3
-#: A contact point this far outside the wall's material is taken at the
-#: nearest material point (the contact lies on the finished face) [mm].
-WALL_POINT_TOL_MM = 2.0
 
 
 class WorkpieceModel:

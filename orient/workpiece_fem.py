@@ -68,6 +68,12 @@ from orient.fem.wall import (
     _vec3,
     wall_mesh,
 )
+from orient.constants import (
+    DEFAULT_N_MODES,
+    MAX_DOFS,
+    NEGLIGIBLE_MODE_FRACTION,
+    POINT_TOLERANCE_MM,
+)
 
 __all__ = [
     "ALUMINIUM",
@@ -86,15 +92,6 @@ __all__ = [
     "wall_modes",
 ]
 
-#: Default number of modes solved for.
-DEFAULT_N_MODES = 6
-#: Refuse meshes with more free DOFs than this (memory of the sparse LU).
-MAX_DOFS = 400_000
-#: A query point may lie this far outside the wall's material [mm].
-POINT_TOLERANCE_MM = 1.0
-#: modes_at skips modes whose static compliance at the point (along the
-#: direction) is below this fraction of the largest mode's.
-NEGLIGIBLE_MODE_FRACTION = 1e-6
 
 
 # ---------------------------------------------------------------------- modes

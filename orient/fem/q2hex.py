@@ -34,17 +34,12 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator, eigsh, splu
 
 from orient.blas import blas_limited
+from orient.constants import ASSEMBLY_BATCH, EIGEN_SEED, EIGEN_TOL
 
 __all__ = ["Q2Mesh", "assemble", "build_mesh", "lowest_modes", "shape_functions"]
 
-#: Elements assembled per batch (bounds the dense (batch, 81, 81) work array).
-ASSEMBLY_BATCH = 512
 #: Fill-reducing ordering for the sparse LU of the stiffness (symmetric pattern).
 LU_ORDERING = "MMD_AT_PLUS_A"
-#: Relative tolerance of the Lanczos (ARPACK) eigen solve.
-EIGEN_TOL = 1e-10
-#: Seed of the (deterministic) Lanczos start vector.
-EIGEN_SEED = 0
 
 
 def _l(x: np.ndarray) -> np.ndarray:

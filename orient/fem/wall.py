@@ -27,6 +27,14 @@ import numpy as np
 
 from nc.checks import real_number as _real
 from orient.fem import q2hex
+from orient.constants import (
+    DEFAULT_DAMPING_RATIO,
+    DEFAULT_ELEMENTS_SHORT_SIDE,
+    DEFAULT_MAX_ELEMENTS_PER_DIRECTION,
+    MERGE_MM,
+    ORTHO_TOL,
+    ROUND_SLACK,
+)
 
 __all__ = [
     "ALUMINIUM",
@@ -40,19 +48,8 @@ __all__ = [
     "wall_mesh",
 ]
 
-#: Default modal damping ratio of a wall [-] (measure it when it matters).
-DEFAULT_DAMPING_RATIO = 0.01
-#: Default mesh: element size = min(length, height) / this (one Q2 element per
-#: thickness layer for a thin wall); shown to be within 1 % of a finer mesh.
-DEFAULT_ELEMENTS_SHORT_SIDE = 12
-#: Default mesh: at most this many elements along the length or the height.
-DEFAULT_MAX_ELEMENTS_PER_DIRECTION = 48
 #: Which faces the finishing removes material from.
 FINISH_SIDES = ("both", "front", "back")
-#: Face positions closer than this are merged when meshing [mm].
-_MERGE_MM = 1e-6
-#: Largest |cosine| between the frame directions accepted as orthogonal.
-_ORTHO_TOL = 1e-6
 
 
 def _vec3(name: str, value: Any, unit: bool = False) -> np.ndarray:
@@ -196,7 +193,7 @@ class ThinWall:
             if vecs[b] is None:  # derived below, orthogonal by construction
                 continue
             c = float(vecs[a] @ vecs[b])
-            if abs(c) > _ORTHO_TOL:
+            if abs(c) > ORTHO_TOL:
                 raise ValueError(f"ThinWall.{a}, ThinWall.{b}: expected orthogonal directions, "
                                  f"cosine {c:.3g}")
         if vecs["up"] is None:
@@ -257,7 +254,7 @@ class ThinWall:
             return self
         z = max(z, 0.0)
         above = [self.thickness_at(z)] + [t for lv, t in self.profile if lv > z]
-        if tf > min(above) + _MERGE_MM:
+        if tf > min(above) + MERGE_MM:
             raise ValueError(f"finished_thickness_mm: {tf:g} mm exceeds the stock thickness "
                              f"{min(above):g} mm above cut_to_z_mm={z:g}")
         kept = tuple((lv, t) for lv, t in self.profile if lv < z)
@@ -267,7 +264,7 @@ class ThinWall:
 # ---------------------------------------------------------------------- meshing
 def _merge(values: Sequence[float]) -> np.ndarray:
     v = np.sort(np.asarray(values, dtype=float))
-    return v[np.concatenate([[True], np.diff(v) > _MERGE_MM])]
+    return v[np.concatenate([[True], np.diff(v) > MERGE_MM])]
 
 
 def _subdivide(breaks: np.ndarray, counts: Sequence[int]) -> np.ndarray:
@@ -280,15 +277,15 @@ def _counts(name: str, elements: Any, wall: ThinWall) -> tuple[int, Any, Any]:
     if elements is None:
         size = min(wall.length_mm, wall.height_mm) / DEFAULT_ELEMENTS_SHORT_SIDE
         cap = DEFAULT_MAX_ELEMENTS_PER_DIRECTION
-        nx = min(math.ceil(wall.length_mm / size - 1e-9), cap)
-        nz = min(math.ceil(wall.height_mm / size - 1e-9), cap)
+        nx = min(math.ceil(wall.length_mm / size - ROUND_SLACK), cap)
+        nz = min(math.ceil(wall.height_mm / size - ROUND_SLACK), cap)
         return (nx, lambda seg: max(1, round(nz * seg / wall.height_mm)),
-                lambda lay: max(1, math.ceil(lay / size - 1e-9)))
+                lambda lay: max(1, math.ceil(lay / size - ROUND_SLACK)))
     if isinstance(elements, numbers.Real) and not isinstance(elements, (bool, np.bool_)):
         size = _real(f"{name} (element size)", elements, ">0")
-        return (max(1, math.ceil(wall.length_mm / size - 1e-9)),
-                lambda seg: max(1, math.ceil(seg / size - 1e-9)),
-                lambda lay: max(1, math.ceil(lay / size - 1e-9)))
+        return (max(1, math.ceil(wall.length_mm / size - ROUND_SLACK)),
+                lambda seg: max(1, math.ceil(seg / size - ROUND_SLACK)),
+                lambda lay: max(1, math.ceil(lay / size - ROUND_SLACK)))
     try:
         nx, ny, nz = elements
     except (TypeError, ValueError):

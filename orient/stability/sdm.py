@@ -78,6 +78,26 @@ from errpred.spindle import tooth_period
 from orient.blas import blas_limited
 from orient.dynamics import ModalSystem
 from orient.stability.zoa import _positive, _teeth, zoa_critical
+from orient.constants import (
+    KIND_ANGLE_TOL,
+    ROUND_SLACK,
+    SDM_DEFAULT_STEPS,
+    SDM_ERROR_WEIGHT,
+    SDM_MAX_STEPS,
+    SDM_MAX_SUBSTEPS,
+    SDM_MIN_SAMPLES,
+    SDM_MIN_SAMPLES_IN_CUT,
+    SDM_REFINE_MAX_ROWS,
+    SDM_REFINE_TOL,
+    SDM_RTOL,
+    SDM_SCAN_FACTOR,
+    SDM_SCAN_FINE_FACTOR,
+    SDM_SCAN_MAX,
+    SDM_SCAN_MIN_ZETA,
+    SDM_SCAN_START,
+    SDM_STEPS_PER_MODE_PERIOD,
+    SDM_SUBSTEPS,
+)
 
 __all__ = [
     "KIND_ANGLE_TOL",
@@ -104,57 +124,6 @@ __all__ = [
     "sdm_margin",
 ]
 
-#: Steps per tooth period: at least this many [-] ...
-SDM_DEFAULT_STEPS = 40
-#: ... and at least this many per period of the highest natural frequency [-]
-#: (the step's error scales with ``(f_max dt)^2``: on the 1-DOF benchmark grid
-#: 24 leave up to +6 %, 32 up to +4 % at lobe crossings and high-depth flip
-#: lobes, 64 about +1 %; the error control of :func:`sdm_margin` does the rest) ...
-SDM_STEPS_PER_MODE_PERIOD = 32
-#: ... but not beyond this [-] (cost: the monodromy matrix has ``(k + 2) m``
-#: rows; its eigenvalues cost ``k^3``).
-SDM_MAX_STEPS = 200
-#: Sub-steps per step on which ``H`` is integrated exactly against the
-#: Duhamel kernel: at least this many [-] ...
-SDM_SUBSTEPS = 4
-#: ... and up to this many to put every sample interval's edge on a sub-step
-#: edge (else the samples are averaged onto the sub-steps) [-].
-SDM_MAX_SUBSTEPS = 64
-#: Samples of ``H`` per tooth period recommended at least [-] ...
-SDM_MIN_SAMPLES = 320
-#: ... and that the engaged part of the tooth period should span
-#: (:func:`recommended_samples`): the samples are ``H``'s step averages, and
-#: their count bounds how well its shape inside the cut is known [-].
-SDM_MIN_SAMPLES_IN_CUT = 48
-#: Default steps: the margin at half the steps estimates the error ``D``;
-#: where ``D`` exceeds this fraction of the margin, the steps are doubled once
-#: [-] ...
-SDM_REFINE_TOL = 0.005
-#: ... if the monodromy matrix then has at most this many rows [-] (its
-#: eigenvalues cost ``rows^3``: about 30 ms at 400 rows on one thread) ...
-SDM_REFINE_MAX_ROWS = 400
-#: ... and the margin returned is the finest one less this multiple of ``D``
-#: [-] (1/3 would be Richardson's estimate of the error of a second-order
-#: method; more keeps the result below the converged limit where the
-#: refinement is not yet asymptotic: calibration on the 1-DOF benchmark grid).
-SDM_ERROR_WEIGHT = 0.5
-#: The scan in ``s`` starts at this fraction of the ZOA critical margin [-] ...
-SDM_SCAN_START = 0.25
-#: ... and multiplies ``s`` by this per step [-] ...
-SDM_SCAN_FACTOR = 1.3
-#: ... up to this many times the start (then the margin is taken as inf) [-].
-SDM_SCAN_MAX = 1e4
-#: The last coarse interval (stable to unstable) is scanned again by this
-#: factor [-]: the radius can cross 1 and come back within it (an unstable
-#: window 7 % wide below the boundary on the 1-DOF benchmark, up-milling
-#: a/D = 0.5 at 13,000 rev/min, which the coarse scan alone stepped over).
-SDM_SCAN_FINE_FACTOR = 1.04
-#: Relative tolerance of the margin [-] (the lower end of the root's
-#: interval is returned).
-SDM_RTOL = 5e-4
-#: A critical multiplier within this angle [rad] of the real axis is a fold (+1)
-#: or a flip (-1); otherwise a Hopf pair.
-KIND_ANGLE_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -321,7 +290,7 @@ def default_steps(system: ModalSystem, spindle_rpm: float, teeth: int) -> int:
 
 def _default_steps(system: ModalSystem, tau: float) -> int:
     fmax = float(system.natural_frequency_rad_s.max()) / (2.0 * math.pi)
-    need = math.ceil(SDM_STEPS_PER_MODE_PERIOD * tau * fmax - 1e-9)
+    need = math.ceil(SDM_STEPS_PER_MODE_PERIOD * tau * fmax - ROUND_SLACK)
     return min(SDM_MAX_STEPS, max(SDM_DEFAULT_STEPS, need))
 
 
@@ -450,7 +419,7 @@ def _scan_start(h: np.ndarray, system: ModalSystem) -> float:
     gain = float(np.max(np.linalg.norm(h, ord=2, axis=(1, 2))))
     if gain == 0.0:
         return math.inf
-    kz = float(np.min(system.k_N_m * np.maximum(system.damping_ratio, 1e-3)))
+    kz = float(np.min(system.k_N_m * np.maximum(system.damping_ratio, SDM_SCAN_MIN_ZETA)))
     return SDM_SCAN_START * kz / gain
 
 

@@ -35,6 +35,19 @@ from errpred.spindle import tooth_period
 from nc.checks import real_number, whole_number
 from orient.dynamics import ModalSystem
 from orient.stability import _kernels as _k
+from orient.constants import (
+    DIRECTION_TOL,
+    GROUP_PARALLEL_TOL,
+    ORTHONORMAL_TOL,
+    ZOA_BAND_HALF_WIDTH,
+    ZOA_BAND_POINTS,
+    ZOA_GLOBAL_POINTS,
+    ZOA_GLOBAL_RANGE,
+    ZOA_MIN_ZETA,
+    ZOA_NEAR_HALF_WIDTH,
+    ZOA_NEAR_POINTS,
+    ZOA_THIN_FRACTION,
+)
 
 __all__ = [
     "ZOA_BAND_HALF_WIDTH",
@@ -53,28 +66,6 @@ __all__ = [
     "zoa_margin_batch",
     "zoa_margin_detail",
 ]
-
-# --- default chatter-frequency grid (built from the modes) -----------------
-#: Dense band around each natural frequency: +- this many ``zeta wn`` ...
-ZOA_NEAR_HALF_WIDTH = 8.0
-#: ... with this many points (step 0.4 zeta wn).
-ZOA_NEAR_POINTS = 25
-#: Wider band around each natural frequency: +- this fraction of ``wn`` ...
-ZOA_BAND_HALF_WIDTH = 0.5
-#: ... with this many points.
-ZOA_BAND_POINTS = 16
-#: Global log-spaced grid from ``lo * wn_min`` to ``hi * wn_max`` ...
-ZOA_GLOBAL_RANGE = (0.2, 3.0)
-#: ... with this many points.
-ZOA_GLOBAL_POINTS = 32
-#: Damping ratios below this are taken as this for the grid's width [-].
-ZOA_MIN_ZETA = 1e-3
-#: Where the bands of several modes overlap, a point closer than this fraction
-#: of the finest step any band asks for there to the previous kept point is
-#: dropped (the union of the bands would otherwise be denser than any band) [-].
-ZOA_THIN_FRACTION = 0.5
-#: Mode directions with |d_a . d_b| above this share a group (add their receptances) [-].
-GROUP_PARALLEL_TOL = 1.0 - 1e-9
 
 
 # ---------------------------------------------------------------------- validation
@@ -112,7 +103,7 @@ def _restrict(p: np.ndarray, restrict: Any) -> np.ndarray:
     if e.ndim != 2 or e.shape[0] != 3 or not 1 <= e.shape[1] <= 3 or not np.all(np.isfinite(e)):
         raise ValueError(f"restrict: expected finite directions of shape (3, d), d in 1..3, "
                          f"got shape {e.shape}")
-    if not np.allclose(e.T @ e, np.eye(e.shape[1]), atol=1e-9):
+    if not np.allclose(e.T @ e, np.eye(e.shape[1]), atol=ORTHONORMAL_TOL):
         raise ValueError("restrict: the columns must be orthonormal")
     pr = e @ e.T
     return pr @ p @ pr
@@ -425,7 +416,7 @@ def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, 
             raise ValueError(f"mode_directions: expected finite shape ({p.shape[0]}, "
                              f"{system.n_modes}, 3), got {md.shape}")
         norms = np.linalg.norm(md, axis=2)
-        if np.any(np.abs(norms - 1.0) > 1e-6):
+        if np.any(np.abs(norms - 1.0) > DIRECTION_TOL):
             raise ValueError("mode_directions: expected unit vectors")
         lead = md[:, first[group], :]
         if np.any(np.abs(np.sum(md * lead, axis=2)) < GROUP_PARALLEL_TOL - 1e-6):
