@@ -9,7 +9,9 @@ to a root: the engagement's material margin along a micro edge's circle
 
 It is inlined where it is called (``inline="always"``): called across a function
 boundary, the function it is given would be passed as an object's address, and
-numba does not cache a kernel holding one.
+numba does not cache a kernel holding one. Inlined, it is compiled into its
+callers' cache entries, which numba keys by the callers' own files: after a change
+here, remove the ``orient`` numba caches (``__pycache__/*.nbi``, ``*.nbc``).
 """
 
 from __future__ import annotations
