@@ -169,7 +169,9 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("-o", "--output", metavar="OUT.nc",
                    help="the NC program to write (required; no error correction, no "
                         "simulation)")
-    a.add_argument("--machine", help="named machine (default: the scenario's program.machine)")
+    a.add_argument("--machine", help="named machine or machine file (.toml), tool length "
+                                     "from the tool's overhang (default: the scenario's "
+                                     "program.machine)")
     a.add_argument("--dialect", help="linuxcnc, fanuc-g43.4 or fanuc-g43.5 (default: the "
                                      "scenario's)")
     a.add_argument("--spindle-rpm", type=float, help="plan at this speed [rev/min]")
