@@ -358,8 +358,10 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     Parameters
     ----------
     scn : PlanScenario
-    machine : nc Machine or str, optional
-        Default: the scenario's ``program.machine``.
+    machine : nc Machine, str or Path, optional
+        A machine as given, or a name or machine file resolved with the tool's overhang
+        as tool length (:meth:`orient.scenario.PlanScenario.machine`). Default: the
+        scenario's ``program.machine``.
     spindle_rpm : float, optional [rev/min]
         Plan at this speed (default: the program's).
     progress : callable, optional
