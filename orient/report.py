@@ -1,4 +1,5 @@
-"""The plan as JSON: per cutter location and a summary (degrees and µm only here)."""
+"""The plan as JSON: per cutter location and a summary (degrees and µm only here); and the
+one-line summary of the points without a feasible posture (the planner's and the job's refusal)."""
 
 from __future__ import annotations
 
