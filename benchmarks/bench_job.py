@@ -1,6 +1,6 @@
 """The main job on the bundled default (issue 17: <= 60 s warm, <= 120 s fresh, <= 1 GB a process).
 
-Runs ``python -m orient plan`` (the README's main command after installation) in a
+Runs ``python -m sim job`` (the README's main command after installation) in a
 child process with an empty numba cache, as on a fresh machine, and prints:
 
 * the wall time and the job's stages (``report.json``'s ``seconds``);
@@ -60,7 +60,7 @@ def _run(out: Path, cache: Path, sample_s: float) -> tuple[float, dict[int, dict
     time of the peak [s since the start]}``."""
     env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
     t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "orient", "plan", "--out", str(out)],
+    proc = subprocess.Popen([sys.executable, "-m", "sim", "job", "--out", str(out)],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             text=True)
     root = psutil.Process(proc.pid)

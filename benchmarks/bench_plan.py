@@ -58,7 +58,8 @@ from orient.contacts import ball_contacts
 from orient.dynamics import ModalSystem
 from orient.gain import process_gain_batch
 from orient.geometry import inclination, posture_axis
-from orient.plan import _reachable, candidate_grid, local_cuts, plan
+from orient.cuts import local_cuts
+from orient.plan import _reachable, candidate_grid, plan
 from orient.pointwise import point_lobes, point_setup
 from orient.scenario import bundled_scenario, load_plan_scenario
 from orient.stability import zoa_frequency_grid, zoa_margin, zoa_margin_batch

@@ -5,8 +5,9 @@ orient's thin wall): a key's value made NaN, infinite, negative, zero, huge or o
 the wrong type, or left out; empty, corrupt and open (not watertight) mesh files;
 an empty program, one without a spindle speed, a line range that selects nothing;
 resolutions that would not fit the memory budget; counts beyond their limits. Each
-goes through its package's command line in this process (``errpred predict``,
-``orient plan`` -- the main job, ``--no-dask``) with a time limit, and is tallied:
+goes through a command line in this process (``errpred predict`` for errpred's,
+``sim job`` -- the main job, ``--no-dask`` -- for orient's) with a time limit, and is
+tallied:
 
 * ``input error``: exit status 2, one line ``error: ...`` on stderr naming the
   scenario file (and, where the case says which, the key), within the limit;
@@ -369,15 +370,15 @@ class Outcome:
 
 
 def run_case(case: Case, folder: Path, seed: int = 19, limit_s: float = 10.0) -> Outcome:
-    """Run one case through its package's command line in this process."""
+    """Run one case through its command line in this process."""
     folder.mkdir(parents=True, exist_ok=True)
     scenario = _materialize(case, folder, seed)
     if case.package == "errpred":
         from errpred.cli import main
         argv = ["predict", str(scenario), "-o", str(folder / "report.json"), "-q", "--no-design"]
     else:
-        from orient.cli import main
-        argv = ["plan", str(scenario), "--out", str(folder / "job"), "--no-dask"]
+        from sim.cli import main
+        argv = ["job", str(scenario), "--out", str(folder / "job"), "--no-dask"]
     err, out = io.StringIO(), io.StringIO()
 
     def alarm(signum, frame):

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -35,17 +34,6 @@ def load(path: str | os.PathLike) -> Scenario:
     return load_scenario(path)
 
 
-def _machine(scenario: Scenario):
-    if scenario.machine is None:
-        return None
-    from nc.kinematics import get_machine, load_machine
-
-    m = scenario.machine
-    machine = load_machine(m) if isinstance(m, Path) or str(m).endswith(".toml") else \
-        get_machine(str(m))
-    return machine.with_tool_length(scenario.tool.overhang_mm)
-
-
 def build_predictor(scenario: Scenario, program: Program | None = None,
                     resolution: Resolution | None = None, stock=None,
                     workpiece=None, machine=None, sensitivity: bool = True) -> Predictor:
@@ -64,7 +52,8 @@ def build_predictor(scenario: Scenario, program: Program | None = None,
     return Predictor(scenario.tool, stock if stock is not None else scenario.stock.load(), prog,
                      scenario.coefficients, scenario.compliance, shape_error=shape,
                      resolution=res,
-                     machine=machine if machine is not None else _machine(scenario),
+                     machine=machine if machine is not None
+                     else scenario.resolve_machine(),
                      workpiece=workpiece,
                      initial_wear_mm=scenario.initial_wear_mm, sensitivity=sensitivity)
 
@@ -217,7 +206,7 @@ def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, work
     opts = scenario.correction
     it = opts.iterate if iterate is None else iterate
     res = scenario.resolution.dense()
-    machine = _machine(scenario)
+    machine = scenario.resolve_machine()
 
     def run(prog: Program, origin: np.ndarray) -> Prediction:
         pred = build_predictor(scenario, prog, res, stock)

@@ -108,6 +108,21 @@ class StockSpec:
 
         return load_mesh(self.design_path, what="design mesh")
 
+    def mesh(self):
+        """The stock as a closed ``trimesh.Trimesh``: the STL, or the box (what shank and
+        holder must clear, and what the planner, the job and the simulated machine check
+        postures against)."""
+        if self.kind == "stl":
+            from .meshio import load_mesh
+
+            return load_mesh(self.path, what="stock mesh", closed=True)
+        import trimesh
+
+        lo, hi = np.asarray(self.bounds[0], float), np.asarray(self.bounds[1], float)
+        return trimesh.creation.box(extents=hi - lo,
+                                    transform=trimesh.transformations.translation_matrix(
+                                        (lo + hi) / 2))
+
 
 @dataclass(frozen=True, eq=False)
 class ShapeError:
@@ -208,6 +223,36 @@ class Scenario:
     initial_wear_mm: Any = None
     #: Where :attr:`initial_wear_mm` comes from, in words (for the report).
     tool_start: str = "new tool"
+
+    def resolve_machine(self, override: Any = None) -> Any:
+        """The machine the program runs on, the one resolution every package uses.
+
+        Parameters
+        ----------
+        override : str, Path or nc.machines.Machine, optional
+            A named machine, a machine file (``.toml``) or a machine; default: the
+            scenario's ``program.machine``.
+
+        Returns
+        -------
+        nc.machines.Machine or None
+            A name or a file resolved (:func:`nc.kinematics.get_machine`,
+            :func:`nc.kinematics.load_machine`) with the tool length set to the
+            tool's overhang [mm] (spindle nose to tip, the gauge length: on a head
+            machine it places the tip from the pivots, so a program read or written
+            without it puts the tip elsewhere); a machine given as such is returned
+            as given. None when neither is given.
+        """
+        m = override if override is not None else self.machine
+        if m is None:
+            return None
+        if hasattr(m, "inverse"):
+            return m
+        from nc.kinematics import get_machine, load_machine
+
+        machine = load_machine(m) if isinstance(m, Path) or str(m).endswith(".toml") \
+            else get_machine(str(m))
+        return machine.with_tool_length(self.tool.overhang_mm)
 
     def read_program(self):
         """The NC program (``nc.read_any``: the scenario's dialect and allow list)."""

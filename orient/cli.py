@@ -1,8 +1,9 @@
-"""Command line: ``python -m orient plan [SCENARIO]`` and ``python -m orient lobes``.
+"""Command line: ``python -m orient plan [SCENARIO] -o OUT.nc`` and ``python -m orient lobes``.
 
-``python -m orient plan`` alone runs the main job on the bundled default
-(:mod:`sim.job_cli`: plan, correct the error, write, verify in the simulated
-machine, report); ``-o OUT.nc`` plans only and writes the planned program.
+``python -m orient plan`` is the planner's own command: it plans lead/tilt and writes
+the planned program and its plan report (no error correction, no simulation; the main
+job, which does both, is ``python -m sim job``: sim sits above orient, and orient
+imports nothing of it). Without SCENARIO the bundled thin wall.
 
 Units at the command line: mm, degrees, rev/min. Bad input ends in one line
 naming the file and the key, exit status 2, and nothing written. A plan with
@@ -20,19 +21,13 @@ import math
 import os
 import sys
 import time
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from errpred.cluster import dask_client
 from nc.errors import InputError
 
-from .constants import INFEASIBLE_LISTED
-
-if TYPE_CHECKING:
-    from .plan import PlanResult
-
-__all__ = ["build_parser", "infeasible_summary", "main"]
+__all__ = ["build_parser", "main"]
 
 
 def _console():
@@ -48,21 +43,19 @@ def _scenario(path: str | None):
 
 
 def _cmd_plan(args) -> int:
-    from nc.kinematics import get_machine
     from nc.path import cutter_locations
-    from nc.writer import PostOptions, round_trip_error, write_program
-
-    from .plan import plan
-    from .plots import plot_margin_along_path, plot_margin_grid
-    from .report import write_plan_report
-
-    if args.output is None:
-        return _job(args)
-    from nc.writer import DIALECTS
+    from nc.writer import DIALECTS, PostOptions, round_trip_error, write_program
 
     from .constants import MAX_SPINDLE_RPM
+    from .plan import plan
+    from .plots import plot_margin_along_path, plot_margin_grid
+    from .report import infeasible_summary, write_plan_report
 
     # the options, before the scenario and the planning
+    if args.output is None:
+        raise InputError("-o OUT.nc: missing; the planned program to write (the main job, "
+                         "which also corrects the error and verifies in simulation: "
+                         "python -m sim job [SCENARIO])")
     if args.dialect is not None and args.dialect not in DIALECTS:
         raise InputError(f"--dialect: {args.dialect!r}; expected one of {', '.join(DIALECTS)}")
     if args.spindle_rpm is not None and not (0 < args.spindle_rpm <= MAX_SPINDLE_RPM):
@@ -73,7 +66,9 @@ def _cmd_plan(args) -> int:
     for p in [out] + ([os.path.abspath(args.report)] if args.report else []):
         if not os.path.isdir(os.path.dirname(p)):
             raise FileNotFoundError(f"{p}: directory {os.path.dirname(p)} does not exist")
-    machine = get_machine(args.machine) if args.machine else None
+    # --machine is resolved as the scenario's program.machine: with the tool's overhang as
+    # its tool length (orient.scenario.PlanScenario.machine)
+    machine = scn.machine(args.machine) if args.machine else None
     con = _console()
     t0 = time.perf_counter()
     with con.status("planning") as status:
@@ -135,50 +130,6 @@ def _cmd_plan(args) -> int:
     return 0
 
 
-def infeasible_summary(res: PlanResult, listed: int = INFEASIBLE_LISTED) -> str:
-    """One line: how many points of a plan have no feasible posture, the first
-    ``listed`` of them (CAM program lines and point indices) and the reason of the
-    first cutting point among them (of the first point if none cuts).
-
-    Parameters
-    ----------
-    res : orient.plan.PlanResult
-        A plan with at least one point in ``res.infeasible``.
-    listed : int
-        Points named.
-
-    Returns
-    -------
-    str
-        Without a line break.
-    """
-    inf = res.infeasible
-    lines = res.stats.get("infeasible_lines", [])
-    more = ", ..." if len(inf) > listed else ""
-    cutting = inf[np.isin(inf, res.touching_index)]
-    first = int(cutting[0]) if len(cutting) else int(inf[0])
-    return (f"{len(inf)} of {len(res.cl)} points have no feasible posture, at CAM program "
-            f"lines {', '.join(map(str, lines[:listed]))}{', ...' if len(lines) > listed else ''}"
-            f" (points {', '.join(map(str, inf[:listed].tolist()))}{more}); point "
-            f"{first}: {res.reason[first].removeprefix('infeasible: ')}")
-
-
-def _job(args) -> int:
-    """The main job (:mod:`sim.job_cli`; sim sits above orient, so it is imported here,
-    when the job runs, and orient's modules never import it)."""
-    only = [f for f, v in (("--machine", args.machine), ("--dialect", args.dialect),
-                           ("--spindle-rpm", args.spindle_rpm), ("--report", args.report),
-                           ("--plots", args.plots)) if v is not None]
-    if only:
-        raise InputError(f"{', '.join(only)}: options of the plan-only run; give -o OUT.nc "
-                         f"(the job takes the scenario's machine, dialect and speed)")
-    if args.scheduler and args.dask is not None:
-        raise InputError("--scheduler and --dask: give one")
-    from sim.job_cli import run
-
-    return run(args)
-
-
 def _cmd_lobes(args) -> int:
     from .plots_lobes import plot_lobes
     from .pointwise import point_lobes, point_setup
@@ -208,16 +159,19 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m orient", description=(
         "Chatter-aware lead/tilt planning for 5-axis ball-end milling."))
     sub = p.add_subparsers(dest="cmd", required=True)
-    a = sub.add_parser("plan", help="the main job (plan, correct, write, verify in simulation, "
-                                    "report); with -o only the planning and the program")
+    # no abbreviations: --out (the main job's folder, python -m sim job) must not be
+    # taken for --output and write a program where a folder was meant
+    a = sub.add_parser("plan", allow_abbrev=False,
+                       help="plan lead/tilt and write the planned program and its report "
+                            "(the main job: python -m sim job)")
     a.add_argument("scenario", nargs="?", help="planning scenario TOML (default: the bundled "
                                                "thin-wall)")
-    a.add_argument("-o", "--output", help="plan only: the NC program to write (no error "
-                                          "correction, no simulation)")
-    a.add_argument("--out", metavar="DIR", help="the job's folder for the program and the "
-                                                "report (default: ./NAME-job)")
-    a.add_argument("--no-dask", action="store_true", help="the job in this process")
-    a.add_argument("--machine", help="named machine (default: the scenario's program.machine)")
+    a.add_argument("-o", "--output", metavar="OUT.nc",
+                   help="the NC program to write (required; no error correction, no "
+                        "simulation)")
+    a.add_argument("--machine", help="named machine or machine file (.toml), tool length "
+                                     "from the tool's overhang (default: the scenario's "
+                                     "program.machine)")
     a.add_argument("--dialect", help="linuxcnc, fanuc-g43.4 or fanuc-g43.5 (default: the "
                                      "scenario's)")
     a.add_argument("--spindle-rpm", type=float, help="plan at this speed [rev/min]")
@@ -226,11 +180,11 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--allow-fallback", action="store_true",
                    help="where no posture is feasible keep the CAM posture (flagged, a "
                         "warning) instead of refusing with status 1")
-    a.add_argument("--scheduler", metavar="ADDRESS",
+    g = a.add_mutually_exclusive_group()
+    g.add_argument("--scheduler", metavar="ADDRESS",
                    help="compute gains and margins on an existing Dask scheduler")
-    a.add_argument("--dask", type=int, default=None, metavar="N",
-                   help="local Dask cluster of N workers (the job's default: one per core; "
-                        "with -o: none)")
+    g.add_argument("--dask", type=int, default=None, metavar="N",
+                   help="local Dask cluster of N workers (default: none)")
     a.set_defaults(func=_cmd_plan)
     b = sub.add_parser("lobes", help="stability lobes at one cutter location")
     b.add_argument("scenario", nargs="?", help="planning scenario TOML (default: bundled)")

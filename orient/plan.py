@@ -54,18 +54,16 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
 from nc.path import CutterLocations, cutter_locations
 
 from .contacts import Contacts, ball_contacts
+from .cuts import local_cuts
 from .dynamics import ModalSystem
-from .engagement import LocalCut
 from .gain import process_gain, process_gain_batch
-from .geometry import inclination, lead_tilt_of, local_frame, posture_axis
-from .interference import InterferenceChecker, ToolAssembly
+from .geometry import inclination, lead_tilt_of, posture_axis
 from .scenario import PlanScenario, ScenarioError
 from .choice import (
     _FEASIBLE,
@@ -80,7 +78,7 @@ from .choice import (
 from .stability import recommended_samples, sdm_margin, zoa_margin_batch
 from .workpiece import WorkpieceModel
 
-__all__ = ["SDM_CHECK_POINTS", "PlanResult", "candidate_grid", "local_cuts", "plan", "stock_mesh"]
+__all__ = ["SDM_CHECK_POINTS", "PlanResult", "candidate_grid", "plan"]
 
 #: Points (those with the lowest planned zero-order margin) at which the
 #: time-periodic margin of the planned posture is computed [-].
@@ -96,9 +94,6 @@ DASK_CHUNK_POINTS = 256
 #: 0.4 s each on the bundled thin wall), so that a worker busy elsewhere (the job's
 #: warm-up) holds up none for long: the idle worker takes them.
 DASK_SPEED_ROWS = 4
-#: A previous pass counts if an earlier contact lies within this fraction of the
-#: pick feed of where it should be [-].
-FIRST_PASS_TOLERANCE = 0.5
 @dataclass(frozen=True, eq=False)
 class PlanResult:
     """A planned path and why each posture was chosen.
@@ -160,42 +155,6 @@ def _reachable(machine, tips: np.ndarray, axes: np.ndarray) -> np.ndarray:
     s0, s1 = machine.inverse(tips.reshape(-1, 3), axes.reshape(-1, 3))
     ok = machine.within_limits(s0) | machine.within_limits(s1)
     return ok.reshape(tips.shape[:-1])
-
-
-def local_cuts(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: CutterLocations,
-               spindle_rpm: float) -> list[LocalCut]:
-    """The local cut (depth and pick feed times the safety factor, side of the previous
-    pass, feed per tooth at ``spindle_rpm`` [rev/min]) at cutter locations ``idx``.
-
-    The previous pass lies on the ``machined_side``, where an earlier cutter location
-    of ``idx`` touched within a pick feed (``FIRST_PASS_TOLERANCE`` of it); where none
-    did (the first pass of a face), nothing is removed beside the tool and the ball
-    cuts on both sides (``previous_side = 0``).
-    """
-    opt = scn.options
-    cut = opt.cut
-    _, b, _ = local_frame(contacts.normal[idx], contacts.feed[idx])
-    side = np.sign(b @ cut.machined_side)
-    side[np.abs(b @ cut.machined_side) < 1e-6] = 0.0
-    side[~_previous_pass_cut(contacts.point[idx], b * side[:, None], cut.pick_mm)] = 0.0
-    fz = cam.feed_mm_min[idx] / (spindle_rpm * scn.base.tool.flutes)
-    return [LocalCut(cut.depth_mm * opt.safety_factor, cut.pick_mm * opt.safety_factor,
-                     int(s), float(z)) for s, z in zip(side, fz)]
-
-
-def _previous_pass_cut(points: np.ndarray, toward: np.ndarray, pick_mm: float) -> np.ndarray:
-    """True where an earlier point lies about one pick feed along ``toward`` (unit or
-    zero vectors, (n, 3)) from each of ``points`` (n, 3) [mm], in path order."""
-    from scipy.spatial import cKDTree
-
-    if len(points) == 0 or pick_mm <= 0:
-        return np.zeros(len(points), bool)
-    tol = FIRST_PASS_TOLERANCE * pick_mm
-    tree = cKDTree(points)
-    out = np.zeros(len(points), bool)
-    for k, near in enumerate(tree.query_ball_point(points + pick_mm * toward, tol)):
-        out[k] = bool(near) and min(near) < k and np.any(toward[k])
-    return out
 
 
 def _gains_rows(tool, coeffs, normal: np.ndarray, feed: np.ndarray, axes: np.ndarray,
@@ -399,8 +358,10 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     Parameters
     ----------
     scn : PlanScenario
-    machine : nc Machine or str, optional
-        Default: the scenario's ``program.machine``.
+    machine : nc Machine, str or Path, optional
+        A machine as given, or a name or machine file resolved with the tool's overhang
+        as tool length (:meth:`orient.scenario.PlanScenario.machine`). Default: the
+        scenario's ``program.machine``.
     spindle_rpm : float, optional [rev/min]
         Plan at this speed (default: the program's).
     progress : callable, optional
@@ -514,9 +475,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     ok[:, -1] = cam_ok
     t3 = time.perf_counter()
     # --- choose: smooth, then interference, repeated -------------------------
-    checker = InterferenceChecker(stock_mesh(scn, design), ToolAssembly.from_tool(
-        tool, clearance_mm=opt.clearance_mm), design_mesh=design,
-        gouge_tol_mm=opt.gouge_tol_mm)
+    checker = scn.interference_checker(design)
     n_parts = len(checker.part_names)
     cam_interf = checker.check(cam.tip[idx], cam.axis[idx])
     cam_ok &= ~cam_interf.collides & ~cam_interf.gouges
@@ -605,21 +564,6 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
         grid_margin=margin[:, :nlg].reshape(-1, nl, nt),
         grid_feasible=ok[:, :nlg].reshape(-1, nl, nt), touching_index=idx, workpiece=wp,
         infeasible=infeasible)
-
-
-def stock_mesh(scn: PlanScenario, design: Any) -> Any:
-    """The stock as a mesh (shank and holder must clear the material still standing)."""
-    import trimesh
-
-    from errpred.meshio import load_mesh
-
-    st = scn.base.stock
-    if st.kind == "stl":
-        return load_mesh(st.path, what="stock mesh", closed=True)
-    lo, hi = np.asarray(st.bounds[0]), np.asarray(st.bounds[1])
-    return trimesh.creation.box(extents=hi - lo,
-                                transform=trimesh.transformations.translation_matrix(
-                                    (lo + hi) / 2))
 
 
 def _place_all(cam: CutterLocations, contacts: Contacts, idx: np.ndarray, u_new: np.ndarray,

@@ -16,6 +16,7 @@ from nc.errors import InputError
 from nc.path import cutter_locations
 
 from .contacts import Contacts, ball_contacts
+from .cuts import local_cuts
 from .dynamics import ModalSystem
 from .engagement import LocalCut
 from .gain import ProcessGain, process_gain
@@ -61,8 +62,6 @@ def point_setup(scn: PlanScenario, point: int | None = None, axis=None,
         ``PlanResult.workpiece``); default: built for this point (its finite elements
         take seconds).
     """
-    from .plan import local_cuts
-
     cam = cutter_locations(scn.base.read_program(), scn.machine())
     contacts = ball_contacts(cam, scn.base.tool.radius_mm, scn.base.stock.load_design())
     idx = np.flatnonzero(contacts.touching)

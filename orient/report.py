@@ -1,4 +1,5 @@
-"""The plan as JSON: per cutter location and a summary (degrees and µm only here)."""
+"""The plan as JSON: per cutter location and a summary (degrees and µm only here); and the
+one-line summary of the points without a feasible posture (the planner's and the job's refusal)."""
 
 from __future__ import annotations
 
@@ -10,9 +11,10 @@ import numpy as np
 
 from nc.atomic import atomic_write
 
+from .constants import INFEASIBLE_LISTED
 from .plan import PlanResult
 
-__all__ = ["plan_report", "summary", "write_plan_report"]
+__all__ = ["infeasible_summary", "plan_report", "summary", "write_plan_report"]
 
 
 def _f(x: float, nd: int = 4):
@@ -96,3 +98,31 @@ def write_plan_report(path: str | os.PathLike, res: PlanResult, **kw) -> dict:
         json.dump(rep, fh, indent=1)
         fh.write("\n")
     return rep
+
+
+def infeasible_summary(res: PlanResult, listed: int = INFEASIBLE_LISTED) -> str:
+    """One line: how many points of a plan have no feasible posture, the first
+    ``listed`` of them (CAM program lines and point indices) and the reason of the
+    first cutting point among them (of the first point if none cuts).
+
+    Parameters
+    ----------
+    res : orient.plan.PlanResult
+        A plan with at least one point in ``res.infeasible``.
+    listed : int
+        Points named.
+
+    Returns
+    -------
+    str
+        Without a line break.
+    """
+    inf = res.infeasible
+    lines = res.stats.get("infeasible_lines", [])
+    more = ", ..." if len(inf) > listed else ""
+    cutting = inf[np.isin(inf, res.touching_index)]
+    first = int(cutting[0]) if len(cutting) else int(inf[0])
+    return (f"{len(inf)} of {len(res.cl)} points have no feasible posture, at CAM program "
+            f"lines {', '.join(map(str, lines[:listed]))}{', ...' if len(lines) > listed else ''}"
+            f" (points {', '.join(map(str, inf[:listed].tolist()))}{more}); point "
+            f"{first}: {res.reason[first].removeprefix('infeasible: ')}")

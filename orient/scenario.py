@@ -150,27 +150,51 @@ class PlanScenario:
         return self.base.path
 
     def machine(self, override: Any = None) -> Any:
-        """The machine the program runs on (``override``, else ``program.machine``): a
-        :class:`nc.kinematics` machine, from a name or a machine file when not one.
+        """The machine the program runs on (``override``, else ``program.machine``):
+        :meth:`errpred.scenario.Scenario.resolve_machine`, a name or a machine file
+        with the tool's overhang as its tool length.
 
         Raises
         ------
         ScenarioError
             Neither given.
         """
-        m = override if override is not None else self.base.machine
+        m = self.base.resolve_machine(override)
         if m is None:
             raise ScenarioError(str(self.path), "program.machine", "missing; the planner "
                                 "needs the machine (axis limits, kinematics)")
-        if isinstance(m, str):
-            from nc.kinematics import get_machine
+        return m
 
-            return get_machine(m)
-        if hasattr(m, "inverse"):
-            return m
-        from nc.kinematics import load_machine
+    def stock_mesh(self) -> Any:
+        """The stock as a closed ``trimesh.Trimesh`` (:meth:`errpred.scenario.StockSpec.mesh`):
+        what shank and holder must clear."""
+        return self.base.stock.mesh()
 
-        return load_machine(m)
+    def interference_checker(self, design: Any = None) -> Any:
+        """The interference check of this scenario's tool against its stock and design:
+        shank and holder kept ``[orient] clearance_mm`` from the stock, the flank into the
+        design by at most ``[orient] gouge_tol_mm`` (the one check the planner, the job and
+        the simulated machine make).
+
+        Parameters
+        ----------
+        design : trimesh.Trimesh, optional
+            The design mesh when already loaded (default: loaded here; none without
+            ``stock.design_stl``, and then no gouge check).
+
+        Returns
+        -------
+        orient.interference.InterferenceChecker
+        """
+        from .interference import InterferenceChecker, ToolAssembly
+
+        if design is None:
+            design = self.base.stock.load_design()
+        opt = self.options
+        return InterferenceChecker(
+            self.stock_mesh(),
+            ToolAssembly.from_tool(self.base.tool, clearance_mm=opt.clearance_mm),
+            design_mesh=design, gouge_tol_mm=opt.gouge_tol_mm)
 
 
 # --------------------------------------------------------------------------- reading

@@ -63,6 +63,10 @@ class Rib:
         Approach and retract distance along the tool axis.
     machine : str
         Named machine the program is written for (``nc.kinematics.MACHINES``).
+    tool_length_mm : float [mm]
+        The machine's tool length: the tool's overhang (``[tool] overhang_mm``), as the
+        scenario's readers resolve the machine (it places the tip from a head's pivots;
+        a table-table machine's program does not depend on it).
     """
 
     length: float = 60.0
@@ -84,6 +88,7 @@ class Rib:
     feed_mm_min: float = 1800.0
     clear_y: float = 12.0
     machine: str = "xyzac-trt"
+    tool_length_mm: float = 35.0
 
     def pass_heights(self) -> np.ndarray:
         """Contact Z of the passes, top down [mm]."""
@@ -174,7 +179,8 @@ def write_rib(out: str, rib: Rib, *, design_title: str, stock_title: str, source
     tip, axis, rapid = cam_cutter_locations(rib)
     feed = np.where(rapid, np.nan, rib.feed_mm_min)
     cl = CutterLocations.from_arrays(tip, axis, feed, rib.spindle_rpm, rapid=rapid)
-    res = write_program(os.path.join(out, "cam.nc"), cl, get_machine(rib.machine),
+    machine = get_machine(rib.machine, tool_length_mm=rib.tool_length_mm)
+    res = write_program(os.path.join(out, "cam.nc"), cl, machine,
                         PostOptions(dialect="linuxcnc", source=source))
     return {"points": len(tip), "passes": int(np.sum(rapid)), "program_lines":
             res.text.count("\n")}

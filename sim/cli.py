@@ -1,5 +1,9 @@
-"""Command line of the simulated machine.
+"""Command line of the simulated machine and of the main job.
 
+``python -m sim job [SCENARIO]``
+    the main job (:mod:`sim.job_cli`): plan, predict and correct the error, write the
+    program, verify it in the simulated machine, and write the page (the planner
+    alone: ``python -m orient plan``);
 ``python -m sim serve [SCENARIO]``
     the simulated NC behind a Modbus TCP server (127.0.0.1:5020 unless told);
 ``python -m sim controller --host H --port P``
@@ -324,8 +328,8 @@ def build_parser() -> argparse.ArgumentParser:
     from .job_cli import add_job_arguments
     from .job_cli import run as run_job
 
-    j = sub.add_parser("job", help="the main job: plan, correct, write and verify a CAM program "
-                                   "(as python -m orient plan)")
+    j = sub.add_parser("job", help="the main job: plan, correct, write and verify a CAM "
+                                   "program, and report")
     add_job_arguments(j)
     j.set_defaults(func=run_job)
 

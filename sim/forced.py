@@ -10,7 +10,7 @@ import numpy as np
 import scipy.signal
 
 if TYPE_CHECKING:
-    from .cutting import CuttingModel
+    from .cutting_model import CuttingModel
 
 __all__ = ["engaged_cells", "forced_response", "mid_step_displacement"]
 

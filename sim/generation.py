@@ -16,7 +16,7 @@ from orient.engagement import LocalCut
 from .constants import MM_PER_M, STRIP_GRID, STRIP_REACH
 
 if TYPE_CHECKING:
-    from .cutting import CuttingModel
+    from .cutting_model import CuttingModel
 
 __all__ = ["edge_spacing_rad", "generating_weights", "tooth_surface"]
 

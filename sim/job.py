@@ -44,9 +44,9 @@ from nc.gcode import parse_program
 from nc.path import CutterLocations, cutter_locations
 from nc.writer import PostOptions, PostResult, post, round_trip_error
 from orient.dynamics import ModalSystem
-from orient.interference import InterferenceChecker, ToolAssembly
-from orient.plan import PlanResult, plan, stock_mesh
+from orient.plan import PlanResult, plan
 from orient.pointwise import point_lobes, point_setup
+from orient.report import infeasible_summary
 from orient.scenario import PlanScenario
 from orient.stability import zoa_margin_batch
 
@@ -256,8 +256,6 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     res = plan(scn, progress=lambda stage, d, t: say(f"plan: {stage}", d, t), client=client)
     allow = scn.options.allow_fallback if allow_fallback is None else allow_fallback
     if res.infeasible.size and not allow:
-        from orient.cli import infeasible_summary
-
         raise Refused(f"{scn.path}: {infeasible_summary(res)}; nothing written (allow the "
                       "CAM posture there with --allow-fallback or [orient] allow_fallback)")
     machine = res.machine
@@ -315,11 +313,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
             fh.write(p.text)
     back = cutter_locations(parse_program(final_post.text, file=str(final_path)), machine)
     rt = round_trip_error(final_post, back)
-    design = base.stock.load_design()
-    chk = InterferenceChecker(stock_mesh(scn, design),
-                              ToolAssembly.from_tool(base.tool,
-                                                     clearance_mm=scn.options.clearance_mm),
-                              design_mesh=design, gouge_tol_mm=scn.options.gouge_tol_mm)
+    chk = scn.interference_checker()
     feed = ~comp.cl.rapid
     r = chk.check(comp.cl.tip[feed], comp.cl.axis[feed])
     collisions = int(np.count_nonzero(r.collides | r.gouges))

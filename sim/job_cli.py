@@ -1,5 +1,5 @@
-"""The main job's command line (``python -m sim job [SCENARIO]`` and ``python -m orient plan``
-without ``-o``; their parsers add these arguments and call :func:`run`).
+"""The main job's command line, ``python -m sim job [SCENARIO]`` (:mod:`sim.cli` adds
+these arguments and calls :func:`run`).
 
 Without a scenario the bundled default (orient's thin wall) runs. Everything is
 written into one folder (default ``./NAME-job``): the final program
@@ -35,7 +35,7 @@ __all__ = ["NOT_FOR_CUTTING_SUFFIX", "add_job_arguments", "run"]
 
 
 def add_job_arguments(a: argparse.ArgumentParser) -> None:
-    """The job's options (shared by ``python -m sim job`` and ``python -m orient plan``)."""
+    """The options of ``python -m sim job``."""
     a.add_argument("scenario", nargs="?", help="planning scenario TOML (default: the bundled "
                                                "thin wall)")
     a.add_argument("--out", metavar="DIR", help="folder for the program and the report "

@@ -36,8 +36,6 @@ from errpred.spindle import tooth_period
 from nc.kinematics import solve_path
 from orient.dynamics import ModalSystem
 from orient.geometry import posture_axis
-from orient.interference import InterferenceChecker, ToolAssembly
-from orient.plan import stock_mesh
 from orient.scenario import PlanScenario
 from orient.workpiece import WorkpieceModel
 
@@ -192,11 +190,7 @@ class SimulatedNC:
         self.stream = AccelerometerStream(self.sensors, self.dt_s, seed=seed)
         self._scatter = np.random.default_rng([MATERIAL_SCATTER_STREAM, seed])
         self._scatter_tooth, self._scatter_now = -1, 1.0
-        opt = scn.options
-        self.checker = InterferenceChecker(
-            stock_mesh(scn, design), ToolAssembly.from_tool(self.tool,
-                                                            clearance_mm=opt.clearance_mm),
-            design_mesh=design, gouge_tol_mm=opt.gouge_tol_mm)
+        self.checker = scn.interference_checker(design)
         seg = np.linalg.norm(np.diff(self.cam.tip, axis=0), axis=1)
         self.arc = np.concatenate([[0.0], np.cumsum(seg)])
         self.s = self.arc[first]

@@ -10,7 +10,7 @@ from nc.errors import InputError
 from nc.path import cutter_locations
 from orient.contacts import ball_contacts
 from orient.geometry import lead_tilt_of
-from orient.plan import local_cuts
+from orient.cuts import local_cuts
 from orient.scenario import PlanScenario
 
 from .constants import CUTTING_GAP_MM

@@ -1,6 +1,7 @@
-"""The packages' import graph: no private name imported across packages, and no
-import loop inside nc, errpred or orient (read from the source with ``ast``, every
-import counted, those inside functions too)."""
+"""The packages' import graph: dependencies point one way, nc <- errpred <- orient <-
+sim (no module imports a package above its own); no private name imported across
+packages; no import loop inside any package (read from the source with ``ast``, every
+import counted, those inside functions and under ``TYPE_CHECKING`` too)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pathlib
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
+#: The packages, lowest first: each may import those before it, none after it.
 PACKAGES = ("nc", "errpred", "orient", "sim")
 
 
@@ -88,7 +90,37 @@ def test_no_private_name_crosses_a_package():
     assert private == []
 
 
-@pytest.mark.parametrize("package", ["nc", "errpred", "orient"])
+def _upward(edges) -> list[str]:
+    """Imports of a module from a package above its own (``PACKAGES`` order)."""
+    rank = {p: k for k, p in enumerate(PACKAGES)}
+    return sorted(f"{m} imports {t}" for m, ts in edges.items() for t in ts
+                  if rank[t.split(".")[0]] > rank[m.split(".")[0]])
+
+
+def test_no_package_imports_a_package_above_it():
+    mods, edges, _ = _graph()
+    assert {m.split(".")[0] for m in mods} == set(PACKAGES)
+    assert _upward(edges) == []
+
+
+def test_the_layer_check_finds_an_import_inside_a_function(tmp_path, monkeypatch):
+    """An upward import hidden in a function (as orient.cli's hand-over to sim.job_cli
+    was) is found, and so is a loop made of imports inside functions."""
+    for pkg in PACKAGES:
+        (tmp_path / pkg).mkdir()
+        (tmp_path / pkg / "__init__.py").write_text("")
+    (tmp_path / "sim" / "job.py").write_text("X = 1\n")
+    (tmp_path / "orient" / "cli.py").write_text(
+        "def run():\n    from sim.job import X\n    return X\n")
+    (tmp_path / "orient" / "a.py").write_text("def f():\n    from . import b\n")
+    (tmp_path / "orient" / "b.py").write_text("def g():\n    from .a import f\n")
+    monkeypatch.setitem(globals(), "ROOT", tmp_path)
+    _, edges, _ = _graph()
+    assert _upward(edges) == ["orient.cli imports sim.job"]
+    assert _loops(edges, "orient") == [["orient.a", "orient.b"]]
+
+
+@pytest.mark.parametrize("package", PACKAGES)
 def test_no_import_loop_inside_the_package(package):
     mods, edges, _ = _graph()
     assert len([m for m in mods if m.startswith(package)]) > 5

@@ -79,6 +79,20 @@ def test_bad_scenarios_name_file_and_key_and_write_nothing(tmp_path, capsys, edi
     assert not out.exists() and not (tmp_path / "o-plan.json").exists()
 
 
+def test_plan_needs_an_output_program_and_is_not_the_job(tmp_path, capsys):
+    """``orient plan`` is the planner alone: without ``-o`` one line naming it and the
+    main job's command, status 2, nothing written; the job's options are not its own."""
+    scn = _copy(tmp_path)
+    assert main(["plan", str(scn), "--plots", str(tmp_path / "p")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "-o OUT.nc: missing" in err[0] and "python -m sim job" in err[0]
+    for job_only in (["--out", str(tmp_path / "job")], ["--no-dask"]):
+        with pytest.raises(SystemExit) as exc:
+            main(["plan", str(scn), "-o", str(tmp_path / "p.ngc"), *job_only])
+        assert exc.value.code == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scn"]
+
+
 def test_thin_wall_keys_are_checked(tmp_path):
     scn = _copy(tmp_path, workpiece=None, edits={"normal = [0.0, 1.0, 0.0]":
                                                  "normal = [1.0, 1.0, 0.0]"})

@@ -94,7 +94,7 @@ def test_first_pass_of_the_face_cuts_on_both_sides():
     from nc.kinematics import get_machine
     from nc.path import cutter_locations
     from orient.contacts import ball_contacts
-    from orient.plan import local_cuts
+    from orient.cuts import local_cuts
 
     scn = load_plan_scenario(bundled_scenario("thin-wall"))
     cam = cutter_locations(scn.base.read_program(), get_machine(scn.base.machine))

@@ -31,6 +31,10 @@ ROOT = Path(__file__).resolve().parents[2]
 HEIGHT_MM, THICKNESS_MM, ALLOWANCE_MM = 40.0, 2.5, 0.2
 #: Ball radius of the D6 tool [mm].
 R_BALL_MM = 3.0
+#: The tool's overhang: the machine's tool length its CAM program is written with, as
+#: the scenario's readers resolve the machine
+#: (:meth:`errpred.scenario.Scenario.resolve_machine`) [mm].
+OVERHANG_MM = 40.0
 #: Spindle speed and feed: 12000 rev/min (210 m/min on a D6 ball's equator, carbide in
 #: P20) and 1440 mm/min (fz 0.06 mm, two flutes) [rev/min, mm/min].
 SPINDLE_RPM, FEED_MM_MIN = 12000.0, 1440.0
@@ -69,7 +73,7 @@ def flexible_rib(passes: int | None = None, machine: str = MACHINE):
                               allowance=ALLOWANCE_MM, r_ball=R_BALL_MM,
                               z_top=HEIGHT_MM - 0.5, x_start=-4.0, x_end=64.0,
                               spindle_rpm=SPINDLE_RPM, feed_mm_min=FEED_MM_MIN,
-                              machine=machine)
+                              machine=machine, tool_length_mm=OVERHANG_MM)
     if passes is not None:
         rib = dataclasses.replace(rib, z_low=rib.z_top - (passes - 1) * rib.pick)
     return gen, rib
@@ -104,7 +108,7 @@ def flexible_wall(folder: Path, *, passes: int | None = None, machine: str = MAC
             'thick',
         "diameter_mm = 10.0": f"diameter_mm = {2 * R_BALL_MM}",
         "flute_length_mm = 15.0": "flute_length_mm = 12.0",
-        "overhang_mm = 35.0": "overhang_mm = 40.0",
+        "overhang_mm = 35.0": f"overhang_mm = {OVERHANG_MM}",
         "shank_diameter_mm = 10.0": "shank_diameter_mm = 6.0",
         "diameter_mm = 32.0": "diameter_mm = 21.0",
         'machine = "xyzac-trt"': f'machine = "{machine}"',

@@ -11,11 +11,9 @@ ends with exit status 1, one line naming the failed checks, and its programs wri
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
-from orient.cli import main as orient_main
 from sim.cli import main as sim_main
 
 from .chromium import open_page
@@ -35,8 +33,7 @@ def jobs(tmp_path_factory):
     root = tmp_path_factory.mktemp("job")
     scn = light_scenario(root / "scn")
     one, two = root / "one-process", root / "local-cluster"
-    # python -m orient plan hands the job over to sim; python -m sim job is the same job
-    assert orient_main(["plan", str(scn), "--out", str(one), "--no-dask"]) == 1
+    assert sim_main(["job", str(scn), "--out", str(one), "--no-dask"]) == 1
     assert sim_main(["job", str(scn), "--out", str(two), "--dask", "2"]) == 1
     return scn, one, two
 
@@ -138,16 +135,9 @@ BAD = [
 def test_bad_scenario_ends_in_one_line_and_writes_nothing(tmp_path, capsys, what, edits, key):
     scn = light_scenario(tmp_path / "scn", edits)
     out = tmp_path / "out"
-    assert orient_main(["plan", str(scn), "--out", str(out), "--no-dask"]) == 2
+    assert sim_main(["job", str(scn), "--out", str(out), "--no-dask"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1, err
     assert str(scn) in err[0] and key in err[0], err[0]
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scn"]
-
-
-def test_plan_only_options_need_an_output_program(tmp_path, capsys):
-    scn = light_scenario(tmp_path / "scn")
-    assert orient_main(["plan", str(scn), "--plots", str(tmp_path / "p"), "--no-dask"]) == 2
-    assert "-o OUT.nc" in capsys.readouterr().err
-    assert sorted(p.name for p in Path(tmp_path).iterdir()) == ["scn"]

@@ -14,9 +14,9 @@ from errpred.pipeline import build_predictor
 from errpred.verification import compare, error_field
 from nc import read_program
 from nc.path import cutter_locations
-from orient.cli import main as orient_main
 from orient.scenario import load_plan_scenario
 from orient.workpiece import WorkpieceModel
+from sim.cli import main as sim_main
 
 from ..thin_wall import wall_mode
 from .flexible_wall import flexible_wall
@@ -30,7 +30,7 @@ def test_the_flexible_wall_job_never_writes_a_program_worse_than_the_plan(tmp_pa
                              edits={"grid = [17, 17]": "grid = [7, 7]",
                                     "[orient]\n": "[orient]\nverify_sdm = false\n"})
     out = tmp_path / "out"
-    assert orient_main(["plan", str(scn_path), "--out", str(out), "--no-dask"]) == 1
+    assert sim_main(["job", str(scn_path), "--out", str(out), "--no-dask"]) == 1
     # stderr: the progress display, then one line
     err = [ln for ln in capsys.readouterr().err.strip().splitlines() if "error" in ln]
     assert len(err) == 1 and err[0].startswith("error: flexible-wall: check(s) failed: ")

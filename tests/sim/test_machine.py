@@ -10,7 +10,6 @@ import pytest
 
 from nc.kinematics import get_machine
 from orient.interference import InterferenceChecker, ToolAssembly
-from orient.plan import stock_mesh
 from orient.scenario import load_plan_scenario
 from sim.cli import BUNDLED
 from sim.machine import SimulatedNC
@@ -66,7 +65,7 @@ def test_orientation_into_a_collision_is_refused(built):
     big = dataclasses.replace(tool, overhang_mm=16.0,
                               holder=type(tool.holder)(diameter_mm=80.0, length_mm=50.0))
     design = scn.base.stock.load_design()
-    nc.checker = InterferenceChecker(stock_mesh(scn, design),
+    nc.checker = InterferenceChecker(scn.stock_mesh(),
                                      ToolAssembly.from_tool(big, clearance_mm=1.0),
                                      design_mesh=design)
     i = nc.point_index()

@@ -1,5 +1,5 @@
 """The main job's staging folder (sim.staging): SIGTERM and SIGINT during
-``python -m orient plan --out DIR`` leave nothing behind, and a staging folder of a run
+``python -m sim job --out DIR`` leave nothing behind, and a staging folder of a run
 killed outright is removed by the next run only when its owner is certainly gone."""
 
 from __future__ import annotations
@@ -86,7 +86,7 @@ def test_signal_during_the_job_leaves_nothing_and_stale_folders_go(tmp_path, sig
                                              "host": socket.gethostname()})
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
-    proc = subprocess.Popen([sys.executable, "-m", "orient", "plan", "--out", str(out),
+    proc = subprocess.Popen([sys.executable, "-m", "sim", "job", "--out", str(out),
                              "--no-dask"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     try:

@@ -15,7 +15,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nc.kinematics import get_machine
 from nc.path import CutterLocations
 from nc.writer import PostOptions, write_program
 from orient.scenario import load_plan_scenario
@@ -68,9 +67,10 @@ def gouged(tmp_path_factory):
     cl = CutterLocations.from_arrays(tip, axis, np.where(rapid, np.nan, rib.feed_mm_min),
                                      rib.spindle_rpm, rapid=rapid)
     path = folder / "gouged.nc"
-    write_program(path, cl, get_machine(MACHINE), PostOptions(dialect="linuxcnc",
-                                                              source="gouged on purpose"))
-    scn = scenario_with_program(load_plan_scenario(toml), path)
+    scn = load_plan_scenario(toml)
+    write_program(path, cl, scn.machine(), PostOptions(dialect="linuxcnc",
+                                                       source="gouged on purpose"))
+    scn = scenario_with_program(scn, path)
     part = PartProgram(scn)
     rows = np.array([_point(tip[k], part.cam, cx[k]) for k in np.flatnonzero(gouge)])
     d = np.linalg.norm(part.cam.tip - tip[-2], axis=1) + np.where(part.cam.rapid, 0.0, np.inf)
@@ -86,6 +86,7 @@ def test_the_flexible_wall_is_the_reported_scenario(tmp_path):
     assert (tool.kind, tool.diameter_mm) == ("ball", 6.0)
     assert tool.overhang_mm - tool.flute_length_mm >= 0.5 * HEIGHT_MM
     assert scn.machine().name == MACHINE == "xyzbc-head-table"
+    assert scn.machine().tool_length_mm == tool.overhang_mm     # places the head's pivots
     wall = scn.workpiece.thin_wall
     assert (wall["height_mm"], wall["thickness_mm"]) == (HEIGHT_MM, THICKNESS_MM) == (40, 2.5)
     part = PartProgram(scn)
