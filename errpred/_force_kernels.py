@@ -23,22 +23,22 @@ except ImportError:  # pragma: no cover
     numba = None
 
 
-def _forces(phi: np.ndarray, h: np.ndarray, cutting: np.ndarray, db: np.ndarray,
-            sk: np.ndarray, ck: np.ndarray, kte: np.ndarray, kre: np.ndarray,
-            kae: np.ndarray, ktc: float, krc: float, kac: float,
+def _forces(phi: np.ndarray, cutting: np.ndarray, db: np.ndarray, sk: np.ndarray,
+            ck: np.ndarray, ft: np.ndarray, fr: np.ndarray, fa: np.ndarray,
             weight: np.ndarray) -> np.ndarray:
     """Sum of the micro-edge forces per angle sample, shape (n_ang, 3) [N].
 
+    The force law is not here: ``ft, fr, fa`` are each entry's force per unit
+    chip width, evaluated by the law (``errpred.laws``).
+
     Parameters
     ----------
-    phi, h : ndarray, shape (n_ang, n_fl, m) [rad], [mm]
+    phi : ndarray, shape (n_ang, n_fl, m) [rad]
     cutting : ndarray of bool, shape (n_ang, n_fl, m)
     db, sk, ck : ndarray, shape (m,) [mm], [-], [-]
         Chip width, sin and cos of the immersion angle.
-    kte, kre, kae : ndarray, shape (n_fl, m) [N/mm]
-        Edge coefficients including wear.
-    ktc, krc, kac : float [N/mm^2]
-        Chip coefficients.
+    ft, fr, fa : ndarray, shape (n_ang, n_fl, m) [N/mm]
+        Tangential, radial, axial force per unit chip width (read where cutting).
     weight : ndarray, shape (n_ang, n_fl, m)
         Fraction of each sample's rotation step spent cutting (1 inside the
         engagement, between 0 and 1 at its boundary).
@@ -52,11 +52,10 @@ def _forces(phi: np.ndarray, h: np.ndarray, cutting: np.ndarray, db: np.ndarray,
         for k in range(n_fl):
             for j in range(m):
                 if cutting[i, k, j]:
-                    hh = h[i, k, j]
                     w = db[j] * weight[i, k, j]
-                    dft = (kte[k, j] + ktc * hh) * w
-                    dfr = (kre[k, j] + krc * hh) * w
-                    dfa = (kae[k, j] + kac * hh) * w
+                    dft = ft[i, k, j] * w
+                    dfr = fr[i, k, j] * w
+                    dfa = fa[i, k, j] * w
                     sp = math.sin(phi[i, k, j])
                     cp = math.cos(phi[i, k, j])
                     a = dfr * sk[j] + dfa * ck[j]
