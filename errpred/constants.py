@@ -345,3 +345,13 @@ KIENZLE_MAX_MC = 0.95
 #: Highest degree of a Lee-Altintas coefficient polynomial in kappa [-]: the published
 #: fits use up to 4; more only follows the noise of a calibration.
 LEE_ALTINTAS_MAX_DEGREE = 6
+
+# --- identification of a force law from mean forces (errpred.fit) ------------------
+#: Gauss-Legendre nodes of the mean-force integral over the engaged arc [-]; the nodes
+#: are clustered at both ends (phi = a + L (1 - cos(pi s)) / 2), where Kienzle's
+#: h^(1-m) has its root singularity: 128 nodes give the mean slot force of the power
+#: law to better than 1e-9 relative (tests/errpred/test_fit.py checks 1e-7).
+FIT_QUADRATURE_NODES = 128
+#: Tests in one fit file at most [-]: a sanity bound against a wrong file (a
+#: force time series, not means); a calibration uses 5-50.
+FIT_MAX_TESTS = 10_000
