@@ -332,12 +332,13 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-_FIT_HELP = """Identify a force law's coefficients from mean cutting forces measured in straight cuts
+_FIT_HELP = """\
+Identify a force law's coefficients from mean cutting forces measured in straight cuts
 of a flat end mill (slotting or side milling) at several feeds per tooth, by least
 squares on the three mean components of every test; print them with their standard
 errors and each test's residual, and write the scenario's [cutting] table.
 
-The tests file is CSV with one header row ('#' lines are comments):
+The tests file is CSV with one header row ('#' lines are comments; values illustrative):
 
   fz_mm,ap_mm,ae_mm,mode,diameter_mm,teeth,rpm,Fx_N,Fy_N,Fz_N
   0.05,2.0,slot,slot,10.0,3,3000,-98.1,206.4,-51.0

@@ -347,10 +347,11 @@ KIENZLE_MAX_MC = 0.95
 LEE_ALTINTAS_MAX_DEGREE = 6
 
 # --- identification of a force law from mean forces (errpred.fit) ------------------
-#: Gauss-Legendre nodes of the mean-force integral over the engaged arc [-]; the nodes
-#: are clustered at both ends (phi = a + L (1 - cos(pi s)) / 2), where Kienzle's
-#: h^(1-m) has its root singularity: 128 nodes give the mean slot force of the power
-#: law to better than 1e-9 relative (tests/errpred/test_fit.py checks 1e-7).
+#: Gauss-Legendre nodes of the mean-force integral on each smooth piece of the engaged
+#: arc [-] (pieces split where a law kinks, e.g. Kienzle's floor); the nodes are
+#: clustered at both ends (phi = a + L (1 - cos(pi s)) / 2), where Kienzle's h^(1-m)
+#: has its root singularity: 128 give side-milling and slot means of the power law to
+#: 1e-9 relative of scipy's adaptive quadrature (tests/errpred/test_laws.py).
 FIT_QUADRATURE_NODES = 128
 #: Tests in one fit file at most [-]: a sanity bound against a wrong file (a
 #: force time series, not means); a calibration uses 5-50.

@@ -35,6 +35,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -146,9 +147,14 @@ class FitResult:
     condition_number: float
 
 
+@functools.lru_cache(maxsize=4)
+def _legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
+    return np.polynomial.legendre.leggauss(n)
+
+
 def _nodes(a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
     """Quadrature nodes and weights on [a, b], clustered at both ends."""
-    x, w = np.polynomial.legendre.leggauss(FIT_QUADRATURE_NODES)
+    x, w = _legendre(FIT_QUADRATURE_NODES)
     s = 0.5 * (x + 1.0)
     phi = a + (b - a) * 0.5 * (1.0 - np.cos(math.pi * s))
     # d phi = (b - a) (pi / 2) sin(pi s) ds and ds = dx / 2
@@ -158,18 +164,30 @@ def _nodes(a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
 def mean_force(coeffs: LawCoefficients, test: MeanForceTest) -> np.ndarray:
     """The law's mean force on the tool over a revolution, tool frame [N], shape (3,).
 
+    The arc is split where the chip passes a law's kink (``KINKS_MM``, e.g.
+    Kienzle's floor), so that each piece's integrand is smooth.
+
     Parameters
     ----------
     coeffs : LawCoefficients
     test : MeanForceTest
         Its forces are not used.
     """
-    phi, w = _nodes(*test.arc())
-    h = test.fz_mm * np.sin(phi)
-    kappa = np.full(phi.shape, 0.5 * math.pi)
-    ft, fr, fa = laws.force(coeffs, h, kappa, 0.0)
-    f = to_tool_frame(ft, fr, fa, phi, kappa)                 # (n, 3) [N/mm]
-    return test.teeth * test.ap_mm / (2.0 * math.pi) * (w @ f)
+    a, b = test.arc()
+    cuts = [a, b]
+    for hk in getattr(laws.law_of(coeffs), "KINKS_MM", ()):
+        if hk < test.fz_mm:
+            p = math.asin(hk / test.fz_mm)
+            cuts += [x for x in (p, math.pi - p) if a < x < b]
+    cuts.sort()
+    total = np.zeros(3)
+    for lo, hi in zip(cuts[:-1], cuts[1:]):
+        phi, w = _nodes(lo, hi)
+        h = test.fz_mm * np.sin(phi)
+        kappa = np.full(phi.shape, 0.5 * math.pi)
+        ft, fr, fa = laws.force(coeffs, h, kappa, 0.0)
+        total += w @ to_tool_frame(ft, fr, fa, phi, kappa)          # [N/mm]
+    return test.teeth * test.ap_mm / (2.0 * math.pi) * total
 
 
 def slot_force_linear(c, fz_mm: float, ap_mm: float, teeth: int) -> np.ndarray:

@@ -42,7 +42,7 @@ import numpy as np
 
 from . import laws
 from ._force_kernels import forces_kernel
-from .coefficients import CuttingCoefficients, LawCoefficients  # noqa: F401 (re-exported)
+from .coefficients import LawCoefficients
 from .tool import MicroEdges
 
 __all__ = ["chip_thickness", "local_components", "to_tool_frame", "tool_forces"]

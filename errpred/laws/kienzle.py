@@ -47,6 +47,8 @@ _WEAR = ("Kte1_N_mm2", "Kre1_N_mm2", "Kae1_N_mm2")
 KEYS = {**{k: ("number", True) for k in _CHIP}, **{k: ("fraction", True) for k in _EXP},
         **{k: ("number", False) for k in _EDGE + _WEAR}}
 FIT_NAMES = _CHIP + _EXP
+#: Chips where F(h) is not smooth [mm] (the floor): quadratures split there.
+KINKS_MM = (KIENZLE_MIN_CHIP_MM,)
 
 
 @dataclass(frozen=True)
