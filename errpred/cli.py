@@ -323,7 +323,10 @@ def build_parser() -> argparse.ArgumentParser:
         "[cutting] table"), formatter_class=argparse.RawDescriptionHelpFormatter,
         description=_FIT_HELP)
     p.add_argument("tests", help="tests file (CSV, layout below)")
-    p.add_argument("--law", default="linear", choices=("linear", "kienzle"),
+    from .laws import LAWS
+
+    p.add_argument("--law", default="linear",
+                   choices=tuple(n for n, m in LAWS.items() if hasattr(m, "FIT_NAMES")),
                    help="force law to fit (default linear)")
     p.add_argument("-o", "--output", help="write the [cutting] table (TOML) here; default: "
                                           "print it")
