@@ -19,10 +19,10 @@ enters at ``h = 0``; down milling: on ``-y``.
 The fit is least squares on the three mean components of every test
 (:func:`scipy.optimize.least_squares`), in N; standard errors from the
 Jacobian at the solution. The linear law's model is linear in its six
-coefficients (the fit is exact in one step); Kienzle's is not (its exponents
-are bounded to ``0 <= m <= KIENZLE_MAX_MC``). The Lee-Altintas law's kappa
-polynomials cannot be identified from flat end mill tests (one kappa):
-refused.
+coefficients (a few evaluations reach the linear least-squares solution);
+Kienzle's is not (its exponents are bounded to ``0 <= m <= KIENZLE_MAX_MC``).
+The Lee-Altintas law's kappa polynomials cannot be identified from flat end
+mill tests (one kappa): refused.
 
 No file is read or written here (:mod:`errpred.fit_files`).
 
