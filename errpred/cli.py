@@ -1,4 +1,5 @@
-"""Command line: ``python -m errpred predict|compensate SCENARIO``.
+"""Command line: ``python -m errpred predict|compensate SCENARIO``, ``python -m errpred
+fit TESTS.csv`` (a force law's coefficients from measured mean forces).
 
 Units at this edge: errors in um, forces in N, angles in degrees.
 """
@@ -211,6 +212,55 @@ def _cmd_compensate(args) -> int:
     return 0
 
 
+def _cmd_fit(args) -> int:
+    import tomllib
+
+    from .fit import fit_law
+    from .fit_files import cutting_table, read_tests, write_cutting_table
+    from .scenario import cutting_coefficients
+
+    tests = read_tests(args.tests)
+    try:
+        res = fit_law(args.law, tests, source=args.tests)
+    except ValueError as exc:
+        raise InputError(f"{args.tests}: {exc}") from None
+    text = cutting_table(res, tests, args.tests)
+    # never write a table a scenario would refuse: read it back through the loader
+    cutting_coefficients(tomllib.loads(text)["cutting"], args.output or "<fit>")
+    if not args.quiet:
+        _print_fit(res, tests, args.law)
+    if args.output:
+        write_cutting_table(args.output, text)
+        if not args.quiet:
+            print(f"wrote {args.output}: the [cutting] table (paste it into a scenario)")
+    else:
+        print(text, end="")
+    return 0
+
+
+def _print_fit(res, tests, law: str) -> None:
+    from rich.table import Table
+
+    con = _console()
+    t = Table(title=f"{law} law: coefficients ({len(tests)} tests, RMS residual "
+                    f"{res.rms_N:.3g} N, condition {res.condition_number:.3g})")
+    t.add_column("coefficient")
+    t.add_column("value", justify="right")
+    t.add_column("std. error", justify="right")
+    vals = res.coefficients.as_dict()
+    for n in res.names:
+        t.add_row(n, f"{vals[n]:.6g}", f"{res.std_error[n]:.3g}")
+    con.print(t)
+    r = Table(title="mean force on the tool [N]: measured - model")
+    for c in ("test", "fz mm", "ap mm", "ae mm", "mode", "Fx", "Fy", "Fz", "dFx", "dFy", "dFz"):
+        r.add_column(c, justify="right")
+    for tst, m, d in zip(tests, res.model_N, res.residual_N):
+        r.add_row(tst.label.rsplit(":", 1)[-1], f"{tst.fz_mm:g}", f"{tst.ap_mm:g}",
+                  f"{tst.ae_mm:g}", tst.mode, *(f"{x:.1f}" for x in tst.force_N),
+                  *(f"{x:+.2f}" for x in d))
+    con.print(r)
+
+
 def _spacing(scenario) -> float:
     return scenario.resolution.dense().point_spacing_mm
 
@@ -268,7 +318,49 @@ def build_parser() -> argparse.ArgumentParser:
                    help=_TOOL_STATE_HELP + " (of the corrected program)")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=_cmd_compensate)
+    p = sub.add_parser("fit", help=(
+        "identify a force law's coefficients from measured mean forces and write the "
+        "[cutting] table"), formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=_FIT_HELP)
+    p.add_argument("tests", help="tests file (CSV, layout below)")
+    from .laws import LAWS
+
+    p.add_argument("--law", default="linear",
+                   choices=tuple(n for n, m in LAWS.items() if hasattr(m, "FIT_NAMES")),
+                   help="force law to fit (default linear)")
+    p.add_argument("-o", "--output", help="write the [cutting] table (TOML) here; default: "
+                                          "print it")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=_cmd_fit)
     return ap
+
+
+_FIT_HELP = """\
+Identify a force law's coefficients from mean cutting forces measured in straight cuts
+of a flat end mill (slotting or side milling) at several feeds per tooth, by least
+squares on the three mean components of every test; print them with their standard
+errors and each test's residual, and write the scenario's [cutting] table.
+
+The tests file is CSV with one header row ('#' lines are comments; values illustrative):
+
+  fz_mm,ap_mm,ae_mm,mode,diameter_mm,teeth,rpm,Fx_N,Fy_N,Fz_N
+  0.05,2.0,slot,slot,10.0,3,3000,-98.1,206.4,-51.0
+  0.10,2.0,3.0,down,10.0,3,3000,-160.2,250.3,-60.1
+
+  fz_mm        feed per tooth [mm]          ap_mm   axial depth of cut [mm]
+  ae_mm        radial width [mm] or slot    mode    slot, up or down (optional)
+  diameter_mm  tool diameter [mm]           teeth   number of teeth
+  rpm          spindle speed (optional, recorded only)
+  Fx_N Fy_N Fz_N  mean force ON THE TOOL over whole revolutions [N], tool frame:
+               x along the feed, z up the tool axis, y = z cross x (left of the
+               feed seen from the spindle). A dynamometer under the workpiece
+               reads minus this.
+
+At least two feeds are needed. The helix does not change a flat end mill's mean
+force. Laws: linear (Ktc, Krc, Kac [N/mm^2], Kte0, Kre0, Kae0 [N/mm]) and kienzle
+(kc11_t/r/a [N/mm^2], mc_t/r/a [-]); the lee-altintas law varies with kappa, which
+flat end mill tests do not.
+"""
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,5 +1,6 @@
-"""Cutting force coefficients (their identification from measured forces:
-:mod:`errpred.calibration`).
+"""Cutting force coefficients of the linear edge-force law (the laws side by
+side: :mod:`errpred.laws`; identification from measured forces:
+:mod:`errpred.calibration` and :mod:`errpred.fit`).
 
 The force model (``docs/method.md`` §4, ``errpred/force.py``) is, per micro
 edge and rotation step, while the edge cuts::
@@ -27,7 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -36,6 +37,8 @@ __all__ = [
     "CHIP_AND_EDGE_NAMES",
     "WEAR_NAMES",
     "CuttingCoefficients",
+    "LawCoefficients",
+    "finite_coefficient",
 ]
 
 #: The six coefficients fitted from new-tool measurements, in column order.
@@ -45,8 +48,39 @@ CHIP_AND_EDGE_NAMES = ("Ktc_N_mm2", "Krc_N_mm2", "Kac_N_mm2", "Kte0_N_mm", "Kre0
 WEAR_NAMES = ("Kte1_N_mm2", "Kre1_N_mm2", "Kae1_N_mm2")
 
 
+class LawCoefficients:
+    """Base of every force law's coefficients (:mod:`errpred.laws`).
+
+    A subclass names its law (:attr:`law`, the key of ``errpred.laws.LAWS``
+    and of a scenario's ``[cutting] law``) and carries, whatever the law,
+    the wear growth of the edge (rubbing) force per mm of actual cutting
+    distance, ``Kte1_N_mm2, Kre1_N_mm2, Kae1_N_mm2`` [N/mm^2], which
+    :func:`errpred.physics.wear_influence` uses.
+    """
+
+    law: ClassVar[str] = ""
+    Kte1_N_mm2: float
+    Kre1_N_mm2: float
+    Kae1_N_mm2: float
+
+    def edge_growth(self, cl_mm: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Wear growth of the edge force at cutting distance ``cl_mm`` [mm]: ``Kxe1 cl``
+        [N/mm], tangential, radial, axial."""
+        cl = np.asarray(cl_mm, dtype=float)
+        return self.Kte1_N_mm2 * cl, self.Kre1_N_mm2 * cl, self.Kae1_N_mm2 * cl
+
+
+def finite_coefficient(name: str, v: Any) -> float:
+    """``v`` as a float, or ``ValueError`` naming ``name`` when it is not a finite number."""
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise ValueError(f"cutting coefficient {name}: expected a number, got {v!r}")
+    if not math.isfinite(v):
+        raise ValueError(f"cutting coefficient {name}: expected a finite value, got {v!r}")
+    return float(v)
+
+
 @dataclass(frozen=True)
-class CuttingCoefficients:
+class CuttingCoefficients(LawCoefficients):
     """Linear edge-force model coefficients with wear growth of the edge terms.
 
     Attributes
@@ -76,15 +110,11 @@ class CuttingCoefficients:
     Kre1_N_mm2: float = 0.0
     Kae1_N_mm2: float = 0.0
     source: str = field(default="", compare=False)
+    law: ClassVar[str] = "linear"
 
     def __post_init__(self) -> None:
         for name in CHIP_AND_EDGE_NAMES + WEAR_NAMES:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-                raise ValueError(f"cutting coefficient {name}: expected a number, got {v!r}")
-            if not math.isfinite(v):
-                raise ValueError(f"cutting coefficient {name}: expected a finite value, got {v!r}")
-            object.__setattr__(self, name, float(v))
+            object.__setattr__(self, name, finite_coefficient(name, getattr(self, name)))
         if not isinstance(self.source, str):
             raise ValueError(f"cutting coefficients source: expected a string, got "
                              f"{self.source!r}")

@@ -329,3 +329,30 @@ LIBRARY_SHARP_CORNER_MM = 1.0e-3
 #: much and still be the ball [mm] (inch values to 6 decimals; see above). A
 #: larger difference is a contradiction in the library and is refused.
 LIBRARY_BALL_RADIUS_TOL_MM = 1.0e-3
+
+# --- force laws (errpred.laws) ---------------------------------------------------
+#: Smallest chip at which Kienzle's law is evaluated as a power law [mm]. The law
+#: F = k_c1.1 b h^(1-m_c) has the slope (1-m_c) k_c1.1 b h^(-m_c), infinite at h -> 0,
+#: where the regenerative gain and the linearised force table need it finite; below
+#: this chip the force is the chord from 0 to its value here (finite slope, continuous
+#: force). 1 um is below the chips that tables are measured at (5-10 um and up) and
+#: about the edge radius of a sharp carbide edge, under which the edge ploughs rather
+#: than shears anyway.
+KIENZLE_MIN_CHIP_MM = 1.0e-3
+#: Largest exponent m_c of Kienzle's law [-]: tabulated values are 0.1-0.45; at 1 the
+#: force no longer grows with the chip, which no metal shows.
+KIENZLE_MAX_MC = 0.95
+#: Highest degree of a Lee-Altintas coefficient polynomial in kappa [-]: the published
+#: fits use up to 4; more only follows the noise of a calibration.
+LEE_ALTINTAS_MAX_DEGREE = 6
+
+# --- identification of a force law from mean forces (errpred.fit) ------------------
+#: Gauss-Legendre nodes of the mean-force integral on each smooth piece of the engaged
+#: arc [-] (pieces split where a law kinks, e.g. Kienzle's floor); the nodes are
+#: clustered at both ends (phi = a + L (1 - cos(pi s)) / 2), where Kienzle's h^(1-m)
+#: has its root singularity: 128 give side-milling and slot means of the power law to
+#: 1e-9 relative of scipy's adaptive quadrature (tests/errpred/test_laws.py).
+FIT_QUADRATURE_NODES = 128
+#: Tests in one fit file at most [-]: a sanity bound against a wrong file (a
+#: force time series, not means); a calibration uses 5-50.
+FIT_MAX_TESTS = 10_000

@@ -7,12 +7,16 @@ point at ``phi`` sits at ``(rho sin phi, rho cos phi, z)`` and moves along
 ``(cos phi, -sin phi, 0)``. The outward envelope normal at ``(phi, kappa)``
 is ``n = (sin k sin phi, sin k cos phi, -cos k)``.
 
-Per micro edge, while it cuts (units: ``h``, ``db`` [mm], coefficients
-[N/mm^2] and [N/mm], forces [N])::
+Per micro edge, while it cuts (units: ``h``, ``db`` [mm], forces [N])::
 
-    dFt = (Kte0 + Kte1 cl + Ktc h) db     opposes the edge velocity
-    dFr = (Kre0 + Kre1 cl + Krc h) db     toward the centre of curvature (-n)
-    dFa = (Kae0 + Kae1 cl + Kac h) db     the third direction, a = r x t
+    dFt = Ft(h, kappa, cl) db     opposes the edge velocity
+    dFr = Fr(h, kappa, cl) db     toward the centre of curvature (-n)
+    dFa = Fa(h, kappa, cl) db     the third direction, a = r x t
+
+with ``F`` the force per unit chip width of the scenario's force law
+(:mod:`errpred.laws`; the linear law: ``Fx = Kxe0 + Kxe1 cl + Kxc h``). The
+law is evaluated here, per micro edge and sample; the compiled sum
+(``errpred._force_kernels``) only turns the local forces to the tool frame.
 
 and the force **on the tool**, tool frame::
 
@@ -36,8 +40,9 @@ from typing import Any
 
 import numpy as np
 
+from . import laws
 from ._force_kernels import forces_kernel
-from .coefficients import CuttingCoefficients
+from .coefficients import LawCoefficients
 from .tool import MicroEdges
 
 __all__ = ["chip_thickness", "local_components", "to_tool_frame", "tool_forces"]
@@ -80,31 +85,32 @@ def chip_thickness(edges: MicroEdges, phi: Any, f_tooth_tool: Any,
     return np.maximum(h, 0.0)
 
 
-def local_components(coeffs: CuttingCoefficients, h: Any, cl: Any, db: Any
+def local_components(coeffs: LawCoefficients, h: Any, cl: Any, db: Any, kappa: Any
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Tangential, radial and axial force of micro edges (as if all cut).
 
     Parameters
     ----------
-    coeffs : CuttingCoefficients
-    h : ndarray, any shape broadcasting with ``cl`` and ``db`` [mm]
+    coeffs : LawCoefficients
+        The force law's coefficients (:mod:`errpred.laws`).
+    h : ndarray, any shape broadcasting with ``cl``, ``db`` and ``kappa`` [mm]
         Uncut chip thickness.
     cl : ndarray, broadcasting [mm]
         Actual cutting distance of the micro edge.
     db : ndarray, broadcasting [mm]
         Chip width of the micro edge.
+    kappa : ndarray, broadcasting [rad]
+        Axial immersion angle of the micro edge.
 
     Returns
     -------
     dFt, dFr, dFa : ndarray, broadcast shape [N]
-        ``(Kxe0 + Kxe1 cl + Kxc h) db``. No cutting mask is applied here.
+        ``F(h, kappa, cl) db`` (linear law: ``(Kxe0 + Kxe1 cl + Kxc h) db``). No
+        cutting mask is applied here.
     """
-    h = np.asarray(h, dtype=float)
     db = np.asarray(db, dtype=float)
-    kte, kre, kae = coeffs.edge(cl)
-    return ((kte + coeffs.Ktc_N_mm2 * h) * db,
-            (kre + coeffs.Krc_N_mm2 * h) * db,
-            (kae + coeffs.Kac_N_mm2 * h) * db)
+    ft, fr, fa = laws.force(coeffs, h, kappa, cl)
+    return ft * db, fr * db, fa * db
 
 
 def to_tool_frame(dFt: Any, dFr: Any, dFa: Any, phi: Any, kappa: Any) -> np.ndarray:
@@ -154,7 +160,7 @@ def _check_inputs(edges: MicroEdges, phi: Any, h: Any, cutting: Any, cl_mm: Any
     return phi, h, cutting, np.broadcast_to(cl, (n_fl, m))
 
 
-def tool_forces(edges: MicroEdges, coeffs: CuttingCoefficients, phi: Any, h: Any,
+def tool_forces(edges: MicroEdges, coeffs: LawCoefficients, phi: Any, h: Any,
                 cutting: Any, cl_mm: Any, weight: Any = None) -> np.ndarray:
     """Force on the tool over the sampled rotation, tool frame.
 
@@ -166,7 +172,8 @@ def tool_forces(edges: MicroEdges, coeffs: CuttingCoefficients, phi: Any, h: Any
     edges : MicroEdges
         ``m`` micro edges of one flute (all flutes alike); ``kappa`` and
         ``db`` are used.
-    coeffs : CuttingCoefficients
+    coeffs : LawCoefficients
+        The force law's coefficients (:mod:`errpred.laws`).
     phi : ndarray, shape (n_ang, n_fl, m) [rad]
         Angular position of each micro edge of each flute at each sample.
     h : ndarray, shape (n_ang, n_fl, m) [mm]
@@ -197,20 +204,22 @@ def tool_forces(edges: MicroEdges, coeffs: CuttingCoefficients, phi: Any, h: Any
     return _forces_numpy(edges, coeffs, phi, h, cutting, cl, weight)
 
 
-def _forces_numba(edges: MicroEdges, coeffs: CuttingCoefficients, phi: np.ndarray,
+def _forces_numba(edges: MicroEdges, coeffs: LawCoefficients, phi: np.ndarray,
                   h: np.ndarray, cutting: np.ndarray, cl: np.ndarray,
                   weight: np.ndarray) -> np.ndarray:
-    """Compiled loop (``errpred._force_kernels``); ``cl`` already (n_fl, m)."""
-    kte, kre, kae = (np.ascontiguousarray(k) for k in coeffs.edge(cl))
+    """Compiled loop (``errpred._force_kernels``); ``cl`` already (n_fl, m).
+
+    The law is evaluated on the whole (n_ang, n_fl, m) block (NaN chips where
+    not cutting stay there: the kernel skips those entries)."""
     kappa = np.asarray(edges.kappa, dtype=float)
-    return forces_kernel(np.ascontiguousarray(phi), np.ascontiguousarray(h),
-                         np.ascontiguousarray(cutting), np.ascontiguousarray(edges.db, dtype=float),
-                         np.sin(kappa), np.cos(kappa), kte, kre, kae,
-                         coeffs.Ktc_N_mm2, coeffs.Krc_N_mm2, coeffs.Kac_N_mm2,
-                         np.ascontiguousarray(weight))
+    ft, fr, fa = (np.ascontiguousarray(np.broadcast_to(f, phi.shape))
+                  for f in laws.force(coeffs, h, kappa, cl))
+    return forces_kernel(np.ascontiguousarray(phi), np.ascontiguousarray(cutting),
+                         np.ascontiguousarray(edges.db, dtype=float), np.sin(kappa),
+                         np.cos(kappa), ft, fr, fa, np.ascontiguousarray(weight))
 
 
-def _forces_numpy(edges: MicroEdges, coeffs: CuttingCoefficients, phi: np.ndarray,
+def _forces_numpy(edges: MicroEdges, coeffs: LawCoefficients, phi: np.ndarray,
                   h: np.ndarray, cutting: np.ndarray, cl: np.ndarray,
                   weight: np.ndarray) -> np.ndarray:
     """Vectorized sum over the cutting entries only; ``cl`` already (n_fl, m)."""
@@ -219,7 +228,7 @@ def _forces_numpy(edges: MicroEdges, coeffs: CuttingCoefficients, phi: np.ndarra
     kappa = np.asarray(edges.kappa, dtype=float)
     sk, ck = np.sin(kappa)[j], np.cos(kappa)[j]
     dft, dfr, dfa = local_components(coeffs, h[i, k, j], cl[k, j],
-                                     np.asarray(edges.db)[j] * weight[i, k, j])
+                                     np.asarray(edges.db)[j] * weight[i, k, j], kappa[j])
     p = phi[i, k, j]
     sp, cp = np.sin(p), np.cos(p)
     a = dfr * sk + dfa * ck   # as in to_tool_frame, without the (n, 3) stack

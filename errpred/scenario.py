@@ -52,7 +52,7 @@ from .toollib import LIBRARY_KEYS, tool_table_from_library
 
 __all__ = ["ScenarioError", "StockSpec", "ShapeError", "Resolution", "CorrectionOptions",
            "Scenario", "TableReader", "load_scenario", "check_program_lines", "BUNDLED",
-           "bundled_scenario"]
+           "bundled_scenario", "cutting_coefficients"]
 
 _HERE = Path(__file__).resolve().parent / "scenarios"
 #: Bundled scenarios: name -> path of their ``scenario.toml``.
@@ -410,16 +410,48 @@ def _program(r: TableReader, d: dict) -> tuple:
 
 
 def _cutting(r: TableReader, d: dict):
-    from .coefficients import CHIP_AND_EDGE_NAMES, WEAR_NAMES, CuttingCoefficients
+    """``[cutting]``: ``law`` (default "linear", :data:`errpred.laws.LAWS`) and that
+    law's keys (its ``KEYS``), each checked here; the law's own checks (e.g. a
+    polynomial's degree) are refused under the table."""
+    from .constants import KIENZLE_MAX_MC
+    from .laws import LAWS
 
     p = "cutting"
-    r.keys(d, p, CHIP_AND_EDGE_NAMES, WEAR_NAMES + ("source",))
-    vals = {k: r.number(d, k, p, sign=">0" if k == "Ktc_N_mm2" else "",
-                        **_limit("MAX_CUTTING_COEFFICIENT")) for k in CHIP_AND_EDGE_NAMES}
-    vals.update({k: r.number(d, k, p, default=0.0, **_limit("MAX_CUTTING_COEFFICIENT"))
-                 for k in WEAR_NAMES})
+    name = r.string(d, "law", p, default="linear", choices=tuple(LAWS))
+    law = LAWS[name]
+    keys = law.KEYS
+    r.keys(d, p, tuple(k for k, (_, req) in keys.items() if req),
+           tuple(k for k, (_, req) in keys.items() if not req) + ("law", "source"))
+    lim = _limit("MAX_CUTTING_COEFFICIENT")
+    vals = {}
+    for k, (kind, _req) in keys.items():
+        if k not in d:
+            continue
+        if kind == "polynomial":
+            v = d[k]
+            vals[k] = r.numbers({k: v if isinstance(v, list) else [v]}, k, p, **lim)
+        elif kind == "fraction":
+            vals[k] = r.number(d, k, p, sign=">=0", maximum=KIENZLE_MAX_MC,
+                               limit="errpred.constants.KIENZLE_MAX_MC")
+        else:
+            vals[k] = r.number(d, k, p, sign=">0" if kind == "positive" else "", **lim)
     src = r.string(d, "source", p, default="")
-    return CuttingCoefficients(**vals, source=src), src
+    try:
+        return law.from_values(vals, source=src), src
+    except ValueError as exc:
+        raise r.fail(p, str(exc)) from None
+
+
+def cutting_coefficients(table: Any, file: str | os.PathLike):
+    """The coefficients of a ``[cutting]`` table (a dict parsed from ``file``), checked
+    as a scenario's are (:class:`ScenarioError` naming the file and key).
+
+    Returns
+    -------
+    LawCoefficients
+    """
+    r = TableReader(file)
+    return _cutting(r, r.table(table, "cutting"))[0]
 
 
 def _dynamics(r: TableReader, d: dict):

@@ -1,8 +1,9 @@
 """Numba kernels of the process gain: the exact cutting intervals integrated in closed form.
 
 The intervals come from :mod:`orient._engagement_kernels`. The directional
-matrix ``(Ktc t + Krc r + Kac a) n^T`` (``errpred/force.py``'s unit vectors, see
-:func:`_add_moments`) has entries of degree 2 in ``sin phi``, ``cos phi``: its
+matrix ``(Ktc t + Krc r + Kac a) n^T`` (``errpred/force.py``'s unit vectors,
+see :func:`_add_moments`; ``Kxc`` the force law's slope ``dF/dh`` of the micro
+edge, :func:`_slopes`) has entries of degree 2 in ``sin phi``, ``cos phi``: its
 integral over each interval is in closed form, so the time average ``P`` is
 exact in time. Along the profile the integrand is smooth between kinks
 (where an interval appears or its end switches bound); :func:`gain_adaptive`
@@ -15,6 +16,11 @@ Angles: flute 0's rotation ``theta``; its micro edge at height ``z`` sits at
 ``phi = theta - psi``, ``psi = z tan(helix) / R``; flute ``p`` at ``theta + 2 pi
 p / N`` (as ``errpred.engagement.expand_flutes``), so the tooth-period
 function is the flute-0 function folded modulo ``2 pi / N``.
+
+This closed form needs a slope that is constant along the rotation: the
+linear law (a constant) and the Lee-Altintas law (a polynomial in kappa per
+micro edge). Laws whose slope depends on the chip (Kienzle) take
+``orient.gain``'s sampled path instead.
 """
 
 from __future__ import annotations
@@ -71,6 +77,26 @@ def _signature(cnt, kinds):
     for q in range(cnt):   # a sum of hashes: independent of the intervals' order
         code += (kinds[q, 0] * 5 + kinds[q, 1] + 1) * 2685821657736338717
     return code
+
+
+@njit(cache=True)
+def _slopes(kc, sk, ck):
+    """The force law's ``dF/dh`` (t, r, a) [N/mm^2] of a micro edge at ``kappa``.
+
+    ``kc`` (3, d): per direction a polynomial in kappa [rad], constant term
+    first (``errpred.laws``' ``slope_in_kappa``; d = 1 for the linear law,
+    whose slope is the constant itself).
+    """
+    d = kc.shape[1]
+    if d == 1:
+        return kc[0, 0], kc[1, 0], kc[2, 0]
+    kappa = math.atan2(sk, ck)
+    v0, v1, v2 = kc[0, d - 1], kc[1, d - 1], kc[2, d - 1]
+    for i in range(d - 2, -1, -1):
+        v0 = v0 * kappa + kc[0, i]
+        v1 = v1 * kappa + kc[1, i]
+        v2 = v2 * kappa + kc[2, i]
+    return v0, v1, v2
 
 
 @njit(cache=True)
@@ -155,7 +181,7 @@ def _accumulate(H, stats, union, n_union, buf, cnt, sk, ck, psi, w, geo, flutes,
     """
     pitch = _TWO_PI / flutes
     cell = pitch / n_steps
-    ktc, krc, kac = kc[0], kc[1], kc[2]
+    ktc, krc, kac = _slopes(kc, sk, ck)
     al, be = geo[_NXY], geo[_NXY + 1]          # v.n = al cos phi - be sin phi
     # v.n = 0 at root_vn + k pi, falling through 0 there: it is positive on
     # (root_vn + (k - 1) pi, root_vn + k pi) for even k, negative for odd k
@@ -460,7 +486,8 @@ def gain_batch(U, Nn, Fd, cuts, tp, set_par, kc, tab, flank_start, n_scan, n_bis
     ``cuts`` (n, 6): depth, pick, side, fz, curvature f, curvature b. ``tp``:
     rotation sign, core radius, corner radius, flute length, radius,
     tan(helix), flutes. ``set_par``: chip eps, membership eps, root step,
-    root tolerance, iterations. ``kc``: Ktc, Krc, Kac. ``tab`` (5, m): rho,
+    root tolerance, iterations. ``kc`` (3, d): the slopes Ktc, Krc, Kac as
+    polynomials in kappa (:func:`_slopes`). ``tab`` (5, m): rho,
     z, kappa, psi, db of fixed micro edges (:func:`gain_fixed`); with m = 0
     the adaptive profile rule (:func:`gain_adaptive`). ``unit``: N/mm -> N/m.
     """

@@ -13,7 +13,11 @@ velocity, radial ``-n``, axial), mapped to the workpiece frame with the tool
 frame's rows. Chip widths in mm times coefficients in N/mm^2 give N/mm,
 times 1000 N/m. With this sign ``H`` is "negative": a thicker chip pushes
 the tool back. Only the chip coefficients enter (the edge forces do not
-depend on the chip thickness, so they do not regenerate).
+depend on the chip thickness, so they do not regenerate). ``Kxc`` is the
+force law's slope ``dF/dh`` at the micro edge (:mod:`errpred.laws`): the
+linear law's constants, the Lee-Altintas polynomials at the edge's kappa,
+Kienzle's ``(1-m) k h^-m`` at the edge's chip of the sample (the
+linearisation about the static chip).
 
 ``P``, the average process gain matrix, is the mean of ``H`` over one tooth
 period ``tau = 60 / (spindle_rpm flutes)``. Its restriction to directions
@@ -41,6 +45,12 @@ Two sources:
   average), whose mean is ``P`` to round-off. With adaptive micro edges the
   engaged fraction is that of the edges used (a few 0.01 at most below the
   limit).
+  This path needs a slope constant along the rotation (linear and
+  Lee-Altintas laws). For a law whose slope depends on the chip (Kienzle),
+  :func:`process_gain` and :func:`process_gain_batch` integrate per micro
+  edge numerically instead: the sampled engagement (``default_edges``,
+  ``GAIN_ANGLES_PER_REV`` samples per revolution at least) through
+  :func:`gain_from_engagement` (tests compare both paths for the linear law).
 * :func:`gain_from_engagement`: any sampled engagement
   (:func:`orient.engagement.engagement`, or errpred's through
   :func:`orient.engagement.from_errpred`); ``H`` at the samples via
@@ -58,8 +68,9 @@ from typing import Any
 
 import numpy as np
 
-from errpred.coefficients import CuttingCoefficients
-from errpred.force import local_components, to_tool_frame
+from errpred import laws
+from errpred.coefficients import LawCoefficients
+from errpred.force import to_tool_frame
 from errpred.spindle import tooth_period
 from errpred.tool import MicroEdges, Tool
 
@@ -81,6 +92,7 @@ from .engagement import (
     LocalCut,
     SampledEngagement,
     _edge_arrays,
+    engagement,
     geometry_vector,
     kernel_settings,
     place,
@@ -217,8 +229,7 @@ def _leggauss(n: int) -> tuple[np.ndarray, np.ndarray]:
 def _check_tool(tool: Any, coeffs: Any) -> None:
     if not isinstance(tool, Tool):
         raise ValueError(f"tool: expected an errpred.tool.Tool, got {type(tool).__name__}")
-    if not isinstance(coeffs, CuttingCoefficients):
-        raise ValueError(f"coeffs: expected CuttingCoefficients, got {type(coeffs).__name__}")
+    laws.law_of(coeffs)
 
 
 @functools.lru_cache(maxsize=32)
@@ -237,8 +248,9 @@ def _tooth_period(spindle_rpm: float | None, flutes: int) -> float | None:
     return tooth_period(float(spindle_rpm), flutes)
 
 
-def directional_matrices(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
-                         frame: Any, phi: Any, cutting: Any, weight: Any = None) -> np.ndarray:
+def directional_matrices(tool: Tool, edges: MicroEdges, coeffs: LawCoefficients,
+                         frame: Any, phi: Any, cutting: Any, weight: Any = None,
+                         h: Any = None) -> np.ndarray:
     """``H`` at sampled rotation angles, folded into one tooth period.
 
     Parameters
@@ -246,8 +258,9 @@ def directional_matrices(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficie
     tool : Tool
     edges : MicroEdges
         ``m`` micro edges (``kappa`` and ``db`` used).
-    coeffs : CuttingCoefficients
-        Chip coefficients ``Ktc, Krc, Kac`` [N/mm^2] (edge terms do not enter).
+    coeffs : LawCoefficients
+        The force law's coefficients; its slope ``dF/dh`` [N/mm^2] enters
+        (edge terms do not).
     frame : array_like, shape (3, 3) [-]
         Tool frame rows ``x', y', z'`` (``errpred.frames``).
     phi : array_like, shape (n_ang, n_fl, m) [rad]
@@ -256,6 +269,8 @@ def directional_matrices(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficie
     cutting : array_like of bool, shape (n_ang, n_fl, m)
     weight : array_like, shape (n_ang, n_fl, m), optional [-]
         Share of each step spent cutting (default 1).
+    h : array_like, shape (n_ang, n_fl, m), optional [mm]
+        Chip thickness; needed by a law whose slope depends on it (Kienzle).
 
     Returns
     -------
@@ -288,10 +303,19 @@ def directional_matrices(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficie
         db = db * weight[cutting]
     p = phi[cutting]
     kappa = np.asarray(edges.kappa, dtype=float)[j]
-    # force per unit chip thickness: the h-linear part of errpred's force model
-    one = local_components(coeffs, 1.0, 0.0, db)
-    zero = local_components(coeffs, 0.0, 0.0, db)
-    v = to_tool_frame(one[0] - zero[0], one[1] - zero[1], one[2] - zero[2], p, kappa)
+    if h is None:
+        if laws.slope_in_kappa(coeffs) is None:
+            raise ValueError(f"h: the {coeffs.law} law's slope depends on the chip; give the "
+                             f"chip thickness")
+        hc = np.zeros(p.shape)
+    else:
+        h = np.asarray(h, dtype=float)
+        if h.shape != phi.shape:
+            raise ValueError(f"h: shape {h.shape} differs from phi's {phi.shape}")
+        hc = h[cutting]
+    # force per unit chip thickness: the law's slope dF/dh at each entry
+    gt, gr, ga = laws.slope(coeffs, hc, kappa)
+    v = to_tool_frame(gt * db, gr * db, ga * db, p, kappa)
     nrm = edges.take(j).normals(p)                           # (k, 3) tool frame
     vw, nw = v @ frame, nrm @ frame
     H = np.zeros((n_ang, 9))
@@ -302,7 +326,7 @@ def directional_matrices(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficie
     return H * N_PER_M_PER_N_PER_MM
 
 
-def gain_from_engagement(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
+def gain_from_engagement(tool: Tool, edges: MicroEdges, coeffs: LawCoefficients,
                          eng: SampledEngagement, spindle_rpm: float | None = None
                          ) -> ProcessGain:
     """Process gain from a sampled engagement (any chip-thickness source).
@@ -311,7 +335,7 @@ def gain_from_engagement(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficie
     ----------
     tool : Tool
     edges : MicroEdges
-    coeffs : CuttingCoefficients
+    coeffs : LawCoefficients
     eng : SampledEngagement
         From :func:`orient.engagement.engagement` or
         :func:`orient.engagement.from_errpred`.
@@ -326,7 +350,8 @@ def gain_from_engagement(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficie
     if not isinstance(eng, SampledEngagement):
         raise ValueError(f"eng: expected a SampledEngagement, got {type(eng).__name__}")
     tau = _tooth_period(spindle_rpm, tool.flutes)
-    H = directional_matrices(tool, edges, coeffs, eng.frame, eng.phi, eng.cutting, eng.weight)
+    H = directional_matrices(tool, edges, coeffs, eng.frame, eng.phi, eng.cutting, eng.weight,
+                             eng.h)
     w = np.broadcast_to(np.asarray(edges.db, dtype=float), eng.phi.shape)
     if eng.weight is not None:
         w = w * eng.weight
@@ -374,7 +399,7 @@ def _resolution(resolution: GainResolution | None) -> GainResolution:
     return resolution
 
 
-def process_gain(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, normal: Any,
+def process_gain(tool: Tool, coeffs: LawCoefficients, posture_axis: Any, normal: Any,
                  feed_dir: Any, cut: LocalCut, spindle_rpm: float | None = None,
                  n_angles: int = GAIN_ANGLES_PER_REV, edges: MicroEdges | None = None,
                  resolution: GainResolution | None = None) -> ProcessGain:
@@ -383,7 +408,9 @@ def process_gain(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, nor
     Parameters
     ----------
     tool : Tool
-    coeffs : CuttingCoefficients
+    coeffs : LawCoefficients
+        A law whose slope depends on the chip (Kienzle) is integrated over
+        the sampled engagement (:func:`_sampled_gain`), the others in closed form.
     posture_axis : array_like, shape (3,) [-]
         Tool axis (:func:`orient.geometry.posture_axis`); ``u . n > 0``.
     normal, feed_dir : array_like, shape (3,) [-]
@@ -415,12 +442,15 @@ def process_gain(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, nor
     res = _resolution(resolution)
     cut.check_tool(tool)
     tau = _tooth_period(spindle_rpm, tool.flutes)
+    k = max(1, math.ceil(n_angles / tool.flutes - ROUND_SLACK))
+    kc = laws.slope_in_kappa(coeffs)
+    if kc is None:
+        return _sampled_gain(tool, coeffs, posture_axis, normal, feed_dir, cut, k, edges, tau)
     pl = place(tool, posture_axis, normal, feed_dir)
     geo = geometry_vector(tool, posture_axis, normal, feed_dir, cut)
-    k = max(1, math.ceil(n_angles / tool.flutes - ROUND_SLACK))
     Ht = np.zeros((k, 3, 3))
     st = np.zeros(5)
-    tp, kc = _tool_params(tool), np.array(coeffs.chip, dtype=float)
+    tp, kc = _tool_params(tool), np.ascontiguousarray(kc, dtype=float)
     buf = np.zeros((KN.BUF_ROWS, 2))
     kinds = np.zeros((KN.BUF_ROWS, 2), dtype=np.int64)
     if edges is None:
@@ -439,6 +469,26 @@ def process_gain(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, nor
     return ProcessGain(H=H, P=H.mean(axis=0), cut_sense=float(sense),
                        engaged_fraction=float(st[4]), mean_chip_mm=float(mean_h),
                        flutes=tool.flutes, tooth_period_s=tau)
+
+
+def _sampled_gain(tool: Tool, coeffs: LawCoefficients, posture_axis: Any, normal: Any,
+                  feed_dir: Any, cut: LocalCut, k: int, edges: MicroEdges | None,
+                  tau: float | None) -> ProcessGain:
+    """:func:`process_gain` integrated per micro edge over the sampled engagement.
+
+    For a law whose slope depends on the chip. At least ``GAIN_ANGLES_PER_REV``
+    samples per revolution, a multiple of ``2 k`` per tooth so that ``H``'s
+    ``k`` steps are each the mean of whole samples; micro edges ``edges`` or
+    :func:`default_edges`.
+    """
+    e = default_edges(tool) if edges is None else edges
+    per_tooth = 2 * k * math.ceil(GAIN_ANGLES_PER_REV / (tool.flutes * 2 * k))
+    eng = engagement(tool, e, posture_axis, normal, feed_dir, cut,
+                     n_angles=per_tooth * tool.flutes)
+    g = gain_from_engagement(tool, e, coeffs, eng)
+    H = g.H.reshape(k, -1, 3, 3).mean(axis=1)
+    return ProcessGain(H=H, P=g.P, cut_sense=g.cut_sense, engaged_fraction=g.engaged_fraction,
+                       mean_chip_mm=g.mean_chip_mm, flutes=tool.flutes, tooth_period_s=tau)
 
 
 def _cut_rows(cut: Any, shape: tuple[int, ...]) -> np.ndarray:
@@ -477,7 +527,7 @@ def _bad_cut(c: Any) -> np.ndarray:
     raise ValueError(f"cut: expected LocalCut entries, got {type(c).__name__}")
 
 
-def process_gain_batch(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any,
+def process_gain_batch(tool: Tool, coeffs: LawCoefficients, posture_axis: Any,
                        normal: Any, feed_dir: Any, cut: Any, edges: MicroEdges | None = None,
                        resolution: GainResolution | None = None, parallel: bool = False,
                        threads: int | None = None) -> GainBatch:
@@ -486,7 +536,10 @@ def process_gain_batch(tool: Tool, coeffs: CuttingCoefficients, posture_axis: An
     Parameters
     ----------
     tool : Tool
-    coeffs : CuttingCoefficients
+    coeffs : LawCoefficients
+        A law whose slope depends on the chip (Kienzle) is integrated over
+        each posture's sampled engagement (:func:`process_gain`, one posture
+        at a time: much slower than the closed form).
     posture_axis : array_like, shape (..., 3) [-]
         Tool axes; ``u . n > 0`` everywhere.
     normal, feed_dir : array_like, shape (..., 3) [-]
@@ -548,7 +601,18 @@ def process_gain_batch(tool: Tool, coeffs: CuttingCoefficients, posture_axis: An
     m = U.shape[0]
     P = np.zeros((m, 3, 3))
     stats = np.zeros((m, 3))
-    kc = np.array(coeffs.chip, dtype=float)
+    kc = laws.slope_in_kappa(coeffs)
+    if kc is None:
+        for i in range(m):
+            r = rows[i]
+            g = process_gain(tool, coeffs, U[i], N[i], Fd[i],
+                             LocalCut(r[0], r[1], int(r[2]), r[3], r[4], r[5]), edges=edges)
+            P[i] = g.P
+            stats[i] = g.cut_sense, g.engaged_fraction, g.mean_chip_mm
+        return GainBatch(P=P.reshape(shape + (3, 3)), cut_sense=stats[:, 0].reshape(shape),
+                         engaged_fraction=stats[:, 1].reshape(shape),
+                         mean_chip_mm=stats[:, 2].reshape(shape))
+    kc = np.ascontiguousarray(kc, dtype=float)
     args = (U, N, Fd, rows, _tool_params(tool), res.settings(), kc, tab, fs, res.scan_points,
             res.bisections, px, pw, N_PER_M_PER_N_PER_MM, P, stats)
     if parallel and m > 1:

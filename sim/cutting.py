@@ -18,8 +18,14 @@ relative displacement with which the previous flute left the surface at the
 same place: regeneration from the surface, not from a fixed delay. ``S`` is
 kept as a vector, so that when the posture changes (another chip direction
 for the same place) the old surface is read along the new direction. If
-``h > 0`` the edge cuts, its force is ``s (F0 + h F1)`` (errpred: edge and
-chip terms, chip widths scaled by ``s``) and it leaves ``S = q(t)``;
+``h > 0`` the edge cuts, its force is ``s (F0 + h F1)`` (chip widths scaled
+by ``s``; ``F0, F1`` per entry from the force law, :mod:`errpred.laws`: the
+tangent of ``F(h)`` at the static chip ``h0``, ``F1 = dF/dh(h0)``,
+``F0 = F(h0) - h0 F1``; for the linear and Lee-Altintas laws the law itself,
+``F0`` the edge force; for Kienzle's law exact at ``h0`` and to first order in
+the vibration, as orient's stability analysis linearises it, while a
+rubbing edge (``-EDGE_RUB_MM < h <= 0``) then gets the tangent's ``F0``,
+not the law's zero-chip force) and it leaves ``S = q(t)``;
 otherwise it leaves the material as it was (``S`` moves back by ``h0`` along
 ``n``: the next flute meets a thicker chip) -- the tool jumping out of the
 cut is the model's nonlinearity. For small vibrations this is the
@@ -44,7 +50,9 @@ import numpy as np
 import scipy.linalg
 
 from errpred.engagement import revolution_angles
-from errpred.force import CuttingCoefficients, local_components, to_tool_frame
+from errpred import laws
+from errpred.coefficients import LawCoefficients
+from errpred.force import to_tool_frame
 from errpred.spindle import tooth_frequency, tooth_period
 from errpred.tool import MicroEdges, Tool
 from nc.checks import real_number
@@ -204,7 +212,7 @@ def _step_map(system: ModalSystem, dt: float) -> tuple[np.ndarray, np.ndarray]:
     return phi, gam
 
 
-def prepare_cut(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, normal: Any,
+def prepare_cut(tool: Tool, coeffs: LawCoefficients, posture_axis: Any, normal: Any,
                 feed_dir: Any, cut: LocalCut, system: ModalSystem, spindle_rpm: float, *,
                 edges: MicroEdges | None = None, steps_per_rev: int | None = None,
                 cutting_distance_mm: float = 0.0) -> CuttingModel:
@@ -213,7 +221,8 @@ def prepare_cut(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, norm
     Parameters
     ----------
     tool : errpred.tool.Tool
-    coeffs : errpred.force.CuttingCoefficients
+    coeffs : errpred.coefficients.LawCoefficients
+        The force law's coefficients (:mod:`errpred.laws`).
     posture_axis, normal, feed_dir : array_like, shape (3,) [-]
         Tool axis, outward surface normal and feed direction at the contact
         (workpiece frame).
@@ -250,15 +259,18 @@ def prepare_cut(tool: Tool, coeffs: CuttingCoefficients, posture_axis: Any, norm
     phi = eng.phi[i, f, j]
     kappa = edges.kappa[j]
     db = edges.db[j]
-    zero = to_tool_frame(*local_components(coeffs, 0.0, cl, db), phi, kappa)
-    one = to_tool_frame(*local_components(coeffs, 1.0, cl, db), phi, kappa)
+    h0 = eng.h[i, f, j]
+    # the law's per-entry table: the tangent of F(h) at the static chip
+    fh = laws.force(coeffs, h0, kappa, cl)
+    gh = laws.slope(coeffs, h0, kappa)
+    zero = to_tool_frame(*((fx - h0 * gx) * db for fx, gx in zip(fh, gh)), phi, kappa)
     frame = eng.frame
     f0 = zero @ frame
-    f1 = (one - zero) @ frame
+    f1 = to_tool_frame(*(gx * db for gx in gh), phi, kappa) @ frame
     nrm = edges.take(j).normals(phi) @ frame * MM_PER_M
     ptr = np.searchsorted(i, np.arange(spr + 1)).astype(np.int64)
     pos = ((i + f * spt) % spr).astype(np.int64)
-    table = (ptr, pos, j.astype(np.int64), np.ascontiguousarray(eng.h[i, f, j]),
+    table = (ptr, pos, j.astype(np.int64), np.ascontiguousarray(h0),
              np.ascontiguousarray(nrm), np.ascontiguousarray(f0), np.ascontiguousarray(f1))
     dt = tooth_period(rpm, spr)
     n = np.asarray(eng.normal, dtype=float)

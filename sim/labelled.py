@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from errpred.dynamics import Mode
-from errpred.force import CuttingCoefficients
+from errpred.coefficients import CuttingCoefficients
 from errpred.spindle import tooth_frequency, tooth_period
 from errpred.tool import Tool
 from orient.detect import ChatterDetector

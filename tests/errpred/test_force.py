@@ -264,7 +264,7 @@ def test_edge_force_linear_in_cutting_distance():
     totals, means = [], []
     for cl in cls:
         cl_arr = np.full(len(e), cl)
-        d = local_components(COEF, h, cl_arr, e.db)
+        d = local_components(COEF, h, cl_arr, e.db, e.kappa)
         totals.append([np.sum(np.where(cutting, x, 0.0)) for x in d])
         means.append(tool_forces(e, COEF, phi, h, cutting, cl_arr).mean(axis=0))
     totals, means = np.array(totals), np.array(means)
@@ -340,7 +340,7 @@ def test_chip_thickness_general_feed_is_clamped_dot_product():
 def test_tool_forces_is_sum_of_building_blocks_and_backends_agree():
     e, phi, h, cutting = helical_flat_case()
     cl = np.linspace(0, 4000, len(e))
-    d = local_components(COEF, h, cl, e.db)
+    d = local_components(COEF, h, cl, e.db, e.kappa)
     per = to_tool_frame(*d, phi, e.kappa)                  # (n_ang, n_fl, m, 3)
     ref = np.sum(np.where(cutting[..., None], per, 0.0), axis=(1, 2))
     got = tool_forces(e, COEF, phi, h, cutting, cl)

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from errpred.dynamics import Mode
-from errpred.force import CuttingCoefficients
+from errpred.coefficients import CuttingCoefficients
 from errpred.tool import Tool
 from orient.dynamics import ModalSystem
 from orient.engagement import LocalCut
