@@ -13,7 +13,7 @@ from errpred.correct_path import error_points
 from nc.atomic import atomic_write
 
 from .constants import JOB_SURFACE_RATIO, SPECTRUM_MAX_HZ
-from .html import Figure, Section, render_page
+from errpred.page import Figure, Section, render_page
 from .job import JobResult
 from .job_plots import error_map_png, lobes_png, margin_png, spectra_png
 

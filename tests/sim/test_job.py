@@ -18,7 +18,7 @@ import pytest
 from orient.cli import main as orient_main
 from sim.cli import main as sim_main
 
-from .chromium import open_page
+from tests.chromium import open_page
 from .job_scenario import light_scenario
 
 
