@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-__all__ = ["error_map_png", "lobes_png", "margin_png", "spectra_png"]
+__all__ = ["error_map_png", "lobes_png", "margin_png", "posture_png", "spectra_png"]
 
 #: Figure resolution [dpi].
 DPI = 110
@@ -32,14 +32,17 @@ def _figure(**kw):
 
 
 def margin_png(distance_mm: np.ndarray, cam: np.ndarray, planned: np.ndarray,
-               cutting: np.ndarray, target: float) -> bytes:
-    """Stability margin along the path [-] over tip travel [mm]: CAM and planned posture."""
+               cutting: np.ndarray, target: float, cam_rpm: float, planned_rpm: float
+               ) -> bytes:
+    """Stability margin along the path [-] over tip travel [mm]: the CAM posture at the CAM
+    program's spindle speed ``cam_rpm`` and the planned one at ``planned_rpm`` [min^-1]
+    (each curve labelled with its speed)."""
     fig, ax = _figure(figsize=(9.0, 3.6), layout="constrained")
     d = np.where(cutting, distance_mm, np.nan)
     ax.plot(d, np.where(cutting, cam, np.nan), ".", ms=2.5, color="tab:red",
-            label="CAM posture")
+            label=f"CAM posture at {cam_rpm:.0f} min^-1")
     ax.plot(d, np.where(cutting, planned, np.nan), ".", ms=2.5, color="tab:blue",
-            label="planned posture")
+            label=f"planned posture at {planned_rpm:.0f} min^-1")
     ax.axhline(1.0, color="k", lw=1.0, label="stability limit (margin 1)")
     ax.axhline(target, color="tab:green", lw=0.8, ls="--", label=f"target {target:g}")
     ax.set_yscale("log")
@@ -47,6 +50,52 @@ def margin_png(distance_mm: np.ndarray, cam: np.ndarray, planned: np.ndarray,
     ax.set_ylabel("stability margin [-]")
     ax.legend(loc="upper right", fontsize=8, ncol=2)
     ax.grid(True, which="both", alpha=0.3)
+    return _png(fig)
+
+
+def posture_png(distance_mm: np.ndarray, cutting: np.ndarray,
+                lead_tilt: dict[str, tuple[np.ndarray, np.ndarray]],
+                rotary: dict[str, tuple[np.ndarray, np.ndarray]],
+                rotary_names: tuple[str, str]) -> bytes:
+    """Lead, tilt and the two rotary axes along the path [deg] over tip travel [mm], the CAM
+    posture against the planned one.
+
+    Parameters
+    ----------
+    distance_mm : ndarray, shape (n,) [mm]
+        Tip travel of each cutter location.
+    cutting : ndarray of bool, shape (n,)
+        Cutter locations in the material (lead and tilt are drawn there only).
+    lead_tilt : dict
+        ``"CAM"`` and ``"planned"`` -> (lead (n,), tilt (n,)) [rad].
+    rotary : dict
+        ``"CAM"`` and ``"planned"`` -> (tip travel (m,) [mm], joints (m, 2) [rad]): the two
+        rotary axes along the path (any number of points each).
+    rotary_names : (str, str)
+        Letters of the tilt and the rotary axis.
+    """
+    fig, axes = _figure(nrows=2, ncols=2, figsize=(9.0, 5.4), layout="constrained",
+                        sharex=True, squeeze=False)
+    colors = {"CAM": "tab:red", "planned": "tab:blue"}
+    d = np.where(cutting, distance_mm, np.nan)
+    for k, what in enumerate(("lead", "tilt")):
+        ax = axes[0, k]
+        for name, pair in lead_tilt.items():
+            ax.plot(d, np.where(cutting, np.degrees(pair[k]), np.nan), ".", ms=2.5,
+                    color=colors[name], label=f"{name} posture")
+        ax.set_ylabel(f"{what} angle [deg]")
+        ax.set_title(f"{what} (where the tool cuts)", fontsize=9)
+    for k in range(2):
+        ax = axes[1, k]
+        for name, (dist, joints) in rotary.items():
+            ax.plot(dist, np.degrees(joints[:, k]), "-", lw=1.0, color=colors[name],
+                    label=f"{name} posture")
+        ax.set_ylabel(f"{rotary_names[k]} axis [deg]")
+        ax.set_title(f"rotary axis {rotary_names[k]} (whole path)", fontsize=9)
+        ax.set_xlabel("tip travel along the program [mm]")
+    for ax in axes.flat:
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
     return _png(fig)
 
 

@@ -119,9 +119,16 @@ def test_report_page_opens_in_headless_chromium(jobs, tmp_path):
     seen = open_page(page, tmp_path)
     assert seen["screenshot_bytes"] > 20_000
     assert "CONSOLE" not in seen["stderr"]
-    # margin along the path, error maps, lobes, spectra: all decoded
-    assert seen["images"] == 4 and seen["broken"] == 0
+    # margin along the path, lead/tilt and rotary axes, error maps, lobes, spectra: all
+    # decoded
+    assert seen["images"] == 5 and seen["broken"] == 0
     assert "Error map before and after correction" in seen["dom"]
+    assert "Posture along the path" in seen["dom"]
+    # each margin curve says at which spindle speed it is; the run table is there once
+    plan = json.loads((one / "report.json").read_text())["plan"]
+    assert (f"CAM program's spindle speed, {plan['cam_spindle_rpm']:.0f} min^-1" in text
+            and f"planned speed, {plan['spindle_rpm']:.0f} min^-1" in text)
+    assert text.count("<th>simulated run</th>") == 1
 
 
 BAD = [
