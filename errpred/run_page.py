@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -36,6 +36,12 @@ from .plots import revolution_png, revolution_series
 from .predict import Prediction
 from .report import tool_change
 from .verification import ErrorField
+
+if TYPE_CHECKING:
+    from nc.program import Program
+
+    from .correct import Compensation
+    from .scenario import Scenario
 
 __all__ = ["ErrorSet", "compensate_page", "from_field", "from_prediction", "is_wall",
            "predict_page", "write_compensate_page", "write_page_text", "write_predict_page"]
@@ -64,7 +70,7 @@ class ErrorSet:
     pass_id: np.ndarray
 
 
-def from_prediction(prediction: Prediction, program) -> ErrorSet:
+def from_prediction(prediction: Prediction, program: Program) -> ErrorSet:
     """The predicted points of ``prediction`` of ``program`` (:class:`nc.program.Program`)."""
     pts = prediction.predicted()
     n = len(pts)
@@ -246,9 +252,20 @@ def _tool_change_section(tc: dict | None) -> Section:
                    tables=(rows,))
 
 
-def predict_page(scenario, prediction: Prediction, rep: dict[str, Any], program) -> str:
-    """The page of ``errpred predict``: ``rep`` is its report
-    (:func:`errpred.pipeline.scenario_report`), ``program`` the program predicted."""
+def predict_page(scenario: Scenario, prediction: Prediction, rep: dict[str, Any],
+                 program: Program) -> str:
+    """The page of ``errpred predict``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    prediction : Prediction
+        Errors [um] at the prediction points.
+    rep : dict
+        Its report (:func:`errpred.pipeline.scenario_report`; errors in um).
+    program : Program
+        The program predicted (its rapid moves separate the passes).
+    """
     from .findings import findings_line
 
     s = rep["summary"]
@@ -295,15 +312,21 @@ def predict_page(scenario, prediction: Prediction, rep: dict[str, Any], program)
     return render_page(f"errpred predict: {scenario.name}", verdict, sections, good=good)
 
 
-def write_predict_page(path: str | os.PathLike, scenario, prediction: Prediction,
-                       rep: dict[str, Any], program) -> None:
+def write_predict_page(path: str | os.PathLike, scenario: Scenario, prediction: Prediction,
+                       rep: dict[str, Any], program: Program) -> None:
     """:func:`predict_page` written atomically to ``path``."""
     write_page_text(path, predict_page(scenario, prediction, rep, program))
 
 
-def compensate_page(scenario, comp) -> str:
-    """The page of ``errpred compensate``: ``comp`` its
-    :class:`errpred.correct.Compensation` (verified before/after fields, passes)."""
+def compensate_page(scenario: Scenario, comp: Compensation) -> str:
+    """The page of ``errpred compensate``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    comp : Compensation
+        Its result: the verified dense fields before and after [um], every pass.
+    """
     v = comp.verified
     b, a = v.before_stats, v.after_stats
     good = comp.corrected or not v.passes
@@ -351,7 +374,8 @@ def compensate_page(scenario, comp) -> str:
     return render_page(f"errpred compensate: {scenario.name}", verdict, sections, good=good)
 
 
-def write_compensate_page(path: str | os.PathLike, scenario, comp) -> None:
+def write_compensate_page(path: str | os.PathLike, scenario: Scenario,
+                          comp: Compensation) -> None:
     """:func:`compensate_page` written atomically to ``path``."""
     write_page_text(path, compensate_page(scenario, comp))
 

@@ -10,6 +10,7 @@ ends with exit status 1, one line naming the failed checks, and its programs wri
 
 from __future__ import annotations
 
+import html
 import json
 from pathlib import Path
 
@@ -126,8 +127,9 @@ def test_report_page_opens_in_headless_chromium(jobs, tmp_path):
     assert "Posture along the path" in seen["dom"]
     # each margin curve says at which spindle speed it is; the run table is there once
     plan = json.loads((one / "report.json").read_text())["plan"]
-    assert (f"CAM program's spindle speed, {plan['cam_spindle_rpm']:.0f} min^-1" in text
-            and f"planned speed, {plan['spindle_rpm']:.0f} min^-1" in text)
+    words = html.unescape(text)
+    assert (f"CAM program's spindle speed, {plan['cam_spindle_rpm']:.0f} min^-1" in words
+            and f"planned speed, {plan['spindle_rpm']:.0f} min^-1" in words)
     assert text.count("<th>simulated run</th>") == 1
 
 
