@@ -138,9 +138,12 @@ def _page_path(args, beside: str | None) -> str | None:
     if args.no_page:
         return None
     page = args.page or (os.path.splitext(beside)[0] + ".html" if beside else None)
-    if page and any(page == o for o in (args.output, getattr(args, "report", None)) if o):
+    if page and any(os.path.abspath(page) == os.path.abspath(o)
+                    for o in (args.output, getattr(args, "report", None)) if o):
         raise InputError(f"--page: {page} is also an output of the command; name the page "
                          "with --page FILE")
+    if args.page and not os.path.isdir(os.path.dirname(os.path.abspath(args.page))):
+        raise InputError(f"--page: {args.page}: its directory does not exist")
     return page
 
 

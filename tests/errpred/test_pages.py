@@ -89,18 +89,21 @@ def test_predict_page_of_a_free_form_surface_from_above_per_pass(tmp_path):
     _opens(named, tmp_path, images=3)
 
 
-def test_predict_no_page_writes_none(tmp_path):
+def test_predict_no_page_writes_none_and_a_bad_page_path_is_refused_first(tmp_path):
     rep = tmp_path / "r.json"
     assert main(["predict", WALL, "--lines", "374", "385", "-o", str(rep), "-q",
                  "--no-design", "--no-page"]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
-    assert main(["predict", WALL, "--lines", "374", "385", "-o", str(rep), "-q",
-                 "--page", str(rep)]) == 2
+    for page in (str(rep), str(tmp_path / "missing" / "p.html")):
+        assert main(["predict", WALL, "--lines", "374", "385", "-o", str(rep), "-q",
+                     "--page", page]) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
 
 
 def test_compensate_page_shows_the_verified_error_before_and_after(tmp_path):
     out, rep = tmp_path / "corrected.nc", tmp_path / "verification.json"
-    assert main(["compensate", WALL, "--lines", "38", "41", "-o", str(out), "-q",
+    # the third waterline level's straight block along the wall
+    assert main(["compensate", WALL, "--lines", "40", "40", "-o", str(out), "-q",
                  "--report", str(rep)]) == 0
     page = tmp_path / "corrected.html"
     text = page.read_text()
