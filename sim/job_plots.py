@@ -48,7 +48,7 @@ def margin_png(distance_mm: np.ndarray, cam: np.ndarray, planned: np.ndarray,
     ax.set_yscale("log")
     ax.set_xlabel("tip travel along the program [mm]")
     ax.set_ylabel("stability margin [-]")
-    ax.legend(loc="upper right", fontsize=8, ncol=2)
+    fig.legend(loc="outside lower center", fontsize=8, ncol=4)   # off the curves
     ax.grid(True, which="both", alpha=0.3)
     return _png(fig)
 
@@ -128,9 +128,10 @@ def error_map_png(panels: list[tuple[str, np.ndarray, np.ndarray]], along: int =
     return _png(fig)
 
 
-def lobes_png(items: list[dict]) -> bytes:
+def lobes_png(items: list[dict], cam_rpm: float | None = None) -> bytes:
     """Zero-order lobes (limiting depth [mm] over speed [rev/min]) at each representative
-    point, CAM posture and planned posture, with the operating point."""
+    point, CAM posture and planned posture, with the operating point (and the CAM
+    program's at ``cam_rpm`` [rev/min] when it differs)."""
     fig, axes = _figure(nrows=1, ncols=len(items), figsize=(4.6 * len(items), 3.6),
                         layout="constrained", squeeze=False)
     for ax, it in zip(axes.flat, items, strict=True):
@@ -139,7 +140,10 @@ def lobes_png(items: list[dict]) -> bytes:
             lb = it[key]
             ax.plot(lb.rpm, lb.depth_limit_mm, color=color, lw=1.3, label=label)
         rpm, depth = it["operating_point"]
-        ax.plot([rpm], [depth], "k*", ms=11, label="operating point")
+        ax.plot([rpm], [depth], "k*", ms=11, label=f"operating point, {rpm:.0f} min^-1")
+        if cam_rpm is not None and abs(cam_rpm - rpm) > 0.5:
+            ax.plot([cam_rpm], [depth], "x", color="tab:red", ms=9, mew=2,
+                    label=f"CAM program's speed, {cam_rpm:.0f} min^-1")
         top = max(float(np.nanmax(np.where(np.isfinite(it[k].depth_limit_mm),
                                            it[k].depth_limit_mm, np.nan)))
                   for k in ("cam", "planned"))

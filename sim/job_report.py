@@ -250,10 +250,12 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
             "micro-edge forces, tool and wall compliance); bottom: the time-domain simulation "
             "of the written programs."),)),
         Section("Stability lobes at representative points", figures=(Figure(
-            lobes_png(res.lobes),
+            lobes_png(res.lobes, s["cam_spindle_rpm"]),
             "Limiting depth of cut over spindle speed (zero-order method) for the CAM posture "
             "and the planned one; the star is the operating point (depth of the finishing "
-            "cut, planned speed)."),)),
+            f"cut, planned speed {p.spindle_rpm:.0f} min^-1)"
+            + (f"; the red cross the CAM program's speed, {s['cam_spindle_rpm']:.0f} min^-1"
+               if abs(s["cam_spindle_rpm"] - p.spindle_rpm) > 0.5 else "") + "."),)),
         Section("Simulated acceleration spectrum", paragraphs=(_episodes_text(sim["corrected"]),),
                 tables=(sim_rows,), figures=(Figure(
             spectra_png([((f"CAM program, worst pass (cutter locations {res.cam_points[0]}-"
