@@ -2,24 +2,13 @@
 
 from __future__ import annotations
 
-import io
 import math
 
 import numpy as np
 
+from errpred.page_plots import png_bytes
+
 __all__ = ["error_map_png", "lobes_png", "margin_png", "posture_png", "spectra_png"]
-
-#: Figure resolution [dpi].
-DPI = 110
-
-
-def _png(fig) -> bytes:
-    import matplotlib.pyplot as plt
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI)
-    plt.close(fig)
-    return buf.getvalue()
 
 
 def _figure(**kw):
@@ -50,7 +39,7 @@ def margin_png(distance_mm: np.ndarray, cam: np.ndarray, planned: np.ndarray,
     ax.set_ylabel("stability margin [-]")
     fig.legend(loc="outside lower center", fontsize=8, ncol=4)   # off the curves
     ax.grid(True, which="both", alpha=0.3)
-    return _png(fig)
+    return png_bytes(fig)
 
 
 def posture_png(distance_mm: np.ndarray, cutting: np.ndarray,
@@ -96,7 +85,7 @@ def posture_png(distance_mm: np.ndarray, cutting: np.ndarray,
     for ax in axes.flat:
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
-    return _png(fig)
+    return png_bytes(fig)
 
 
 def error_map_png(panels: list[tuple[str, np.ndarray, np.ndarray]], along: int = 0,
@@ -125,7 +114,7 @@ def error_map_png(panels: list[tuple[str, np.ndarray, np.ndarray]], along: int =
         ax.axis("off")
     if sc is not None:
         fig.colorbar(sc, ax=axes, label="surface error [um] (+ material left)", shrink=0.8)
-    return _png(fig)
+    return png_bytes(fig)
 
 
 def lobes_png(items: list[dict], cam_rpm: float | None = None) -> bytes:
@@ -153,7 +142,7 @@ def lobes_png(items: list[dict], cam_rpm: float | None = None) -> bytes:
         ax.set_ylabel("limiting depth of cut [mm]")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
-    return _png(fig)
+    return png_bytes(fig)
 
 
 def spectra_png(panels: list[tuple[str, np.ndarray, np.ndarray, float]], teeth: int,
@@ -172,4 +161,4 @@ def spectra_png(panels: list[tuple[str, np.ndarray, np.ndarray, float]], teeth: 
         ax.set_ylabel("[m/s^2]")
         ax.grid(True, which="major", alpha=0.3)
     axes.flat[-1].set_xlabel("frequency [Hz] (grey: tooth-passing harmonics)")
-    return _png(fig)
+    return png_bytes(fig)
