@@ -7,6 +7,7 @@ Units at this edge: errors in um, forces in N, angles in degrees.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 
@@ -92,6 +93,8 @@ def _cmd_predict(args) -> int:
         write_outputs,
     )
 
+    page = _page_path(args, args.output or (os.path.join(args.plots, "report.json")
+                                            if args.plots else None))
     scenario = _scenario(args.scenario)
     if args.lines:
         scenario = _with_lines(scenario, args.lines)
@@ -106,6 +109,10 @@ def _cmd_predict(args) -> int:
     design = design_deviation_um(scenario, prediction) if not args.no_design else None
     rep = write_outputs(scenario, prediction, args.output, args.plots, design,
                         tool_state_path=args.tool_state_out)
+    if page:
+        from .run_page import write_predict_page
+
+        write_predict_page(page, scenario, prediction, rep, pred.program)
     if not args.quiet:
         _print_summary(rep, elapsed, len(blocks))
         if args.output:
@@ -114,6 +121,8 @@ def _cmd_predict(args) -> int:
             print(f"tool state at the end: {args.tool_state_out}")
         for p in rep.get("plots", []):
             print(f"plot: {p}")
+        if page:
+            print(f"page: {page}")
     errors = rep["summary"]["errors"]
     if errors:
         from nc.command import Refused
@@ -122,6 +131,21 @@ def _cmd_predict(args) -> int:
 
         raise Refused(findings_line(errors, str(scenario.program_path)))
     return 0
+
+
+def _page_path(args, beside: str | None) -> str | None:
+    """Where the page goes: ``--page``, else ``beside`` with the suffix ``.html`` (None with
+    ``--no-page`` or nothing to put it beside)."""
+    if args.no_page:
+        return None
+    page = args.page or (os.path.splitext(beside)[0] + ".html" if beside else None)
+    if page and any(os.path.abspath(page) == os.path.abspath(o)
+                    for o in (args.output, getattr(args, "report", None)) if o):
+        raise InputError(f"--page: {page} is also an output of the command; name the page "
+                         "with --page FILE")
+    if args.page and not os.path.isdir(os.path.dirname(os.path.abspath(args.page))):
+        raise InputError(f"--page: {args.page}: its directory does not exist")
+    return page
 
 
 def _dask_client(args):
@@ -151,6 +175,7 @@ def _cmd_compensate(args) -> int:
 
     from .pipeline import compensate_scenario
 
+    page = _page_path(args, args.output)
     scenario = _scenario(args.scenario)
     if args.lines:
         scenario = _with_lines(scenario, args.lines)
@@ -188,6 +213,10 @@ def _cmd_compensate(args) -> int:
         with atomic_write(args.report) as fh:
             json.dump(rep, fh, indent=1, allow_nan=False)
             fh.write("\n")
+    if page:
+        from .run_page import write_compensate_page
+
+        write_compensate_page(page, scenario, res)
     if not res.corrected and v.passes:
         raise Refused(f"{scenario.program_path}: nothing written to {args.output}: "
                       f"{res.reason()}")
@@ -195,7 +224,8 @@ def _cmd_compensate(args) -> int:
         fh.write(res.text)
     if not res.corrected:          # nothing to move: the program as it is
         if not args.quiet:
-            print(f"wrote {args.output} unchanged: {res.reason()}")
+            print(f"wrote {args.output} unchanged: {res.reason()}"
+                  + (f"; the page: {page}" if page else ""))
         return 0
     if not args.quiet:
         b, a = v.before_stats, v.after_stats
@@ -209,6 +239,8 @@ def _cmd_compensate(args) -> int:
               f"{v.comparison.tolerance_um:g} um")
         if args.tool_state_out:
             print(f"wrote {args.tool_state_out}: the tool's state after the corrected program")
+        if page:
+            print(f"wrote {page}: the page (error on the part before and after correction)")
     return 0
 
 
@@ -282,6 +314,13 @@ def _parallel_and_lines(p: argparse.ArgumentParser) -> None:
                    help="only the blocks on these program lines")
 
 
+def _page_options(p: argparse.ArgumentParser, where: str) -> None:
+    """``--page FILE`` and ``--no-page``: the self-contained HTML page of the run."""
+    p.add_argument("--page", metavar="FILE",
+                   help=f"write the run's self-contained HTML page here (default: {where})")
+    p.add_argument("--no-page", action="store_true", help="write no page")
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m errpred", description=(
         "Predict the machining error of end milling along an NC program, and correct it."))
@@ -290,6 +329,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenario", help="scenario file (TOML)")
     p.add_argument("-o", "--output", help="report (JSON)")
     p.add_argument("--plots", metavar="DIR", help="write plots (PNG) into DIR")
+    _page_options(p, "beside the report (-o REPORT.json -> REPORT.html; with --plots only: "
+                     "DIR/report.html)")
     _parallel_and_lines(p)
     p.add_argument("--revolution-line", type=int, metavar="LINE",
                    help="plot force and deflection over a revolution at this line "
@@ -316,6 +357,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write the verification (before/after per block, every pass)")
     p.add_argument("--tool-state-out", metavar="FILE",
                    help=_TOOL_STATE_HELP + " (of the corrected program)")
+    _page_options(p, "beside the corrected program (-o NAME.nc -> NAME.html); written also "
+                     "when no correction is verified, to say why")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=_cmd_compensate)
     p = sub.add_parser("fit", help=(

@@ -356,3 +356,21 @@ FIT_QUADRATURE_NODES = 128
 #: Tests in one fit file at most [-]: a sanity bound against a wrong file (a
 #: force time series, not means); a calibration uses 5-50.
 FIT_MAX_TESTS = 10_000
+
+# --- pages of predict and compensate (errpred/run_page.py) -------------------------
+#: A surface whose generation points have a normal within this of horizontal (|n_z|
+#: below it, at the median) is a wall and is drawn unrolled (arc length along the
+#: contour x Z); steeper normals, a free-form surface, are drawn from above (X x Y)
+#: [-]. sin 20 deg: the bundled wall's 3 deg draft (|n_z| 0.05) is a wall, the
+#: mold core's flanks of 60 deg and less (|n_z| 0.5 and more) are not.
+PAGE_WALL_NORMAL_Z = 0.342
+#: Tool tips closer than this in Z belong to one waterline level [mm]: finishing Z
+#: steps are 0.1 mm and more, and a correction moves a drafted wall's tips in Z by
+#: micrometres.
+PAGE_LEVEL_GAP_MM = 0.02
+#: Rows of the per-level (per-pass) table at most [-]: a whole program has hundreds of
+#: levels; the plot above the table shows them all, the table the worst ones.
+PAGE_TABLE_ROWS = 40
+#: Half the Z span of an unrolled wall's plot at least [mm]: a single waterline level
+#: keeps a readable axis instead of one zoomed to micrometres.
+PAGE_MIN_HALF_SPAN_MM = 0.5

@@ -164,15 +164,10 @@ def write_outputs(scenario: Scenario, prediction: Prediction, report_path=None,
     if tool_state_path is not None:
         write_end_state(scenario, prediction, tool_state_path, "predict")
     if plots_dir is not None:
-        from .plots import write_all
+        from .plots import revolution_series, write_all
 
-        rev = None
-        if prediction.series:
-            key = next((k for k in prediction.series if k != -1), -1)
-            item = prediction.series[key]
-            line = key if key != -1 else item[4]
-            rev = (line, item[3], item[0], item[1], item[2])
-        rep["plots"] = write_all(prediction, plots_dir, revolution=rev, name=scenario.name)
+        rep["plots"] = write_all(prediction, plots_dir, revolution=revolution_series(prediction),
+                                 name=scenario.name)
     return rep
 
 

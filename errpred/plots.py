@@ -22,7 +22,7 @@ from nc.atomic import atomic_write
 from .predict import Prediction
 
 __all__ = ["plot_error_along_program", "plot_revolution", "plot_error_map", "plot_wear",
-           "write_all"]
+           "revolution_png", "revolution_series", "write_all"]
 
 
 def _figure(width=9.0, height=4.5):
@@ -68,9 +68,10 @@ def plot_error_along_program(prediction: Prediction, path, title: str = "") -> N
     _save(fig, path)
 
 
-def plot_revolution(theta: np.ndarray, force_N: np.ndarray, deflection_mm: np.ndarray,
-                    theta_m: float, path, title: str = "") -> None:
-    """Force and deflection over one revolution, world X and Y, generation instant marked.
+def revolution_png(theta: np.ndarray, force_N: np.ndarray, deflection_mm: np.ndarray,
+                   theta_m: float, title: str = "") -> bytes:
+    """Force and deflection over one revolution, world X and Y, generation instant marked,
+    as PNG bytes (for a page; :func:`plot_revolution` writes them to a file).
 
     Parameters
     ----------
@@ -79,7 +80,13 @@ def plot_revolution(theta: np.ndarray, force_N: np.ndarray, deflection_mm: np.nd
     deflection_mm : ndarray, shape (n, 3) [mm]
     theta_m : float [rad]
         Rotation at which the surface is generated.
+    title : str
     """
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6), dpi=110, sharex=True)
@@ -100,7 +107,18 @@ def plot_revolution(theta: np.ndarray, force_N: np.ndarray, deflection_mm: np.nd
     a1.set_title((title or "Force and deflection over one revolution")
                  + (f"\ndeflection trails force by {lag:.0f} deg of rotation (cross-correlation)"
                     if lag is not None else ""))
-    _save(fig, path)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def plot_revolution(theta: np.ndarray, force_N: np.ndarray, deflection_mm: np.ndarray,
+                    theta_m: float, path, title: str = "") -> None:
+    """:func:`revolution_png` written to ``path`` (atomically)."""
+    png = revolution_png(theta, force_N, deflection_mm, theta_m, title)
+    with atomic_write(path, "wb") as fh:
+        fh.write(png)
 
 
 def _lag_deg(force: np.ndarray, defl: np.ndarray) -> float | None:
@@ -151,6 +169,18 @@ def plot_wear(prediction: Prediction, path, title: str = "") -> None:
     ax.set_title(title or "Actual cutting distance per micro edge (wear along the edge)")
     ax.grid(alpha=0.3)
     _save(fig, path)
+
+
+def revolution_series(prediction: Prediction) -> tuple | None:
+    """The revolution kept for a plot: ``(line, theta [rad], force_N (n, 3), deflection_mm
+    (n, 3), theta_m [rad])`` of the first line asked for (``series_lines``), else of the
+    point with the largest |E|; None when none was kept."""
+    if not prediction.series:
+        return None
+    key = next((k for k in prediction.series if k != -1), -1)
+    item = prediction.series[key]
+    line = key if key != -1 else item[4]
+    return (line, item[3], item[0], item[1], item[2])
 
 
 def write_all(prediction: Prediction, directory, revolution=None, name: str = "") -> list[str]:

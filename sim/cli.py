@@ -218,7 +218,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _write_html(path: str, report: dict[str, Any], lines: list[str], plot_path: str) -> None:
-    from .html import Figure, Section, write_page
+    from errpred.page import Figure, Section, write_page
 
     cs = report["closed_loop"]
     op = report.get("open_loop")

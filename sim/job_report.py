@@ -10,12 +10,14 @@ from typing import Any
 import numpy as np
 
 from errpred.correct_path import error_points
+from errpred.page import Figure, Section, render_page
 from nc.atomic import atomic_write
+from nc.errors import KinematicsError
+from nc.kinematics import solve_path
 
 from .constants import JOB_SURFACE_RATIO, SPECTRUM_MAX_HZ
-from .html import Figure, Section, render_page
 from .job import JobResult
-from .job_plots import error_map_png, lobes_png, margin_png, spectra_png
+from .job_plots import error_map_png, lobes_png, margin_png, posture_png, spectra_png
 
 __all__ = ["job_page", "job_report", "write_job_report"]
 
@@ -89,6 +91,7 @@ def job_report(res: JobResult, errors: tuple | None = None) -> dict[str, Any]:
         "checks": res.checks,
         "plan": {
             "spindle_rpm": p.spindle_rpm,
+            "cam_spindle_rpm": _cam_rpm(p),
             "cutting_points": int(idx.size),
             "points": len(p.cl),
             "cam_margin_min": _r(float(p.cam_margin[idx].min())),
@@ -143,6 +146,30 @@ def job_report(res: JobResult, errors: tuple | None = None) -> dict[str, Any]:
     }
 
 
+def _cam_rpm(plan) -> float:
+    """The CAM program's spindle speed [min^-1]: its posture's margins are at this speed."""
+    return float(plan.stats.get("program_spindle_rpm", plan.spindle_rpm))
+
+
+def _rotary(res: JobResult, d: np.ndarray) -> tuple[dict, str]:
+    """The rotary axes along the path: the planned program as written (its joints at their
+    tip travel), the CAM posture solved on the same machine from the planned program's first
+    joints; and a note when the CAM posture has no continuous solution in the limits."""
+    p = res.plan
+    n = len(p.cl)
+    out = {}
+    note = ""
+    try:
+        cam = solve_path(p.machine, p.cam.tip, p.cam.axis, allow_jumps=True,
+                         start=res.planned.joints[0] if len(res.planned.joints) else None)
+        out["CAM"] = (d, cam.joints[:, 3:])
+    except KinematicsError as exc:
+        note = f" The CAM posture has no solution within the machine's limits: {exc}."
+    out["planned"] = (np.interp(res.planned.source, np.arange(n), d),
+                      res.planned.joints[:, 3:])
+    return out, note
+
+
 def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -> str:
     """The self-contained HTML page of a job (``errors`` as in :func:`job_report`)."""
     p = res.plan
@@ -157,6 +184,7 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
     d = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p.cl.tip, axis=0), axis=1))])
     cutting = np.zeros(len(p.cl), bool)
     cutting[p.touching_index] = True
+    rotary, rotary_note = _rotary(res, d)
     vp, vf, vc = res.verify_planned, res.verify_final, res.verify_cam
     max_hz = min(SPECTRUM_MAX_HZ,
                  float(vp.spectrum_hz[-1]) if vp.spectrum_hz.size else SPECTRUM_MAX_HZ)
@@ -179,10 +207,12 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
             (f"Scenario {rep['scenario']} ({rep['scenario_file']}). The final program "
             f"{rep['programs']['final']} ({rep['program']['lines']} lines, "
             f"{rep['program']['dialect']} for {rep['program']['machine']}) runs at "
-            f"{p.spindle_rpm:.0f} rev/min."),
+            f"{p.spindle_rpm:.0f} min^-1."),
             (f"Planning raised the lowest stability margin from {s['cam_margin_min']} (CAM "
-            f"posture, {s['cam_points_below_1']} of {s['cutting_points']} cutting points "
-            f"below 1) to {s['margin_min']} ({s['points_below_1']} below 1)."),
+            f"posture at the CAM program's {s['cam_spindle_rpm']:.0f} min^-1, "
+            f"{s['cam_points_below_1']} of {s['cutting_points']} cutting points below 1) to "
+            f"{s['margin_min']} (planned posture at {p.spindle_rpm:.0f} min^-1, "
+            f"{s['points_below_1']} below 1)."),
             (f"The predicted error (RMS over the generation points) went from "
             f"{corr['predicted_rms_um'][0]} um to {corr['predicted_rms_um'][corr['best_pass']]}"
             f" um in {corr['passes']} correction passes; in the simulated machine from "
@@ -191,11 +221,24 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
             (f"Verification of the correction, re-predicted at both ends of every block and "
              f"at most 2 mm apart, against the planned program: {corr['reason']}."),
             f"Run time: {rep['seconds']['total']:.0f} s."),
-            tables=(check_rows, sim_rows)),
+            tables=(check_rows,)),
         Section("Stability margin along the path", figures=(Figure(
-            margin_png(d, p.cam_margin, p.margin, cutting, res.scenario.options.margin_target),
-            "Zero-order stability margin at each cutting point: the CAM posture (red) and the "
-            "planned lead/tilt (blue). Below 1 the cut chatters."),)),
+            margin_png(d, p.cam_margin, p.margin, cutting, res.scenario.options.margin_target,
+                       s["cam_spindle_rpm"], p.spindle_rpm),
+            f"Zero-order stability margin at each cutting point: the CAM posture (red) at the "
+            f"CAM program's spindle speed, {s['cam_spindle_rpm']:.0f} min^-1, and the planned "
+            f"lead/tilt (blue) at the planned speed, {p.spindle_rpm:.0f} min^-1. Below 1 the "
+            f"cut chatters."),)),
+        Section("Posture along the path", paragraphs=(
+            f"Lead and tilt of the tool against the surface where it cuts, and the machine's "
+            f"rotary axes {' and '.join(p.machine.rotary_names)} ({p.machine.name}) over the "
+            f"whole path: the planned program as written (its joints), the CAM posture solved "
+            f"on the same machine.{rotary_note}",), figures=(Figure(
+            posture_png(d, cutting, {"CAM": (p.cam_lead_rad, p.cam_tilt_rad),
+                                     "planned": (p.lead_rad, p.tilt_rad)},
+                        rotary, p.machine.rotary_names),
+            "Lead, tilt and the two rotary axes along the path: CAM posture (red), planned "
+            "(blue)."),)),
         Section("Error map before and after correction", figures=(Figure(
             error_map_png([("predicted, planned path", pb, eb),
                            ("predicted, corrected path", pa, ea),
@@ -207,10 +250,12 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
             "micro-edge forces, tool and wall compliance); bottom: the time-domain simulation "
             "of the written programs."),)),
         Section("Stability lobes at representative points", figures=(Figure(
-            lobes_png(res.lobes),
+            lobes_png(res.lobes, s["cam_spindle_rpm"]),
             "Limiting depth of cut over spindle speed (zero-order method) for the CAM posture "
             "and the planned one; the star is the operating point (depth of the finishing "
-            "cut, planned speed)."),)),
+            f"cut, planned speed {p.spindle_rpm:.0f} min^-1)"
+            + (f"; the red cross the CAM program's speed, {s['cam_spindle_rpm']:.0f} min^-1"
+               if abs(s["cam_spindle_rpm"] - p.spindle_rpm) > 0.5 else "") + "."),)),
         Section("Simulated acceleration spectrum", paragraphs=(_episodes_text(sim["corrected"]),),
                 tables=(sim_rows,), figures=(Figure(
             spectra_png([((f"CAM program, worst pass (cutter locations {res.cam_points[0]}-"

@@ -7,6 +7,7 @@ an error."""
 
 from __future__ import annotations
 
+import html
 import json
 import math
 
@@ -144,3 +145,7 @@ def test_compensate_writes_nothing_when_no_correction_is_verified(tmp_path, caps
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "nothing written" in err[0] and "worse" in err[0], err
     assert not out.exists()
+    # the page says why, in red, as the one line does
+    page = html.unescape((tmp_path / "corrected.html").read_text())
+    why = err[0].split("nothing written to ")[1].split(": ", 1)[1]
+    assert f'<p class="verdict bad">Nothing written: {why}' in page

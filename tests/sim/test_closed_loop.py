@@ -46,7 +46,7 @@ def test_html_page_opens_in_headless_chromium(tmp_path, report):
     message, and every embedded image decodes (checked by a probe added to a copy)."""
     from sim.cli import _write_html
 
-    from .chromium import open_page
+    from tests.chromium import open_page
 
     r, png = report
     page = tmp_path / "run.html"

@@ -10,13 +10,14 @@ ends with exit status 1, one line naming the failed checks, and its programs wri
 
 from __future__ import annotations
 
+import html
 import json
 
 import pytest
 
 from sim.cli import main as sim_main
 
-from .chromium import open_page
+from tests.chromium import open_page
 from .job_scenario import light_scenario
 
 
@@ -116,9 +117,17 @@ def test_report_page_opens_in_headless_chromium(jobs, tmp_path):
     seen = open_page(page, tmp_path)
     assert seen["screenshot_bytes"] > 20_000
     assert "CONSOLE" not in seen["stderr"]
-    # margin along the path, error maps, lobes, spectra: all decoded
-    assert seen["images"] == 4 and seen["broken"] == 0
+    # margin along the path, lead/tilt and rotary axes, error maps, lobes, spectra: all
+    # decoded
+    assert seen["images"] == 5 and seen["broken"] == 0
     assert "Error map before and after correction" in seen["dom"]
+    assert "Posture along the path" in seen["dom"]
+    # each margin curve says at which spindle speed it is; the run table is there once
+    plan = json.loads((one / "report.json").read_text())["plan"]
+    words = html.unescape(text)
+    assert (f"CAM program's spindle speed, {plan['cam_spindle_rpm']:.0f} min^-1" in words
+            and f"planned speed, {plan['spindle_rpm']:.0f} min^-1" in words)
+    assert text.count("<th>simulated run</th>") == 1
 
 
 BAD = [

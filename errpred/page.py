@@ -2,7 +2,9 @@
 
 No scripts, no external resources: the page opens anywhere, offline, and a
 person reads the result from it alone. The figures are the PNG bytes that the
-plotting modules write, embedded as ``data:`` URIs.
+plotting modules write, embedded as ``data:`` URIs. No physics: the pages of
+``errpred predict`` and ``compensate`` (:mod:`errpred.run_page`), of the simulated
+machine's run (``sim.cli``) and of the main job (``sim.job_report``) are all made here.
 """
 
 from __future__ import annotations
@@ -75,6 +77,7 @@ def render_page(title: str, verdict: str, sections: list[Section], *, good: bool
     Parameters
     ----------
     title : str
+        The page's title and top heading.
     verdict : str
         One sentence at the top: the result.
     sections : list of Section
@@ -95,7 +98,7 @@ def render_page(title: str, verdict: str, sections: list[Section], *, good: bool
 
 def write_page(path: str | Path, title: str, verdict: str, sections: list[Section], *,
                good: bool = True) -> None:
-    """:func:`render_page` written atomically to ``path``."""
+    """:func:`render_page` written atomically to ``path`` (:func:`nc.atomic.atomic_write`)."""
     text = render_page(title, verdict, sections, good=good)
     with atomic_write(path) as fh:
         fh.write(text)
