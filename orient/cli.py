@@ -214,9 +214,10 @@ def _cmd_lobes(args) -> int:
     from .pointwise import point_setup
 
     con = _console()
+    # the bar on a terminal only (elsewhere it would leave blank lines in the log)
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
-                  MofNCompleteColumn(), TimeElapsedColumn(), console=con,
-                  transient=True) as bar:
+                  MofNCompleteColumn(), TimeElapsedColumn(), console=con, transient=True,
+                  disable=not con.is_terminal) as bar:
         task = bar.add_task("set-up: contacts, local cut, the workpiece's modes", total=None)
         setup = point_setup(scn, args.point)
         t_setup = time.perf_counter() - t0
