@@ -36,6 +36,7 @@ from .constants import (
     GAIN_ANGLES_PER_REV,
     LOBES_LIMIT_FACTOR,
     LOBES_LIMIT_RTOL,
+    LOBES_SAFETY_FACTOR,
     LOBES_SPEED_MARGIN,
 )
 from .engagement import LocalCut
@@ -356,7 +357,7 @@ _METHOD_LABEL = {"zoa": "zero-order", "sdm": "time-periodic"}
 
 
 def advise(scn: PlanScenario, setup: PointSetup, rpm: np.ndarray, *, method: str = "auto",
-           safety_factor: float = 1.5,
+           safety_factor: float = LOBES_SAFETY_FACTOR,
            progress: Callable[[str, int, int], None] | None = None) -> Advice:
     """Lobes of the CAM and the planned posture, a suggested speed and the largest
     stable depth and pick feed there (module docstring).
@@ -385,6 +386,8 @@ def advise(scn: PlanScenario, setup: PointSetup, rpm: np.ndarray, *, method: str
 
     if method not in ("auto", "zoa", "sdm"):
         raise ValueError(f"method: expected 'auto', 'zoa' or 'sdm', got {method!r}")
+    if not (math.isfinite(safety_factor) and safety_factor >= 1.0):
+        raise ValueError(f"safety_factor: expected a finite value >= 1, got {safety_factor!r}")
     say = progress or (lambda stage, done, total: None)
     tool = scn.base.tool
     i = setup.index
@@ -434,8 +437,8 @@ def advise(scn: PlanScenario, setup: PointSetup, rpm: np.ndarray, *, method: str
     s_rpm, w_depth = suggest_speed(rpm, pl.depth_limit_mm)
     lap("lobes")
     cl_lead, cl_tilt = lead_tilt_of(cam_axis, c.normal[i], c.feed[i])
-    curves = [(f"{_posture_label('CAM', math.degrees(float(cl_lead)), math.degrees(float(cl_tilt)))}"
-               f", {_METHOD_LABEL[base]}", cm),
+    cam_label = _posture_label("CAM", math.degrees(float(cl_lead)), math.degrees(float(cl_tilt)))
+    curves = [(f"{cam_label}, {_METHOD_LABEL[base]}", cm),
               (f"{_posture_label('planned', planned.lead_deg, planned.tilt_deg)}, "
                f"{_METHOD_LABEL[base]}", pl)]
     g_plan = gain(planned.axis, s_rpm)
@@ -446,7 +449,7 @@ def advise(scn: PlanScenario, setup: PointSetup, rpm: np.ndarray, *, method: str
 
         win = s_rpm * (1.0 + M * np.linspace(-1.0, 1.0, LOBES_SDM_SPEEDS))
         chk = lobes_of(planned.axis, "sdm", win, "time-periodic check")
-        curves.append((f"planned posture, time-periodic check", chk))
+        curves.append(("planned posture, time-periodic check", chk))
         w_sdm = float(np.min(chk.depth_limit_mm))
         if w_sdm < w_depth * (1.0 - LOBES_SDM_DISAGREE):
             disagrees = True

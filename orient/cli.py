@@ -3,6 +3,9 @@
 ``python -m orient plan`` alone runs the main job on the bundled default
 (:mod:`sim.job_cli`: plan, correct the error, write, verify in the simulated
 machine, report); ``-o OUT.nc`` plans only and writes the planned program.
+``python -m orient lobes`` gives advice at one cutter location
+(:mod:`orient.advice`): lobes of the CAM and the planned posture, a suggested
+spindle speed, the largest stable depth and pick feed over a safety factor.
 
 Units at the command line: mm, degrees, rev/min. Bad input ends in one line
 naming the file and the key, exit status 2, and nothing written. A plan with
