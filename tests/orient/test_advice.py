@@ -118,3 +118,20 @@ def test_zoa_and_sdm_limits_agree_at_full_immersion():
                               4).margin
         rel.append(largest_stable(margin, 1.0, 1e3, rtol=1e-4).value)
     assert rel[1] == pytest.approx(rel[0], rel=0.03)
+
+
+def test_plot_labels_and_suggested_speed(tmp_path):
+    from orient.plots_lobes import plot_lobes
+    from orient.stability import Lobes
+
+    rpm = np.linspace(5000, 9000, 30)
+    a = Lobes(rpm, 1 + 0.5 * np.sin(rpm / 300), "zoa", 0.2)
+    b = Lobes(rpm[:5], np.full(5, 1.2), "sdm", 0.2)           # a spot check: markers
+    png = tmp_path / "l.png"
+    plot_lobes([a, b], (7000.0, 0.2), png, labels=["CAM posture, zero-order", "check"],
+               suggested=(6000.0, 0.25))
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    with pytest.raises(ValueError, match="labels"):
+        plot_lobes([a, b], None, png, labels=["one"])
+    with pytest.raises(ValueError, match="suggested"):
+        plot_lobes([a], None, png, suggested=(math.nan, 1.0))
