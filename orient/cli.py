@@ -4,6 +4,9 @@
 the planned program and its plan report (no error correction, no simulation; the main
 job, which does both, is ``python -m sim job``: sim sits above orient, and orient
 imports nothing of it). Without SCENARIO the bundled thin wall.
+``python -m orient lobes`` gives advice at one cutter location
+(:mod:`orient.advice`): lobes of the CAM and the planned posture, a suggested
+spindle speed, the largest stable depth and pick feed over a safety factor.
 
 Units at the command line: mm, degrees, rev/min. Bad input ends in one line
 naming the file and the key, exit status 2, and nothing written. A plan with
@@ -27,7 +30,14 @@ import numpy as np
 from errpred.cluster import dask_client
 from nc.errors import InputError
 
+from .constants import LOBES_SDM_DISAGREE, LOBES_SPEED_MARGIN
+
 __all__ = ["build_parser", "main"]
+
+#: Speeds of the lobe diagram by default [-] (zero-order: milliseconds each) ...
+LOBES_DEFAULT_SPEEDS = 200
+#: ... and with ``--method sdm`` (seconds each on the bundled wall) [-].
+LOBES_SDM_DEFAULT_SPEEDS = 40
 
 
 def _console():
@@ -131,28 +141,98 @@ def _cmd_plan(args) -> int:
 
 
 def _cmd_lobes(args) -> int:
-    from .plots_lobes import plot_lobes
-    from .pointwise import point_lobes, point_setup
+    from .constants import LOBES_SAFETY_FACTOR, MAX_SPINDLE_RPM, MAX_SPINDLE_STEPS
+    from .pointwise import LOBE_RANGE
 
-    scn = _scenario(args.scenario)
-    setup = point_setup(scn, args.point)
-    rpm = None
+    # the options, before the scenario and any work
     if args.rpm:
         lo, hi = args.rpm
-        if not (0 < lo < hi and math.isfinite(hi)):
-            raise InputError(f"--rpm: expected 0 < LOW < HIGH, got {lo:g} {hi:g}")
-        rpm = np.linspace(lo, hi, args.speeds)
-    methods = ("zoa", "sdm") if args.method == "both" else (args.method,)
+        if not (0 < lo < hi <= MAX_SPINDLE_RPM):
+            raise InputError(f"--rpm: expected 0 < LOW < HIGH <= {MAX_SPINDLE_RPM:g}, got "
+                             f"{lo:g} {hi:g}")
+    speeds = args.speeds if args.speeds is not None else \
+        (LOBES_SDM_DEFAULT_SPEEDS if args.method == "sdm" else LOBES_DEFAULT_SPEEDS)
+    if not 2 <= speeds <= MAX_SPINDLE_STEPS:
+        raise InputError(f"--speeds: expected 2 to {MAX_SPINDLE_STEPS}, got {speeds}")
+    sf = LOBES_SAFETY_FACTOR if args.safety_factor is None else args.safety_factor
+    if not (math.isfinite(sf) and 1.0 <= sf <= 10.0):
+        raise InputError(f"--safety-factor: expected 1 <= FACTOR <= 10, got {sf:g}")
+    plot = os.path.abspath(args.plot)
+    if not os.path.isdir(os.path.dirname(plot)):
+        raise FileNotFoundError(f"{plot}: directory {os.path.dirname(plot)} does not exist")
     t0 = time.perf_counter()
-    lobes, op = point_lobes(scn, setup, methods, rpm)
-    plot_lobes(lobes, op, args.plot)
-    for lb in lobes:
+    scn = _scenario(args.scenario)
+    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, SpinnerColumn,
+                               TextColumn, TimeElapsedColumn)
+
+    from .advice import advise
+    from .plots_lobes import plot_lobes
+    from .pointwise import point_setup
+
+    con = _console()
+    # the bar on a terminal only (elsewhere it would leave blank lines in the log)
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
+                  MofNCompleteColumn(), TimeElapsedColumn(), console=con, transient=True,
+                  disable=not con.is_terminal) as bar:
+        task = bar.add_task("set-up: contacts, local cut, the workpiece's modes", total=None)
+        setup = point_setup(scn, args.point)
+        t_setup = time.perf_counter() - t0
+        if args.rpm:
+            rpm = np.linspace(args.rpm[0], args.rpm[1], speeds)
+        elif scn.options.spindle is not None:
+            rpm = np.linspace(*scn.options.spindle.range_rpm, speeds)
+        else:
+            rpm = np.linspace(LOBE_RANGE[0] * setup.spindle_rpm,
+                              LOBE_RANGE[1] * setup.spindle_rpm, speeds)
+
+        def progress(stage, done, total):
+            bar.update(task, description=stage, completed=done,
+                       total=total if total > 1 else None)
+
+        adv = advise(scn, setup, rpm, method=args.method, safety_factor=sf, progress=progress)
+    plot_lobes([lb for _, lb in adv.lobes], (setup.spindle_rpm, setup.cut.depth_mm), plot,
+               labels=[lab for lab, _ in adv.lobes],
+               suggested=(adv.suggested_rpm, adv.window_depth_mm))
+    pl = adv.planned
+    for lab, lb in adv.lobes:
         r, m = lb.minimum
-        print(f"{lb.method}: lowest limit {lb.depth_mm * m:.4g} mm (margin {m:.3g}) at "
+        print(f"{lab}: lowest limit {lb.depth_mm * m:.4g} mm (margin {m:.3g}) at "
               f"{r:.0f} rev/min")
-    print(f"point {setup.index}: operating point {op[0]:g} rev/min, depth {op[1]:g} mm; "
-          f"{len(lobes[0].rpm)} speeds in {time.perf_counter() - t0:.1f} s; wrote {args.plot}")
+    if not pl.feasible:
+        print("warning: no candidate posture is feasible at this point; the planned posture "
+              "shown is the CAM's", file=sys.stderr)
+    print(f"point {setup.index}: programmed {setup.spindle_rpm:g} rev/min, depth "
+          f"{setup.cut.depth_mm:g} mm, pick feed {setup.cut.pick_mm:g} mm; planned posture "
+          f"lead {pl.lead_deg:.1f}, tilt {pl.tilt_deg:.1f} deg (this point alone, no "
+          f"smoothness along the path)")
+    if adv.sdm_disagrees:
+        print(f"note: the time-periodic check is more than "
+              f"{100 * LOBES_SDM_DISAGREE:g} % below the zero-order lobes near the "
+              f"suggested speed (engaged {100 * adv.engaged_fraction:.0f} % of the tooth "
+              f"period); the limits below are time-periodic")
+    print(f"suggested spindle speed {adv.suggested_rpm:.0f} rev/min (stable depth at least "
+          f"{adv.window_depth_mm:.3g} mm within +-{100 * LOBES_SPEED_MARGIN:g} % of it, "
+          f"gain-scaled)")
+    print(f"largest stable depth {_limit(adv.depth_limit)} at pick feed "
+          f"{setup.cut.pick_mm:g} mm -> use at most {_limit(adv.depth_limit, sf)} "
+          f"(safety factor {sf:g}; {adv.limit_method})")
+    if adv.setup.cut.previous_side == 0:
+        print("largest stable pick feed: no previous pass beside this point (the first pass "
+              "cuts on both sides): the pick feed does not enter here; try --point on a "
+              "later pass")
+    else:
+        print(f"largest stable pick feed {_limit(adv.pick_limit)} at depth "
+              f"{setup.cut.depth_mm:g} mm -> use at most {_limit(adv.pick_limit, sf)} "
+              f"(safety factor {sf:g}; {adv.limit_method})")
+    stages = ", ".join(f"{k} {v:.1f}" for k, v in adv.seconds.items())
+    print(f"{len(rpm)} speeds; lobes command time {time.perf_counter() - t0:.1f} s (set-up "
+          f"{t_setup:.1f}, {stages}); wrote {plot}")
     return 0
+
+
+def _limit(lim, factor: float = 1.0) -> str:
+    """A limit [mm] divided by ``factor``, "at least" when the search hit its cap."""
+    return f"{'at least ' if lim.capped else ''}{lim.value / factor:.3g} mm"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -186,15 +266,37 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--dask", type=int, default=None, metavar="N",
                    help="local Dask cluster of N workers (default: none)")
     a.set_defaults(func=_cmd_plan)
-    b = sub.add_parser("lobes", help="stability lobes at one cutter location")
+    b = sub.add_parser("lobes", help="stability lobes at one cutter location, a suggested "
+                                     "spindle speed and the largest stable depth and pick feed",
+                       description=(
+        "Stability lobes at one cutter location for the CAM posture and the planned one "
+        "(the planner's choice at this point alone), a suggested spindle speed (the "
+        "largest stable depth at the planned posture, lowest within "
+        "+-LOBES_SPEED_MARGIN of the speed) and the patent's 8th embodiment: the "
+        "largest stable axial depth and pick feed there, divided by a safety factor. "
+        "Depths on the plot are the cut's depth times the margin (the gain scaled); the "
+        "limits printed recompute the ball's engagement at each trial cut."))
     b.add_argument("scenario", nargs="?", help="planning scenario TOML (default: bundled)")
     b.add_argument("--plot", required=True, help="PNG file")
     b.add_argument("--point", type=int, help="cutter location index (default: the first "
                                              "cutting point)")
-    b.add_argument("--method", choices=("zoa", "sdm", "both"), default="both")
+    b.add_argument("--method", choices=("auto", "zoa", "sdm"), default="auto", help=(
+        "auto (default): zero-order lobes (fast), checked by the time-periodic method at "
+        "a few speeds across the suggested speed's window, where the average process gain "
+        "can be wrong: intermittent cuts (low radial immersion, a ball cutting a small "
+        "part of the tooth period) have flip lobes the zero-order method misses; the "
+        "limits by the time-periodic method when the check is more than 5 %% lower. "
+        "zoa: zero-order only. sdm: time-periodic lobes everywhere (slow: seconds per "
+        "speed)"))
     b.add_argument("--rpm", type=float, nargs=2, metavar=("LOW", "HIGH"),
-                   help="speed range [rev/min]")
-    b.add_argument("--speeds", type=int, default=200, help="number of speeds")
+                   help="speed range [rev/min] (default: the scenario's [orient.spindle] "
+                        "range_rpm, else 0.5 to 1.6 times the programmed speed)")
+    b.add_argument("--speeds", type=int, default=None,
+                   help=f"number of speeds (default {LOBES_DEFAULT_SPEEDS}, "
+                        f"{LOBES_SDM_DEFAULT_SPEEDS} with --method sdm)")
+    b.add_argument("--safety-factor", type=float, default=None,
+                   help="the largest stable depth and pick feed are divided by it "
+                        "(default: orient.constants.LOBES_SAFETY_FACTOR, 1.5)")
     b.set_defaults(func=_cmd_lobes)
     return p
 

@@ -361,3 +361,30 @@ ORTHO_TOL = 1e-6
 # --- plots (orient/plots.py) --------------------------------------------------
 #: Margins above this are drawn at this value (the colour scale's top) [-].
 MARGIN_CLIP = 4.0
+# --- advice at one point (orient/advice.py, python -m orient lobes) ---------------
+#: The largest stable depth and pick feed are divided by this before they are offered
+#: (the patent's 8th embodiment: "the stability limit times a safety factor") [-]. At
+#: the lobes' floor the limiting depth is proportional to the modal stiffness times
+#: the damping ratio over the cutting coefficient; an impact test gives the damping to
+#: about +-30 % and a table's coefficients are good to about +-20 %, so the limit is
+#: known to about a third: 1.5 keeps a cut at the offered depth stable when the
+#: predicted limit is up to a third too high. The planner's margin target
+#: (``MARGIN_TARGET``) is the same factor on the process gain.
+LOBES_SAFETY_FACTOR = 1.5
+#: A suggested spindle speed keeps this relative distance from the lobe boundary: its
+#: stable depth is the lowest within +-3 % of it [-]. Natural frequencies shift by a
+#: few per cent between the impact test and the cut (spindle speed, temperature, the
+#: part losing mass), and the lobes shift with them in speed.
+LOBES_SPEED_MARGIN = 0.03
+#: Speeds of that window at which ``python -m orient lobes`` checks the zero-order
+#: lobes with the time-periodic method by default [-] (each costs about as much as
+#: the zero-order lobes of the whole diagram times a hundred).
+LOBES_SDM_SPEEDS = 5
+#: The time-periodic check disagrees when its window minimum is this much below the
+#: zero-order one [-] (the default steps leave the time-periodic margin within 1 % of
+#: its converged value: orient.stability.sdm_margin's Notes).
+LOBES_SDM_DISAGREE = 0.05
+#: The largest stable depth and pick feed: the scan steps by this factor [-] ...
+LOBES_LIMIT_FACTOR = 1.25
+#: ... and the root is refined to this relative tolerance [-].
+LOBES_LIMIT_RTOL = 2e-3

@@ -21,8 +21,15 @@ FIGSIZE_IN = (8.0, 4.5)
 DPI = 120
 
 
+#: Curves with fewer speeds than this are drawn as markers (spot checks) [-].
+MARKER_BELOW = 12
+#: Colours of the curves given ``labels``, in turn.
+COLOURS = ("tab:gray", "tab:blue", "tab:red", "tab:green", "tab:purple")
+
+
 def plot_lobes(lobes_list: Sequence[Lobes] | Lobes, operating_point: Any,
-               path: str | os.PathLike) -> None:
+               path: str | os.PathLike, *, labels: Sequence[str] | None = None,
+               suggested: Any = None) -> None:
     """Draw lobes of one or both methods on one plot and write a PNG.
 
     Parameters
@@ -35,6 +42,12 @@ def plot_lobes(lobes_list: Sequence[Lobes] | Lobes, operating_point: Any,
     path : path-like
         PNG file; written to a temporary file in the same directory, then
         renamed onto ``path``.
+    labels : sequence of str, optional
+        One legend label per curve (e.g. posture and method); then each curve has
+        its own colour (``COLOURS``) and the method sets the line style. Default: the
+        method's name and colour.
+    suggested : (float, float), optional
+        ``(spindle_rpm [rev/min], depth_mm [mm])`` of a suggested speed, marked.
 
     Notes
     -----
@@ -53,15 +66,23 @@ def plot_lobes(lobes_list: Sequence[Lobes] | Lobes, operating_point: Any,
         if op.shape != (2,) or not np.all(np.isfinite(op)):
             raise ValueError(f"operating_point: expected (rpm, depth_mm) finite, got "
                              f"{operating_point!r}")
+    if labels is not None and len(labels) != len(items):
+        raise ValueError(f"labels: expected {len(items)}, got {len(labels)}")
     use_depth = all(x.depth_mm is not None for x in items)
     fig = Figure(figsize=FIGSIZE_IN)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     ymax = 0.0
-    for lob in items:
+    for n, lob in enumerate(items):
         y = lob.depth_limit_mm if use_depth else lob.margin
         y = np.where(np.isfinite(y), y, np.nan)
         style = dict(_STYLE.get(lob.method, {}))
+        if labels is not None:
+            style["label"] = labels[n]
+            style["color"] = COLOURS[n % len(COLOURS)]
+        if len(lob.rpm) < MARKER_BELOW:
+            style = {"color": style.get("color", "k"), "label": style.get("label"),
+                     "marker": "s", "ls": "none", "ms": 5, "mfc": "none"}
         ax.plot(lob.rpm, y, **style)
         if np.any(np.isfinite(y)):
             ymax = max(ymax, float(np.nanmin(y)) * 6.0)
@@ -73,8 +94,16 @@ def plot_lobes(lobes_list: Sequence[Lobes] | Lobes, operating_point: Any,
     if operating_point is not None:
         ax.plot([op[0]], [op[1]], "ko", ms=6, label="operating point")
         ymax = max(ymax, 1.5 * float(op[1]))
+    if suggested is not None:
+        sg = np.asarray(suggested, dtype=float)
+        if sg.shape != (2,) or not np.all(np.isfinite(sg)):
+            raise ValueError(f"suggested: expected (rpm, depth_mm) finite, got {suggested!r}")
+        ax.axvline(sg[0], color="tab:green", lw=1.0, ls=":",
+                   label=f"suggested {sg[0]:.0f} rev/min")
+        ymax = max(ymax, 1.5 * float(sg[1]))
     ax.set_xlabel("spindle speed [rev/min]")
-    ax.set_ylabel("limiting depth of cut [mm]" if use_depth else "stability margin [-]")
+    ax.set_ylabel("limiting depth of cut [mm] (depth x margin)" if use_depth
+                  else "stability margin [-]")
     if ymax > 0 and math.isfinite(ymax):
         ax.set_ylim(0.0, ymax)
     ax.grid(True, alpha=0.3)

@@ -49,13 +49,43 @@ def test_plan_writes_program_report_and_plots(tmp_path, capsys, lcnc_agrees):
 
 
 def test_lobes_plot(tmp_path, capsys):
+    """End to end on (a light copy of) the bundled thin wall, on a later pass (so that
+    the pick feed enters): both postures' lobes, the time-periodic check, a suggested
+    speed inside the range, the limits divided by the safety factor, the plot."""
     scn = _copy(tmp_path)
     png = tmp_path / "lobes.png"
-    assert main(["lobes", str(scn), "--plot", str(png), "--speeds", "24",
-                 "--rpm", "6000", "12000"]) == 0
+    assert main(["lobes", str(scn), "--plot", str(png), "--speeds", "40",
+                 "--rpm", "6000", "12000", "--point", "400", "--safety-factor", "2"]) == 0
     text = capsys.readouterr().out
-    assert "zoa: lowest limit" in text and "sdm: lowest limit" in text
+    assert "CAM posture (lead" in text and "planned posture (lead" in text
+    assert "time-periodic check: lowest limit" in text and "lobes command time" in text
+    rpm = float(text.split("suggested spindle speed ")[1].split()[0])
+    assert 6000 <= rpm <= 12000
+    for what in ("depth", "pick feed"):
+        line = next(x for x in text.splitlines() if x.startswith(f"largest stable {what} "))
+        lim = float(line.split(f"largest stable {what} ")[1].split()[-2 if "at least" in
+                                                                        line else 0])
+        use = float(line.split("use at most ")[1].split()[-2 if "at least" in
+                                                           line.split("use")[1] else 0])
+        assert use == pytest.approx(lim / 2, rel=2e-2)
     assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("args, key", [
+    (["--rpm", "9000", "6000"], "--rpm"),
+    (["--rpm", "0", "6000"], "--rpm"),
+    (["--speeds", "1"], "--speeds"),
+    (["--safety-factor", "0.5"], "--safety-factor"),
+    (["--safety-factor", "nan"], "--safety-factor"),
+    (["--point", "0"], "--point"),
+])
+def test_lobes_bad_options_end_in_one_line(tmp_path, capsys, args, key):
+    scn = _copy(tmp_path)
+    png = tmp_path / "lobes.png"
+    assert main(["lobes", str(scn), "--plot", str(png)] + args) == 2
+    msg = capsys.readouterr().err
+    assert msg.startswith("error: ") and key in msg and len(msg.strip().splitlines()) == 1
+    assert not png.exists()
 
 
 @pytest.mark.parametrize("edit, key", [
