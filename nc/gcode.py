@@ -49,13 +49,16 @@ from .dialect import (
     AXIS_INDEX,
     AXIS_LETTERS,
     BASE_WORDS,
+    CYCLE_WORDS,
     G_GROUPS,
     M_GROUPS,
     MOTION_CODES,
     PARAM_WORDS,
+    code_key,
     code_name,
     normalise_allow,
 )
+from .cycles import CYCLE_CODES, CycleError, CycleState, cycle_moves
 from .errors import NCParseError
 from .frames import Frames, convert_position, reference_table, work_offset_table
 from .lexer import TOKEN, find_token, foreign_syntax
@@ -186,6 +189,9 @@ class _Interpreter(BlockReader):
         spindle_rpm, spindle_dir, tool, selected, length_offset, tcp, wcs = (
             0.0, 0, 0, 0, 0, TCP_OFF, 1)
         motion_mode: int | None = None
+        cycle = CycleState()  # canned cycles (nc.cycles): sticky words, initial level
+        retract_to_r = False  # G99 (else G98)
+        drilling: list[int] = []  # rows made by canned cycles
         feed = math.nan
         scale = 1.0
         tv = (math.nan, math.nan, math.nan)
@@ -313,7 +319,9 @@ class _Interpreter(BlockReader):
             vals: dict[str, float] = {}
             axes: list[tuple[int, float]] | None = None
             for letter, num in w.items():
-                if letter not in BASE_WORDS and not (allowed_here and letter in PARAM_WORDS):
+                if letter not in BASE_WORDS and not (allowed_here and letter in PARAM_WORDS) \
+                        and not (letter in CYCLE_WORDS and self._cycle_words(gcodes,
+                                                                             motion_mode)):
                     raise self._word_error(lineno, toks, letter,
                                            f"unknown word {letter}; expected one of "
                                            "N G M X Y Z A B C I J K R F S T H P")
@@ -419,8 +427,19 @@ class _Interpreter(BlockReader):
                 v = gcodes.get("motion")
                 if v is not None:
                     motion_mode = MOTION_CODES[v]
+                    if motion_mode < 4:
+                        cycle.leave()
+                    elif "cycle" in gcodes:
+                        raise self._error(lineno, "G80 with a canned cycle in one block; "
+                                          "expected one of them", token=find_token(
+                                              toks, "G", next(g for g in gs if code_key(
+                                                  "G", g) == 800)))
                 elif "cycle" in gcodes:
                     motion_mode = None  # G80 alone: no motion mode (LinuxCNC)
+                    cycle.leave()
+                v = gcodes.get("retract")
+                if v is not None:
+                    retract_to_r = v == 990
             elif "H" in vals:
                 raise self._word_error(lineno, toks, "H", "H word without G43, G43.4 or "
                                        "G43.5; expected it with a tool length code")
@@ -480,6 +499,47 @@ class _Interpreter(BlockReader):
                 raise self._word_error(lineno, toks, col_letter,
                                        "axis words without a motion mode; expected G0, G1, "
                                        "G2 or G3 in effect (G80 cancels it)")
+
+            if motion_mode > 3:  # a canned cycle: its moves, one row each
+                if fc == 530:
+                    raise self._error(lineno, "G53 with a canned cycle; expected G0 or G1",
+                                      token=find_token(toks, "G", gs[0]))
+                if feed_mode == 93 or tcp != TCP_OFF:
+                    raise self._error(lineno, "canned cycle under inverse-time feed (G93) "
+                                      "or tool centre point control; expected G94/G95 and "
+                                      "G49 or G43")
+                if not feed > 0:
+                    raise self._error(lineno, "canned cycle with no feed; expected an F > 0 "
+                                      "in this block or before it")
+                before = pos
+                try:
+                    moves, pos = cycle_moves(motion_mode, vals, cycle, pos, plane,
+                                             distance == 91, retract_to_r, scale, spindle_dir)
+                except CycleError as exc:
+                    if exc.letter is None:
+                        raise self._error(lineno, str(exc)) from None
+                    raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
+                if dirty:
+                    modal_id = self._modal_id(modal_ids, modals, (
+                        plane, units, distance, arc_distance, feed_mode, spindle_rpm,
+                        spindle_dir, tool, length_offset, tcp, wcs, frame_id))
+                    dirty = False
+                if reframe and moves:
+                    reframed.append(len(out_line))
+                    reframed_start.extend(before)
+                    reframe = False
+                for motion, row in moves:
+                    drilling.append(len(out_line))
+                    out_line.append(lineno)
+                    out_motion.append(motion)
+                    out_end.extend(row)
+                    out_feed.append(feed)
+                    out_modal.append(modal_id)
+                    out_tv.extend(tv)
+                    out_arc.append(-1)
+                if mcodes and mcodes.get("stop") in (20, 300):
+                    ended = True
+                continue
 
             start = pos
             new = pos[:]
@@ -601,6 +661,7 @@ class _Interpreter(BlockReader):
             reframed=np.array(reframed, dtype=np.int64),
             reframed_start=np.array(reframed_start, dtype=float).reshape(-1, 6),
             machine_moves=np.array(machine_rows, dtype=np.int64),
+            drilling=np.array(drilling, dtype=np.int64),
             newline=self.newline,
             allowed=self.allowed_names,
             block_delete=self.block_delete,
@@ -610,3 +671,10 @@ class _Interpreter(BlockReader):
         )
 
     # -- pieces ------------------------------------------------------------
+    @staticmethod
+    def _cycle_words(gcodes: dict[str, int], motion_mode: int | None) -> bool:
+        """Whether the block runs a canned cycle (whose words include L and Q)."""
+        key = gcodes.get("motion") if gcodes else None
+        if key is not None:
+            return key in CYCLE_CODES
+        return motion_mode is not None and motion_mode > 3
