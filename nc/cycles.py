@@ -34,9 +34,10 @@ import math
 from dataclasses import dataclass
 
 from . import constants as K
-from .program import PLANE_AXES
+from .errors import NCParseError
+from .program import PLANE_AXES, Program
 
-__all__ = ["CYCLE_CODES", "CycleError", "CycleState", "cycle_moves"]
+__all__ = ["CYCLE_CODES", "CycleError", "CycleState", "cycle_moves", "refuse_drilling"]
 
 #: Motion-group keys (10 x G number) of the cycles -> motion mode (the G number).
 CYCLE_CODES = {730: 73, 740: 74, 810: 81, 820: 82, 830: 83, 840: 84, 850: 85, 860: 86,
@@ -292,3 +293,30 @@ def cycle_moves(code: int, vals: dict[str, float], state: CycleState, pos: list[
     after[ia], after[ib], after[ic] = aa * scale, bb * scale, clear * scale
     state.last = (after, (aa, bb, clear))
     return moves, after
+
+
+def refuse_drilling(program: Program, purpose: str) -> None:
+    """Refuse a program with canned drilling cycles for work that models milling only.
+
+    Parameters
+    ----------
+    program : Program
+    purpose : str
+        What refuses, e.g. ``"the error prediction"``.
+
+    Raises
+    ------
+    NCParseError
+        At the first cycle block's line: a drilled hole is not a milled
+        surface, and its moves must not be taken for milling moves.
+    """
+    if not len(program.drilling):
+        return
+    row = int(program.drilling[0])
+    line = int(program.line[row])
+    text = program.lines[line - 1] if line - 1 < len(program.lines) else ""
+    raise NCParseError(f"canned drilling cycle ({len(program.drilling)} moves from line "
+                       f"{line} on): {purpose} models milling only; expected a program "
+                       "without drilling cycles (drill in a program of its own)",
+                       file=program.file, line=line,
+                       column=len(text) - len(text.lstrip()) + 1, text=text)
