@@ -25,6 +25,8 @@ G_GROUPS = {
     # return level
     **{k: "motion" for k in CYCLE_CODES},
     980: "retract", 990: "retract",
+    # Fanuc-family coordinate rotation and tilted plane (nc.rotation; not LinuxCNC's)
+    680: "rotation", 682: "rotation", 690: "rotation", 531: "orient",
     # G80 cancels a canned cycle: with G0...G3 in the same block (the safety
     # line "G0 G17 G40 G49 G80 G90") the motion code wins, as on Fanuc and
     # LinuxCNC; alone it leaves no motion mode (LinuxCNC's rule)
@@ -44,7 +46,7 @@ G_GROUPS = {
 }
 #: Codes modelled since the reader stopped refusing them (the frame codes
 #: above, feed per revolution): ``strict`` refuses them as before.
-STRICT_REFUSED = frozenset(k for k, g in G_GROUPS.items() if g in ("frame", "retract")) | {
+STRICT_REFUSED = frozenset(k for k, g in G_GROUPS.items() if g in ("frame", "retract", "rotation", "orient")) | {
     950, *CYCLE_CODES}
 M_GROUPS = {0: "stop", 10: "stop", 20: "stop", 300: "stop", 30: "spindle", 40: "spindle",
             50: "spindle", 60: "toolchange"}
@@ -67,7 +69,6 @@ PASSIVE: dict[str, dict[int, tuple[str, str]]] = {
         80: ("P", "look-ahead (Fanuc G08 P1 / P0; LinuxCNC lathe radius mode)"),
         150: ("", "polar coordinates off"),
         501: ("", "mirror image off"),
-        690: ("", "coordinate rotation off"),
         970: ("", "constant spindle speed (rev/min, the default)"),
         # the reader models them (nc.cycles); strict passes them over if allowed
         980: ("", "canned-cycle return to the initial level"),

@@ -60,6 +60,7 @@ from .dialect import (
 )
 from .cycles import CYCLE_CODES, CycleError, CycleState, cycle_moves
 from .errors import NCParseError
+from .rotation import RotationError, rotation_block
 from .frames import Frames, convert_position, reference_table, work_offset_table
 from .lexer import TOKEN, find_token, foreign_syntax
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
@@ -191,6 +192,7 @@ class _Interpreter(BlockReader):
         motion_mode: int | None = None
         cycle = CycleState()  # canned cycles (nc.cycles): sticky words, initial level
         retract_to_r = False  # G99 (else G98)
+        rot = None  # G68/G68.2 in effect, or G53.1's tool axis held (nc.rotation)
         drilling: list[int] = []  # rows made by canned cycles
         feed = math.nan
         scale = 1.0
@@ -447,6 +449,13 @@ class _Interpreter(BlockReader):
                 dirty = True
 
             fc = gcodes.get("frame") if gcodes else None
+            if rot is not None or (gcodes and ("rotation" in gcodes or "orient" in gcodes)):
+                rot, done = self._rotation(lineno, toks, gs, gcodes, vals, axes, pos, plane,
+                                           scale, rot, tcp, fc)
+                if done:
+                    if mcodes and mcodes.get("stop") in (20, 300):
+                        ended = True
+                    continue
             if fc is not None and fc != 530:
                 # G10, G28/G30 (.1), G52, G92 (.1 .2 .3): the axis words are theirs
                 rows, pos, new_total, rotary_used = self._frame_block(
@@ -513,17 +522,24 @@ class _Interpreter(BlockReader):
                                       "in this block or before it")
                 before = pos
                 try:
-                    moves, pos = cycle_moves(motion_mode, vals, cycle, pos, plane,
-                                             distance == 91, retract_to_r, scale, spindle_dir)
+                    moves, pos = cycle_moves(motion_mode, vals, cycle, pos if rot is None else
+                                             rot.to_program(pos), plane, distance == 91,
+                                             retract_to_r, scale, spindle_dir)
                 except CycleError as exc:
                     if exc.letter is None:
                         raise self._error(lineno, str(exc)) from None
                     raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
-                if dirty:
+                row_tv = tv
+                if dirty or rot is not None:
                     modal_id = self._modal_id(modal_ids, modals, (
                         plane, units, distance, arc_distance, feed_mode, spindle_rpm,
-                        spindle_dir, tool, length_offset, tcp, wcs, frame_id))
-                    dirty = False
+                        spindle_dir, tool, length_offset,
+                        TCP_VECTOR if rot is not None and rot.axis else tcp, wcs, frame_id))
+                    dirty = rot is not None
+                if rot is not None:
+                    moves = [(m, rot.to_world(e)) for m, e in moves]
+                    pos = rot.to_world(pos)
+                    row_tv = rot.axis or tv
                 if reframe and moves:
                     reframed.append(len(out_line))
                     reframed_start.extend(before)
@@ -535,14 +551,14 @@ class _Interpreter(BlockReader):
                     out_end.extend(row)
                     out_feed.append(feed)
                     out_modal.append(modal_id)
-                    out_tv.extend(tv)
+                    out_tv.extend(row_tv)
                     out_arc.append(-1)
                 if mcodes and mcodes.get("stop") in (20, 300):
                     ended = True
                 continue
 
-            start = pos
-            new = pos[:]
+            start = pos if rot is None else rot.to_program(pos)
+            new = start[:]
             inc = distance == 91
             if fc == 530:  # G53: this block's axis words are machine coordinates
                 if motion_mode not in (0, 1) or inc or tcp != TCP_OFF:
@@ -579,12 +595,14 @@ class _Interpreter(BlockReader):
                     if exc.letter is None:
                         raise self._error(lineno, str(exc)) from None
                     raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
-                out_arc.append(len(arc_sweep))
-                arc_centre.extend(arc[0])
-                arc_radius.extend(arc[1])
-                arc_sweep.append(arc[2])
-                arc_plane.append(plane)
+                if rot is None:
+                    out_arc.append(len(arc_sweep))
+                    arc_centre.extend(arc[0])
+                    arc_radius.extend(arc[1])
+                    arc_sweep.append(arc[2])
+                    arc_plane.append(plane)
             else:
+                arc = None
                 for c in ("R",):
                     if c in vals:
                         raise self._word_error(lineno, toks, c,
@@ -598,7 +616,8 @@ class _Interpreter(BlockReader):
                                            "vector under G43.5)")
                 if "P" in vals and not allowed_here:
                     raise self._word_error(lineno, toks, "P", "P word in a straight move")
-                out_arc.append(-1)
+                if rot is None:
+                    out_arc.append(-1)
 
             if motion_mode != 0:
                 if feed_mode == 93:
@@ -614,6 +633,36 @@ class _Interpreter(BlockReader):
                 elif feed_mode == 95 and not spindle_rpm > 0:
                     raise self._error(lineno, "feed per revolution (G95) with no spindle "
                                       "speed; expected an S > 0 in this block or before it")
+
+            if rot is not None:  # G68/G68.2 or G53.1's tool axis: the rows in the program frame
+                if reframe:
+                    reframed.append(len(out_line))
+                    reframed_start.extend(pos)
+                    reframe = False
+                modal_id = self._modal_id(modal_ids, modals, (
+                    plane, units, distance, arc_distance, feed_mode, spindle_rpm, spindle_dir,
+                    tool, length_offset, TCP_VECTOR if rot.axis else tcp, wcs, frame_id))
+                dirty = True
+                row_tv = rot.axis or tv
+                for motion, row, rarc in rot.rows(motion_mode, start, new, arc, plane):
+                    if rarc is None:
+                        out_arc.append(-1)
+                    else:
+                        out_arc.append(len(arc_sweep))
+                        arc_centre.extend(rarc[0])
+                        arc_radius.extend(rarc[1])
+                        arc_sweep.append(rarc[2])
+                        arc_plane.append(rarc[3])
+                    out_line.append(lineno)
+                    out_motion.append(motion)
+                    out_end.extend(row)
+                    out_feed.append(feed)
+                    out_modal.append(modal_id)
+                    out_tv.extend(row_tv)
+                    pos = row
+                if mcodes and mcodes.get("stop") in (20, 300):
+                    ended = True
+                continue
 
             if dirty:
                 key = (plane, units, distance, arc_distance, feed_mode, spindle_rpm,
@@ -671,10 +720,60 @@ class _Interpreter(BlockReader):
         )
 
     # -- pieces ------------------------------------------------------------
+    def _rotation(self, lineno: int, toks: list, gs: list[str] | None, gcodes: dict,
+                  vals: dict[str, float], axes: list | None, pos: list[float], plane: int,
+                  scale: float, rot, tcp: int, fc: int | None):
+        """G68/G68.2/G69/G53.1 (:mod:`nc.rotation`), and what may not change under them.
+
+        Returns the rotation after the block and whether the block is done
+        (G68, G68.2 and G53.1 own their words; nothing moves).
+        """
+        code = gcodes.get("rotation") if gcodes else None
+        orient = gcodes.get("orient") if gcodes else None
+        if rot is not None and rot.active and code != 690:
+            what = "G68.2" if rot.tilted else "G68"
+            if plane != rot.plane:
+                raise self._error(lineno, f"change of plane under {what}; expected G69 first",
+                                  token=find_token(toks, "G", gs[0]) if gs else None)
+            if fc is not None or (gcodes and "wcs" in gcodes):
+                raise self._error(lineno, f"change of frame or machine coordinates under "
+                                  f"{what}; expected G69 first",
+                                  token=find_token(toks, "G", gs[0]) if gs else None)
+            if rot.tilted and any(i >= 3 for i, _ in axes or ()):
+                c = next(c for c in "ABC" if c in vals)
+                raise self._word_error(lineno, toks, c, f"rotary word {c} under G68.2; "
+                                       "expected G53.1 to turn the tool (G69 first to move "
+                                       "rotary axes)")
+        if code is None and orient is None:
+            if rot is not None and not rot.active and any(i >= 3 for i, _ in axes or ()):
+                return None, False  # rotary words: the axes leave G53.1's posture
+            return rot, False
+        if code is not None and orient is not None:
+            raise self._error(lineno, "G53.1 with G68/G68.2/G69 in one block; expected "
+                              "G53.1 in a block of its own after G68.2",
+                              token=find_token(toks, "G", gs[0]))
+        key = code if code is not None else orient
+        name = code_name("G", key)
+        if key != 690 and gcodes.get("motion") is not None:
+            raise self._error(lineno, f"{name} with a motion code; expected {name} in a block "
+                              "without motion", token=find_token(toks, "G", gs[0]))
+        try:
+            rot = rotation_block(key, vals, pos, plane, scale, rot, tcp)
+        except RotationError as exc:
+            tok = find_token(toks, "G", next(g for g in gs if code_key("G", g) == key))
+            if exc.letter is None:
+                raise self._error(lineno, f"{exc}", token=tok) from None
+            raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
+        if key == 690:  # the block may go on: a move, a frame code
+            return rot, not (axes or fc is not None or gcodes.get("motion") is not None)
+        return rot, True
+
     @staticmethod
     def _cycle_words(gcodes: dict[str, int], motion_mode: int | None) -> bool:
-        """Whether the block runs a canned cycle (whose words include L and Q)."""
+        """Whether the block runs a canned cycle (whose words include L and Q), or is G68.x."""
         key = gcodes.get("motion") if gcodes else None
         if key is not None:
             return key in CYCLE_CODES
+        if gcodes and "rotation" in gcodes:  # G68.2 Q: refused by nc.rotation, by name
+            return True
         return motion_mode is not None and motion_mode > 3

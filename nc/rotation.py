@@ -1,0 +1,239 @@
+"""Coordinate rotation (G68/G69) and tilted working planes (G68.2, G53.1) of Fanuc-family controls.
+
+LinuxCNC has none of these codes (its ``rs274`` refuses them); Fanuc, Haas,
+Makino and Okuma's ISO mode have them. While one is in effect the program's
+coordinates are in a rotated frame; the reader turns every end point (and
+arc centre) into the program frame of the work offset, which is what
+:class:`~nc.program.Program` keeps: ``world = t + M @ p``.
+
+* ``G68 X.. Y.. R..`` (G17; G18: Z X, G19: Y Z): rotation by R [deg],
+  counter-clockwise seen from the plane's normal, about the centre X Y
+  (absolute; the current position when not given). Arcs stay arcs.
+* ``G68 X.. Y.. Z.. I.. J.. K.. R..``: Fanuc's 3-D coordinate conversion,
+  rotation by R about the direction I J K through X Y Z.
+* ``G68.2 X.. Y.. Z.. I.. J.. K..``: tilted working plane, origin X Y Z,
+  Euler angles I J K [deg] in Z-X-Z order (turn about Z by I, about the new
+  X by J, about the new Z by K): ``M = Rz(I) Rx(J) Rz(K)``, its columns the
+  plane's X Y Z axes. Arcs in a plane that the rotation tilts become chords
+  (:data:`nc.constants.CHORD_TOL_MM`).
+* ``G53.1``: the tool is turned along the tilted plane's Z. The reader does
+  not know the machine's angles, so it takes the turn as one about the tool
+  tip (as under tool centre point control), and from there every row is a
+  tool-vector row (:data:`~nc.program.TCP_VECTOR`) whose vector is the
+  plane's Z, as the Heidenhain reader stores a tilted plane;
+  :func:`nc.path.cutter_locations` gives tip and axis, and
+  :mod:`nc.kinematics` the machine's angles. The tool stays turned after
+  ``G69`` until rotary words move the axes again.
+* ``G69`` cancels the rotation or the plane.
+
+Refused with the word and what is expected: G68 or G68.2 while one is in
+effect, a change of plane, work offset or frame (G92, G52, G10, G28, G53)
+while one is in effect, rotary words or tool centre point control under
+G68.2, G53.1 without G68.2, G68.2 P1...P3 and other forms than Euler angles.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import constants as K
+from .heidenhain_geom import arc_points
+from .program import PLANE_AXES
+
+__all__ = ["Rotation", "RotationError", "euler_zxz", "rotation_about", "rotation_block"]
+
+G68, G68_2, G69, G53_1 = 680, 682, 690, 531
+
+
+class RotationError(Exception):
+    """A rotation block that cannot be read; ``letter`` is the word to point at."""
+
+    def __init__(self, message: str, letter: str | None = None) -> None:
+        super().__init__(message)
+        self.letter = letter
+
+
+def rotation_about(axis: np.ndarray, angle_rad: float) -> np.ndarray:
+    """The 3x3 rotation by ``angle_rad`` about the unit vector ``axis`` (right hand)."""
+    x, y, z = axis
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    C = 1.0 - c
+    return np.array([[c + x * x * C, x * y * C - z * s, x * z * C + y * s],
+                     [y * x * C + z * s, c + y * y * C, y * z * C - x * s],
+                     [z * x * C - y * s, z * y * C + x * s, c + z * z * C]])
+
+
+def euler_zxz(i_deg: float, j_deg: float, k_deg: float) -> np.ndarray:
+    """Fanuc G68.2 Euler angles: ``Rz(I) @ Rx(J) @ Rz(K)``; columns are the plane's axes."""
+    ez, ex = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0])
+    return (rotation_about(ez, math.radians(i_deg)) @ rotation_about(ex, math.radians(j_deg))
+            @ rotation_about(ez, math.radians(k_deg)))
+
+
+@dataclass
+class Rotation:
+    """The rotation in effect, or the tool axis G53.1 left after G69.
+
+    Attributes
+    ----------
+    M : ndarray, shape (3, 3)
+        Rotation; its columns are the rotated X Y Z in the program frame.
+    t : ndarray, shape (3,) [mm]
+        ``world = t + M @ p``.
+    active : bool
+        G68/G68.2 in effect (False: only the tool axis is held after G69).
+    tilted : bool
+        G68.2 (G53.1 may follow).
+    plane : int
+        The plane the rotation was given in (17, 18, 19).
+    axis : tuple of 3 float or None
+        Tool axis after G53.1, in the program frame; None before.
+    """
+
+    M: np.ndarray
+    t: np.ndarray
+    active: bool = True
+    tilted: bool = False
+    plane: int = 17
+    axis: tuple[float, float, float] | None = None
+
+    def to_program(self, pos: list[float]) -> list[float]:
+        """Program-frame position -> the rotated frame's coordinates (rotary kept)."""
+        if not self.active:
+            return pos
+        p = self.M.T @ (np.array(pos[:3]) - self.t)
+        return [float(p[0]), float(p[1]), float(p[2])] + list(pos[3:])
+
+    def to_world(self, p: list[float] | np.ndarray) -> list[float]:
+        if not self.active:
+            return list(p)
+        w = self.t + self.M @ np.asarray(p[:3], dtype=float)
+        return [float(w[0]), float(w[1]), float(w[2])] + list(p[3:])
+
+    def keeps_normal(self, plane: int) -> bool:
+        """Whether arcs of ``plane`` stay arcs of the same plane (the normal is fixed)."""
+        if not self.active:
+            return True
+        n = PLANE_AXES[plane][2]
+        return abs(self.M[n, n] - 1.0) < 1e-12
+
+    def rows(self, motion: int, start: list[float], end: list[float], arc, plane: int
+             ) -> list[tuple[int, list[float], tuple | None]]:
+        """The rows of one move given in the rotated frame: (motion, end, arc).
+
+        ``arc`` is ``(centre3, radii, sweep)`` from :func:`nc.arcs.arc_from_words`,
+        or None; in the result, ``(centre3, radii, sweep, plane)`` in the program
+        frame, or chords (motion 1, no arc) where the rotation tilts the plane.
+        """
+        if arc is None:
+            return [(motion, self.to_world(end), None)]
+        centre, radii, sweep = arc
+        if self.keeps_normal(plane):
+            return [(motion, self.to_world(end), (self.to_world(list(centre))[:3], radii,
+                                                  sweep, plane))]
+        a1, a2, ax = PLANE_AXES[plane]
+        pts = arc_points((a1, a2, ax), np.asarray(start[:3]), np.asarray(end[:3]),
+                         (centre[a1], centre[a2]), tuple(radii), sweep, K.CHORD_TOL_MM)
+        rot = list(end[3:])
+        return [(1, self.to_world(list(p) + rot), None) for p in pts]
+
+
+def rotation_block(code: int, vals: dict[str, float], pos: list[float], plane: int,
+                   scale: float, current: Rotation | None, tcp: int) -> Rotation | None:
+    """G68, G68.2, G69 or G53.1 with its words; returns the rotation in effect after it.
+
+    Parameters
+    ----------
+    code : int
+        680 (G68), 682 (G68.2), 690 (G69), 531 (G53.1).
+    vals : dict
+        The block's words in program units and degrees.
+    pos : list of 6 float [mm, rad]
+        Position, program frame.
+    plane : int
+    scale : float [mm per program unit]
+    current : Rotation or None
+    tcp : int
+        Tool centre point mode in effect.
+
+    Raises
+    ------
+    RotationError
+    """
+    active = current is not None and current.active
+    if "Q" in vals:
+        raise RotationError("Q word with G68.x (LinuxCNC's G68.2 Q orientation forms, Fanuc's "
+                            "P1 roll-pitch-yaw order) is not supported; expected Fanuc's "
+                            "G68.2 X Y Z I J K (Euler angles)", "Q")
+    if "L" in vals:
+        raise RotationError("L word with G68.x/G69/G53.1; expected none", "L")
+    if code == G69:
+        for c in vals:
+            if c in "XYZIJKRP":
+                raise RotationError(f"{c} word with G69; expected G69 alone", c)
+        if current is not None and current.axis is not None:
+            return Rotation(np.eye(3), np.zeros(3), active=False, axis=current.axis)
+        return None
+    if code == G53_1:
+        if not (active and current.tilted):
+            raise RotationError("G53.1 without a tilted working plane; expected G68.2 first")
+        for c in vals:
+            if c in "XYZIJKRP":
+                raise RotationError(f"{c} word with G53.1; expected G53.1 alone (P, the "
+                                    "choice of solution, is the machine's here)", c)
+        z = current.M[:, 2]
+        current.axis = (float(z[0]), float(z[1]), float(z[2]))
+        return current
+    if active:
+        name = "G68" if not current.tilted else "G68.2"
+        raise RotationError(f"G68/G68.2 while {name} is in effect; expected G69 first")
+    if tcp != 0:
+        raise RotationError("G68/G68.2 under tool centre point control (G43.4/G43.5); "
+                            "expected G49 or G43 first")
+    for c in "ABC":
+        if c in vals:
+            raise RotationError(f"{c} word with G68/G68.2; expected the centre X Y Z, "
+                                "I J K and R only", c)
+    if code == G68_2:
+        if vals.get("P", 0.0) != 0.0:
+            raise RotationError("G68.2 P1...P3 (roll-pitch-yaw, three points, two vectors) "
+                                "is not supported; expected Euler angles I J K (P0)", "P")
+        if "R" in vals:
+            raise RotationError("R word with G68.2; expected X Y Z (origin) and I J K "
+                                "(Euler angles)", "R")
+        origin = np.array([vals.get(c, 0.0) * scale for c in "XYZ"])
+        M = euler_zxz(vals.get("I", 0.0), vals.get("J", 0.0), vals.get("K", 0.0))
+        return Rotation(M, origin, tilted=True, plane=plane)
+    if "P" in vals:
+        raise RotationError("P word with G68; expected X Y (Z) centre, R angle (I J K axis)",
+                            "P")
+    if "R" not in vals:
+        raise RotationError("G68 without R; expected the angle R [deg] (the control's "
+                            "default angle is not known here)")
+    angle = math.radians(vals["R"])
+    centre = np.array([vals[c] * scale if c in vals else pos[k]
+                       for k, c in enumerate("XYZ")])
+    if not np.all(np.isfinite(centre)):
+        raise RotationError("G68 at a position not known with no centre; expected the "
+                            "centre X Y")
+    if any(c in vals for c in "IJK"):  # Fanuc's 3-D coordinate conversion
+        d = np.array([vals.get(c, 0.0) for c in "IJK"])
+        n = float(np.linalg.norm(d))
+        if not n > 1e-12:
+            raise RotationError("G68 I J K of zero length; expected the axis of rotation",
+                                next(c for c in "IJK" if c in vals))
+        M = rotation_about(d / n, angle)
+    else:
+        a1, a2, ax = PLANE_AXES[plane]
+        for c in "XYZ"[ax]:
+            if c in vals:
+                raise RotationError(f"{c} word with G68 in G{plane}; expected the centre in "
+                                    "the plane's two axes", c)
+        normal = np.zeros(3)
+        normal[ax] = 1.0
+        M = rotation_about(normal, angle)
+    return Rotation(M, centre - M @ centre, plane=plane)
+
