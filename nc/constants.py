@@ -34,6 +34,10 @@ MAX_ABS_WORD_VALUE = 1.0e7
 #: pecks of Q): a typo such as Q0.0001 on a deep hole is refused before any
 #: work, not expanded into millions of rows [-].
 MAX_CYCLE_MOVES = 100_000
+#: ... and all cycle blocks of one program together: a short program of modal
+#: repeats of such a block must not fill the memory (a real program drilling
+#: ten thousand holes makes some 50 000) [-].
+MAX_CYCLE_MOVES_PROGRAM = 1_000_000
 #: G73/G83: how far above the last depth the tool rapids back before the
 #: next peck, LinuxCNC's G83_RAPID_DELTA (0.010 in), in mm [mm].
 CYCLE_PECK_RETRACT_MM = 0.254

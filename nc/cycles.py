@@ -25,7 +25,8 @@ G88 is refused by the reader (the operator retracts the spindle by hand, so
 no program can say where the tool is after it). Refused here, each with the
 word and what is expected: G87 outside G17, rotary words in a cycle block, R below Z, a missing Z, R, P, Q or I J K when
 the cycle starts, Q <= 0, inverse-time feed, tool centre point control, and
-more than :data:`nc.constants.MAX_CYCLE_MOVES` moves from one block.
+more than :data:`nc.constants.MAX_CYCLE_MOVES` moves from one block (or
+:data:`~nc.constants.MAX_CYCLE_MOVES_PROGRAM` from all cycles of a program).
 """
 
 from __future__ import annotations
@@ -77,6 +78,8 @@ class CycleState:
     #: program units (a b c of its plane), so that the next block compares
     #: the numbers LinuxCNC compares, not their round trip through mm
     last: tuple = ()
+    #: moves made by cycles so far in the program
+    made: int = 0
 
     def leave(self) -> None:
         """Another motion mode (G0...G3, G80): the next cycle starts afresh."""
@@ -233,6 +236,9 @@ def cycle_moves(code: int, vals: dict[str, float], state: CycleState, pos: list[
                          f"most {K.MAX_CYCLE_MOVES} from one block (fewer repeats, a larger "
                          "Q)", "L" if "L" in vals else ("Q" if code in _PECK else None))
 
+    if state.made + repeats * per > K.MAX_CYCLE_MOVES_PROGRAM:
+        raise CycleError(f"canned cycles would make more than {K.MAX_CYCLE_MOVES_PROGRAM} "
+                         "moves in this program; expected fewer holes or pecks per program")
     base = list(pos)
     moves: list[tuple[int, list[float]]] = []
 
@@ -289,6 +295,7 @@ def cycle_moves(code: int, vals: dict[str, float], state: CycleState, pos: list[
             go(0, oa, ob, clear)
             go(0, aa, bb, clear)
     state.mode = code
+    state.made += len(moves)
     after = base[:]
     after[ia], after[ib], after[ic] = aa * scale, bb * scale, clear * scale
     state.last = (after, (aa, bb, clear))

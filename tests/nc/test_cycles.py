@@ -164,6 +164,17 @@ def test_bad_cycles_one_line_with_place(source, where, words):
     assert words in msg and "\n" not in msg
 
 
+def test_cycle_moves_of_a_program_are_bounded(monkeypatch):
+    import nc.constants as K
+
+    # checked before a block expands, against a bound of its moves (here 9; it makes 4)
+    monkeypatch.setattr(K, "MAX_CYCLE_MOVES_PROGRAM", 12)
+    assert len(parse_program(HEAD + "G98 G81 X1 Z-1 R1\nG80\n").drilling) == 4
+    with pytest.raises(NCParseError, match=r"^b\.nc:7:1: canned cycles would make more "
+                       "than 12"):
+        parse_program(HEAD + "G98 G81 X1 Z-1 R1\nX2\nG80\n", file="b.nc")
+
+
 def test_strict_refuses_cycles_and_allow_cannot_pass_them():
     with pytest.raises(NCParseError, match="canned cycle; read without strict"):
         parse_program(HEAD + "G81 X1 Z-1 R1\n", strict=True)
