@@ -480,3 +480,15 @@ def test_a_heidenhain_program_predicts_as_the_same_path_in_g_code(tmp_path):
                    .replace("[program]\n", '[program]\ndialect = "siemens"\n'))
     with pytest.raises(ScenarioError, match="program.dialect"):
         load_scenario(bad)
+
+
+def test_program_with_drilling_cycles_is_refused_at_load(tmp_path):
+    """The prediction models milling: a canned drilling cycle is refused before any work,
+    under program.gcode, naming the program's file and the cycle's line."""
+    path = _write(tmp_path, VALID)
+    (tmp_path / "p.nc").write_text("G21 G90 G17\nG0 X0 Y0 Z30\nG1 X10 F1000\n"
+                                   "G98 G81 X5 Y5 Z-3 R2\nG80\nM2\n")
+    with pytest.raises(ScenarioError, match=r"program\.gcode: .*p\.nc:4:1: canned drilling "
+                       r"cycle \(4 moves from line 4 on\)") as exc:
+        load_scenario(path)
+    assert exc.value.key == "program.gcode" and "\n" not in str(exc.value)
