@@ -194,6 +194,7 @@ class _Interpreter(BlockReader):
         retract_to_r = False  # G99 (else G98)
         rot = None  # G68/G68.2 in effect, or G53.1's tool axis held (nc.rotation)
         drilling: list[int] = []  # rows made by canned cycles
+        rotated: list[int] = []  # rows under G68/G68.2/G53.1
         feed = math.nan
         scale = 1.0
         tv = (math.nan, math.nan, math.nan)
@@ -545,6 +546,8 @@ class _Interpreter(BlockReader):
                     reframed_start.extend(before)
                     reframe = False
                 for motion, row in moves:
+                    if rot is not None:
+                        rotated.append(len(out_line))
                     drilling.append(len(out_line))
                     out_line.append(lineno)
                     out_motion.append(motion)
@@ -653,6 +656,7 @@ class _Interpreter(BlockReader):
                         arc_radius.extend(rarc[1])
                         arc_sweep.append(rarc[2])
                         arc_plane.append(rarc[3])
+                    rotated.append(len(out_line))
                     out_line.append(lineno)
                     out_motion.append(motion)
                     out_end.extend(row)
@@ -711,6 +715,7 @@ class _Interpreter(BlockReader):
             reframed_start=np.array(reframed_start, dtype=float).reshape(-1, 6),
             machine_moves=np.array(machine_rows, dtype=np.int64),
             drilling=np.array(drilling, dtype=np.int64),
+            rotated=np.array(rotated, dtype=np.int64),
             newline=self.newline,
             allowed=self.allowed_names,
             block_delete=self.block_delete,

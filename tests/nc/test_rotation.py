@@ -144,3 +144,16 @@ def test_bad_rotation_one_line_with_place(source, where, words):
 def test_strict_refuses_rotation():
     with pytest.raises(NCParseError, match="a coordinate rotation; read without strict"):
         parse_program(HEAD + "G68 X0 Y0 R10\n", strict=True)
+
+
+@pytest.mark.parametrize("source,line,what", [
+    ("G68 X0 Y0 R10\nG1 X1\nG69\nG1 X2", 7, "rotated frame"),
+    ("G98 G81 X1 Z-1 R1\nG80\nG1 X2", 6, "canned drilling cycles"),
+])
+def test_rewrite_refuses_rotated_and_drilling_programs(source, line, what):
+    from nc.rewrite import RewriteError, rewrite_coordinates
+
+    prog = parse_program(HEAD + source + "\nM30\n")
+    assert len(prog.rotated) + len(prog.drilling) > 0
+    with pytest.raises(RewriteError, match=f"line {line}: the program has .*{what}"):
+        rewrite_coordinates(prog, ends={len(prog) - 1: (3.0, 0.0, 5.0)})
