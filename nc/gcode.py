@@ -740,6 +740,10 @@ class _Interpreter(BlockReader):
             if plane != rot.plane:
                 raise self._error(lineno, f"change of plane under {what}; expected G69 first",
                                   token=find_token(toks, "G", gs[0]) if gs else None)
+            if tcp != TCP_OFF:
+                raise self._error(lineno, f"tool centre point control (G43.4/G43.5) under "
+                                  f"{what}; expected G69 first",
+                                  token=find_token(toks, "G", gs[0]) if gs else None)
             if fc is not None or (gcodes and "wcs" in gcodes):
                 raise self._error(lineno, f"change of frame or machine coordinates under "
                                   f"{what}; expected G69 first",

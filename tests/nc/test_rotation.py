@@ -132,6 +132,7 @@ def test_tilted_program_through_kinematics_and_the_fanuc_writer(name):
     ("G68.2 X0 Y0 Z0 I0 J30 K0\nG53.1\nG1 B10", "8:4", "rotary word B under G68.2"),
     ("G43.4 H1\nG68 X0 Y0 R10", "7:1", "tool centre point"),
     ("G69 X1", "6:5", "G69 alone"),
+    ("G68.2 X0 Y0 Z0 I0 J30 K0\nG53.1\nG43.4 H1", "8:1", "tool centre point control"),
 ])
 def test_bad_rotation_one_line_with_place(source, where, words):
     with pytest.raises(NCParseError) as exc:
