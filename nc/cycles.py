@@ -36,9 +36,11 @@ from dataclasses import dataclass
 
 from . import constants as K
 from .errors import NCParseError
-from .program import PLANE_AXES, Program
+from .lexer import find_token
+from .program import PLANE_AXES, TCP_OFF, Program
 
-__all__ = ["CYCLE_CODES", "CycleError", "CycleState", "cycle_moves", "refuse_drilling"]
+__all__ = ["CYCLE_CODES", "CycleBlocks", "CycleError", "CycleState", "cycle_moves",
+           "refuse_drilling"]
 
 #: Motion-group keys (10 x G number) of the cycles -> motion mode (the G number).
 CYCLE_CODES = {730: 73, 740: 74, 810: 81, 820: 82, 830: 83, 840: 84, 850: 85, 860: 86,
@@ -327,3 +329,37 @@ def refuse_drilling(program: Program, purpose: str) -> None:
                        "without drilling cycles (drill in a program of its own)",
                        file=program.file, line=line,
                        column=len(text) - len(text.lstrip()) + 1, text=text)
+
+
+class CycleBlocks:
+    """The reader's part for cycle blocks (a base of :class:`nc.gcode._Interpreter`,
+    beside :class:`nc.blockreader.BlockReader`, whose ``_error`` it uses)."""
+
+    def _cycle(self, lineno: int, toks: list, gs: list[str] | None, fc: int | None,
+               feed_mode: int, tcp: int, feed: float, code: int, vals: dict[str, float],
+               state: CycleState, pos: list[float], plane: int, incremental: bool,
+               retract_to_r: bool, scale: float, spindle_dir: int, rot
+               ) -> tuple[list[tuple[int, list[float]]], list[float]]:
+        """A cycle block's moves and the position after it, in the program frame
+        (through ``rot``, a :class:`nc.rotation.Rotation`, when one is in effect)."""
+        if fc == 530:
+            raise self._error(lineno, "G53 with a canned cycle; expected G0 or G1",
+                              token=find_token(toks, "G", gs[0]))
+        if feed_mode == 93 or tcp != TCP_OFF:
+            raise self._error(lineno, "canned cycle under inverse-time feed (G93) or tool "
+                              "centre point control; expected G94/G95 and G49 or G43")
+        if not feed > 0:
+            raise self._error(lineno, "canned cycle with no feed; expected an F > 0 in this "
+                              "block or before it")
+        try:
+            moves, after = cycle_moves(code, vals, state, pos if rot is None else
+                                       rot.to_program(pos), plane, incremental, retract_to_r,
+                                       scale, spindle_dir)
+        except CycleError as exc:
+            if exc.letter is None:
+                raise self._error(lineno, str(exc)) from None
+            raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
+        if rot is not None:
+            moves = [(m, rot.to_world(e)) for m, e in moves]
+            after = rot.to_world(after)
+        return moves, after

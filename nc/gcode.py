@@ -58,9 +58,9 @@ from .dialect import (
     code_name,
     normalise_allow,
 )
-from .cycles import CYCLE_CODES, CycleError, CycleState, cycle_moves
+from .cycles import CYCLE_CODES, CycleBlocks, CycleState
 from .errors import NCParseError
-from .rotation import RotationError, rotation_block
+from .rotation import RotationBlocks
 from .frames import Frames, convert_position, reference_table, work_offset_table
 from .lexer import TOKEN, find_token, foreign_syntax
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
@@ -145,7 +145,7 @@ def parse_program(
 
 
 # ---------------------------------------------------------------------------
-class _Interpreter(BlockReader):
+class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
     """One pass over the lines; appends columns as plain Python lists."""
 
     def __init__(self, text: str, file: str, allow: dict[str, set[int]],
@@ -511,25 +511,10 @@ class _Interpreter(BlockReader):
                                        "G2 or G3 in effect (G80 cancels it)")
 
             if motion_mode > 3:  # a canned cycle: its moves, one row each
-                if fc == 530:
-                    raise self._error(lineno, "G53 with a canned cycle; expected G0 or G1",
-                                      token=find_token(toks, "G", gs[0]))
-                if feed_mode == 93 or tcp != TCP_OFF:
-                    raise self._error(lineno, "canned cycle under inverse-time feed (G93) "
-                                      "or tool centre point control; expected G94/G95 and "
-                                      "G49 or G43")
-                if not feed > 0:
-                    raise self._error(lineno, "canned cycle with no feed; expected an F > 0 "
-                                      "in this block or before it")
                 before = pos
-                try:
-                    moves, pos = cycle_moves(motion_mode, vals, cycle, pos if rot is None else
-                                             rot.to_program(pos), plane, distance == 91,
-                                             retract_to_r, scale, spindle_dir)
-                except CycleError as exc:
-                    if exc.letter is None:
-                        raise self._error(lineno, str(exc)) from None
-                    raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
+                moves, pos = self._cycle(lineno, toks, gs, fc, feed_mode, tcp, feed, motion_mode,
+                                         vals, cycle, pos, plane, distance == 91, retract_to_r,
+                                         scale, spindle_dir, rot)
                 row_tv = tv
                 if dirty or rot is not None:
                     modal_id = self._modal_id(modal_ids, modals, (
@@ -538,8 +523,6 @@ class _Interpreter(BlockReader):
                         TCP_VECTOR if rot is not None and rot.axis else tcp, wcs, frame_id))
                     dirty = rot is not None
                 if rot is not None:
-                    moves = [(m, rot.to_world(e)) for m, e in moves]
-                    pos = rot.to_world(pos)
                     row_tv = rot.axis or tv
                 if reframe and moves:
                     reframed.append(len(out_line))
@@ -725,58 +708,6 @@ class _Interpreter(BlockReader):
         )
 
     # -- pieces ------------------------------------------------------------
-    def _rotation(self, lineno: int, toks: list, gs: list[str] | None, gcodes: dict,
-                  vals: dict[str, float], axes: list | None, pos: list[float], plane: int,
-                  scale: float, rot, tcp: int, fc: int | None):
-        """G68/G68.2/G69/G53.1 (:mod:`nc.rotation`), and what may not change under them.
-
-        Returns the rotation after the block and whether the block is done
-        (G68, G68.2 and G53.1 own their words; nothing moves).
-        """
-        code = gcodes.get("rotation") if gcodes else None
-        orient = gcodes.get("orient") if gcodes else None
-        if rot is not None and rot.active and code != 690:
-            what = "G68.2" if rot.tilted else "G68"
-            if plane != rot.plane:
-                raise self._error(lineno, f"change of plane under {what}; expected G69 first",
-                                  token=find_token(toks, "G", gs[0]) if gs else None)
-            if tcp != TCP_OFF:
-                raise self._error(lineno, f"tool centre point control (G43.4/G43.5) under "
-                                  f"{what}; expected G69 first",
-                                  token=find_token(toks, "G", gs[0]) if gs else None)
-            if fc is not None or (gcodes and "wcs" in gcodes):
-                raise self._error(lineno, f"change of frame or machine coordinates under "
-                                  f"{what}; expected G69 first",
-                                  token=find_token(toks, "G", gs[0]) if gs else None)
-            if rot.tilted and any(i >= 3 for i, _ in axes or ()):
-                c = next(c for c in "ABC" if c in vals)
-                raise self._word_error(lineno, toks, c, f"rotary word {c} under G68.2; "
-                                       "expected G53.1 to turn the tool (G69 first to move "
-                                       "rotary axes)")
-        if code is None and orient is None:
-            if rot is not None and not rot.active and any(i >= 3 for i, _ in axes or ()):
-                return None, False  # rotary words: the axes leave G53.1's posture
-            return rot, False
-        if code is not None and orient is not None:
-            raise self._error(lineno, "G53.1 with G68/G68.2/G69 in one block; expected "
-                              "G53.1 in a block of its own after G68.2",
-                              token=find_token(toks, "G", gs[0]))
-        key = code if code is not None else orient
-        name = code_name("G", key)
-        if key != 690 and gcodes.get("motion") is not None:
-            raise self._error(lineno, f"{name} with a motion code; expected {name} in a block "
-                              "without motion", token=find_token(toks, "G", gs[0]))
-        try:
-            rot = rotation_block(key, vals, pos, plane, scale, rot, tcp)
-        except RotationError as exc:
-            tok = find_token(toks, "G", next(g for g in gs if code_key("G", g) == key))
-            if exc.letter is None:
-                raise self._error(lineno, f"{exc}", token=tok) from None
-            raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
-        if key == 690:  # the block may go on: a move, a frame code
-            return rot, not (axes or fc is not None or gcodes.get("motion") is not None)
-        return rot, True
-
     @staticmethod
     def _cycle_words(gcodes: dict[str, int], motion_mode: int | None) -> bool:
         """Whether the block runs a canned cycle (whose words include L and Q), or is G68.x."""

@@ -40,10 +40,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import constants as K
+from .dialect import code_key, code_name
 from .heidenhain_geom import arc_points
-from .program import PLANE_AXES
+from .lexer import find_token
+from .program import PLANE_AXES, TCP_OFF
 
-__all__ = ["Rotation", "RotationError", "euler_zxz", "rotation_about", "rotation_block"]
+__all__ = ["Rotation", "RotationBlocks", "RotationError", "euler_zxz", "rotation_about",
+           "rotation_block"]
 
 G68, G68_2, G69, G53_1 = 680, 682, 690, 531
 
@@ -237,3 +240,60 @@ def rotation_block(code: int, vals: dict[str, float], pos: list[float], plane: i
         M = rotation_about(normal, angle)
     return Rotation(M, centre - M @ centre, plane=plane)
 
+
+
+class RotationBlocks:
+    """The reader's part for these codes (a base of :class:`nc.gcode._Interpreter`,
+    beside :class:`nc.blockreader.BlockReader`, whose ``_error`` it uses)."""
+
+    def _rotation(self, lineno: int, toks: list, gs: list[str] | None, gcodes: dict,
+                  vals: dict[str, float], axes: list | None, pos: list[float], plane: int,
+                  scale: float, rot, tcp: int, fc: int | None):
+        """G68/G68.2/G69/G53.1, and what may not change under them.
+
+        Returns the rotation after the block and whether the block is done
+        (G68, G68.2 and G53.1 own their words; nothing moves).
+        """
+        code = gcodes.get("rotation") if gcodes else None
+        orient = gcodes.get("orient") if gcodes else None
+        if rot is not None and rot.active and code != 690:
+            what = "G68.2" if rot.tilted else "G68"
+            if plane != rot.plane:
+                raise self._error(lineno, f"change of plane under {what}; expected G69 first",
+                                  token=find_token(toks, "G", gs[0]) if gs else None)
+            if tcp != TCP_OFF:
+                raise self._error(lineno, f"tool centre point control (G43.4/G43.5) under "
+                                  f"{what}; expected G69 first",
+                                  token=find_token(toks, "G", gs[0]) if gs else None)
+            if fc is not None or (gcodes and "wcs" in gcodes):
+                raise self._error(lineno, f"change of frame or machine coordinates under "
+                                  f"{what}; expected G69 first",
+                                  token=find_token(toks, "G", gs[0]) if gs else None)
+            if rot.tilted and any(i >= 3 for i, _ in axes or ()):
+                c = next(c for c in "ABC" if c in vals)
+                raise self._word_error(lineno, toks, c, f"rotary word {c} under G68.2; "
+                                       "expected G53.1 to turn the tool (G69 first to move "
+                                       "rotary axes)")
+        if code is None and orient is None:
+            if rot is not None and not rot.active and any(i >= 3 for i, _ in axes or ()):
+                return None, False  # rotary words: the axes leave G53.1's posture
+            return rot, False
+        if code is not None and orient is not None:
+            raise self._error(lineno, "G53.1 with G68/G68.2/G69 in one block; expected "
+                              "G53.1 in a block of its own after G68.2",
+                              token=find_token(toks, "G", gs[0]))
+        key = code if code is not None else orient
+        name = code_name("G", key)
+        if key != 690 and gcodes.get("motion") is not None:
+            raise self._error(lineno, f"{name} with a motion code; expected {name} in a block "
+                              "without motion", token=find_token(toks, "G", gs[0]))
+        try:
+            rot = rotation_block(key, vals, pos, plane, scale, rot, tcp)
+        except RotationError as exc:
+            tok = find_token(toks, "G", next(g for g in gs if code_key("G", g) == key))
+            if exc.letter is None:
+                raise self._error(lineno, f"{exc}", token=tok) from None
+            raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
+        if key == 690:  # the block may go on: a move, a frame code
+            return rot, not (axes or fc is not None or gcodes.get("motion") is not None)
+        return rot, True
