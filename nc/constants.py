@@ -38,6 +38,10 @@ MAX_CYCLE_MOVES = 100_000
 #: repeats of such a block must not fill the memory (a real program drilling
 #: ten thousand holes makes some 50 000) [-].
 MAX_CYCLE_MOVES_PROGRAM = 1_000_000
+#: Chords the reader may make of arcs in tilted planes (G68.2, 3-D G68) in one
+#: program, all arcs together: rows the reader holds as Python lists, so the
+#: same bound as the cycles' [-].
+MAX_TILTED_ARC_CHORDS = 1_000_000
 #: G73/G83: how far above the last depth the tool rapids back before the
 #: next peck, LinuxCNC's G83_RAPID_DELTA (0.010 in), in mm [mm].
 CYCLE_PECK_RETRACT_MM = 0.254

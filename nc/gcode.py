@@ -60,7 +60,7 @@ from .dialect import (
 )
 from .cycles import CYCLE_CODES, CycleBlocks, CycleState
 from .errors import NCParseError
-from .rotation import RotationBlocks
+from .rotation import RotationBlocks, RotationError
 from .frames import Frames, convert_position, reference_table, work_offset_table
 from .lexer import TOKEN, find_token, foreign_syntax
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
@@ -174,6 +174,8 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
         #: line of the G28/G30 that made the position unknown
         self.unknown_line = 0
         self.number: str | None = None
+        #: chords tilted arcs may still make (nc.rotation)
+        self.chord_budget = K.MAX_TILTED_ARC_CHORDS
         #: code name -> [count, first line] of codes passed over
         self.ignored: dict[str, list[int]] = {}
 
@@ -630,7 +632,13 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
                     tool, length_offset, TCP_VECTOR if rot.axis else tcp, wcs, frame_id))
                 dirty = True
                 row_tv = rot.axis or tv
-                for motion, row, rarc in rot.rows(motion_mode, start, new, arc, plane):
+                try:
+                    rrows = rot.rows(motion_mode, start, new, arc, plane, self.chord_budget)
+                except RotationError as exc:
+                    raise self._error(lineno, str(exc)) from None
+                if arc is not None and rrows[0][2] is None:
+                    self.chord_budget -= len(rrows)
+                for motion, row, rarc in rrows:
                     if rarc is None:
                         out_arc.append(-1)
                     else:

@@ -123,13 +123,15 @@ class Rotation:
         n = PLANE_AXES[plane][2]
         return abs(self.M[n, n] - 1.0) < 1e-12
 
-    def rows(self, motion: int, start: list[float], end: list[float], arc, plane: int
+    def rows(self, motion: int, start: list[float], end: list[float], arc, plane: int,
+             budget: int = K.MAX_TILTED_ARC_CHORDS
              ) -> list[tuple[int, list[float], tuple | None]]:
         """The rows of one move given in the rotated frame: (motion, end, arc).
 
         ``arc`` is ``(centre3, radii, sweep)`` from :func:`nc.arcs.arc_from_words`,
         or None; in the result, ``(centre3, radii, sweep, plane)`` in the program
-        frame, or chords (motion 1, no arc) where the rotation tilts the plane.
+        frame, or chords (motion 1, no arc) where the rotation tilts the plane,
+        at most ``budget`` of them (else :class:`RotationError`).
         """
         if arc is None:
             return [(motion, self.to_world(end), None)]
@@ -138,6 +140,14 @@ class Rotation:
             return [(motion, self.to_world(end), (self.to_world(list(centre))[:3], radii,
                                                   sweep, plane))]
         a1, a2, ax = PLANE_AXES[plane]
+        r = max(radii)
+        ratio = min(max(1.0 - K.CHORD_TOL_MM / max(r, 1e-12), -1.0), 1.0)
+        step = 2.0 * math.acos(ratio) if ratio < 1.0 else math.pi
+        if abs(sweep) / min(max(step, 1e-6), math.pi / 2) > budget:
+            raise RotationError(f"arc in the tilted plane would make more than {budget} "
+                                f"chords (all tilted arcs of the program together at most "
+                                f"{K.MAX_TILTED_ARC_CHORDS}); expected fewer turns or a "
+                                "smaller radius")
         pts = arc_points((a1, a2, ax), np.asarray(start[:3]), np.asarray(end[:3]),
                          (centre[a1], centre[a2]), tuple(radii), sweep, K.CHORD_TOL_MM)
         rot = list(end[3:])

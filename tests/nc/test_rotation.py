@@ -158,3 +158,13 @@ def test_rewrite_refuses_rotated_and_drilling_programs(source, line, what):
     assert len(prog.rotated) + len(prog.drilling) > 0
     with pytest.raises(RewriteError, match=f"line {line}: the program has .*{what}"):
         rewrite_coordinates(prog, ends={len(prog) - 1: (3.0, 0.0, 5.0)})
+
+
+def test_chords_of_tilted_arcs_are_bounded(monkeypatch):
+    import nc.constants as K
+
+    monkeypatch.setattr(K, "MAX_TILTED_ARC_CHORDS", 100)
+    src = HEAD + "G68.2 X0 Y0 Z0 I0 J30 K0\nG53.1\nG1 X0 Y0 Z0\nG2 X0 Y0 I50 P20\n"
+    with pytest.raises(NCParseError, match=r"^t\.nc:9:1: arc in the tilted plane would make "
+                       "more than 100 chords"):
+        parse_program(src, file="t.nc")
