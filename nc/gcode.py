@@ -14,8 +14,13 @@ clamps M10/M11, dwell G4, path blending G61/G64, Fanuc look-ahead G05 P,
 G05.1 Q, G08 P, ...: :data:`nc.dialect.PASSIVE`) are passed over with
 their own parameter words and counted in :attr:`Program.ignored`; with
 ``strict=True`` they are refused unless the caller lists them in ``allow``.
-Codes that move the tool in ways the reader does not model (canned cycles,
-cutter compensation, splines...) are refused, and cannot be allowed.
+Codes that move the tool in ways the reader does not model (cutter
+compensation, splines, G88...) are refused, and cannot be allowed.
+
+Canned drilling cycles G73, G74, G81-G87, G89 with G98/G99 are expanded into
+their moves as LinuxCNC does (:mod:`nc.cycles`, rows listed in
+:attr:`Program.drilling`); Fanuc's G68/G69 rotation and G68.2/G53.1 tilted
+plane are read into the program frame (:mod:`nc.rotation`).
 
 Frame and reference codes are modelled as LinuxCNC does (:mod:`nc.frames`):
 G92/G92.1/G92.2/G92.3, G52, G10 L2/L20, G53, G28/G30 (through the
