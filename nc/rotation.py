@@ -103,18 +103,28 @@ class Rotation:
     plane: int = 17
     axis: tuple[float, float, float] | None = None
 
+    def __post_init__(self) -> None:
+        # plain floats: one block's conversion is faster without numpy
+        self._m = tuple(tuple(float(v) for v in row) for row in self.M)
+        self._t = tuple(float(v) for v in self.t)
+
     def to_program(self, pos: list[float]) -> list[float]:
         """Program-frame position -> the rotated frame's coordinates (rotary kept)."""
         if not self.active:
             return pos
-        p = self.M.T @ (np.array(pos[:3]) - self.t)
-        return [float(p[0]), float(p[1]), float(p[2])] + list(pos[3:])
+        (a, b, c), (d, e, f), (g, h, i) = self._m
+        x, y, z = pos[0] - self._t[0], pos[1] - self._t[1], pos[2] - self._t[2]
+        return [a * x + d * y + g * z, b * x + e * y + h * z, c * x + f * y + i * z,
+                *pos[3:]]
 
     def to_world(self, p: list[float] | np.ndarray) -> list[float]:
+        """The rotated frame's coordinates -> program frame (rotary kept)."""
         if not self.active:
             return list(p)
-        w = self.t + self.M @ np.asarray(p[:3], dtype=float)
-        return [float(w[0]), float(w[1]), float(w[2])] + list(p[3:])
+        (a, b, c), (d, e, f), (g, h, i) = self._m
+        x, y, z = float(p[0]), float(p[1]), float(p[2])
+        return [self._t[0] + a * x + b * y + c * z, self._t[1] + d * x + e * y + f * z,
+                self._t[2] + g * x + h * y + i * z, *(float(v) for v in p[3:])]
 
     def keeps_normal(self, plane: int) -> bool:
         """Whether arcs of ``plane`` stay arcs of the same plane (the normal is fixed)."""
