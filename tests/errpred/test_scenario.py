@@ -492,3 +492,15 @@ def test_program_with_drilling_cycles_is_refused_at_load(tmp_path):
                        r"cycle \(4 moves from line 4 on\)") as exc:
         load_scenario(path)
     assert exc.value.key == "program.gcode" and "\n" not in str(exc.value)
+
+
+def test_predictor_refuses_a_drilling_program():
+    """Programs handed to the Predictor directly (not through a scenario) too."""
+    from nc import NCParseError, parse_program
+    from errpred.predict import Predictor
+
+    prog = parse_program("G21 G90 F100 S1000 M3\nG0 X0 Y0 Z10\nG98 G81 X20 Y0 Z-5 R2\n"
+                         "G80\nM2\n", file="d.nc")
+    with pytest.raises(NCParseError, match=r"^d\.nc:3:1: canned drilling cycle .* models "
+                       "milling only"):
+        Predictor(None, None, prog, None, None)

@@ -205,10 +205,3 @@ def test_prediction_refuses_drilling_programs():
         refuse_drilling(prog, "the error prediction")
     refuse_drilling(parse_program(HEAD + "G1 X1\nM2\n"), "the error prediction")  # milling: ok
 
-
-def test_predictor_refuses_drilling_program():
-    from errpred.predict import Predictor
-
-    prog = parse_program(HEAD + "G98 G81 X20 Y0 Z-5 R2\nG80\nM2\n", file="d.nc")
-    with pytest.raises(NCParseError, match="models milling only"):
-        Predictor(None, None, prog, None, None)
