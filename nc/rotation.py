@@ -213,6 +213,7 @@ def rotation_block(code: int, vals: dict[str, float], pos: list[float], plane: i
     if active:
         name = "G68" if not current.tilted else "G68.2"
         raise RotationError(f"G68/G68.2 while {name} is in effect; expected G69 first")
+    held = None if current is None else current.axis  # the tool stays where G53.1 put it
     if tcp != 0:
         raise RotationError("G68/G68.2 under tool centre point control (G43.4/G43.5); "
                             "expected G49 or G43 first")
@@ -229,7 +230,7 @@ def rotation_block(code: int, vals: dict[str, float], pos: list[float], plane: i
                                 "(Euler angles)", "R")
         origin = np.array([vals.get(c, 0.0) * scale for c in "XYZ"])
         M = euler_zxz(vals.get("I", 0.0), vals.get("J", 0.0), vals.get("K", 0.0))
-        return Rotation(M, origin, tilted=True, plane=plane)
+        return Rotation(M, origin, tilted=True, plane=plane, axis=held)
     if "P" in vals:
         raise RotationError("P word with G68; expected X Y (Z) centre, R angle (I J K axis)",
                             "P")
@@ -258,7 +259,7 @@ def rotation_block(code: int, vals: dict[str, float], pos: list[float], plane: i
         normal = np.zeros(3)
         normal[ax] = 1.0
         M = rotation_about(normal, angle)
-    return Rotation(M, centre - M @ centre, plane=plane)
+    return Rotation(M, centre - M @ centre, plane=plane, axis=held)
 
 
 

@@ -91,6 +91,14 @@ def test_tilted_arc_as_chords_on_the_circle_with_the_tool_along_the_plane_z():
     np.testing.assert_allclose(cl.axis[-1], M[:, 2], atol=1e-12)
 
 
+def test_a_new_rotation_keeps_the_tool_where_g53_1_turned_it():
+    prog = parse_program(HEAD + "G68.2 X0 Y0 Z0 I0 J30 K0\nG53.1\nG1 X1\nG69\n"
+                         "G68 X0 Y0 R90\nG1 X2 Y0\nM30\n")
+    assert prog.modal_column("tcp")[-1] == TCP_VECTOR
+    np.testing.assert_allclose(prog.tool_vector[-1], euler_zxz(0, 30, 0)[:, 2], atol=1e-12)
+    np.testing.assert_allclose(prog.end[-1, :3], [0, 2, 5], atol=1e-9)  # Z5 kept throughout
+
+
 def test_rotary_words_after_g69_end_the_held_tool_axis():
     prog = parse_program(HEAD + "G68.2 X0 Y0 Z0 I0 J30 K0\nG53.1\nG1 X1\nG69\nG0 A0 C0\n"
                          "G1 X2\nM30\n")
