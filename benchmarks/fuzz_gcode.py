@@ -82,6 +82,15 @@ INLINE_SEEDS = [
     "G21 G90 G54\nT3 M6\nS8000 M3\nG55 G0 X1 Y1\nG56 G1 Z-1 F200\nM5\nM30\n",
     "G21 G90 G64 P0.01\nM8\nG0 X1\nG4 P0.5\nM9\nM2\n",
     "/N10 G21 G90\nN20 G0 X5 ; end comment\nN30 g1x1y2z3f50 (lower case)\nM30\n",
+    # canned cycles (nc.cycles) and rotations / tilted planes (nc.rotation)
+    "G21 G17 G90 G94\nS1000 M3\nF100\nG0 X0 Y0 Z10\nG98 G81 X10 Y5 Z-5 R2\nX20\n"
+    "G99 G83 X30 Z-8 R1 Q2 L2\nG91 G73 X5 Y0 Z-3 R-1 Q1 K3\nG90 G82 X1 Z-1 R1 P0.5\n"
+    "G85 X2\nG89 X3 P1\nG86 X4 P0\nG87 X5 Y0 Z-6 R1 I1 J0 K-3\nG84 X6 Z-2 R1\nG80\n"
+    "G18 G98 G81 Z2 X3 Y-4 R1\nG19 G83 Y1 Z1 X-3 R1 Q1\nG0 Y0\nM30\n",
+    "G21 G17 G90 G94\nF100\nG0 X0 Y0 Z5\nG68 X10 Y0 R90\nG1 X20 Y0\nG91 Y5\n"
+    "G90 G3 X10 Y15 I-10 J0\nG81 X1 Z-1 R1\nG80\nG69\nG68 X0 Y0 Z0 I1 J0 K0 R30\nG1 Y2\n"
+    "G69\nG68.2 X100 Y0 Z0 I30 J90 K-10\nG53.1\nG0 X0 Y0 Z10\nG1 Z0\nG2 X10 I5\nG69\n"
+    "G0 Z100\nG0 B0 C0\nM30\n",
 ]
 
 #: Options passed with a program, as a user could type them.
@@ -92,6 +101,7 @@ NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)")
 LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
 CODES = ["G0", "G1", "G2", "G3", "G4", "G17", "G18", "G19", "G20", "G21", "G28", "G40",
          "G43", "G43.4", "G43.5", "G49", "G54", "G59", "G64", "G80", "G81", "G90", "G91",
+         "G73", "G83", "G87", "G98", "G99", "G68", "G68.2", "G69", "G53.1",
          "G90.1", "G91.1", "G92", "G93", "G94", "M0", "M1", "M2", "M3", "M4", "M5", "M6",
          "M8", "M9", "M30", "M98", "M99"]
 SPECIAL = ["(", ")", ";", "%", "/", "#", "[", "]", "\r", "\t", "\x00", "\x0c", ".", "-",

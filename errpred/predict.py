@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from nc.cycles import refuse_drilling
 from nc.path import CutterLocations, cutter_locations
 from nc.program import Program
 
@@ -179,6 +180,7 @@ class Predictor:
                  resolution: Resolution | None = None, machine=None,
                  cl: CutterLocations | None = None, workpiece=None,
                  initial_wear_mm=None, sensitivity: bool = True) -> None:
+        refuse_drilling(program, "the error prediction")  # holes are not milled surfaces
         self.tool = tool
         self.workpiece = workpiece
         self.program = program

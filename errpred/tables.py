@@ -48,10 +48,12 @@ class TableReader(BaseTableReader):
         under ``program.gcode`` (with the program's file, line and column) when it
         cannot be read or has no motion block."""
         from nc import read_any
+        from nc.cycles import refuse_drilling
         from nc.errors import NCParseError
 
         try:
             program = read_any(gcode, None if dialect == "auto" else dialect, allow=allow)
+            refuse_drilling(program, "the error prediction")
         except NCParseError as exc:  # one line: where, and what was expected
             where = ":".join(str(x) for x in (exc.file, exc.line, exc.column) if x is not None)
             raise self.fail("program.gcode", f"{where}: {exc.message}") from None

@@ -74,8 +74,12 @@ def _print_summary(s, console=None) -> None:
               f"{s.linear_blocks:,} linear, {s.arc_blocks:,} arc)")
     t.add_row("cutting path", f"{s.cutting_length_mm:,.3f} mm")
     t.add_row("rapid path", f"{s.rapid_length_mm:,.3f} mm")
+    if s.drilling_blocks:
+        t.add_row("drilling (canned cycles)", f"{s.drilling_blocks:,} moves, "
+                  f"{s.drilling_length_mm:,.3f} mm at feed, {s.drilling_time_min:,.2f} min")
     minutes = s.cutting_time_min
-    t.add_row("time at programmed feed",
+    t.add_row("milling time at programmed feed" if s.drilling_blocks else
+              "time at programmed feed",
               f"{minutes:,.2f} min ({int(minutes // 60)} h {minutes % 60:04.1f} min)")
     lo, hi = s.bbox_min_mm, s.bbox_max_mm
     if all(math.isfinite(v) for v in lo):

@@ -30,6 +30,22 @@ ARC_R_CHORD_TOL_MM = 1.0e-3
 #: units. Anything beyond is a typo or an overflow, not a machine [-].
 MAX_ABS_WORD_VALUE = 1.0e7
 
+#: Most moves one canned-cycle block may expand into (L repeats times the
+#: pecks of Q): a typo such as Q0.0001 on a deep hole is refused before any
+#: work, not expanded into millions of rows [-].
+MAX_CYCLE_MOVES = 100_000
+#: ... and all cycle blocks of one program together: a short program of modal
+#: repeats of such a block must not fill the memory (a real program drilling
+#: ten thousand holes makes some 50 000) [-].
+MAX_CYCLE_MOVES_PROGRAM = 1_000_000
+#: Chords the reader may make of arcs in tilted planes (G68.2, 3-D G68) in one
+#: program, all arcs together: rows the reader holds as Python lists, so the
+#: same bound as the cycles' [-].
+MAX_TILTED_ARC_CHORDS = 1_000_000
+#: G73/G83: how far above the last depth the tool rapids back before the
+#: next peck, LinuxCNC's G83_RAPID_DELTA (0.010 in), in mm [mm].
+CYCLE_PECK_RETRACT_MM = 0.254
+
 #: Error messages are one line; a run of more digits than this (a 400-digit
 #: word quoted back) is shown as its first digits and its length [digits] ...
 ERROR_MAX_DIGITS = 20

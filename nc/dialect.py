@@ -8,18 +8,25 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 
+from .cycles import CYCLE_CODES
 from .errors import InputError
 
-__all__ = ["ALLOWABLE_EXAMPLES", "AXIS_LETTERS", "AXIS_INDEX", "BASE_WORDS", "PARAM_WORDS",
+__all__ = ["ALLOWABLE_EXAMPLES", "AXIS_LETTERS", "AXIS_INDEX", "BASE_WORDS", "PARAM_WORDS", "CYCLE_WORDS",
            "MOTION_CODES", "G_GROUPS", "M_GROUPS", "NOT_ALLOWABLE", "PASSIVE", "STRICT_REFUSED",
            "normalise_allow", "code_key", "code_name", "why_not"]
 
 ALLOWABLE_EXAMPLES = ("G64", "G61", "G61.1", "G4", "M7", "M8", "M9", "M1")
 
 # G codes as int(10 * number): 10 = G1, 434 = G43.4.
-MOTION_CODES = {0: 0, 10: 1, 20: 2, 30: 3}
+MOTION_CODES = {0: 0, 10: 1, 20: 2, 30: 3, **CYCLE_CODES}
 G_GROUPS = {
     0: "motion", 10: "motion", 20: "motion", 30: "motion",
+    # canned drilling cycles (nc.cycles), modal like G0...G3; G98/G99 their
+    # return level
+    **{k: "motion" for k in CYCLE_CODES},
+    980: "retract", 990: "retract",
+    # Fanuc-family coordinate rotation and tilted plane (nc.rotation; not LinuxCNC's)
+    680: "rotation", 682: "rotation", 690: "rotation", 531: "orient",
     # G80 cancels a canned cycle: with G0...G3 in the same block (the safety
     # line "G0 G17 G40 G49 G80 G90") the motion code wins, as on Fanuc and
     # LinuxCNC; alone it leaves no motion mode (LinuxCNC's rule)
@@ -39,7 +46,8 @@ G_GROUPS = {
 }
 #: Codes modelled since the reader stopped refusing them (the frame codes
 #: above, feed per revolution): ``strict`` refuses them as before.
-STRICT_REFUSED = frozenset(k for k, g in G_GROUPS.items() if g == "frame") | {950}
+STRICT_REFUSED = frozenset(k for k, g in G_GROUPS.items() if g in ("frame", "retract", "rotation", "orient")) | {
+    950, *CYCLE_CODES}
 M_GROUPS = {0: "stop", 10: "stop", 20: "stop", 300: "stop", 30: "spindle", 40: "spindle",
             50: "spindle", 60: "toolchange"}
 
@@ -61,8 +69,8 @@ PASSIVE: dict[str, dict[int, tuple[str, str]]] = {
         80: ("P", "look-ahead (Fanuc G08 P1 / P0; LinuxCNC lathe radius mode)"),
         150: ("", "polar coordinates off"),
         501: ("", "mirror image off"),
-        690: ("", "coordinate rotation off"),
         970: ("", "constant spindle speed (rev/min, the default)"),
+        # the reader models them (nc.cycles); strict passes them over if allowed
         980: ("", "canned-cycle return to the initial level"),
         990: ("", "canned-cycle return to the R level"),
         1030: ("P", "block look-ahead limit (Haas)"),
@@ -104,8 +112,9 @@ NOT_ALLOWABLE = {
         710: "metric units or a cycle",
         331: "spindle-synchronized motion", 50: "a spline", 51: "a spline", 52: "a spline",
         431: "a dynamic tool length offset", 432: "a tool length offset",
-        **{c: "a canned cycle" for c in (730, 740, 760, 810, 820, 830, 840, 850, 860,
-                                         870, 880, 890)},
+        **{c: "a canned cycle" for c in CYCLE_CODES},
+        760: "a fine-boring or threading cycle",
+        880: "a boring cycle retracted by hand (the tool's position after it is not known)",
         **{c: "a probing move" for c in (382, 383, 384, 385)},
     },
     "M": {980: "a subroutine call", 990: "a subroutine return", 600: "a pallet change",
@@ -115,6 +124,7 @@ AXIS_LETTERS = "XYZABC"
 AXIS_INDEX = {c: i for i, c in enumerate(AXIS_LETTERS)}
 BASE_WORDS = frozenset("NGMXYZABCIJKRFSTHP")
 PARAM_WORDS = frozenset("PQDELHR")  # words an allowed code may bring
+CYCLE_WORDS = frozenset("LQ")  # a canned cycle's words beyond BASE_WORDS
 
 
 def code_key(letter: str, text: str) -> int | None:
@@ -154,7 +164,8 @@ def why_not(letter: str, key: int | None, strict: bool = False) -> str:
         return ""
     reason = NOT_ALLOWABLE[letter].get(key)
     if strict and letter == "G" and key in STRICT_REFUSED:
-        return f" ({reason}; read without strict to model it)"
+        what = reason or PASSIVE[letter].get(key, ("", code_name(letter, key)))[1]
+        return f" ({what}; read without strict to model it)"
     if strict and key in PASSIVE[letter]:
         how = "" if reason else f", or allow it: --allow {code_name(letter, key)}"
         return f" ({PASSIVE[letter][key][1]}; read without strict to pass it over{how})"

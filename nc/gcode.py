@@ -14,8 +14,13 @@ clamps M10/M11, dwell G4, path blending G61/G64, Fanuc look-ahead G05 P,
 G05.1 Q, G08 P, ...: :data:`nc.dialect.PASSIVE`) are passed over with
 their own parameter words and counted in :attr:`Program.ignored`; with
 ``strict=True`` they are refused unless the caller lists them in ``allow``.
-Codes that move the tool in ways the reader does not model (canned cycles,
-cutter compensation, splines...) are refused, and cannot be allowed.
+Codes that move the tool in ways the reader does not model (cutter
+compensation, splines, G88...) are refused, and cannot be allowed.
+
+Canned drilling cycles G73, G74, G81-G87, G89 with G98/G99 are expanded into
+their moves as LinuxCNC does (:mod:`nc.cycles`, rows listed in
+:attr:`Program.drilling`); Fanuc's G68/G69 rotation and G68.2/G53.1 tilted
+plane are read into the program frame (:mod:`nc.rotation`).
 
 Frame and reference codes are modelled as LinuxCNC does (:mod:`nc.frames`):
 G92/G92.1/G92.2/G92.3, G52, G10 L2/L20, G53, G28/G30 (through the
@@ -49,14 +54,18 @@ from .dialect import (
     AXIS_INDEX,
     AXIS_LETTERS,
     BASE_WORDS,
+    CYCLE_WORDS,
     G_GROUPS,
     M_GROUPS,
     MOTION_CODES,
     PARAM_WORDS,
+    code_key,
     code_name,
     normalise_allow,
 )
+from .cycles import CYCLE_CODES, CycleBlocks, CycleState
 from .errors import NCParseError
+from .rotation import RotationBlocks, RotationError
 from .frames import Frames, convert_position, reference_table, work_offset_table
 from .lexer import TOKEN, find_token, foreign_syntax
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
@@ -141,7 +150,7 @@ def parse_program(
 
 
 # ---------------------------------------------------------------------------
-class _Interpreter(BlockReader):
+class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
     """One pass over the lines; appends columns as plain Python lists."""
 
     def __init__(self, text: str, file: str, allow: dict[str, set[int]],
@@ -170,6 +179,8 @@ class _Interpreter(BlockReader):
         #: line of the G28/G30 that made the position unknown
         self.unknown_line = 0
         self.number: str | None = None
+        #: chords tilted arcs may still make (nc.rotation)
+        self.chord_budget = K.MAX_TILTED_ARC_CHORDS
         #: code name -> [count, first line] of codes passed over
         self.ignored: dict[str, list[int]] = {}
 
@@ -186,6 +197,11 @@ class _Interpreter(BlockReader):
         spindle_rpm, spindle_dir, tool, selected, length_offset, tcp, wcs = (
             0.0, 0, 0, 0, 0, TCP_OFF, 1)
         motion_mode: int | None = None
+        cycle = CycleState()  # canned cycles (nc.cycles): sticky words, initial level
+        retract_to_r = False  # G99 (else G98)
+        rot = None  # G68/G68.2 in effect, or G53.1's tool axis held (nc.rotation)
+        drilling: list[int] = []  # rows made by canned cycles
+        rotated: list[int] = []  # rows under G68/G68.2/G53.1
         feed = math.nan
         scale = 1.0
         tv = (math.nan, math.nan, math.nan)
@@ -313,7 +329,9 @@ class _Interpreter(BlockReader):
             vals: dict[str, float] = {}
             axes: list[tuple[int, float]] | None = None
             for letter, num in w.items():
-                if letter not in BASE_WORDS and not (allowed_here and letter in PARAM_WORDS):
+                if letter not in BASE_WORDS and not (allowed_here and letter in PARAM_WORDS) \
+                        and not (letter in CYCLE_WORDS and self._cycle_words(gcodes,
+                                                                             motion_mode)):
                     raise self._word_error(lineno, toks, letter,
                                            f"unknown word {letter}; expected one of "
                                            "N G M X Y Z A B C I J K R F S T H P")
@@ -419,8 +437,19 @@ class _Interpreter(BlockReader):
                 v = gcodes.get("motion")
                 if v is not None:
                     motion_mode = MOTION_CODES[v]
+                    if motion_mode < 4:
+                        cycle.leave()
+                    elif "cycle" in gcodes:
+                        raise self._error(lineno, "G80 with a canned cycle in one block; "
+                                          "expected one of them", token=find_token(
+                                              toks, "G", next(g for g in gs if code_key(
+                                                  "G", g) == 800)))
                 elif "cycle" in gcodes:
                     motion_mode = None  # G80 alone: no motion mode (LinuxCNC)
+                    cycle.leave()
+                v = gcodes.get("retract")
+                if v is not None:
+                    retract_to_r = v == 990
             elif "H" in vals:
                 raise self._word_error(lineno, toks, "H", "H word without G43, G43.4 or "
                                        "G43.5; expected it with a tool length code")
@@ -428,6 +457,13 @@ class _Interpreter(BlockReader):
                 dirty = True
 
             fc = gcodes.get("frame") if gcodes else None
+            if rot is not None or (gcodes and ("rotation" in gcodes or "orient" in gcodes)):
+                rot, done = self._rotation(lineno, toks, gs, gcodes, vals, axes, pos, plane,
+                                           scale, rot, tcp, fc)
+                if done:
+                    if mcodes and mcodes.get("stop") in (20, 300):
+                        ended = True
+                    continue
             if fc is not None and fc != 530:
                 # G10, G28/G30 (.1), G52, G92 (.1 .2 .3): the axis words are theirs
                 rows, pos, new_total, rotary_used = self._frame_block(
@@ -481,8 +517,41 @@ class _Interpreter(BlockReader):
                                        "axis words without a motion mode; expected G0, G1, "
                                        "G2 or G3 in effect (G80 cancels it)")
 
-            start = pos
-            new = pos[:]
+            if motion_mode > 3:  # a canned cycle: its moves, one row each
+                before = pos
+                moves, pos = self._cycle(lineno, toks, gs, fc, feed_mode, tcp, feed, motion_mode,
+                                         vals, cycle, pos, plane, distance == 91, retract_to_r,
+                                         scale, spindle_dir, rot)
+                row_tv = tv
+                if dirty or rot is not None:
+                    modal_id = self._modal_id(modal_ids, modals, (
+                        plane, units, distance, arc_distance, feed_mode, spindle_rpm,
+                        spindle_dir, tool, length_offset,
+                        TCP_VECTOR if rot is not None and rot.axis else tcp, wcs, frame_id))
+                    dirty = rot is not None
+                if rot is not None:
+                    row_tv = rot.axis or tv
+                if reframe and moves:
+                    reframed.append(len(out_line))
+                    reframed_start.extend(before)
+                    reframe = False
+                for motion, row in moves:
+                    if rot is not None:
+                        rotated.append(len(out_line))
+                    drilling.append(len(out_line))
+                    out_line.append(lineno)
+                    out_motion.append(motion)
+                    out_end.extend(row)
+                    out_feed.append(feed)
+                    out_modal.append(modal_id)
+                    out_tv.extend(row_tv)
+                    out_arc.append(-1)
+                if mcodes and mcodes.get("stop") in (20, 300):
+                    ended = True
+                continue
+
+            start = pos if rot is None else rot.to_program(pos)
+            new = start[:]
             inc = distance == 91
             if fc == 530:  # G53: this block's axis words are machine coordinates
                 if motion_mode not in (0, 1) or inc or tcp != TCP_OFF:
@@ -519,12 +588,14 @@ class _Interpreter(BlockReader):
                     if exc.letter is None:
                         raise self._error(lineno, str(exc)) from None
                     raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
-                out_arc.append(len(arc_sweep))
-                arc_centre.extend(arc[0])
-                arc_radius.extend(arc[1])
-                arc_sweep.append(arc[2])
-                arc_plane.append(plane)
+                if rot is None:
+                    out_arc.append(len(arc_sweep))
+                    arc_centre.extend(arc[0])
+                    arc_radius.extend(arc[1])
+                    arc_sweep.append(arc[2])
+                    arc_plane.append(plane)
             else:
+                arc = None
                 for c in ("R",):
                     if c in vals:
                         raise self._word_error(lineno, toks, c,
@@ -538,7 +609,8 @@ class _Interpreter(BlockReader):
                                            "vector under G43.5)")
                 if "P" in vals and not allowed_here:
                     raise self._word_error(lineno, toks, "P", "P word in a straight move")
-                out_arc.append(-1)
+                if rot is None:
+                    out_arc.append(-1)
 
             if motion_mode != 0:
                 if feed_mode == 93:
@@ -554,6 +626,43 @@ class _Interpreter(BlockReader):
                 elif feed_mode == 95 and not spindle_rpm > 0:
                     raise self._error(lineno, "feed per revolution (G95) with no spindle "
                                       "speed; expected an S > 0 in this block or before it")
+
+            if rot is not None:  # G68/G68.2 or G53.1's tool axis: the rows in the program frame
+                if reframe:
+                    reframed.append(len(out_line))
+                    reframed_start.extend(pos)
+                    reframe = False
+                modal_id = self._modal_id(modal_ids, modals, (
+                    plane, units, distance, arc_distance, feed_mode, spindle_rpm, spindle_dir,
+                    tool, length_offset, TCP_VECTOR if rot.axis else tcp, wcs, frame_id))
+                dirty = True
+                row_tv = rot.axis or tv
+                try:
+                    rrows = rot.rows(motion_mode, start, new, arc, plane, self.chord_budget)
+                except RotationError as exc:
+                    raise self._error(lineno, str(exc)) from None
+                if arc is not None and rrows[0][2] is None:
+                    self.chord_budget -= len(rrows)
+                for motion, row, rarc in rrows:
+                    if rarc is None:
+                        out_arc.append(-1)
+                    else:
+                        out_arc.append(len(arc_sweep))
+                        arc_centre.extend(rarc[0])
+                        arc_radius.extend(rarc[1])
+                        arc_sweep.append(rarc[2])
+                        arc_plane.append(rarc[3])
+                    rotated.append(len(out_line))
+                    out_line.append(lineno)
+                    out_motion.append(motion)
+                    out_end.extend(row)
+                    out_feed.append(feed)
+                    out_modal.append(modal_id)
+                    out_tv.extend(row_tv)
+                    pos = row
+                if mcodes and mcodes.get("stop") in (20, 300):
+                    ended = True
+                continue
 
             if dirty:
                 key = (plane, units, distance, arc_distance, feed_mode, spindle_rpm,
@@ -601,6 +710,8 @@ class _Interpreter(BlockReader):
             reframed=np.array(reframed, dtype=np.int64),
             reframed_start=np.array(reframed_start, dtype=float).reshape(-1, 6),
             machine_moves=np.array(machine_rows, dtype=np.int64),
+            drilling=np.array(drilling, dtype=np.int64),
+            rotated=np.array(rotated, dtype=np.int64),
             newline=self.newline,
             allowed=self.allowed_names,
             block_delete=self.block_delete,
@@ -610,3 +721,12 @@ class _Interpreter(BlockReader):
         )
 
     # -- pieces ------------------------------------------------------------
+    @staticmethod
+    def _cycle_words(gcodes: dict[str, int], motion_mode: int | None) -> bool:
+        """Whether the block runs a canned cycle (whose words include L and Q), or is G68.x."""
+        key = gcodes.get("motion") if gcodes else None
+        if key is not None:
+            return key in CYCLE_CODES
+        if gcodes and "rotation" in gcodes:  # G68.2 Q: refused by nc.rotation, by name
+            return True
+        return motion_mode is not None and motion_mode > 3

@@ -233,6 +233,12 @@ class Program:
     machine_moves : ndarray, shape (k,), int
         Blocks whose end was given in machine coordinates: G53 moves and the
         second move of G28/G30 (to the reference point).
+    drilling : ndarray, shape (d,), int
+        Blocks made by canned drilling cycles (G73, G81...: :mod:`nc.cycles`),
+        rapids and feeds, one row per move; they share their cycle's source line.
+    rotated : ndarray, shape (r,), int
+        Blocks written in a rotated frame (G68, G68.2: :mod:`nc.rotation`) or
+        under G53.1's tool axis; :attr:`end` is in the work offset's frame.
     ignored : tuple of (str, int, int)
         Codes read and passed over (coolant, dwell, path blending, the
         caller's ``allow``...): code, count, first line; in order of first line.
@@ -269,13 +275,15 @@ class Program:
     reframed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     reframed_start: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     machine_moves: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    drilling: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    rotated: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     metadata: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name in ("line", "motion", "end", "initial", "feed", "modal_index",
                      "tool_vector", "arc_index", "arc_centre", "arc_radius",
                      "arc_sweep", "arc_plane", "work_offsets", "frames", "reframed",
-                     "reframed_start", "machine_moves"):
+                     "reframed_start", "machine_moves", "drilling", "rotated"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
 
     # --- sequence protocol ---------------------------------------------
@@ -337,6 +345,13 @@ class Program:
         """
         start = self.start
         return np.isfinite(start).all(axis=1) & np.isfinite(self.end).all(axis=1)
+
+    @property
+    def drilling_mask(self) -> np.ndarray:
+        """Whether each block was made by a canned drilling cycle, shape (n,), bool."""
+        mask = np.zeros(len(self), dtype=bool)
+        mask[self.drilling] = True
+        return mask
 
     def modal_column(self, name: str) -> np.ndarray:
         """One field of :class:`Modal` for every block, shape (n,)."""

@@ -113,6 +113,12 @@ def rewrite_coordinates(
         raise RewriteError(f"line {program.line[i]}: the program changes its frame or moves "
                            "in machine coordinates (G92, G52, G10, G28/G30, G53, a work "
                            "offset switch); rewriting such programs is not supported yet")
+    for rows, what in ((program.drilling, "canned drilling cycles (one block, many moves)"),
+                       (program.rotated, "coordinates in a rotated frame (G68, G68.2, "
+                                         "G53.1)")):
+        if len(rows):
+            raise RewriteError(f"line {program.line[int(rows[0])]}: the program has {what}; "
+                               "rewriting such programs is not supported yet")
     target = program.end.copy()
     for i, e in (ends or {}).items():
         if not 0 <= i < n:

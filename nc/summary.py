@@ -40,6 +40,12 @@ class ProgramSummary:
     #: given): left out of the lengths, time and box
     unknown_blocks: int = 0
     unknown_first_line: int | None = None
+    #: moves made by canned drilling cycles (G73, G81...): counted here, not
+    #: in rapid/linear blocks; their feed moves in drilling length and time,
+    #: not in the cutting ones (their rapids are in the rapid length)
+    drilling_blocks: int = 0
+    drilling_length_mm: float = 0.0
+    drilling_time_min: float = 0.0
 
     def as_dict(self) -> dict:
         """Plain types, ready for JSON."""
@@ -51,6 +57,8 @@ def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> Program
     known = program.known
     length = np.where(known, block_lengths(program), 0.0)
     rapid = program.motion == RAPID
+    drill = program.drilling_mask
+    minutes = np.where(known, block_minutes(program, length), 0.0)
     if np.any(known):
         pts, block = expand_arcs(program, chord_tol_mm)
         # every known block's start too: after a position not known, a known
@@ -72,12 +80,15 @@ def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> Program
         file=program.file,
         lines=len(program.lines),
         motion_blocks=len(program),
-        rapid_blocks=int(np.sum(rapid)),
-        linear_blocks=int(np.sum(program.motion == LINEAR)),
+        rapid_blocks=int(np.sum(rapid & ~drill)),
+        linear_blocks=int(np.sum((program.motion == LINEAR) & ~drill)),
         arc_blocks=int(np.sum((program.motion == ARC_CW) | (program.motion == ARC_CCW))),
-        cutting_length_mm=float(length[~rapid].sum()),
+        cutting_length_mm=float(length[~rapid & ~drill].sum()),
         rapid_length_mm=float(length[rapid].sum()),
-        cutting_time_min=float(block_minutes(program, length)[known].sum()),
+        cutting_time_min=float(minutes[~drill].sum()),
+        drilling_blocks=int(drill.sum()),
+        drilling_length_mm=float(length[~rapid & drill].sum()),
+        drilling_time_min=float(minutes[drill].sum()),
         bbox_min_mm=tuple(float(v) for v in lo),
         bbox_max_mm=tuple(float(v) for v in hi),
         rotary_range_deg=rotary,
@@ -101,6 +112,7 @@ def blocks_as_json(program: Program) -> list[dict]:
     """
     feed_mode = program.modal_column("feed_mode")
     tcp = program.modal_column("tcp")
+    drill = program.drilling_mask
     end = program.end
     xyz = np.round(end[:, :3], 9).tolist()
     abc = np.round(np.degrees(end[:, 3:]), 9).tolist()
@@ -118,6 +130,8 @@ def blocks_as_json(program: Program) -> list[dict]:
             "feed": feed[i],
             "feed_mode": f"G{int(feed_mode[i])}",
         }
+        if drill[i]:
+            d["drilling"] = True
         if tcp[i] == 2:
             d["tool_vector"] = np.round(program.tool_vector[i], 12).tolist()
         out.append(d)

@@ -480,3 +480,27 @@ def test_a_heidenhain_program_predicts_as_the_same_path_in_g_code(tmp_path):
                    .replace("[program]\n", '[program]\ndialect = "siemens"\n'))
     with pytest.raises(ScenarioError, match="program.dialect"):
         load_scenario(bad)
+
+
+def test_program_with_drilling_cycles_is_refused_at_load(tmp_path):
+    """The prediction models milling: a canned drilling cycle is refused before any work,
+    under program.gcode, naming the program's file and the cycle's line."""
+    path = _write(tmp_path, VALID)
+    (tmp_path / "p.nc").write_text("G21 G90 G17\nG0 X0 Y0 Z30\nG1 X10 F1000\n"
+                                   "G98 G81 X5 Y5 Z-3 R2\nG80\nM2\n")
+    with pytest.raises(ScenarioError, match=r"program\.gcode: .*p\.nc:4:1: canned drilling "
+                       r"cycle \(4 moves from line 4 on\)") as exc:
+        load_scenario(path)
+    assert exc.value.key == "program.gcode" and "\n" not in str(exc.value)
+
+
+def test_predictor_refuses_a_drilling_program():
+    """Programs handed to the Predictor directly (not through a scenario) too."""
+    from nc import NCParseError, parse_program
+    from errpred.predict import Predictor
+
+    prog = parse_program("G21 G90 F100 S1000 M3\nG0 X0 Y0 Z10\nG98 G81 X20 Y0 Z-5 R2\n"
+                         "G80\nM2\n", file="d.nc")
+    with pytest.raises(NCParseError, match=r"^d\.nc:3:1: canned drilling cycle .* models "
+                       "milling only"):
+        Predictor(None, None, prog, None, None)

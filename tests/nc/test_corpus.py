@@ -41,7 +41,7 @@ REASONS = {
     "uvw": ("unknown word U", "axes U V W"),
     "rotation": ("rotation of a work offset (G10 R)", "work offsets with rotation (G10 L2 R)"),
     "nurbs": ("G5.2 (a spline", "NURBS G5.2/G5.3"),
-    "tilt": ("G68.2 (a tilted working plane", "tilted working planes"),
+    "tilt": ("Q word with G68.x", "LinuxCNC's G68.2 Q orientation forms and G53.3"),
     "arcradius": ("differ by", "arc radii beyond LinuxCNC's tolerance (rs274 refuses too)"),
     "g71": ("unsupported code G71", "G70/G71 units (Siemens/Heidenhain style)"),
     "ijk-g0": ("I word in a straight move", "I J words in a G0 block"),

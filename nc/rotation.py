@@ -1,0 +1,320 @@
+"""Coordinate rotation (G68/G69) and tilted working planes (G68.2, G53.1) of Fanuc-family controls.
+
+LinuxCNC has none of these codes (its ``rs274`` refuses them); Fanuc, Haas,
+Makino and Okuma's ISO mode have them. While one is in effect the program's
+coordinates are in a rotated frame; the reader turns every end point (and
+arc centre) into the program frame of the work offset, which is what
+:class:`~nc.program.Program` keeps: ``world = t + M @ p``.
+
+* ``G68 X.. Y.. R..`` (G17; G18: Z X, G19: Y Z): rotation by R [deg],
+  counter-clockwise seen from the plane's normal, about the centre X Y
+  (absolute; the current position when not given). Arcs stay arcs.
+* ``G68 X.. Y.. Z.. I.. J.. K.. R..``: Fanuc's 3-D coordinate conversion,
+  rotation by R about the direction I J K through X Y Z.
+* ``G68.2 X.. Y.. Z.. I.. J.. K..``: tilted working plane, origin X Y Z,
+  Euler angles I J K [deg] in Z-X-Z order (turn about Z by I, about the new
+  X by J, about the new Z by K): ``M = Rz(I) Rx(J) Rz(K)``, its columns the
+  plane's X Y Z axes. Arcs in a plane that the rotation tilts become chords
+  (:data:`nc.constants.CHORD_TOL_MM`).
+* ``G53.1``: the tool is turned along the tilted plane's Z. The reader does
+  not know the machine's angles, so it takes the turn as one about the tool
+  tip (as under tool centre point control), and from there every row is a
+  tool-vector row (:data:`~nc.program.TCP_VECTOR`) whose vector is the
+  plane's Z, as the Heidenhain reader stores a tilted plane;
+  :func:`nc.path.cutter_locations` gives tip and axis, and
+  :mod:`nc.kinematics` the machine's angles. The tool stays turned after
+  ``G69`` until rotary words move the axes again.
+* ``G69`` cancels the rotation or the plane.
+
+Refused with the word and what is expected: G68 or G68.2 while one is in
+effect, a change of plane, work offset or frame (G92, G52, G10, G28, G53)
+while one is in effect, rotary words or tool centre point control under
+G68.2, G53.1 without G68.2, G68.2 P1...P3 and other forms than Euler angles.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import constants as K
+from .dialect import code_key, code_name
+from .heidenhain_geom import arc_points
+from .lexer import find_token
+from .program import PLANE_AXES, TCP_OFF
+
+__all__ = ["Rotation", "RotationBlocks", "RotationError", "euler_zxz", "rotation_about",
+           "rotation_block"]
+
+G68, G68_2, G69, G53_1 = 680, 682, 690, 531
+
+
+class RotationError(Exception):
+    """A rotation block that cannot be read; ``letter`` is the word to point at."""
+
+    def __init__(self, message: str, letter: str | None = None) -> None:
+        super().__init__(message)
+        self.letter = letter
+
+
+def rotation_about(axis: np.ndarray, angle_rad: float) -> np.ndarray:
+    """The 3x3 rotation by ``angle_rad`` about the unit vector ``axis`` (right hand)."""
+    x, y, z = axis
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    C = 1.0 - c
+    return np.array([[c + x * x * C, x * y * C - z * s, x * z * C + y * s],
+                     [y * x * C + z * s, c + y * y * C, y * z * C - x * s],
+                     [z * x * C - y * s, z * y * C + x * s, c + z * z * C]])
+
+
+def euler_zxz(i_deg: float, j_deg: float, k_deg: float) -> np.ndarray:
+    """Fanuc G68.2 Euler angles: ``Rz(I) @ Rx(J) @ Rz(K)``; columns are the plane's axes."""
+    ez, ex = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0])
+    return (rotation_about(ez, math.radians(i_deg)) @ rotation_about(ex, math.radians(j_deg))
+            @ rotation_about(ez, math.radians(k_deg)))
+
+
+@dataclass
+class Rotation:
+    """The rotation in effect, or the tool axis G53.1 left after G69.
+
+    Attributes
+    ----------
+    M : ndarray, shape (3, 3)
+        Rotation; its columns are the rotated X Y Z in the program frame.
+    t : ndarray, shape (3,) [mm]
+        ``world = t + M @ p``.
+    active : bool
+        G68/G68.2 in effect (False: only the tool axis is held after G69).
+    tilted : bool
+        G68.2 (G53.1 may follow).
+    plane : int
+        The plane the rotation was given in (17, 18, 19).
+    axis : tuple of 3 float or None
+        Tool axis after G53.1, in the program frame; None before.
+    """
+
+    M: np.ndarray
+    t: np.ndarray
+    active: bool = True
+    tilted: bool = False
+    plane: int = 17
+    axis: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        # plain floats: one block's conversion is faster without numpy
+        self._m = tuple(tuple(float(v) for v in row) for row in self.M)
+        self._t = tuple(float(v) for v in self.t)
+
+    def to_program(self, pos: list[float]) -> list[float]:
+        """Program-frame position -> the rotated frame's coordinates (rotary kept)."""
+        if not self.active:
+            return pos
+        (a, b, c), (d, e, f), (g, h, i) = self._m
+        x, y, z = pos[0] - self._t[0], pos[1] - self._t[1], pos[2] - self._t[2]
+        return [a * x + d * y + g * z, b * x + e * y + h * z, c * x + f * y + i * z,
+                *pos[3:]]
+
+    def to_world(self, p: list[float] | np.ndarray) -> list[float]:
+        """The rotated frame's coordinates -> program frame (rotary kept)."""
+        if not self.active:
+            return list(p)
+        (a, b, c), (d, e, f), (g, h, i) = self._m
+        x, y, z = float(p[0]), float(p[1]), float(p[2])
+        return [self._t[0] + a * x + b * y + c * z, self._t[1] + d * x + e * y + f * z,
+                self._t[2] + g * x + h * y + i * z, *(float(v) for v in p[3:])]
+
+    def keeps_normal(self, plane: int) -> bool:
+        """Whether arcs of ``plane`` stay arcs of the same plane (the normal is fixed)."""
+        if not self.active:
+            return True
+        n = PLANE_AXES[plane][2]
+        return abs(self.M[n, n] - 1.0) < 1e-12
+
+    def rows(self, motion: int, start: list[float], end: list[float], arc, plane: int,
+             budget: int = K.MAX_TILTED_ARC_CHORDS
+             ) -> list[tuple[int, list[float], tuple | None]]:
+        """The rows of one move given in the rotated frame: (motion, end, arc).
+
+        ``arc`` is ``(centre3, radii, sweep)`` from :func:`nc.arcs.arc_from_words`,
+        or None; in the result, ``(centre3, radii, sweep, plane)`` in the program
+        frame, or chords (motion 1, no arc) where the rotation tilts the plane,
+        at most ``budget`` of them (else :class:`RotationError`).
+        """
+        if arc is None:
+            return [(motion, self.to_world(end), None)]
+        centre, radii, sweep = arc
+        if self.keeps_normal(plane):
+            return [(motion, self.to_world(end), (self.to_world(list(centre))[:3], radii,
+                                                  sweep, plane))]
+        a1, a2, ax = PLANE_AXES[plane]
+        r = max(radii)
+        ratio = min(max(1.0 - K.CHORD_TOL_MM / max(r, 1e-12), -1.0), 1.0)
+        step = 2.0 * math.acos(ratio) if ratio < 1.0 else math.pi
+        if abs(sweep) / min(max(step, 1e-6), math.pi / 2) > budget:
+            raise RotationError(f"arc in the tilted plane would make more than {budget} "
+                                f"chords (all tilted arcs of the program together at most "
+                                f"{K.MAX_TILTED_ARC_CHORDS}); expected fewer turns or a "
+                                "smaller radius")
+        pts = arc_points((a1, a2, ax), np.asarray(start[:3]), np.asarray(end[:3]),
+                         (centre[a1], centre[a2]), tuple(radii), sweep, K.CHORD_TOL_MM)
+        rot = list(end[3:])
+        return [(1, self.to_world(list(p) + rot), None) for p in pts]
+
+
+def rotation_block(code: int, vals: dict[str, float], pos: list[float], plane: int,
+                   scale: float, current: Rotation | None, tcp: int) -> Rotation | None:
+    """G68, G68.2, G69 or G53.1 with its words; returns the rotation in effect after it.
+
+    Parameters
+    ----------
+    code : int
+        680 (G68), 682 (G68.2), 690 (G69), 531 (G53.1).
+    vals : dict
+        The block's words in program units and degrees.
+    pos : list of 6 float [mm, rad]
+        Position, program frame.
+    plane : int
+    scale : float [mm per program unit]
+    current : Rotation or None
+    tcp : int
+        Tool centre point mode in effect.
+
+    Raises
+    ------
+    RotationError
+    """
+    active = current is not None and current.active
+    if "Q" in vals:
+        raise RotationError("Q word with G68.x (LinuxCNC's G68.2 Q orientation forms, Fanuc's "
+                            "P1 roll-pitch-yaw order) is not supported; expected Fanuc's "
+                            "G68.2 X Y Z I J K (Euler angles)", "Q")
+    if "L" in vals:
+        raise RotationError("L word with G68.x/G69/G53.1; expected none", "L")
+    if code == G69:
+        for c in vals:
+            if c in "XYZIJKRP":
+                raise RotationError(f"{c} word with G69; expected G69 alone", c)
+        if current is not None and current.axis is not None:
+            return Rotation(np.eye(3), np.zeros(3), active=False, axis=current.axis)
+        return None
+    if code == G53_1:
+        if not (active and current.tilted):
+            raise RotationError("G53.1 without a tilted working plane; expected G68.2 first")
+        for c in vals:
+            if c in "XYZIJKRP":
+                raise RotationError(f"{c} word with G53.1; expected G53.1 alone (P, the "
+                                    "choice of solution, is the machine's here)", c)
+        z = current.M[:, 2]
+        current.axis = (float(z[0]), float(z[1]), float(z[2]))
+        return current
+    if active:
+        name = "G68" if not current.tilted else "G68.2"
+        raise RotationError(f"G68/G68.2 while {name} is in effect; expected G69 first")
+    held = None if current is None else current.axis  # the tool stays where G53.1 put it
+    if tcp != 0:
+        raise RotationError("G68/G68.2 under tool centre point control (G43.4/G43.5); "
+                            "expected G49 or G43 first")
+    for c in "ABC":
+        if c in vals:
+            raise RotationError(f"{c} word with G68/G68.2; expected the centre X Y Z, "
+                                "I J K and R only", c)
+    if code == G68_2:
+        if vals.get("P", 0.0) != 0.0:
+            raise RotationError("G68.2 P1...P3 (roll-pitch-yaw, three points, two vectors) "
+                                "is not supported; expected Euler angles I J K (P0)", "P")
+        if "R" in vals:
+            raise RotationError("R word with G68.2; expected X Y Z (origin) and I J K "
+                                "(Euler angles)", "R")
+        origin = np.array([vals.get(c, 0.0) * scale for c in "XYZ"])
+        M = euler_zxz(vals.get("I", 0.0), vals.get("J", 0.0), vals.get("K", 0.0))
+        return Rotation(M, origin, tilted=True, plane=plane, axis=held)
+    if "P" in vals:
+        raise RotationError("P word with G68; expected X Y (Z) centre, R angle (I J K axis)",
+                            "P")
+    if "R" not in vals:
+        raise RotationError("G68 without R; expected the angle R [deg] (the control's "
+                            "default angle is not known here)")
+    angle = math.radians(vals["R"])
+    centre = np.array([vals[c] * scale if c in vals else pos[k]
+                       for k, c in enumerate("XYZ")])
+    if not np.all(np.isfinite(centre)):
+        raise RotationError("G68 at a position not known with no centre; expected the "
+                            "centre X Y")
+    if any(c in vals for c in "IJK"):  # Fanuc's 3-D coordinate conversion
+        d = np.array([vals.get(c, 0.0) for c in "IJK"])
+        n = float(np.linalg.norm(d))
+        if not n > 1e-12:
+            raise RotationError("G68 I J K of zero length; expected the axis of rotation",
+                                next(c for c in "IJK" if c in vals))
+        M = rotation_about(d / n, angle)
+    else:
+        a1, a2, ax = PLANE_AXES[plane]
+        for c in "XYZ"[ax]:
+            if c in vals:
+                raise RotationError(f"{c} word with G68 in G{plane}; expected the centre in "
+                                    "the plane's two axes", c)
+        normal = np.zeros(3)
+        normal[ax] = 1.0
+        M = rotation_about(normal, angle)
+    return Rotation(M, centre - M @ centre, plane=plane, axis=held)
+
+
+
+class RotationBlocks:
+    """The reader's part for these codes (a base of :class:`nc.gcode._Interpreter`,
+    beside :class:`nc.blockreader.BlockReader`, whose ``_error`` it uses)."""
+
+    def _rotation(self, lineno: int, toks: list, gs: list[str] | None, gcodes: dict,
+                  vals: dict[str, float], axes: list | None, pos: list[float], plane: int,
+                  scale: float, rot, tcp: int, fc: int | None):
+        """G68/G68.2/G69/G53.1, and what may not change under them.
+
+        Returns the rotation after the block and whether the block is done
+        (G68, G68.2 and G53.1 own their words; nothing moves).
+        """
+        code = gcodes.get("rotation") if gcodes else None
+        orient = gcodes.get("orient") if gcodes else None
+        if rot is not None and rot.active and code != 690:
+            what = "G68.2" if rot.tilted else "G68"
+            if plane != rot.plane:
+                raise self._error(lineno, f"change of plane under {what}; expected G69 first",
+                                  token=find_token(toks, "G", gs[0]) if gs else None)
+            if tcp != TCP_OFF:
+                raise self._error(lineno, f"tool centre point control (G43.4/G43.5) under "
+                                  f"{what}; expected G69 first",
+                                  token=find_token(toks, "G", gs[0]) if gs else None)
+            if fc is not None or (gcodes and "wcs" in gcodes):
+                raise self._error(lineno, f"change of frame or machine coordinates under "
+                                  f"{what}; expected G69 first",
+                                  token=find_token(toks, "G", gs[0]) if gs else None)
+            if rot.tilted and any(i >= 3 for i, _ in axes or ()):
+                c = next(c for c in "ABC" if c in vals)
+                raise self._word_error(lineno, toks, c, f"rotary word {c} under G68.2; "
+                                       "expected G53.1 to turn the tool (G69 first to move "
+                                       "rotary axes)")
+        if code is None and orient is None:
+            if rot is not None and not rot.active and any(i >= 3 for i, _ in axes or ()):
+                return None, False  # rotary words: the axes leave G53.1's posture
+            return rot, False
+        if code is not None and orient is not None:
+            raise self._error(lineno, "G53.1 with G68/G68.2/G69 in one block; expected "
+                              "G53.1 in a block of its own after G68.2",
+                              token=find_token(toks, "G", gs[0]))
+        key = code if code is not None else orient
+        name = code_name("G", key)
+        if key != 690 and gcodes.get("motion") is not None:
+            raise self._error(lineno, f"{name} with a motion code; expected {name} in a block "
+                              "without motion", token=find_token(toks, "G", gs[0]))
+        try:
+            rot = rotation_block(key, vals, pos, plane, scale, rot, tcp)
+        except RotationError as exc:
+            tok = find_token(toks, "G", next(g for g in gs if code_key("G", g) == key))
+            if exc.letter is None:
+                raise self._error(lineno, f"{exc}", token=tok) from None
+            raise self._word_error(lineno, toks, exc.letter, str(exc)) from None
+        if key == 690:  # the block may go on: a move, a frame code
+            return rot, not (axes or fc is not None or gcodes.get("motion") is not None)
+        return rot, True
