@@ -96,6 +96,13 @@ def split_blocks(text: str, file: str) -> tuple[list[str], str, list[SBlock], st
         m = _NUMBER.match(up, pos)
         if m:
             pos = m.end()
+            while pos < len(up) and up[pos] == " ":
+                pos += 1
+            if not skip and pos < len(up) and up[pos] == "/":  # N10 /X1, as some posts write
+                skip = True
+                pos += 1
+                if pos < len(up) and up[pos].isdigit():
+                    pos += 1
         m = _LABEL.match(up, pos)
         if m:
             pos = m.end()

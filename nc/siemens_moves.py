@@ -13,7 +13,6 @@ import math
 import numpy as np
 
 from .arcs import ArcWordError, arc_from_words
-from .program import PLANE_AXES
 from .siemens_blocks import SBlock, Word, lex
 from .siemens_state import G_IGNORED, G_REFUSED, K_IGNORED, K_REFUSED, SUPPORTED_BLOCKS, SState
 

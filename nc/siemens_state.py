@@ -17,9 +17,8 @@ import numpy as np
 from . import constants as K
 from .errors import NCParseError
 from .heidenhain_geom import arc_points
-from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
+from .program import PLANE_AXES, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 from .siemens_blocks import SBlock, Word, split_args
-from .siemens_expr import SUPPORTED as EXPR_SUPPORTED
 from .siemens_expr import ExprError, evaluate
 from .siemens_frames import PARAMS as C800_PARAMS
 from .siemens_frames import FrameError, Swivel, cycle800
@@ -149,11 +148,11 @@ class SState:
             rec[0] += 1
 
     def expr(self, text: str, col: int, what: str) -> float:
-        """Value of an expression written at ``col`` (the word's column)."""
+        """Value of an expression whose text starts at column ``col``."""
         try:
             v = evaluate(text, self.params)
         except ExprError as exc:
-            raise self.err(f"{what}: {exc}", col) from None
+            raise self.err(f"{what}: {exc}", col + exc.offset) from None
         if not abs(v) <= K.MAX_ABS_WORD_VALUE:
             raise self.err(f"{what} = {v:g} is out of range; expected |value| <= "
                            f"{K.MAX_ABS_WORD_VALUE:g}", col)
@@ -170,7 +169,7 @@ class SState:
         if _AXIS_FN.fullmatch(w.text):
             raise self.err(f"{w.name}={w.text[:12]}: AC/IC/DC apply to axis and centre "
                            "words only", w.col)
-        return self.expr(w.text, w.col, w.name)
+        return self.expr(w.text, w.tcol, w.name)
 
     def axis_value(self, w: Word) -> tuple[float, str | None]:
         """Value and AC/IC/DC/ACP/ACN mode (None: the block's G90/G91) of an axis word."""
@@ -178,8 +177,9 @@ class SState:
             return self.number(w), None
         m = _AXIS_FN.fullmatch(w.text)
         if m:
-            return self.expr(m.group(2), w.col, f"{w.name}={m.group(1)}(..)"), m.group(1)
-        return self.expr(w.text, w.col, w.name), None
+            return (self.expr(m.group(2), w.tcol + m.start(2), f"{w.name}={m.group(1)}(..)"),
+                    m.group(1))
+        return self.expr(w.text, w.tcol, w.name), None
 
     def world(self, p: np.ndarray) -> np.ndarray:
         if not self.tilted:
@@ -216,8 +216,6 @@ class SState:
         start = self.ppos
         if arc is not None and self.tilted:
             centre, radii, sweep = arc
-            from .program import PLANE_AXES
-
             axes = PLANE_AXES[self.plane]
             c2 = (centre[axes[0]], centre[axes[1]])
             for p in arc_points(axes, start, pend, c2, radii, sweep, K.CHORD_TOL_MM):
@@ -277,7 +275,7 @@ class SState:
             self.params[name] = v
 
     def assign(self, w: Word) -> None:
-        v = self.expr(w.text, w.col, w.name)
+        v = self.expr(w.text, w.tcol, w.name)
         if w.name in self.ints:
             v = _round_int(v)
         self.params[w.name] = v
