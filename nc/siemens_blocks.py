@@ -28,6 +28,8 @@ _NUMBER = re.compile(r"\s*(?:N\d+|:\d+)(?=[^0-9.]|$)")
 _LABEL = re.compile(r"\s*([A-Z_][A-Z0-9_]*):(?!=)")
 _ADDR = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))(?![0-9_.]|\s*=)")
 _NAME = re.compile(r"([A-Z_$][A-Z0-9_]*)\s*([=(])?")
+#: A plain number after '=' that ends the word (most words CAM writes: A3=0.5).
+_PLAIN = re.compile(r" *([+-]?(?:\d+\.?\d*|\.\d+))(?= |$)")
 _UPPER = {c: c - 32 for c in range(ord("a"), ord("z") + 1)}
 
 
@@ -215,6 +217,16 @@ def lex(b: SBlock, file: str, lines: list[str]) -> list[Word]:
             out.append(Word("K", name, "", col0 + i, col0 + m.end()))
             i = m.end()
         elif sep == "=":
+            p = _PLAIN.match(s, m.end())
+            if p is not None:
+                nxt = p.end() + 1
+                while nxt < n and s[nxt] == " ":
+                    nxt += 1
+                if nxt >= n or s[nxt] not in "+-*/)=<>" and not s.startswith(("DIV", "MOD"),
+                                                                              nxt):
+                    out.append(Word("E", name, p.group(1), col0 + i, col0 + p.start(1)))
+                    i = p.end()
+                    continue
             j = m.end()
             while j < n and s[j] == " ":
                 j += 1

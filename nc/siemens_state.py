@@ -86,6 +86,7 @@ _DEF = re.compile(r"DEF\s+(REAL|INT)\s+(.+)")
 _DEF_ITEM = re.compile(r"\s*([A-Z_][A-Z0-9_]*)\s*(?:=\s*(.+?))?\s*")
 _AXIS_FN = re.compile(r"(AC|IC|DC|ACP|ACN)\s*\((.*)\)")
 _RPARAM = re.compile(r"R\d+")
+_PLAIN = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
 _RESERVED = frozenset({"X", "Y", "Z", "A", "B", "C", "I", "J", "K", "F", "S", "T", "D", "M",
                        "G", "N", "H", "L", "P", "R", "CR", "AR", "TURN", "A3", "B3", "C3",
                        "DIV", "MOD", "SIN", "COS", "TAN", "SQRT", "ABS", "POT", "TRUNC",
@@ -166,6 +167,12 @@ class SState:
                 raise self.err(f"{w.name}{w.text} is out of range; expected |value| <= "
                                f"{K.MAX_ABS_WORD_VALUE:g}", w.col)
             return v
+        if _PLAIN.fullmatch(w.text):
+            v = float(w.text)
+            if not abs(v) <= K.MAX_ABS_WORD_VALUE:
+                raise self.err(f"{w.name}={w.text} is out of range; expected |value| <= "
+                               f"{K.MAX_ABS_WORD_VALUE:g}", w.col)
+            return v
         if _AXIS_FN.fullmatch(w.text):
             raise self.err(f"{w.name}={w.text[:12]}: AC/IC/DC apply to axis and centre "
                            "words only", w.col)
@@ -173,7 +180,7 @@ class SState:
 
     def axis_value(self, w: Word) -> tuple[float, str | None]:
         """Value and AC/IC/DC/ACP/ACN mode (None: the block's G90/G91) of an axis word."""
-        if w.kind == "A":
+        if w.kind == "A" or _PLAIN.fullmatch(w.text):
             return self.number(w), None
         m = _AXIS_FN.fullmatch(w.text)
         if m:
