@@ -537,3 +537,11 @@ def test_cli_parse_and_post(tmp_path, capsys):
         text = out.read_text()
         assert text.startswith("%_N_P_SIEMENS_TRAORI") and word in text and "TRAORI\n" in text
         assert len(read_any(out)) > 100
+
+
+def test_rewrite_refuses_sinumerik():
+    from nc.rewrite import RewriteError, rewrite_coordinates
+
+    prog = parse_siemens(sin840("G1 X1 F100"), file="p.mpf")
+    with pytest.raises(RewriteError, match="Siemens"):
+        rewrite_coordinates(prog, {0: np.array([2.0, 0.0, 0.0])})
