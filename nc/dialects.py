@@ -4,8 +4,8 @@
 optional block number); ``siemens``: the first line is a ``%_N_name_MPF``
 (or ``_SPF``) header or a ``;$PATH=`` line, or the first blocks use what only a
 Sinumerik reads (``CYCLE800``, ``CYCLE832``, ``TRAORI``, ``TRAFOOF``, ``SUPA``,
-``G641``-``G645``, ``DEF REAL|INT``, ``MSG("``), parenthesised comments left
-out; anything else is ``gcode`` (ISO/Fanuc, LinuxCNC).
+``G641``-``G645``, ``DEF REAL|INT``, ``MSG("``, ``CR=``, ``A3=``, ``X=AC(``),
+parenthesised comments left out; anything else is ``gcode`` (ISO/Fanuc, LinuxCNC).
 """
 
 from __future__ import annotations
@@ -21,8 +21,9 @@ __all__ = ["DIALECT_NAMES", "detect_dialect", "read_any"]
 DIALECT_NAMES = ("gcode", "heidenhain", "siemens")
 _BEGIN = re.compile(r"\s*(?:\d+\s+)?BEGIN\s+PGM\s+\S+\s+(?:MM|INCH)\b", re.IGNORECASE)
 _SIEMENS_HEAD = re.compile(r"\s*(?:%_N_\w+_(?:MPF|SPF)\b|;\s*\$PATH\s*=)", re.IGNORECASE)
-_SIEMENS_WORDS = re.compile(r"(?<![A-Z0-9_])(?:CYCLE800|CYCLE832|TRAORI|TRAFOOF|SUPA|G64[1-5]"
-                            r"|DEF\s+(?:REAL|INT)|MSG\s*\(\s*\")(?![A-Z0-9_])", re.IGNORECASE)
+_SIEMENS_WORDS = re.compile(r"(?<![A-Z0-9_])(?:(?:CYCLE800|CYCLE832|TRAORI|TRAFOOF|SUPA"
+                            r"|G64[1-5]|DEF\s+(?:REAL|INT))(?![A-Z0-9_])|MSG\s*\(\s*\""
+                            r"|CR\s*=|[ABC]3\s*=|[XYZIJK]\s*=\s*[AI]C\s*\()", re.IGNORECASE)
 _PAREN_COMMENT = re.compile(r"\([^()\n\"]*\)")
 #: Bytes of the file looked at for detection (the first blocks) [-].
 _HEAD_BYTES = 4096

@@ -504,6 +504,8 @@ def test_detect_and_dispatch(tmp_path):
     assert detect_dialect("N10 G17 G90\nN20 CYCLE800()\nN30 G1 X1 F10\n") == "siemens"
     assert detect_dialect("G0 X0\nTRAORI\n") == "siemens"
     assert detect_dialect("N10 G642 G1 X1 F10\n") == "siemens"
+    assert detect_dialect("N1 G1 X0 Y0 F9\nN2 G3 X2 Y2 CR=2.\n") == "siemens"
+    assert detect_dialect("G1 X0 F9\nG3 X2 Y2 R2.\n") == "gcode"
     # an ISO program naming Sinumerik words in a parenthesised comment stays G-code
     assert detect_dialect("%\nO1000 (TRAORI POST, CYCLE800 OFF)\nG1 X1 F10\n%\n") == "gcode"
     assert detect_dialect("G1 X1 F10\nM2\n") == "gcode"
