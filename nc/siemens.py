@@ -28,6 +28,8 @@ What is read:
   (e.g. 57 = X Y Z, 27 = Z Y X); the following moves are turned into the
   workpiece frame, carry the swivelled tool axis as a tool vector, and arcs
   in a swivelled plane are stored as chords.
+* ``TRANS ATRANS ROT AROT`` (one rotation axis per block): the programmable
+  frame, inside the CYCLE800 swivel.
 * ``M30 M2 M17 RET`` end the program.
 
 Everything else ends the read with one :class:`~nc.errors.NCParseError`

@@ -25,6 +25,7 @@ _MOVE_WORDS = ("X", "Y", "Z", "A", "B", "C", "I", "J", "K", "CR", "AR", "TURN", 
 _LIN = (("X", 0), ("Y", 1), ("Z", 2))
 _ROT = (("A", 0), ("B", 1), ("C", 2))
 _TWO_PI = 2.0 * math.pi
+_FRAME_WORDS = frozenset({"TRANS", "ATRANS", "ROT", "AROT"})
 
 
 def execute(st: SState, b: SBlock) -> bool:
@@ -71,6 +72,16 @@ def execute(st: SState, b: SBlock) -> bool:
         else:
             keys.append(w)
 
+    frame_kw = [w for w in keys if w.name in _FRAME_WORDS]
+    if frame_kw:
+        w = frame_kw[0]
+        if len(keys) > 1 or gs or ms or calls:
+            other = next(k for k in (*keys, *calls) if k is not w) if len(keys) > 1 or calls \
+                else None
+            raise st.err(f"{w.name} with other words in its block; expected {w.name} and "
+                         "its X Y Z alone", other.col if other else w.col)
+        st.frame_statement(w, ax)
+        return False
     dwell = suppress = False
     for code, col in gs:
         if code <= 3:
@@ -196,7 +207,7 @@ def _move(st: SState, ax: dict, suppress: bool) -> None:
                                  w.col)
                 wpos[a] = v * scale
         if st.tilted:
-            sw = st.swivel
+            sw = st.frame
             target = sw.R.T @ (wpos - sw.shift)
         else:
             target = wpos

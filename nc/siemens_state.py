@@ -21,14 +21,14 @@ from .program import PLANE_AXES, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 from .siemens_blocks import SBlock, Word, split_args
 from .siemens_expr import ExprError, evaluate
 from .siemens_frames import PARAMS as C800_PARAMS
-from .siemens_frames import FrameError, Swivel, cycle800
+from .siemens_frames import FrameError, Swivel, cycle800, rotation
 
 __all__ = ["SState", "SUPPORTED_BLOCKS", "G_IGNORED", "G_REFUSED", "K_IGNORED", "K_REFUSED"]
 
 SUPPORTED_BLOCKS = ("G0 G1 G2 G3 (I J K, I=AC(..), CR=, TURN=), X Y Z A B C with AC/IC, "
                     "G17-G19, G90/G91, G93/G94, G700/G71/G710, G54-G57/G500/G505-G599, "
                     "G53/G153/SUPA, F S T D, M0-M9 M17 M30, TRAORI/TRAFOOF with A3= B3= C3=, "
-                    "CYCLE800, CYCLE832, MSG, DEF REAL/INT, R parameters")
+                    "TRANS ATRANS ROT AROT, CYCLE800, CYCLE832, MSG, DEF REAL/INT, R parameters")
 _M_START = {3: 1, 4: -1}
 _M_NOTHING = frozenset({0, 1, 6, 7, 8, 9})  # M6 handled apart; coolant, stops
 _M_END = frozenset({2, 17, 30})
@@ -59,11 +59,10 @@ K_IGNORED = frozenset({"FFWON", "FFWOF", "SOFT", "BRISK", "DRIVE", "COMPOF", "CO
                         "G642", "DYNNORM", "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH",
                         "TRAILOF", "PATHOFF", "WAITM", "ORISON", "ORISOF"})
 K_REFUSED = {
-    "TRANS": "programmable frames (TRANS ATRANS ROT AROT SCALE MIRROR) are not read",
-    "ATRANS": "programmable frames are not read", "ROT": "programmable frames are not read",
-    "AROT": "programmable frames are not read", "SCALE": "programmable frames are not read",
-    "ASCALE": "programmable frames are not read", "MIRROR": "programmable frames are not read",
-    "AMIRROR": "programmable frames are not read", "TCARR": "tool carriers (TCARR) need the "
+    "SCALE": "scaling and mirroring frames (SCALE ASCALE MIRROR AMIRROR) are not read",
+    "ASCALE": "scaling frames are not read", "MIRROR": "mirroring frames are not read",
+    "AMIRROR": "mirroring frames are not read", "RPL": "rotations in the plane (RPL) are "
+    "not read", "TCARR": "tool carriers (TCARR) need the "
     "machine's swivel data", "TOROT": "frame rotations (TOROT/PAROT) are not read",
     "PAROT": "frame rotations (TOROT/PAROT) are not read", "CIP": "circles through an "
     "intermediate point (CIP) are not read", "CT": "tangential circles (CT) are not read",
@@ -103,8 +102,11 @@ class SState:
         self.motion: int | None = None
         self.ppos = np.zeros(3)
         self.rot = [0.0, 0.0, 0.0]
-        self.swivel = Swivel(np.eye(3), np.zeros(3))
-        self.tilted = False
+        self.swivel = Swivel(np.eye(3), np.zeros(3))   # CYCLE800
+        self.pframe = Swivel(np.eye(3), np.zeros(3))   # TRANS/ROT/ATRANS/AROT
+        self.frame = self.swivel                       # both: swivel, then pframe inside
+        self.tilted = False                            # frame is not the identity
+        self.turned = False                            # frame turns the tool axis
         self.feed = math.nan
         self.rpm, self.spindle, self.tool, self.tool_sel, self.d = 0.0, 0, 0, 0, 0
         self.wcs = 1
@@ -191,7 +193,7 @@ class SState:
     def world(self, p: np.ndarray) -> np.ndarray:
         if not self.tilted:
             return p
-        return self.swivel.shift + self.swivel.R @ p
+        return self.frame.shift + self.frame.R @ p
 
     def modal_id(self, tcp: int) -> int:
         key = (self.plane, self.units, self.distance, 911, self.feed_mode, self.rpm,
@@ -207,10 +209,10 @@ class SState:
         if self.traori:
             if self.vector is None:
                 return TCP_ANGLES, nan3
-            v = self.swivel.R @ np.array(self.vector) if self.tilted else self.vector
+            v = self.frame.R @ np.array(self.vector) if self.tilted else self.vector
             return TCP_VECTOR, (float(v[0]), float(v[1]), float(v[2]))
-        if self.tilted:
-            v = self.swivel.R[:, 2]
+        if self.turned:
+            v = self.frame.R[:, 2]
             return TCP_VECTOR, (float(v[0]), float(v[1]), float(v[2]))
         return TCP_OFF, nan3
 
@@ -221,7 +223,7 @@ class SState:
                            "before it")
         tcp, tv = self.tcp_and_vector()
         start = self.ppos
-        if arc is not None and self.tilted:
+        if arc is not None and self.tilted and np.any(self.frame.R != np.eye(3)):
             centre, radii, sweep = arc
             axes = PLANE_AXES[self.plane]
             c2 = (centre[axes[0]], centre[axes[1]])
@@ -306,14 +308,46 @@ class SState:
             sw = cycle800(vals, self.swivel)
         except FrameError as exc:
             raise self.err(str(exc), w.col) from None
-        wpos = self.world(self.ppos)
-        self.swivel = sw
-        self.tilted = not sw.identity
-        self.ppos = sw.R.T @ (wpos - sw.shift) if self.tilted else wpos
+        self.set_frames(sw, self.pframe)
         if vals and vals[0]:
             self.ignore("CYCLE800 retraction")
         if len(vals) > 1 and vals[1]:
             self.metadata.setdefault("swivel_data", []).append(vals[1])
+
+    def set_frames(self, swivel: Swivel, pframe: Swivel) -> None:
+        """New swivel and programmable frames; the tool stays where it is."""
+        wpos = self.world(self.ppos)
+        self.swivel, self.pframe = swivel, pframe
+        fr = self.frame = swivel.then(pframe)
+        self.tilted = not fr.identity
+        self.turned = bool(np.any(fr.R[:, 2] != (0.0, 0.0, 1.0)))
+        self.ppos = fr.R.T @ (wpos - fr.shift) if self.tilted else wpos
+
+    def frame_statement(self, w: Word, ax: dict) -> None:
+        """``TRANS ATRANS ROT AROT`` and their axis words: the programmable frame.
+
+        ``TRANS X..`` / ``ROT Z..`` replace it (no words: reset), ``ATRANS`` /
+        ``AROT`` act on top of it; a rotation names one axis per block (the
+        order of several depends on the machine's FRAME_ANGLE_INPUT_MODE).
+        """
+        name = w.name
+        extra = [k for k in ax if k not in ("X", "Y", "Z")]
+        if extra:
+            raise self.err(f"{extra[0]} with {name}; expected X Y Z only", ax[extra[0]].col)
+        vals = {k: self.number(v) for k, v in ax.items()}
+        if name in ("TRANS", "ATRANS"):
+            t = np.array([vals.get(k, 0.0) * self.scale for k in "XYZ"])
+            new = Swivel(np.eye(3), t)
+        else:
+            if len(vals) > 1:
+                raise self.err(f"{name} with more than one axis: the order of the rotations "
+                               "is the machine's (FRAME_ANGLE_INPUT_MODE); expected one axis "
+                               f"per block ({name} Z.. then AROT Y..)", w.col)
+            new = Swivel(np.eye(3), np.zeros(3))
+            for k, v in vals.items():
+                new = Swivel(rotation("XYZ".index(k), v), np.zeros(3))
+        pf = self.pframe.then(new) if name[0] == "A" else new
+        self.set_frames(self.swivel, pf)
 
     def call(self, w: Word) -> None:
         name = w.name

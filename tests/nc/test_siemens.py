@@ -125,14 +125,15 @@ KNOWN = [
     ("cycle800-27", [c800(27, 90, 0, 90), "G1 X10 Y0 Z0 F100", "X0 Y10"],
      [dict(m=1, xyz=(0, 10, 0), f=100, tcp=TCP_VECTOR, tv=(1, 0, 0)),
       dict(m=1, xyz=(0, 0, 10), f=100, tcp=TCP_VECTOR, tv=(1, 0, 0))]),
-    # X0 (100,0,0) before the rotation, X1 (5,0,0) after: (100,0,0) + Rz90 (15,0,0)
+    # X0 (100,0,0) before the rotation, X1 (5,0,0) after: (100,0,0) + Rz90 (15,0,0);
+    # a turn about Z leaves the tool along Z: a 3-axis row (no tool vector)
     ("cycle800-shifts", [c800(57, 0, 0, 90, x0=(100, 0, 0), x1=(5, 0, 0)),
                          "G1 X10 Y0 Z0 F100"],
-     [dict(m=1, xyz=(100, 15, 0), f=100, tcp=TCP_VECTOR, tv=(0, 0, 1))]),
+     [dict(m=1, xyz=(100, 15, 0), f=100, tcp=TCP_OFF)]),
     # _ST = 1: additive, C90 on top of C90 = C180: (10,0,0) -> (-10,0,0)
     ("cycle800-additive", [c800(57, 0, 0, 90), c800(57, 0, 0, 90, st_=1),
                            "G1 X10 Y0 Z0 F100"],
-     [dict(m=1, xyz=(-10, 0, 0), f=100, tcp=TCP_VECTOR, tv=(0, 0, 1))]),
+     [dict(m=1, xyz=(-10, 0, 0), f=100, tcp=TCP_OFF)]),
     # SUPA: Z50 in the frame below the swivel (offsets zero), X Y where they were
     ("supa", [c800(57, 0, 0, 90), "G1 X10 Y0 Z5 F100", "SUPA G0 Z50", "G1 X10 Y0 Z5"],
      [dict(m=1, xyz=(0, 10, 5), f=100), dict(m=0, xyz=(0, 10, 50), f=100),
@@ -143,6 +144,16 @@ KNOWN = [
     # swivelled B90 and TRAORI: the vector (0,0,1) of the swivelled plane is (1,0,0)
     ("cycle800-traori", [c800(57, 0, 90, 0), "TRAORI", "G1 X10 Y0 Z0 A3=0 B3=0 C3=1 F100"],
      [dict(m=1, xyz=(0, 0, -10), f=100, tcp=TCP_VECTOR, tv=(1, 0, 0))]),
+    # TRANS shifts; AROT Z90 turns inside it: (10,0,0) -> (0,10,0) + (100,50,0);
+    # ROT (no axis) clears the whole programmable frame
+    ("trans-arot", ["G1 X0 Y0 Z0 F100", "TRANS X100 Y50", "G1 X10 Y0", "AROT Z90",
+                    "G1 X10 Y0", "ROT", "G1 X1 Y0"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(110, 50, 0), f=100, tcp=TCP_OFF),
+      dict(m=1, xyz=(100, 60, 0), f=100, tcp=TCP_OFF), dict(m=1, xyz=(1, 0, 0), f=100)]),
+    # ROT Y90 turns the tool axis: (0,0,1) -> (1,0,0); ATRANS Z5 in the turned frame
+    # moves along the world's +X: (10,0,0) -> (0,0,-10) + (5,0,0)
+    ("rot-y-atrans", ["ROT Y90", "ATRANS Z5", "G1 X10 Y0 Z0 F100"],
+     [dict(m=1, xyz=(5, 0, -10), f=100, tcp=TCP_VECTOR, tv=(1, 0, 0))]),
     ("g700-inch", ["G700 G1 X1 Y2 F10"], [dict(m=1, xyz=(25.4, 50.8, 0), f=254)]),
     # G4 F2 is a dwell of 2 s, not a feed
     ("g4-dwell", ["G1 X1 F100", "G4 F2", "X2"],
@@ -400,7 +411,10 @@ BAD = [
     (["G1 X0 Y0 F100", "G3 X2 Y1 AR=90"], "AR= (opening angle)"),
     (["G1 X1 F100 M91"], "unsupported M91"),
     (["G1 X1 F100 H5"], "unsupported address H5"),
-    (["TRANS X10"], "programmable frames"),
+    (["ROT X10 Y20"], "ROT with more than one axis"),
+    (["TRANS X10 G1"], "TRANS with other words in its block"),
+    (["TRANS X10 F100"], "F with TRANS"),
+    (["SCALE X2"], "scaling and mirroring frames"),
     (["GOTOF ENDE"], "control flow"),
     (["L100"], "subprogram calls"),
     (["CYCLE81(10,0,2,-5)"], "CYCLE81 is not read"),
@@ -529,9 +543,9 @@ def test_cli_parse_and_post(tmp_path, capsys):
     assert main(["parse", str(s), "--dialect", "siemens"]) == 0
     capsys.readouterr()
     bad = tmp_path / "b.mpf"
-    bad.write_text(sin840("TRANS X1"))
+    bad.write_text(sin840("MIRROR X0"))
     assert main(["parse", str(bad)]) == 2
-    assert "programmable frames" in capsys.readouterr().err
+    assert "mirroring frames" in capsys.readouterr().err
     for dialect, word in (("siemens-traori", " A3="), ("siemens-traori-rot", " B")):
         out = tmp_path / f"p-{dialect}.mpf"
         assert main(["post", BLADE, "--machine", "xyzbc-trt", "--dialect", dialect,
