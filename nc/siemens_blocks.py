@@ -28,6 +28,12 @@ _NUMBER = re.compile(r"\s*(?:N\d+|:\d+)(?=[^0-9.]|$)")
 _LABEL = re.compile(r"\s*([A-Z_][A-Z0-9_]*):(?!=)")
 _ADDR = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))(?![0-9_.]|\s*=)")
 _NAME = re.compile(r"([A-Z_$][A-Z0-9_]*)\s*([=(])?")
+#: The words most blocks are made of, in one match: an address and a number
+#: (``X10.5``), a name, '=' and a plain number ending the word (``A3=0.5``), a
+#: bare keyword; anything else takes the general path below.
+_FAST = re.compile(r" *(?:([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))(?![0-9_.]| *=)"
+                   r"|([A-Z_][A-Z0-9_]*) *= *([+-]?(?:\d+\.?\d*|\.\d+))(?= |$)"
+                   r"(?! *(?:[-+*/)=<>]|DIV|MOD))|([A-Z_][A-Z0-9_]*)(?= |$)(?! *[=(]))")
 #: A plain number after '=' that ends the word (most words CAM writes: A3=0.5).
 _PLAIN = re.compile(r" *([+-]?(?:\d+\.?\d*|\.\d+))(?= |$)")
 _UPPER = {c: c - 32 for c in range(ord("a"), ord("z") + 1)}
@@ -197,7 +203,21 @@ def lex(b: SBlock, file: str, lines: list[str]) -> list[Word]:
     n = len(s)
     i = 0
     col0 = b.col
+    fast = _FAST.match
     while i < n:
+        m = fast(s, i)
+        if m is not None:
+            k = m.lastindex
+            if k == 2:
+                out.append(Word("A", m.group(1), m.group(2), col0 + m.start(1),
+                                col0 + m.start(2)))
+            elif k == 4:
+                out.append(Word("E", m.group(3), m.group(4), col0 + m.start(3),
+                                col0 + m.start(4)))
+            else:
+                out.append(Word("K", m.group(5), "", col0 + m.start(5), col0 + m.end()))
+            i = m.end()
+            continue
         c = s[i]
         if c == " ":
             i += 1

@@ -101,6 +101,10 @@ KNOWN = [
     # components not programmed are 0; the vector is normalised: (0, 2, 0) -> (0, 1, 0)
     ("traori-partial-vector", ["TRAORI", "G1 X0 Y0 Z0 B3=2 F100"],
      [dict(m=1, xyz=(0, 0, 0), f=100, tcp=TCP_VECTOR, tv=(0, 1, 0))]),
+    # blanks around '=' are allowed: A3 = 0 and C3 =1 are the vector's words
+    ("blanks-around-equals", ["TRAORI", "G1 X0 Y0 Z0 A3 = 0 B3= 0 C3 =1 F100", "Y = 2"],
+     [dict(m=1, xyz=(0, 0, 0), f=100, tcp=TCP_VECTOR, tv=(0, 0, 1)),
+      dict(m=1, xyz=(0, 2, 0), f=100, tcp=TCP_VECTOR, tv=(0, 0, 1))]),
     ("traori-rotary", ["TRAORI", "G1 X10 Y20 Z5 B30 C45 F1000"],
      [dict(m=1, xyz=(10, 20, 5), f=1000, tcp=TCP_ANGLES, rot=(0, 30, 45))]),
     # DC: shortest way from 350 deg to 10 deg is +20 -> 370
