@@ -143,8 +143,9 @@ def post_siemens(cl: CutterLocations, machine: Machine,
     joints = sol.joints
     ld, ad, vd = o.linear_decimals, o.angle_decimals, o.vector_decimals
     names = machine.rotary_names
-    first = int(np.argmax(~cl.rapid)) if np.any(~cl.rapid) else 0
-    app = tip[first] + o.clearance_mm * axis[first]
+    # approach above the first point along its tool axis; every point is written
+    # (rapids in cl as G0, leading ones too)
+    app = tip[0] + o.clearance_mm * axis[0]
     ret = tip[-1] + o.clearance_mm * axis[-1]
     big = max(float(np.max(np.abs(tip))), float(np.max(np.abs(app))), float(np.max(np.abs(ret))))
     fmax = float(np.nanmax(np.where(cl.rapid, 0.0, cl.feed_mm_min)))
@@ -172,11 +173,11 @@ def post_siemens(cl: CutterLocations, machine: Machine,
     rapid = cl.rapid.tolist()
     feed = cl.feed_mm_min.tolist()
     pts = tip.tolist()
-    add(f"G0 {xyz(app)}{tails[first]}")
+    add(f"G0 {xyz(app)}{tails[0]}")
     last_feed = None
     mode = 0
-    for i in range(first, len(pts)):
-        if rapid[i] and i != first:
+    for i in range(len(pts)):
+        if rapid[i]:
             add(f"G0 {xyz(pts[i])}{tails[i]}")
             mode = 0
             continue
