@@ -85,6 +85,8 @@ def split_blocks(text: str, file: str) -> tuple[list[str], str, list[SBlock], st
         if not stripped:
             continue
         if stripped[0] == "%":
+            if stripped.rstrip() == "%":  # an ISO tape mark: nothing to read
+                continue
             m = HEADER.fullmatch(stripped.rstrip())
             if m is None or blocks or name is not None:
                 col = len(body) - len(stripped) + 1

@@ -40,6 +40,7 @@ def execute(st: SState, b: SBlock) -> bool:
     ax: dict[str, Word] = {}
     calls: list[Word] = []
     keys: list[Word] = []
+    unknown: Word | None = None
     for w in lex(b, st.file, st.lines):
         kind, name = w.kind, w.name
         if kind == "A":
@@ -63,10 +64,8 @@ def execute(st: SState, b: SBlock) -> bool:
                 _put(st, ax, w)
             elif name in st.params or (name[0] == "R" and name[1:].isdigit()):
                 st.assign(w)
-            else:
-                raise st.err(f"unknown name {name[:20]}= (only R parameters, DEF REAL/INT "
-                             f"variables and the words of {SUPPORTED_BLOCKS} can be set)",
-                             w.col)
+            elif unknown is None:
+                unknown = w  # refused after the G codes, which may name the reason
         elif kind == "C":
             calls.append(w)
         else:
@@ -115,6 +114,9 @@ def execute(st: SState, b: SBlock) -> bool:
             st.ignore(f"G{code}")
         else:
             raise st.err(f"unsupported G{code}; supported: {SUPPORTED_BLOCKS}", col)
+    if unknown is not None:
+        raise st.err(f"unknown name {unknown.name[:20]}= (only R parameters, DEF REAL/INT "
+                     f"variables and the words of {SUPPORTED_BLOCKS} can be set)", unknown.col)
     end = False
     for w in keys:
         name = w.name

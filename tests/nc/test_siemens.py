@@ -433,6 +433,7 @@ BAD = [
     (["G95 G1 X1 F0.1"], "feed per revolution"),
     (["G1 X100000000 F1"], "out of range"),
     (["FOO=3"], "unknown name FOO="),
+    (["G75 FP=1 Z1"], "G75 is not read (fixed point approach"),
     (["G1 X=1/0 F100"], "division by zero"),
     (["G1 X1 Y=SQRT(-1) F100"], "SQRT of -1 is not defined"),
     (['MSG("open'], "string not closed"),
@@ -478,8 +479,8 @@ def test_header_only_once_and_empty_program():
         parse_siemens("%_N_A_MPF\n; nothing\n", file="e.mpf")
 
 
-def test_program_ends_at_m30():
-    prog = parse_siemens("G1 X1 F100\nM30\nG1 X2\n")
+def test_program_ends_at_m30_and_tape_marks_pass():
+    prog = parse_siemens("%\nG1 X1 F100\nM30\nG1 X2\n%\n")
     assert len(prog) == 1
 
 
