@@ -2,7 +2,7 @@
 
 Mutates a Sinumerik program written here (header, R parameters and DEF
 variables, arcs with I J K / CR= / TURN=, SUPA, TRAORI with A3= B3= C3=,
-CYCLE800, TRANS/AROT, DC() on a rotary axis) by deleting, inserting and
+CYCLE800, TRANS/AROT, DC() on a rotary axis, an IF ... GOTOB loop) by deleting, inserting and
 replacing characters, and runs each mutant through
 :func:`nc.siemens.parse_siemens`, :func:`nc.summary.summarize` and
 :func:`nc.path.cutter_locations` (on a table-table B/C machine).
@@ -55,6 +55,11 @@ N220 G1 X=10*COS(60) Y=ATAN2(1,1) Z=ROUND(2.5)
 N230 TRANS
 N240 G1 C=DC(20)
 N250 NN=NN DIV 2 MSG("done; ok")
+N252 R3=0
+N254 AGAIN: R3=R3+1 G1 X=R3
+N256 IF (R3<4) AND NOT (R3==9) GOTOB AGAIN
+N258 GOTOF N260
+N259 G1 X99
 N260 M30
 """
 ALPHABET = "GXYZABCIJKRFMNTDS+-.=()\"',;:/$*[] 0123456789\n"

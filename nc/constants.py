@@ -62,6 +62,10 @@ TNC_MAX_EXECUTED_BLOCKS = 20_000_000
 #: ... and deepest nesting of subprogram calls (CALL LBL without REP) [-].
 TNC_MAX_CALL_DEPTH = 19
 
+#: Siemens reader: most blocks executed in one read, counting every pass through
+#: a GOTOB loop, before the read stops with an error (a loop that does not end) [-].
+SIEMENS_MAX_EXECUTED_BLOCKS = 20_000_000
+
 # --- paths ------------------------------------------------------------------
 
 #: Chord tolerance when arcs are expanded into lines [mm].

@@ -24,7 +24,7 @@ from .errors import NCParseError
 __all__ = ["SBlock", "Word", "split_blocks", "lex", "split_args", "HEADER"]
 
 HEADER = re.compile(r"%_N_([A-Z0-9_]+?)_(MPF|SPF)\s*", re.IGNORECASE)
-_NUMBER = re.compile(r"\s*(?:N\d+|:\d+)(?=[^0-9.]|$)")
+_NUMBER = re.compile(r"\s*(?:N(\d+)|:(\d+))(?=[^0-9.]|$)")
 _LABEL = re.compile(r"\s*([A-Z_][A-Z0-9_]*):(?!=)")
 _ADDR = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))(?![0-9_.]|\s*=)")
 _NAME = re.compile(r"([A-Z_$][A-Z0-9_]*)\s*([=(])?")
@@ -40,12 +40,15 @@ _UPPER = {c: c - 32 for c in range(ord("a"), ord("z") + 1)}
 
 
 class SBlock(NamedTuple):
-    """One block: 1-based ``line``, ``col`` of the statement, ASCII-upper-case ``stmt``."""
+    """One block: 1-based ``line``, ``col`` of the statement, ASCII-upper-case ``stmt``
+    (empty on a line that holds only a label), the ``/`` mark, the jump ``labels``
+    of the block (its label and its ``N``/``:`` number, e.g. ``("MARK1", "N20")``)."""
 
     line: int
     col: int
     stmt: str
     skip: bool
+    labels: tuple[str, ...] = ()
 
 
 class Word(NamedTuple):
@@ -103,8 +106,10 @@ def split_blocks(text: str, file: str) -> tuple[list[str], str, list[SBlock], st
             pos += 1
             if pos < len(up) and up[pos].isdigit():
                 pos += 1
+        labels: tuple[str, ...] = ()
         m = _NUMBER.match(up, pos)
         if m:
+            labels = (f"N{int(m.group(1))}" if m.group(1) else f":{int(m.group(2))}",)
             pos = m.end()
             while pos < len(up) and up[pos] == " ":
                 pos += 1
@@ -115,12 +120,13 @@ def split_blocks(text: str, file: str) -> tuple[list[str], str, list[SBlock], st
                     pos += 1
         m = _LABEL.match(up, pos)
         if m:
+            labels = labels + (m.group(1),)
             pos = m.end()
         while pos < len(up) and up[pos] == " ":
             pos += 1
         stmt = up[pos:].rstrip()
-        if stmt:
-            blocks.append(SBlock(i + 1, pos + 1, stmt, skip))
+        if stmt or labels:
+            blocks.append(SBlock(i + 1, pos + 1, stmt, skip, labels))
     return lines, newline, blocks, name
 
 

@@ -4,7 +4,8 @@ Supported: numbers, ``R`` parameters (``R1``), variables defined with ``DEF
 REAL|INT``, ``+ - * /``, ``DIV`` (integer division), ``MOD``, parentheses,
 unary signs, and the functions ``SIN COS TAN ASIN ACOS ATAN2`` (degrees, as
 the 840D), ``SQRT ABS POT`` (square), ``TRUNC ROUND EXP LN``, ``MINVAL
-MAXVAL``. Anything else raises :class:`ExprError` naming what was found and
+MAXVAL``; conditions (:func:`condition`, for ``IF``) compare with ``== <> < > <=
+>=`` and join with ``AND OR XOR NOT``. Anything else raises :class:`ExprError` naming what was found and
 what is supported; a parameter used before it is set is refused (the control
 would take whatever an earlier program left in it).
 """
@@ -17,14 +18,16 @@ from collections.abc import Mapping
 
 from .errors import InputError
 
-__all__ = ["ExprError", "evaluate", "SUPPORTED"]
+__all__ = ["ExprError", "evaluate", "condition", "SUPPORTED"]
 
 SUPPORTED = ("numbers, R parameters, DEF variables, + - * / DIV MOD, parentheses, "
              "SIN COS TAN ASIN ACOS ATAN2 (degrees), SQRT ABS POT TRUNC ROUND EXP LN "
-             "MINVAL MAXVAL")
+             "MINVAL MAXVAL; in IF conditions == <> < > <= >= AND OR XOR NOT")
 
 _TOKEN = re.compile(r"\s*(?:(\d+\.?\d*(?:EX[+-]?\d+)?|\.\d+(?:EX[+-]?\d+)?)"
-                    r"|([A-Z_][A-Z0-9_]*)|(\$[A-Z0-9_]+)|([-+*/(),])|(\S))")
+                    r"|([A-Z_][A-Z0-9_]*)|(\$[A-Z0-9_]+)|(==|<>|<=|>=|[-+*/(),<>])|(\S))")
+_COMPARE = {"==": lambda a, b: a == b, "<>": lambda a, b: a != b, "<": lambda a, b: a < b,
+            ">": lambda a, b: a > b, "<=": lambda a, b: a <= b, ">=": lambda a, b: a >= b}
 
 
 def _round(v: float) -> float:
@@ -61,6 +64,44 @@ class ExprError(InputError):
         super().__init__(message)
 
 
+def condition(text: str, params: Mapping[str, float]) -> bool:
+    """Truth of a condition: comparisons ``== <> < > <= >=`` of expressions joined by
+    ``AND OR XOR`` and ``NOT``, parentheses (an expression alone: true when not 0).
+
+    Raises
+    ------
+    ExprError
+        As :func:`evaluate`.
+    """
+    parser = _Parser(_tokens(text), params, len(text))
+    value = parser.logic()
+    if parser.i != len(parser.toks):
+        t = parser.toks[parser.i]
+        raise ExprError(f"unexpected {t[1]!r} in a condition", t[2])
+    return bool(value)
+
+
+def _tokens(text: str) -> list[tuple[str, str, int]]:
+    toks: list[tuple[str, str, int]] = []
+    pos = 0
+    n = len(text)
+    while pos < n:
+        m = _TOKEN.match(text, pos)
+        if m is None:  # only trailing blanks are left
+            break
+        k = m.lastindex
+        s = m.group(k)
+        if k == 3:
+            raise ExprError(f"system variable {s[:20]} is not read (its value is the "
+                            f"control's); supported: {SUPPORTED}", m.start(k))
+        if k == 5:
+            raise ExprError(f"unexpected {text[m.start(k):].split()[0][:12]!r} in an "
+                            f"expression; supported: {SUPPORTED}", m.start(k))
+        toks.append((("num", "name", "", "op")[k - 1], s, m.start(k)))
+        pos = m.end()
+    return toks
+
+
 def evaluate(text: str, params: Mapping[str, float]) -> float:
     """Value of a Sinumerik arithmetic expression.
 
@@ -81,23 +122,7 @@ def evaluate(text: str, params: Mapping[str, float]) -> float:
         Unsupported token or function, unset parameter, division by zero,
         a result that is not finite.
     """
-    toks: list[tuple[str, str, int]] = []
-    pos = 0
-    n = len(text)
-    while pos < n:
-        m = _TOKEN.match(text, pos)
-        if m is None:  # only trailing blanks are left
-            break
-        k = m.lastindex
-        s = m.group(k)
-        if k == 3:
-            raise ExprError(f"system variable {s[:20]} is not read (its value is the "
-                            f"control's); supported: {SUPPORTED}", m.start(k))
-        if k == 5:
-            raise ExprError(f"unexpected {text[m.start(k):].split()[0][:12]!r} in an "
-                            f"expression; supported: {SUPPORTED}", m.start(k))
-        toks.append((("num", "name", "", "op")[k - 1], s, m.start(k)))
-        pos = m.end()
+    toks = _tokens(text)
     parser = _Parser(toks, params, len(text))
     value = parser.expr()
     if parser.i != len(toks):
@@ -120,6 +145,27 @@ class _Parser:
         if t is None or t[1] != ch:
             raise ExprError(f"expected {ch!r} in an expression", t[2] if t else self.end)
         self.i += 1
+
+    def logic(self) -> float:
+        v = self.compare()
+        while (t := self._peek()) and t[0] == "name" and t[1] in ("AND", "OR", "XOR"):
+            self.i += 1
+            r = self.compare()
+            a, b = v != 0, r != 0
+            v = float(a and b if t[1] == "AND" else a or b if t[1] == "OR" else a != b)
+        return v
+
+    def compare(self) -> float:
+        t = self._peek()
+        if t and t[0] == "name" and t[1] == "NOT":
+            self.i += 1
+            return float(self.compare() == 0)
+        v = self.expr()
+        t = self._peek()
+        if t and t[0] == "op" and t[1] in _COMPARE:
+            self.i += 1
+            return float(_COMPARE[t[1]](v, self.expr()))
+        return v
 
     def expr(self) -> float:
         v = self.term()
@@ -188,7 +234,7 @@ class _Parser:
                                 f"parameter or a DEF variable); supported: {SUPPORTED}", off)
             return self.params[s]
         if s == "(":
-            v = self.expr()
+            v = self.logic()
             c = self._peek()
             if c is None or c[1] != ")":
                 raise ExprError("'(' not closed; expected ')'", off)

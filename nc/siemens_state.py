@@ -28,7 +28,8 @@ __all__ = ["SState", "SUPPORTED_BLOCKS", "G_IGNORED", "G_REFUSED", "K_IGNORED", 
 SUPPORTED_BLOCKS = ("G0 G1 G2 G3 (I J K, I=AC(..), CR=, TURN=), X Y Z A B C with AC/IC, "
                     "G17-G19, G90/G91, G93/G94, G700/G71/G710, G54-G57/G500/G505-G599, "
                     "G53/G153/SUPA, F S T D, M0-M9 M17 M30, TRAORI/TRAFOOF with A3= B3= C3=, "
-                    "TRANS ATRANS ROT AROT, CYCLE800, CYCLE832, MSG, DEF REAL/INT, R parameters")
+                    "TRANS ATRANS ROT AROT, CYCLE800, CYCLE832, MSG, DEF REAL/INT, R parameters, "
+                    "labels with GOTOF/GOTOB/GOTO and IF condition GOTO..")
 _M_START = {3: 1, 4: -1}
 _M_NOTHING = frozenset({0, 1, 6, 7, 8, 9})  # M6 handled apart; coolant, stops
 _M_END = frozenset({2, 17, 30})
@@ -72,12 +73,20 @@ K_REFUSED = {
     "ORICURVE": "orientation curves (ORICURVE) are not read",
     "TRACYL": "cylinder transformations are not read", "TRANSMIT": "TRANSMIT is not read",
     "TRAANG": "inclined-axis transformations are not read",
-    "IF": "control flow (IF/GOTO/WHILE/FOR/REPEAT/LOOP/CASE) is not read",
-    "GOTO": "control flow is not read", "GOTOF": "control flow is not read",
-    "GOTOB": "control flow is not read", "GOTOC": "control flow is not read",
-    "WHILE": "control flow is not read", "FOR": "control flow is not read",
-    "REPEAT": "control flow is not read", "LOOP": "control flow is not read",
-    "CASE": "control flow is not read", "CALL": "subprogram calls are not read",
+    "GOTOF": "a jump must be its block's only statement (GOTOF label, or IF condition "
+    "GOTOF label)", "GOTOB": "a jump must be its block's only statement",
+    "GOTO": "a jump must be its block's only statement", "IF": "IF must begin its block: "
+    "IF condition GOTOF|GOTOB|GOTO label",
+    "GOTOC": "GOTOC (a jump that may find no target) is not read; expected GOTOF, GOTOB "
+    "or GOTO", "WHILE": "structured control flow (WHILE FOR REPEAT LOOP CASE, IF ... ENDIF) "
+    "is not read; expected IF condition GOTOF|GOTOB|GOTO label",
+    "FOR": "structured control flow is not read; expected IF condition GOTOF label",
+    "REPEAT": "structured control flow is not read; expected IF condition GOTOB label",
+    "LOOP": "structured control flow is not read; expected IF condition GOTOB label",
+    "CASE": "structured control flow is not read; expected IF condition GOTOF label",
+    "ELSE": "structured control flow is not read; expected IF condition GOTOF label",
+    "ENDIF": "structured control flow is not read; expected IF condition GOTOF label",
+    "CALL": "subprogram calls are not read",
     "PCALL": "subprogram calls are not read", "MCALL": "modal subprogram calls are not read",
     "EXTCALL": "external subprogram calls are not read",
 }
@@ -131,6 +140,8 @@ class SState:
         self.a_sweep: list[float] = []
         self.a_plane: list[int] = []
         self.b: SBlock | None = None
+        #: (GOTOF|GOTOB|GOTO, target label) when the last block jumps
+        self.jump: tuple[str, str] | None = None
 
     # -- helpers ---------------------------------------------------------
     def err(self, msg: str, col: int | None = None) -> NCParseError:

@@ -158,6 +158,16 @@ KNOWN = [
     # moves along the world's +X: (10,0,0) -> (0,0,-10) + (5,0,0)
     ("rot-y-atrans", ["ROT Y90", "ATRANS Z5", "G1 X10 Y0 Z0 F100"],
      [dict(m=1, xyz=(5, 0, -10), f=100, tcp=TCP_VECTOR, tv=(1, 0, 0))]),
+    # R1 = 1, 2, 3: the loop body runs three times (Z-1, Z-2, Z-3), IF R1<3 jumps back
+    # twice; GOTOF ENDE skips X99; GOTO N120 (block 12: sin840 numbers in tens) skips Y99
+    ("goto-loop", ["R1=0", "G1 X0 Y0 Z0 F100", "LOOP1: R1=R1+1", "G1 Z=-R1", "X10",
+                   "IF (R1<3) AND NOT (R1==5) GOTOB LOOP1", "GOTOF ENDE", "G1 X99",
+                   "ENDE: G0 Z50", "GOTO N120", "G1 Y99", "G1 X1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100),
+      dict(m=1, xyz=(0, 0, -1), f=100), dict(m=1, xyz=(10, 0, -1), f=100),
+      dict(m=1, xyz=(10, 0, -2), f=100), dict(m=1, xyz=(10, 0, -2), f=100),
+      dict(m=1, xyz=(10, 0, -3), f=100), dict(m=1, xyz=(10, 0, -3), f=100),
+      dict(m=0, xyz=(10, 0, 50), f=100), dict(m=1, xyz=(1, 0, 50), f=100)]),
     ("g700-inch", ["G700 G1 X1 Y2 F10"], [dict(m=1, xyz=(25.4, 50.8, 0), f=254)]),
     # G4 F2 is a dwell of 2 s, not a feed
     ("g4-dwell", ["G1 X1 F100", "G4 F2", "X2"],
@@ -419,7 +429,14 @@ BAD = [
     (["TRANS X10 G1"], "TRANS with other words in its block"),
     (["TRANS X10 F100"], "F with TRANS"),
     (["SCALE X2"], "scaling and mirroring frames"),
-    (["GOTOF ENDE"], "control flow"),
+    (["GOTOF ENDE"], "GOTOF ENDE: no label or block number ENDE after this block"),
+    (["ENDE: G1 X1 F100", "GOTOF ENDE"], "no label or block number ENDE after"),
+    (["GOTOB ENDE", "ENDE: G1 X1 F100"], "no label or block number ENDE before"),
+    (["A1: G1 X1 F100", "A1: X2"], "label A1 defined twice"),
+    (["IF R1==1 X2"], "IF without a jump"),
+    (["R1=1", "IF R1=1 GOTOF E", "E: X1"], "unexpected '=1' in an expression"),
+    (["WHILE R1<3"], "structured control flow"),
+    (["G1 X1 F100 GOTOF E"], "a jump must be its block's only statement"),
     (["L100"], "subprogram calls"),
     (["CYCLE81(10,0,2,-5)"], "CYCLE81 is not read"),
     (["MYSUB(1,2)"], "unsupported call MYSUB"),
@@ -479,6 +496,14 @@ def test_header_only_once_and_empty_program():
         parse_siemens("%_N_A_MPF\n; nothing\n", file="e.mpf")
 
 
+def test_endless_jump_loop_hits_the_limit(monkeypatch):
+    import nc.constants as K
+
+    monkeypatch.setattr(K, "SIEMENS_MAX_EXECUTED_BLOCKS", 1000)
+    with pytest.raises(NCParseError, match="SIEMENS_MAX_EXECUTED_BLOCKS"):
+        parse_siemens(sin840("G1 X0 F100", "L1: G91 X1", "GOTOB L1"))
+
+
 def test_program_ends_at_m30_and_tape_marks_pass():
     prog = parse_siemens("%\nG1 X1 F100\nM30\nG1 X2\n%\n")
     assert len(prog) == 1
@@ -489,7 +514,8 @@ def test_fuzz_never_crashes():
     base = sin840(*BY_NAME["g3-ijk"][1], *BY_NAME["r-params"][1], *BY_NAME["supa"][1],
                   "TRAORI", "G1 X1 Y2 Z3 A3=0 B3=0.6 C3=0.8 F500", "TRAFOOF",
                   c800(27, 10, 0, 20), "G2 X5 Y5 CR=10", "CYCLE800()", 'MSG("x;y")',
-                  "G1 C=DC(20)", "G3 X=IC(0) Y=IC(0) Z2 I-10 J0 TURN=1")
+                  "G1 C=DC(20)", "G3 X=IC(0) Y=IC(0) Z2 I-10 J0 TURN=1", "R3=0",
+                  "AG: R3=R3+1 G1 X=R3", "IF R3<4 GOTOB AG", "TRANS X2", "AROT Z10", "X1")
     alphabet = "GXYZABCIJKRFMNTDS+-.=()\"',;:/$ 0123456789\n"
     ok = bad = 0
     for _ in range(1500):
