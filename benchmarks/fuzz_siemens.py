@@ -22,6 +22,7 @@ import random
 import time
 import traceback
 
+import nc.constants as K
 from nc.errors import InputError
 from nc.kinematics import get_machine
 from nc.path import cutter_locations
@@ -65,8 +66,13 @@ N260 M30
 ALPHABET = "GXYZABCIJKRFMNTDS+-.=()\"',;:/$*[] 0123456789\n"
 
 
-def fuzz(n: int, seed: int, show: int = 3) -> dict:
-    """Mutate ``BASE`` ``n`` times; tallies of refused, read, unclear, crashed."""
+def fuzz(n: int, seed: int, show: int = 3, max_blocks: int = 100_000) -> dict:
+    """Mutate ``BASE`` ``n`` times; tallies of refused, read, unclear, crashed.
+
+    ``max_blocks`` replaces ``SIEMENS_MAX_EXECUTED_BLOCKS`` while fuzzing: a mutant
+    whose loop never ends is refused after that many blocks, not 2*10^7.
+    """
+    K.SIEMENS_MAX_EXECUTED_BLOCKS = max_blocks
     rng = random.Random(seed)
     machine = get_machine("xyzbc-trt")
     tally = dict(refused=0, read=0, unclear=0, crashed=0)
