@@ -213,8 +213,8 @@ class Scenario:
     #: Tables of the sections named in ``load_scenario(extra_sections=...)``,
     #: unchecked: the package that asked for them reads them.
     extra: dict = field(default_factory=dict)
-    #: The program's dialect: "auto" (detected from its first block), "gcode"
-    #: or "heidenhain" (``[program] dialect``).
+    #: The program's dialect: "auto" (detected from its first blocks), "gcode",
+    #: "heidenhain" or "siemens" (``[program] dialect``).
     dialect: str = "auto"
     #: The tool's wear at the start [mm]: None (a fresh tool), one actual
     #: cutting distance for every micro edge (``tool.used_cutting_distance_m``),
@@ -373,9 +373,9 @@ def _program(r: TableReader, d: dict) -> tuple:
     r.keys(d, p, ("gcode",), ("allow", "lines", "machine", "dialect"))
     gcode = r.path(d, "gcode", p)
     dialect = r.string(d, "dialect", p, default="auto") if "dialect" in d else "auto"
-    if dialect not in ("auto", "gcode", "heidenhain"):
-        raise r.fail("program.dialect", f"expected \"auto\", \"gcode\" or \"heidenhain\", "
-                                        f"got {dialect!r}")
+    if dialect not in ("auto", "gcode", "heidenhain", "siemens"):
+        raise r.fail("program.dialect", f"expected \"auto\", \"gcode\", \"heidenhain\" or "
+                                        f"\"siemens\", got {dialect!r}")
     allow = d.get("allow", [])
     if not isinstance(allow, list) or not all(isinstance(a, str) for a in allow):
         raise r.fail("program.allow", f"expected an array of strings, got {value_kind(allow)}")

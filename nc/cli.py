@@ -108,7 +108,13 @@ def _cmd_parse(args) -> int:
     if dialect is None:
         with open(args.file, "rb") as fh:
             dialect = detect_dialect(fh.read(4096).decode("latin-1"))
-    if dialect == "heidenhain":
+    if dialect == "siemens":
+        if args.offsets or args.retract_limit is not None:
+            raise InputError("--offsets and --retract-limit do not apply to a Siemens "
+                             "program (its work offsets are taken as zero)")
+        prog = read_any(args.file, "siemens", allow=_allow_list(args.allow),
+                        block_delete=args.block_delete)
+    elif dialect == "heidenhain":
         if args.offsets:
             raise InputError("--offsets applies to G-code (G54...G59); a Heidenhain "
                              "program sets its datum with cycle 7")
@@ -139,6 +145,22 @@ def _cmd_post(args) -> int:
             raise InputError(f"--tool-length: expected a finite value >= 0, got "
                              f"{args.tool_length}")
         machine = machine.with_tool_length(args.tool_length)
+    if args.dialect.startswith("siemens"):
+        from .siemens_writer import SiemensPostOptions, write_siemens
+
+        name = os.path.splitext(os.path.basename(args.output))[0].upper()
+        name = "".join(c if c.isalnum() or c == "_" else "_" for c in name)[:24] or "NCPATH"
+        sopts = SiemensPostOptions(
+            form="vector" if args.dialect == "siemens-traori" else "rotary",
+            program_name=name, tool=args.tool, spindle_rpm=args.spindle,
+            linear_decimals=args.decimals, header=not args.no_header,
+            source=os.path.basename(args.cl),
+            singular_cone_rad=math.radians(args.singular_cone_deg))
+        res = write_siemens(args.output, cl, machine, sopts)
+        print(f"wrote {args.output}: {len(cl)} cutter locations, Sinumerik TRAORI "
+              f"{sopts.form}, read back within 1 um / 1e-4 deg, "
+              f"{res.singular_points} points at the singularity (free axis held)")
+        return 0
     if args.dialect.startswith("heidenhain"):
         from .heidenhain_writer import TNCPostOptions, write_heidenhain
 
@@ -219,8 +241,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--offsets", metavar="TOML",
                    help="work offsets: [G55] xyz_mm = [x, y, z]; the machine's G28/G30 "
                         "points (machine coordinates): [G28] xyz_mm = [x, y, z]")
-    p.add_argument("--dialect", default="auto", choices=["auto", "gcode", "heidenhain"],
-                   help="reader to use; auto: Heidenhain if the program starts with BEGIN PGM")
+    p.add_argument("--dialect", default="auto", choices=["auto", "gcode", "heidenhain", "siemens"],
+                   help="reader to use; auto: Heidenhain if the program starts with BEGIN PGM, "
+                        "Siemens if with %%_N_..._MPF or ;$PATH= or its first blocks use "
+                        "Sinumerik words (CYCLE800, TRAORI, ...)")
     p.add_argument("--retract-limit", type=float, metavar="MM",
                    help="Heidenhain: the Z that M140 MB MAX retracts to (else refused)")
     p.set_defaults(func=_cmd_parse)
@@ -231,9 +255,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a named machine (see 'machines') or a machine TOML file")
     p.add_argument("--dialect", default="linuxcnc",
                    choices=["linuxcnc", "fanuc-g43.4", "fanuc-g43.5", "heidenhain-tcpm",
-                            "heidenhain-ln"],
+                            "heidenhain-ln", "siemens-traori", "siemens-traori-rot"],
                    help="heidenhain-tcpm: Klartext L X Y Z + rotary angles under FUNCTION "
-                        "TCPM; heidenhain-ln: LN with the tool vector")
+                        "TCPM; heidenhain-ln: LN with the tool vector; siemens-traori: "
+                        "Sinumerik TRAORI with A3= B3= C3= tool vectors; siemens-traori-rot: "
+                        "TRAORI with the rotary axis angles")
     p.add_argument("-o", "--output", required=True)
     p.add_argument("--tool", type=int, default=1)
     p.add_argument("--tool-length", type=float, metavar="MM",

@@ -78,6 +78,10 @@ TNC_MAX_EXECUTED_BLOCKS = 20_000_000
 #: ... and deepest nesting of subprogram calls (CALL LBL without REP) [-].
 TNC_MAX_CALL_DEPTH = 19
 
+#: Siemens reader: most blocks executed in one read, counting every pass through
+#: a GOTOB loop, before the read stops with an error (a loop that does not end) [-].
+SIEMENS_MAX_EXECUTED_BLOCKS = 20_000_000
+
 # --- paths ------------------------------------------------------------------
 
 #: Chord tolerance when arcs are expanded into lines [mm].
@@ -126,6 +130,14 @@ TNC_VECTOR_DECIMALS = 7
 TNC_MAX_COORDINATE_MM = 99_999.9999
 #: ... and largest feed [mm/min] or spindle speed [rev/min] (5 digits, 3 decimals).
 TNC_MAX_FEED = 99_999.999
+
+#: Decimals of the A3= B3= C3= tool vector in written Sinumerik programs: as the
+#: TNC's, 7 keep the read-back angle within 1e-5 deg [-].
+SIEMENS_VECTOR_DECIMALS = 7
+#: Largest coordinate [mm], feed [mm/min] or speed [rev/min] the Sinumerik
+#: writer puts in a word: below the reader's MAX_ABS_WORD_VALUE, so that every
+#: written program reads back [-].
+SIEMENS_MAX_WORD = 9_999_999.0
 
 # --- kinematics (nc.kinematics, nc.machines) --------------------------------
 

@@ -1,7 +1,11 @@
 """Which NC dialect a program speaks, and reading it with the matching reader.
 
 ``heidenhain``: the first block is ``BEGIN PGM name MM|INCH`` (after an
-optional block number); anything else is ``gcode`` (ISO/Fanuc, LinuxCNC).
+optional block number); ``siemens``: the first line is a ``%_N_name_MPF``
+(or ``_SPF``) header or a ``;$PATH=`` line, or the first blocks use what only a
+Sinumerik reads (``CYCLE800``, ``CYCLE832``, ``TRAORI``, ``TRAFOOF``, ``SUPA``,
+``G641``-``G645``, ``DEF REAL|INT``, ``MSG("``, ``CR=``, ``A3=``, ``X=AC(``),
+parenthesised comments left out; anything else is ``gcode`` (ISO/Fanuc, LinuxCNC).
 """
 
 from __future__ import annotations
@@ -14,17 +18,30 @@ from .program import Program
 
 __all__ = ["DIALECT_NAMES", "detect_dialect", "read_any"]
 
-DIALECT_NAMES = ("gcode", "heidenhain")
+DIALECT_NAMES = ("gcode", "heidenhain", "siemens")
 _BEGIN = re.compile(r"\s*(?:\d+\s+)?BEGIN\s+PGM\s+\S+\s+(?:MM|INCH)\b", re.IGNORECASE)
+_SIEMENS_HEAD = re.compile(r"\s*(?:%_N_\w+_(?:MPF|SPF)\b|;\s*\$PATH\s*=)", re.IGNORECASE)
+_SIEMENS_WORDS = re.compile(r"(?<![A-Z0-9_])(?:(?:CYCLE800|CYCLE832|TRAORI|TRAFOOF|SUPA"
+                            r"|G64[1-5]|DEF\s+(?:REAL|INT))(?![A-Z0-9_])|MSG\s*\(\s*\""
+                            r"|CR\s*=|[ABC]3\s*=|[XYZIJK]\s*=\s*[AI]C\s*\()", re.IGNORECASE)
+_PAREN_COMMENT = re.compile(r"\([^()\n\"]*\)")
 #: Bytes of the file looked at for detection (the first blocks) [-].
 _HEAD_BYTES = 4096
 
 
 def detect_dialect(text: str) -> str:
-    """``"heidenhain"`` when the first non-empty line is ``[n] BEGIN PGM name MM|INCH``."""
-    for line in text[:_HEAD_BYTES].splitlines():
+    """``"heidenhain"``, ``"siemens"`` or ``"gcode"`` from the first blocks (see the
+    module's docstring)."""
+    head = text[:_HEAD_BYTES]
+    for line in head.splitlines():
         if line.strip():
-            return "heidenhain" if _BEGIN.match(line) else "gcode"
+            if _BEGIN.match(line):
+                return "heidenhain"
+            if _SIEMENS_HEAD.match(line):
+                return "siemens"
+            break
+    if _SIEMENS_WORDS.search(_PAREN_COMMENT.sub("", head)):
+        return "siemens"
     return "gcode"
 
 
@@ -35,11 +52,11 @@ def read_any(path: str | os.PathLike, dialect: str | None = None, **options) -> 
     ----------
     path : path-like
     dialect : str, optional
-        ``"gcode"`` or ``"heidenhain"`` to force a reader; None detects it
-        from the first block (:func:`detect_dialect`).
+        ``"gcode"``, ``"heidenhain"`` or ``"siemens"`` to force a reader; None
+        detects it from the first blocks (:func:`detect_dialect`).
     **options
-        Passed to :func:`nc.gcode.read_program` or
-        :func:`nc.heidenhain.read_heidenhain`.
+        Passed to :func:`nc.gcode.read_program`,
+        :func:`nc.heidenhain.read_heidenhain` or :func:`nc.siemens.read_siemens`.
     """
     name = os.fspath(path)
     if dialect is None:
@@ -50,6 +67,10 @@ def read_any(path: str | os.PathLike, dialect: str | None = None, **options) -> 
         from .heidenhain import read_heidenhain
 
         return read_heidenhain(name, **options)
+    if dialect == "siemens":
+        from .siemens import read_siemens
+
+        return read_siemens(name, **options)
     if dialect == "gcode":
         from .gcode import read_program
 

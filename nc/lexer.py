@@ -112,9 +112,11 @@ def foreign_syntax(blank: str) -> str | None:
             return (f"Fanuc macro B control flow ({word}) is not supported yet; expected "
                     "plain ISO blocks")
         if head in _SIEMENS or word in _SIEMENS or head.startswith("CYCLE"):
-            return (f"Siemens Sinumerik syntax ({word}) is not supported yet; expected "
-                    "ISO words (a letter and a number)")
+            return (f"Siemens Sinumerik syntax ({word}) is not supported by the G-code "
+                    "reader; read the program as Siemens (--dialect siemens, [program] "
+                    "dialect = \"siemens\") or give ISO words (a letter and a number)")
     if "=" in blank and "#" not in blank:
         return ("Siemens Sinumerik assignments (NAME=value, R parameters, X=expression) "
-                "are not supported yet; expected ISO words (a letter and a number)")
+                "are not supported by the G-code reader; read the program as Siemens "
+                "(--dialect siemens) or give ISO words (a letter and a number)")
     return None

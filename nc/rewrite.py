@@ -107,6 +107,10 @@ def rewrite_coordinates(
         raise RewriteError(f"{program.file}: rewriting Heidenhain (Klartext) programs is not "
                            "supported; expected a G-code program (post the corrected path "
                            "with nc.heidenhain_writer instead)")
+    if program.metadata.get("dialect") == "siemens":
+        raise RewriteError(f"{program.file}: rewriting Siemens Sinumerik programs is not "
+                           "supported; expected a G-code program (post the corrected path "
+                           "with nc.siemens_writer instead)")
     n = len(program)
     if len(program.reframed) or len(program.machine_moves):
         i = int((list(program.reframed) + list(program.machine_moves))[0])

@@ -477,7 +477,7 @@ def test_a_heidenhain_program_predicts_as_the_same_path_in_g_code(tmp_path):
     assert out[("start.h", None)] == ref and out[("start.h", "heidenhain")] == ref
     bad = tmp_path / "bad.toml"
     bad.write_text(text.replace('gcode = "finish.nc"', 'gcode = "start.nc"')
-                   .replace("[program]\n", '[program]\ndialect = "siemens"\n'))
+                   .replace("[program]\n", '[program]\ndialect = "fanuc"\n'))
     with pytest.raises(ScenarioError, match="program.dialect"):
         load_scenario(bad)
 
@@ -504,3 +504,59 @@ def test_predictor_refuses_a_drilling_program():
     with pytest.raises(NCParseError, match=r"^d\.nc:3:1: canned drilling cycle .* models "
                        "milling only"):
         Predictor(None, None, prog, None, None)
+
+
+def test_a_siemens_program_reads_as_the_same_path_in_g_code(tmp_path):
+    """``[program] dialect = "siemens"`` (and "auto"): the mold-ball scenario's program
+    start written as a Sinumerik program (header, G642, CYCLE832, R parameters) reads
+    to the same moves, feeds and spindle as the G-code, which is what the prediction
+    takes (the Heidenhain test above runs the prediction itself)."""
+    import json
+
+    import numpy as np
+
+    from nc import read_program
+    from nc.program import RAPID
+    from errpred.scenario import bundled_scenario
+
+    src = bundled_scenario("mold-ball")
+    prog = read_program(src.parent / "finish.nc", allow=("M8", "M9"))
+    rows = range(min(len(prog), 60))
+    gcode = ["G21 G90 G17 G94", "S10000 M3"]
+    sin = ["%_N_START_MPF", ";$PATH=/_N_MPF_DIR", "N10 G17 G90 G71 G94 G642",
+           "N20 S10000 M3", "N30 CYCLE832(0.01,_ORI_FINISH,1)"]
+    for i in rows:
+        x, y, z = (float(v) for v in prog.end[i, :3])
+        rapid = prog.motion[i] == RAPID
+        feed = "" if rapid else f" F{prog.feed[i]:.0f}"
+        gcode.append(f"{'G0' if rapid else 'G1'} X{x:.4f} Y{y:.4f} Z{z:.4f}{feed}")
+        sin.append(f"N{10 * len(sin)} R1={z:.4f} {'G0' if rapid else 'G1'} X{x:.4f} "
+                   f"Y{y:.4f} Z=R1{feed}")
+    gcode.append("M30")
+    sin.append("M30")
+    (tmp_path / "start.nc").write_text("\n".join(gcode) + "\n")
+    (tmp_path / "start.mpf").write_text("\n".join(sin) + "\n")
+    text = src.read_text()
+    for name in ("stock.stl", "design.stl"):
+        text = text.replace(f'"{name}"', json.dumps(str(src.parent / name)))
+    progs = {}
+    for prog_name, dialect in (("start.nc", None), ("start.mpf", None),
+                               ("start.mpf", "siemens")):
+        t = text.replace('gcode = "finish.nc"', f'gcode = "{prog_name}"')
+        if dialect:
+            t = t.replace("[program]\n", f'[program]\ndialect = "{dialect}"\n')
+        path = tmp_path / f"{prog_name}-{dialect}.toml"
+        path.write_text(t)
+        scn = load_scenario(path)
+        assert scn.dialect == (dialect or "auto")
+        progs[(prog_name, dialect)] = scn.read_program()
+    ref = progs[("start.nc", None)]
+    for key in (("start.mpf", None), ("start.mpf", "siemens")):
+        p = progs[key]
+        assert p.metadata["dialect"] == "siemens"
+        np.testing.assert_allclose(p.end, ref.end, atol=1e-12)
+        np.testing.assert_array_equal(p.motion, ref.motion)
+        np.testing.assert_array_equal(p.feed, ref.feed)
+        np.testing.assert_array_equal(p.modal_column("spindle_rpm"),
+                                      ref.modal_column("spindle_rpm"))
+        np.testing.assert_array_equal(p.modal_column("tcp"), ref.modal_column("tcp"))

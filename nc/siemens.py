@@ -1,0 +1,176 @@
+"""Read Siemens Sinumerik 840D programs into a :class:`~nc.program.Program`.
+
+What is read:
+
+* ``%_N_name_MPF`` (or ``_SPF``) header, ``;`` comments (``;$PATH=...``
+  among them), ``N`` and ``:`` block numbers, jump labels ``NAME:``, ``/``
+  block skip, ``MSG("...")`` (kept in ``Program.metadata``), ``WORKPIECE(...)``.
+* Words with a number (``X10.5``, ``G1``) or ``=`` and an expression
+  (``X=R1*2``, ``Z=IC(-1)``); ``R`` parameters and ``DEF REAL|INT``
+  variables, with ``+ - * / DIV MOD`` and ``SIN COS TAN ASIN ACOS ATAN2 SQRT
+  ABS POT TRUNC ROUND EXP LN MINVAL MAXVAL`` (:mod:`nc.siemens_expr`).
+* ``G0 G1 G2 G3``; arcs with ``I J K`` (incremental from the start whatever
+  G90/G91; ``I=AC(..)`` absolute), ``CR=`` radius (negative: more than 180
+  deg), ``TURN=`` extra turns, helices; ``G17 G18 G19``, ``G90 G91``,
+  ``AC()``/``IC()`` on axis words, ``DC() ACP() ACN()`` on rotary axes;
+  ``G93 G94``, ``G700 G71 G710``; ``F S T D M6``, ``M3 M4 M5``, coolant;
+  ``G54``-``G57``, ``G500``, ``G505``-``G599`` (offsets taken as zero: the
+  positions are in the program's frame); ``SUPA``, ``G53``, ``G153``
+  (machine coordinates, the block only: the base frame without offsets).
+* Path-control codes read and passed over (``Program.ignored``): ``G64
+  G641``-``G645 G60 G601``-``G603 G9``, ``CYCLE832`` (tolerance), ``FFWON
+  SOFT BRISK COMPCAD COMPCURV ORIWKS ORIAXES ORIVECT STOPRE`` and the like.
+* ``TRAORI`` (tool tip programmed): ``A3= B3= C3=`` tool vectors (stored as
+  G43.5 vectors; components not programmed are 0, as on the control) or
+  rotary axis words ``A B C`` (machine angles, stored as G43.4 would be);
+  ``TRAFOOF``.
+* ``CYCLE800`` (swivel plane, :mod:`nc.siemens_frames`): axis-by-axis modes
+  (e.g. 57 = X Y Z, 27 = Z Y X); the following moves are turned into the
+  workpiece frame, carry the swivelled tool axis as a tool vector, and arcs
+  in a swivelled plane are stored as chords.
+* ``TRANS ATRANS ROT AROT`` (one rotation axis per block): the programmable
+  frame, inside the CYCLE800 swivel.
+* Jump labels (``MARK1:``) and block numbers as targets of ``GOTOF``, ``GOTOB``,
+  ``GOTO`` and ``IF condition GOTOF|GOTOB|GOTO label`` (comparisons ``== <> < >
+  <= >=``, ``AND OR XOR NOT``); at most ``SIEMENS_MAX_EXECUTED_BLOCKS`` blocks run.
+* ``M30 M2 M17 RET`` end the program.
+
+Everything else ends the read with one :class:`~nc.errors.NCParseError`
+(``file:line:col: message``) naming what was found and what is supported.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterable
+
+from . import constants as K
+from .errors import NCParseError
+from .program import Program
+from .siemens_blocks import split_blocks
+from .siemens_moves import execute
+from .siemens_state import SState
+
+__all__ = ["read_siemens", "parse_siemens", "normalise_allow"]
+
+_ALLOW = re.compile(r"(?:[GMH]\d+|[A-Z_][A-Z0-9_]*)")
+#: Codes that move the tool or the frame: never passed over.
+_NOT_ALLOWABLE = frozenset({"G41", "G42", "G95", "G96", "G70", "G74", "G75", "TRANS",
+                            "ATRANS", "ROT", "AROT", "SCALE", "MIRROR", "TCARR", "TOROT",
+                            "PAROT", "CIP", "CT", "ASPLINE", "BSPLINE", "CSPLINE", "POLY"})
+
+
+def read_siemens(path: str | os.PathLike, **options) -> Program:
+    """Read a Sinumerik file; see :func:`parse_siemens` for ``options``."""
+    name = os.fspath(path)
+    with open(name, "rb") as fh:
+        data = fh.read()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")  # umlauts in comments; latin-1 decodes every byte
+    if "\x00" in text:
+        line = text.count("\n", 0, text.index("\x00")) + 1
+        raise NCParseError("expected text, found a NUL byte", file=name, line=line)
+    return parse_siemens(text, file=name, **options)
+
+
+def normalise_allow(allow: Iterable[str], file: str = "<string>") -> frozenset[str]:
+    """``["m110", "FGROUP"]`` -> {"M110", "FGROUP"}; refuses codes that move the tool
+    (:class:`~nc.errors.NCParseError` naming ``file``)."""
+    out = set()
+    for item in allow:
+        s = str(item).strip().upper().replace(" ", "")
+        if not _ALLOW.fullmatch(s):
+            raise NCParseError(f"allow: {str(item)[:20]!r} is not an M, G or H code or a "
+                               "keyword (Siemens reader)", file=file)
+        if s in _NOT_ALLOWABLE:
+            raise NCParseError(f"allow: {s} moves the tool or the frame; passing it over "
+                               "would misplace the tool", file=file)
+        out.add(s)
+    return frozenset(out)
+
+
+def parse_siemens(text: str, *, file: str = "<string>", block_delete: bool = False,
+                  allow: Iterable[str] = ()) -> Program:
+    """Interpret Sinumerik text.
+
+    Parameters
+    ----------
+    text : str
+        The program.
+    file : str
+        Name used in error messages and kept in the result.
+    block_delete : bool
+        Skip blocks that start with ``/``; when False they run.
+    allow : iterable of str
+        Further codes (``"M110"``, ``"H1"``, ``"G26"``, a keyword such as
+        ``"FGROUP"`` without parameters) to pass over without effect; those
+        that move the tool or the frame cannot be allowed.
+
+    Returns
+    -------
+    Program
+        ``number`` is the header's program name (None without a header);
+        ``metadata`` has ``dialect`` and, if present, ``name``, ``messages``,
+        ``tool_names``, ``swivel_data``, ``workpiece``.
+    """
+    allowed = normalise_allow(allow, file)
+    lines, newline, blocks, name = split_blocks(text, file)
+    if not blocks:
+        raise NCParseError("empty program; expected blocks such as G1 X10 F500", file=file)
+    st = SState(file, lines, allowed)
+    st.metadata["dialect"] = "siemens"
+    if name is not None:
+        st.metadata["name"] = name
+    labels: dict[str, list[int]] = {}
+    for i, b in enumerate(blocks):
+        for lab in b.labels:
+            at = labels.setdefault(lab, [])
+            if lab[0] not in "N:" and at:
+                raise NCParseError(f"label {lab} defined twice (first at line "
+                                   f"{blocks[at[0]].line})", file=file, line=b.line,
+                                   column=1, text=lines[b.line - 1])
+            at.append(i)
+    limit = K.SIEMENS_MAX_EXECUTED_BLOCKS
+    executed = 0
+    pc = 0
+    n = len(blocks)
+    while pc < n:
+        b = blocks[pc]
+        pc += 1
+        if b.skip and block_delete:
+            continue
+        executed += 1
+        if executed > limit:
+            raise NCParseError(f"more than {limit:,} blocks executed (SIEMENS_MAX_EXECUTED_"
+                               "BLOCKS): a jump loop that does not end?", file=file,
+                               line=b.line, text=lines[b.line - 1])
+        if execute(st, b):
+            break
+        if st.jump is not None:
+            pc = _target(st, labels, pc - 1, file, lines, b)
+    return st.program(file, tuple(lines), newline, name, block_delete)
+
+
+def _target(st: SState, labels: dict[str, list[int]], here: int, file: str,
+            lines: list[str], b) -> int:
+    """Index of the block a GOTOF/GOTOB/GOTO at block ``here`` jumps to."""
+    kind, target = st.jump
+    st.jump = None
+    at = labels.get(target, [])
+    after = [i for i in at if i > here]
+    before = [i for i in at if i < here]
+    if kind == "GOTOF":
+        found = after[:1]
+    elif kind == "GOTOB":
+        found = before[-1:]
+    else:
+        found = after[:1] or before[-1:]
+    if not found:
+        where = {"GOTOF": "after", "GOTOB": "before"}.get(kind, "in")
+        raise NCParseError(f"{kind} {target}: no label or block number {target} {where} "
+                           "this block", file=file, line=b.line, column=b.col,
+                           text=lines[b.line - 1])
+    return found[0]
