@@ -102,6 +102,10 @@ def expand_parameters(lines: list[str], file: str) -> list[str]:
         except ExprError as exc:
             raise NCParseError(_PREFIX + str(exc), file=file, line=k + 1,
                                column=exc.offset + 1, text=raw) from None
+        except RecursionError:
+            raise NCParseError(_PREFIX + "brackets nested too deeply; expected at most a "
+                               "few hundred levels", file=file, line=k + 1, column=1,
+                               text=raw) from None
         for key, v in sets:
             store.values[key] = v
         out[k] = " ".join(words)

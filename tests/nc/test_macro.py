@@ -54,3 +54,16 @@ def test_parameter_program_agrees_with_rs274(tmp_path):
     prog = parse_program(src, file=str(path))
     result = compare_with_rs274(path, prog)
     assert result.ok and result.moves == len(prog) == 4, result.message
+
+
+def test_parameter_programs_are_not_rewritten_in_place():
+    from nc.rewrite import RewriteError, rewrite_coordinates
+    prog = parse_program("G21\n#1=2\nG1 X#1 F100\n")
+    with pytest.raises(RewriteError, match="'#' parameters"):
+        rewrite_coordinates(prog, {0: np.array([2.001, 0, 0, 0, 0, 0])})
+
+
+def test_deeply_nested_brackets_are_refused_in_one_line():
+    src = "G21\nG0 X" + "[" * 5000 + "1" + "]" * 5000 + "\n"
+    with pytest.raises(NCParseError, match="nested too deeply"):
+        parse_program(src)
