@@ -91,7 +91,7 @@ def expand_parameters(lines: list[str], file: str) -> list[str]:
     out = list(lines)
     for k, raw in enumerate(lines):
         if "#" not in raw and "[" not in raw:
-            if _END.search(_strip(raw)):
+            if ("M" in raw or "m" in raw) and _END.search(_strip(raw)):
                 break
             continue
         s = _strip(raw)
