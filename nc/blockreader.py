@@ -26,6 +26,7 @@ class BlockReader:
     ``frames``, ``frame_rows`` and ``ignored``."""
 
     lines: list[str]
+    source: list[str]
     file: str
     strict: bool
     frames: Frames
@@ -36,8 +37,8 @@ class BlockReader:
     def _error(self, lineno: int, message: str, token: int | None = None,
                column: int | None = None) -> NCParseError:
         raw = self.lines[lineno - 1]
-        if token is not None and column is None:
-            column = token_column(raw, token)
+        if token is not None and column is None and self.source[lineno - 1] is raw:
+            column = token_column(raw, token)  # (an expanded line's tokens are not raw's)
         if column is None:  # the block as a whole: its first character
             column = len(raw) - len(raw.lstrip()) + 1
         return NCParseError(message, file=self.file, line=lineno, column=column, text=raw)

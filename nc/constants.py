@@ -174,3 +174,7 @@ LINEARIZE_MARGIN = 0.02
 LINEARIZE_MAX_POINTS_PER_POINT = 16
 #: ... plus this many, before it gives up with a clear error [-].
 LINEARIZE_MAX_POINTS_EXTRA = 10_000
+
+#: LinuxCNC's EQ and NE compare within this (its TOLERANCE_EQUAL; rs274 gives
+#: [1 EQ 1.00001] = 1) [same units as the operands]
+MACRO_EQ_TOL = 1.0e-4

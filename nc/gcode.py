@@ -68,6 +68,7 @@ from .errors import NCParseError
 from .rotation import RotationBlocks, RotationError
 from .frames import Frames, convert_position, reference_table, work_offset_table
 from .lexer import TOKEN, find_token, foreign_syntax
+from .macro import expand_parameters, needs_expansion
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
 __all__ = ["read_program", "parse_program", "ALLOWABLE_EXAMPLES"]
@@ -167,6 +168,8 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
             lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
         self.lines = lines
         self.file = file
+        # '#' parameters and '[ ]' expressions without control flow: substituted first
+        self.source = expand_parameters(lines, file) if needs_expansion(text) else lines
         self.allow = allow
         self.allowed_names = frozenset(
             code_name(letter, k) for letter, ks in allow.items() for k in ks)
@@ -234,7 +237,7 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
 
         first_content = True
         ended = False
-        for lineno0, raw in enumerate(lines):
+        for lineno0, raw in enumerate(self.source):
             lineno = lineno0 + 1
             s = raw.strip()
             if not s:

@@ -25,6 +25,7 @@ from .atomic import atomic_write
 from .errors import InputError
 from .gcode import parse_program
 from .lexer import words_with_spans
+from .macro import needs_expansion
 from .program import PLANE_AXES, TCP_VECTOR, Program
 
 __all__ = ["rewrite_coordinates", "write_rewritten", "RewriteError"]
@@ -111,6 +112,10 @@ def rewrite_coordinates(
         raise RewriteError(f"{program.file}: rewriting Siemens Sinumerik programs is not "
                            "supported; expected a G-code program (post the corrected path "
                            "with nc.siemens_writer instead)")
+    if needs_expansion("\n".join(program.lines)):
+        raise RewriteError(f"{program.file}: rewriting programs with '#' parameters or '[ ]' "
+                           "expressions is not supported; expected plain numbers in every "
+                           "word")
     n = len(program)
     if len(program.reframed) or len(program.machine_moves):
         i = int((list(program.reframed) + list(program.machine_moves))[0])

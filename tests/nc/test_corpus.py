@@ -47,6 +47,8 @@ REASONS = {
     "ijk-g0": ("I word in a straight move", "I J words in a G0 block"),
     "plotter": ("unsupported code G78", "a plotter dialect (G78, G22, G4 H)"),
     "m98": ("M98 (a subroutine call", "M98/M99 subprograms"),
+    "m111": ("unsupported code M111", "LinuxCNC user M-codes (M100-M199)"),
+    "spline": ("(a spline", "splines G5/G5.1"),
 }
 READ = ("read", "read-only", "empty")
 

@@ -409,7 +409,7 @@ def test_program_headers(header, number):
     ("0 BEGIN PGM PART MM\n", "0", "Heidenhain conversational"),
     ("%PART G71 *\nN10 G00 X+0 *\n", "%", "Heidenhain ISO"),
     ("G21\nIF [#1 GT 5] GOTO 10\n", "IF", "macro B control flow (IF)"),
-    ("G21\n#100=5\n", "#", "parameters and expressions"),
+    ("G21\nG0 X#5420\n", "#", "parameters and expressions: system parameter #5420"),
 ])
 def test_foreign_dialects_are_named(src, bad, fragment):
     with pytest.raises(NCParseError) as info:
