@@ -241,8 +241,7 @@ def planned_posture(scn: PlanScenario, setup: PointSetup, rpm: float) -> Planned
     ``margin_target`` less a small preference for the CAM posture; the best of at most
     ``POSTURE_CHECKS`` candidates whose shank, holder and flank clear stock and design.
     """
-    from .interference import InterferenceChecker, ToolAssembly
-    from .plan import CAM_PREFERENCE_PER_RAD, _reachable, candidate_grid, stock_mesh
+    from .plan import CAM_PREFERENCE_PER_RAD, _reachable, candidate_grid
 
     opt = scn.options
     tool = scn.base.tool
@@ -272,10 +271,7 @@ def planned_posture(scn: PlanScenario, setup: PointSetup, rpm: float) -> Planned
     order = [int(k) for k in np.argsort(-score, kind="stable") if np.isfinite(score[k])]
     chosen = None
     if order:
-        design = scn.base.stock.load_design()
-        checker = InterferenceChecker(stock_mesh(scn, design), ToolAssembly.from_tool(
-            tool, clearance_mm=opt.clearance_mm), design_mesh=design,
-            gouge_tol_mm=opt.gouge_tol_mm)
+        checker = scn.interference_checker()
         for a in range(0, min(len(order), POSTURE_CHECKS), 8):
             batch = order[a:a + 8]
             res = checker.check(tips[batch], axes[batch])
