@@ -27,13 +27,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import constants as K
-from .atomic import atomic_write
 from .errors import InputError
 from .heidenhain import parse_heidenhain
 from .kinematics import Machine
 from .path import CutterLocations
-from .program import TCP_ANGLES, TCP_VECTOR
-from .writer import PostResult, prepare_post
+from .writer import PostResult, prepare_post, read_back_errors, write_if_read_back
 
 __all__ = ["TNC_FORMS", "TNCPostOptions", "post_heidenhain", "write_heidenhain",
            "heidenhain_round_trip"]
@@ -210,24 +208,8 @@ def heidenhain_round_trip(result: PostResult, machine: Machine, form: str
     For ``tcpm-angles`` the angle error is that of the rotary words; for
     ``ln-vector`` the angle between written and read tool vectors.
     """
-    prog = parse_heidenhain(result.text, file="<written>")
-    rows = slice(1, len(prog) - 1)  # approach and retract are the writer's own
-    tip = prog.end[rows, :3]
-    if tip.shape[0] != len(result.tip):
-        raise InputError(f"read back {tip.shape[0]} cutting rows, wrote {len(result.tip)}")
-    e_tip = float(np.max(np.linalg.norm(tip - result.tip, axis=1)))
-    tcp = prog.modal_column("tcp")[rows]
-    if form == "tcpm-angles":
-        if not np.all(tcp == TCP_ANGLES):
-            raise InputError("read back rows not under TCPM with angles")
-        cols = ["XYZABC".index(c) for c in machine.rotary_names]
-        e_ang = float(np.degrees(np.max(np.abs(prog.end[rows][:, cols] - result.joints[:, 3:]))))
-    else:
-        if not np.all(tcp == TCP_VECTOR):
-            raise InputError("read back rows not under TCPM with tool vectors")
-        c = np.clip(np.sum(prog.tool_vector[rows] * result.axis, axis=1), -1.0, 1.0)
-        e_ang = float(np.degrees(np.max(np.arccos(c))))
-    return e_tip, e_ang
+    return read_back_errors(parse_heidenhain(result.text, file="<written>"), result, machine,
+                            form == "tcpm-angles", "TCPM")
 
 
 def write_heidenhain(path: str | os.PathLike, cl: CutterLocations, machine: Machine,
@@ -242,11 +224,5 @@ def write_heidenhain(path: str | os.PathLike, cl: CutterLocations, machine: Mach
         ``tol_mm`` [mm] or ``tol_deg`` [deg] (nothing is written).
     """
     res = post_heidenhain(cl, machine, options)
-    e_tip, e_ang = heidenhain_round_trip(res, machine, options.form)
-    if not (e_tip <= tol_mm and e_ang <= tol_deg):
-        raise InputError(f"{os.fspath(path)}: not written: read back differs by "
-                         f"{e_tip:.3g} mm / {e_ang:.3g} deg (limits {tol_mm:g} mm, "
-                         f"{tol_deg:g} deg); raise the decimals")
-    with atomic_write(path) as fh:
-        fh.write(res.text)
-    return res
+    return write_if_read_back(path, res, heidenhain_round_trip(res, machine, options.form), tol_mm,
+                              tol_deg)

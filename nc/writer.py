@@ -36,9 +36,10 @@ from .atomic import atomic_write
 from .errors import InputError, KinematicsError
 from .kinematics import Machine, PathSolution, linearize, solve_path
 from .path import CutterLocations
+from .program import TCP_ANGLES, TCP_VECTOR
 
-__all__ = ["DIALECTS", "PostOptions", "PostResult", "post", "prepare_post", "round_trip_error",
-           "write_program"]
+__all__ = ["DIALECTS", "PostOptions", "PostResult", "post", "prepare_post", "read_back_errors",
+           "round_trip_error", "write_if_read_back", "write_program"]
 
 DIALECTS = ("linuxcnc", "fanuc-g43.4", "fanuc-g43.5")
 
@@ -378,3 +379,57 @@ def round_trip_error(post_res: PostResult, back: CutterLocations) -> tuple[float
         if e_t < best[0]:
             best = (e_t, e_a)
     return best
+
+
+def read_back_errors(prog, result: PostResult, machine: Machine, angles: bool,
+                     mode: str) -> tuple[float, float]:
+    """Largest tip error [mm] and angle error [deg] of a program read back by its own
+    reader (the Heidenhain and Siemens posts: their first and last rows are the writer's
+    approach and retract).
+
+    Parameters
+    ----------
+    prog : nc.program.Program
+        The written text as read back.
+    result : PostResult
+        What was written.
+    machine : Machine
+    angles : bool
+        The rows carry rotary angles (the error is that of the rotary words); otherwise
+        tool vectors (the angle between written and read vectors).
+    mode : str
+        The dialect's name for tool-centre-point control, for the message (``TCPM``,
+        ``TRAORI``).
+    """
+    rows = slice(1, len(prog) - 1)
+    tip = prog.end[rows, :3]
+    if tip.shape[0] != len(result.tip):
+        raise InputError(f"read back {tip.shape[0]} cutting rows, wrote {len(result.tip)}")
+    e_tip = float(np.max(np.linalg.norm(tip - result.tip, axis=1)))
+    tcp = prog.modal_column("tcp")[rows]
+    if angles:
+        if not np.all(tcp == TCP_ANGLES):
+            raise InputError(f"read back rows not under {mode} with angles")
+        cols = ["XYZABC".index(c) for c in machine.rotary_names]
+        e_ang = float(np.degrees(np.max(np.abs(prog.end[rows][:, cols] - result.joints[:, 3:]))))
+    else:
+        if not np.all(tcp == TCP_VECTOR):
+            raise InputError(f"read back rows not under {mode} with tool vectors")
+        c = np.clip(np.sum(prog.tool_vector[rows] * result.axis, axis=1), -1.0, 1.0)
+        e_ang = float(np.degrees(np.max(np.arccos(c))))
+    return e_tip, e_ang
+
+
+def write_if_read_back(path: str | os.PathLike, result: PostResult,
+                       errors: tuple[float, float], tol_mm: float, tol_deg: float) -> PostResult:
+    """Write ``result`` atomically to ``path`` if its read-back ``errors`` (tip [mm],
+    angle [deg]) are within ``tol_mm`` and ``tol_deg``; otherwise write nothing and raise
+    :class:`nc.errors.InputError` naming the file and both differences."""
+    e_tip, e_ang = errors
+    if not (e_tip <= tol_mm and e_ang <= tol_deg):
+        raise InputError(f"{os.fspath(path)}: not written: read back differs by "
+                         f"{e_tip:.3g} mm / {e_ang:.3g} deg (limits {tol_mm:g} mm, "
+                         f"{tol_deg:g} deg); raise the decimals")
+    with atomic_write(path) as fh:
+        fh.write(result.text)
+    return result
