@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from errpred.cli import main as errpred_main
-from errpred.pipeline import _machine, build_predictor, load
+from errpred.pipeline import build_predictor, load
 from errpred.verification import compare, error_field
 from nc import parse_program
 from nc.path import cutter_locations
@@ -29,7 +29,7 @@ def _dense_fields(scenario_path, corrected_path):
     orig = s.read_program()
     res = s.resolution.dense()
     stock = s.stock.load()
-    ref = cutter_locations(orig, _machine(s), chord_tol_mm=res.chord_tol_mm)
+    ref = cutter_locations(orig, s.resolve_machine(), chord_tol_mm=res.chord_tol_mm)
     before = error_field(build_predictor(s, orig, res, stock).run(), ref, orig.line,
                          moved=False)
     prog = parse_program(corrected_path.read_text(), file=str(corrected_path))
