@@ -19,7 +19,6 @@ compared with what was meant before :func:`write_heidenhain` writes it.
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from dataclasses import dataclass
@@ -31,7 +30,7 @@ from .errors import InputError
 from .heidenhain import parse_heidenhain
 from .kinematics import Machine
 from .path import CutterLocations
-from .writer import PostResult, prepare_post, read_back_errors, write_if_read_back
+from .writer import PostResult, check_post_options, prepare_post, read_back_errors, write_if_read_back
 
 __all__ = ["TNC_FORMS", "TNCPostOptions", "post_heidenhain", "write_heidenhain",
            "heidenhain_round_trip"]
@@ -88,19 +87,7 @@ class TNCPostOptions:
         if not re.fullmatch(r"[A-Za-z0-9_-]{1,64}", self.program_name):
             raise ValueError(f"program_name: {self.program_name!r}; expected 1-64 letters, "
                              "digits, '_' or '-'")
-        for name in ("linear_decimals", "angle_decimals", "vector_decimals"):
-            v = getattr(self, name)
-            if not (isinstance(v, int) and 0 <= v <= 9):
-                raise ValueError(f"{name}: expected an integer 0..9, got {v!r}")
-        if not (isinstance(self.tool, int) and self.tool >= 0):
-            raise ValueError(f"tool: expected a whole number >= 0, got {self.tool!r}")
-        for name in ("clearance_mm", "singular_cone_rad"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"{name}: expected a finite value > 0, got {v!r}")
-        if self.spindle_rpm is not None and not (math.isfinite(self.spindle_rpm)
-                                                 and self.spindle_rpm >= 0):
-            raise ValueError(f"spindle_rpm: expected a finite value >= 0, got {self.spindle_rpm!r}")
+        check_post_options(self)
 
 
 def _n(v: float, d: int) -> str:

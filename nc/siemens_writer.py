@@ -18,7 +18,6 @@ with what was meant before :func:`write_siemens` writes it.
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from dataclasses import dataclass
@@ -30,7 +29,7 @@ from .errors import InputError
 from .kinematics import Machine
 from .path import CutterLocations
 from .siemens import parse_siemens
-from .writer import PostResult, prepare_post, read_back_errors, write_if_read_back
+from .writer import PostResult, check_post_options, prepare_post, read_back_errors, write_if_read_back
 
 __all__ = ["SIEMENS_FORMS", "SIEMENS_POSTS", "SiemensPostOptions", "post_siemens",
            "write_siemens", "siemens_round_trip"]
@@ -87,19 +86,7 @@ class SiemensPostOptions:
         if not re.fullmatch(r"[A-Z][A-Z0-9_]{0,23}", self.program_name):
             raise ValueError(f"program_name: {self.program_name!r}; expected 1-24 upper-case "
                              "letters, digits or '_', a letter first")
-        for name in ("linear_decimals", "angle_decimals", "vector_decimals"):
-            v = getattr(self, name)
-            if not (isinstance(v, int) and 0 <= v <= 9):
-                raise ValueError(f"{name}: expected an integer 0..9, got {v!r}")
-        if not (isinstance(self.tool, int) and self.tool >= 0):
-            raise ValueError(f"tool: expected a whole number >= 0, got {self.tool!r}")
-        for name in ("clearance_mm", "singular_cone_rad"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"{name}: expected a finite value > 0, got {v!r}")
-        if self.spindle_rpm is not None and not (math.isfinite(self.spindle_rpm)
-                                                 and self.spindle_rpm >= 0):
-            raise ValueError(f"spindle_rpm: expected a finite value >= 0, got {self.spindle_rpm!r}")
+        check_post_options(self)
 
 
 def _n(v: float, d: int) -> str:

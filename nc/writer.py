@@ -38,7 +38,7 @@ from .kinematics import Machine, PathSolution, linearize, solve_path
 from .path import CutterLocations
 from .program import TCP_ANGLES, TCP_VECTOR
 
-__all__ = ["DIALECTS", "PostOptions", "PostResult", "post", "prepare_post", "read_back_errors",
+__all__ = ["DIALECTS", "PostOptions", "PostResult", "check_post_options", "post", "prepare_post", "read_back_errors",
            "round_trip_error", "write_if_read_back", "write_program"]
 
 DIALECTS = ("linuxcnc", "fanuc-g43.4", "fanuc-g43.5")
@@ -174,6 +174,32 @@ _COMMENT_SAFE = str.maketrans({"(": "[", ")": "]", ";": ","})
 def _num(v: float, decimals: int) -> str:
     s = f"{v:.{decimals}f}"
     return s[1:] if s[0] == "-" and not s.strip("-0.") else s
+
+
+def check_post_options(opts) -> None:
+    """The checks every dialect's post options share (the Heidenhain and Siemens
+    options' ``__post_init__``): decimals 0..9, a whole tool number, a positive
+    clearance [mm] and singular cone [rad], a spindle speed >= 0 [rev/min] if given.
+
+    Raises
+    ------
+    ValueError
+        Naming the option and what was expected.
+    """
+    self = opts
+    for name in ("linear_decimals", "angle_decimals", "vector_decimals"):
+        v = getattr(self, name)
+        if not (isinstance(v, int) and 0 <= v <= 9):
+            raise ValueError(f"{name}: expected an integer 0..9, got {v!r}")
+    if not (isinstance(self.tool, int) and self.tool >= 0):
+        raise ValueError(f"tool: expected a whole number >= 0, got {self.tool!r}")
+    for name in ("clearance_mm", "singular_cone_rad"):
+        v = getattr(self, name)
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{name}: expected a finite value > 0, got {v!r}")
+    if self.spindle_rpm is not None and not (math.isfinite(self.spindle_rpm)
+                                             and self.spindle_rpm >= 0):
+        raise ValueError(f"spindle_rpm: expected a finite value >= 0, got {self.spindle_rpm!r}")
 
 
 def prepare_post(cl: CutterLocations, machine: Machine, singular_cone_rad: float,
