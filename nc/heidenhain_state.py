@@ -20,7 +20,7 @@ from .heidenhain_expr import SUPPORTED as EXPR_SUPPORTED
 from .heidenhain_expr import ExprError, evaluate
 from .heidenhain_geom import arc_points, spatial_rotation
 from .heidenhain_moves import MOVES
-from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
+from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program, ProgramRows
 
 __all__ = ["TNCState"]
 
@@ -53,7 +53,7 @@ _REFUSED = {
 }
 
 
-class TNCState:
+class TNCState(ProgramRows):
     """Modal state and output columns of one run."""
 
     def __init__(self, file: str, lines: list[str], allowed: frozenset[int],
@@ -79,19 +79,7 @@ class TNCState:
         self.tangent: np.ndarray | None = None
         self.q: dict[str, float] = {}
         self.metadata: dict = {}
-        self.modal_ids: dict[tuple, int] = {}
-        self.modals: list[Modal] = []
-        self.o_line: list[int] = []
-        self.o_motion: list[int] = []
-        self.o_end: list[float] = []
-        self.o_feed: list[float] = []
-        self.o_modal: list[int] = []
-        self.o_tv: list[float] = []
-        self.o_arc: list[int] = []
-        self.a_centre: list[float] = []
-        self.a_radius: list[float] = []
-        self.a_sweep: list[float] = []
-        self.a_plane: list[int] = []
+        self.init_rows()
         self.b: TNCBlock | None = None
 
     # -- helpers ---------------------------------------------------------
@@ -461,24 +449,5 @@ class TNCState:
     # -- result ------------------------------------------------------------
     def program(self, file: str, lines: tuple[str, ...], newline: str, name: str,
                 block_delete: bool) -> Program:
-        n = len(self.o_line)
-        m = len(self.a_sweep)
-        return Program(
-            file=file, lines=lines,
-            line=np.array(self.o_line, dtype=np.int64),
-            motion=np.array(self.o_motion, dtype=np.int8),
-            end=np.array(self.o_end, dtype=float).reshape(n, 6),
-            initial=np.zeros(6),
-            feed=np.array(self.o_feed, dtype=float),
-            modal_index=np.array(self.o_modal, dtype=np.int64),
-            modals=tuple(self.modals),
-            tool_vector=np.array(self.o_tv, dtype=float).reshape(n, 3),
-            arc_index=np.array(self.o_arc, dtype=np.int64),
-            arc_centre=np.array(self.a_centre, dtype=float).reshape(m, 3),
-            arc_radius=np.array(self.a_radius, dtype=float).reshape(m, 2),
-            arc_sweep=np.array(self.a_sweep, dtype=float),
-            arc_plane=np.array(self.a_plane, dtype=np.int64),
-            number=name, newline=newline, block_delete=block_delete,
-            metadata=dict(self.metadata),
-        )
+        return self.build_program(file, lines, newline, name, block_delete, self.metadata)
 

@@ -26,6 +26,7 @@ __all__ = [
     "Arc",
     "Block",
     "Program",
+    "ProgramRows",
     "RAPID",
     "LINEAR",
     "ARC_CW",
@@ -366,3 +367,52 @@ class Program:
             return self.end + self.frames[self.modal_column("frame").astype(int)]
         wcs = self.modal_column("wcs").astype(int) - 1
         return self.end + self.work_offsets[wcs]
+
+
+class ProgramRows:
+    """The rows a conversational reader's state collects, and the :class:`Program` built
+    from them (the Heidenhain and Siemens readers' states both keep their output here).
+
+    ``o_*`` are per-row lists (``o_end`` and ``o_tv`` flat, 6 and 3 per row), ``a_*``
+    per-arc lists (``a_centre`` 3 and ``a_radius`` 2 per arc); ``modals`` the distinct
+    modal states, ``modal_ids`` their index by key.
+    """
+
+    def init_rows(self) -> None:
+        self.modal_ids: dict[tuple, int] = {}
+        self.modals: list[Modal] = []
+        self.o_line: list[int] = []
+        self.o_motion: list[int] = []
+        self.o_end: list[float] = []
+        self.o_feed: list[float] = []
+        self.o_modal: list[int] = []
+        self.o_tv: list[float] = []
+        self.o_arc: list[int] = []
+        self.a_centre: list[float] = []
+        self.a_radius: list[float] = []
+        self.a_sweep: list[float] = []
+        self.a_plane: list[int] = []
+
+    def build_program(self, file: str, lines: tuple[str, ...], newline: str,
+                      name: str | None, block_delete: bool, metadata: dict,
+                      **extra) -> Program:
+        """The :class:`Program` of the rows collected; ``extra``: further fields of it."""
+        n = len(self.o_line)
+        m = len(self.a_sweep)
+        return Program(
+            file=file, lines=lines,
+            line=np.array(self.o_line, dtype=np.int64),
+            motion=np.array(self.o_motion, dtype=np.int8),
+            end=np.array(self.o_end, dtype=float).reshape(n, 6),
+            initial=np.zeros(6),
+            feed=np.array(self.o_feed, dtype=float),
+            modal_index=np.array(self.o_modal, dtype=np.int64),
+            modals=tuple(self.modals),
+            tool_vector=np.array(self.o_tv, dtype=float).reshape(n, 3),
+            arc_index=np.array(self.o_arc, dtype=np.int64),
+            arc_centre=np.array(self.a_centre, dtype=float).reshape(m, 3),
+            arc_radius=np.array(self.a_radius, dtype=float).reshape(m, 2),
+            arc_sweep=np.array(self.a_sweep, dtype=float),
+            arc_plane=np.array(self.a_plane, dtype=np.int64),
+            number=name, newline=newline, block_delete=block_delete,
+            metadata=dict(metadata), **extra)

@@ -17,7 +17,7 @@ import numpy as np
 from . import constants as K
 from .errors import NCParseError
 from .heidenhain_geom import arc_points
-from .program import PLANE_AXES, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
+from .program import PLANE_AXES, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program, ProgramRows
 from .siemens_blocks import SBlock, Word, split_args
 from .siemens_expr import ExprError, evaluate
 from .siemens_frames import PARAMS as C800_PARAMS
@@ -101,7 +101,7 @@ _RESERVED = frozenset({"X", "Y", "Z", "A", "B", "C", "I", "J", "K", "F", "S", "T
                        "ROUND", "ATAN2", "AC", "IC", "DC"})
 
 
-class SState:
+class SState(ProgramRows):
     """Modal state and output columns of one run."""
 
     def __init__(self, file: str, lines: list[str], allowed: frozenset[str]) -> None:
@@ -125,20 +125,8 @@ class SState:
         self.ints: set[str] = set()
         self.metadata: dict = {}
         self.ignored: dict[str, list[int]] = {}
-        self.modal_ids: dict[tuple, int] = {}
-        self.modals: list[Modal] = []
-        self.o_line: list[int] = []
-        self.o_motion: list[int] = []
-        self.o_end: list[float] = []
-        self.o_feed: list[float] = []
-        self.o_modal: list[int] = []
-        self.o_tv: list[float] = []
-        self.o_arc: list[int] = []
+        self.init_rows()
         self.o_machine: list[int] = []
-        self.a_centre: list[float] = []
-        self.a_radius: list[float] = []
-        self.a_sweep: list[float] = []
-        self.a_plane: list[int] = []
         self.b: SBlock | None = None
         #: (GOTOF|GOTOB|GOTO, target label) when the last block jumps
         self.jump: tuple[str, str] | None = None
@@ -421,30 +409,11 @@ class SState:
     # -- result ------------------------------------------------------------
     def program(self, file: str, lines: tuple[str, ...], newline: str, name: str | None,
                 block_delete: bool) -> Program:
-        n = len(self.o_line)
-        m = len(self.a_sweep)
         ignored = tuple(sorted(((c, v[0], v[1]) for c, v in self.ignored.items()),
                                key=lambda t: (t[2], t[0])))
-        return Program(
-            file=file, lines=lines,
-            line=np.array(self.o_line, dtype=np.int64),
-            motion=np.array(self.o_motion, dtype=np.int8),
-            end=np.array(self.o_end, dtype=float).reshape(n, 6),
-            initial=np.zeros(6),
-            feed=np.array(self.o_feed, dtype=float),
-            modal_index=np.array(self.o_modal, dtype=np.int64),
-            modals=tuple(self.modals),
-            tool_vector=np.array(self.o_tv, dtype=float).reshape(n, 3),
-            arc_index=np.array(self.o_arc, dtype=np.int64),
-            arc_centre=np.array(self.a_centre, dtype=float).reshape(m, 3),
-            arc_radius=np.array(self.a_radius, dtype=float).reshape(m, 2),
-            arc_sweep=np.array(self.a_sweep, dtype=float),
-            arc_plane=np.array(self.a_plane, dtype=np.int64),
-            number=name, newline=newline, block_delete=block_delete,
-            allowed=self.allowed, ignored=ignored,
-            machine_moves=np.array(self.o_machine, dtype=np.int64),
-            metadata=dict(self.metadata),
-        )
+        return self.build_program(file, lines, newline, name, block_delete, self.metadata,
+                                  allowed=self.allowed, ignored=ignored,
+                                  machine_moves=np.array(self.o_machine, dtype=np.int64))
 
 
 def _round_int(v: float) -> float:
