@@ -145,36 +145,31 @@ def _cmd_post(args) -> int:
             raise InputError(f"--tool-length: expected a finite value >= 0, got "
                              f"{args.tool_length}")
         machine = machine.with_tool_length(args.tool_length)
-    if args.dialect.startswith("siemens"):
-        from .siemens_writer import SiemensPostOptions, write_siemens
+    if args.dialect.startswith(("siemens", "heidenhain")):
+        # the read-back posts: (writer, options, form of this dialect, program-name
+        # characters besides letters and digits, longest name, upper case, label)
+        if args.dialect.startswith("siemens"):
+            from .siemens_writer import SiemensPostOptions as Options, write_siemens as write
 
-        name = os.path.splitext(os.path.basename(args.output))[0].upper()
-        name = "".join(c if c.isalnum() or c == "_" else "_" for c in name)[:24] or "NCPATH"
-        sopts = SiemensPostOptions(
-            form="vector" if args.dialect == "siemens-traori" else "rotary",
-            program_name=name, tool=args.tool, spindle_rpm=args.spindle,
-            linear_decimals=args.decimals, header=not args.no_header,
-            source=os.path.basename(args.cl),
-            singular_cone_rad=math.radians(args.singular_cone_deg))
-        res = write_siemens(args.output, cl, machine, sopts)
-        print(f"wrote {args.output}: {len(cl)} cutter locations, Sinumerik TRAORI "
-              f"{sopts.form}, read back within 1 um / 1e-4 deg, "
-              f"{res.singular_points} points at the singularity (free axis held)")
-        return 0
-    if args.dialect.startswith("heidenhain"):
-        from .heidenhain_writer import TNCPostOptions, write_heidenhain
+            form = "vector" if args.dialect == "siemens-traori" else "rotary"
+            extra, longest, upper, label = "_", 24, True, "Sinumerik TRAORI"
+        else:
+            from .heidenhain_writer import TNCPostOptions as Options, write_heidenhain as write
 
+            form = "tcpm-angles" if args.dialect == "heidenhain-tcpm" else "ln-vector"
+            extra, longest, upper, label = "_-", 64, False, "Klartext"
         name = os.path.splitext(os.path.basename(args.output))[0]
-        name = "".join(c if c.isalnum() or c in "_-" else "_" for c in name)[:64] or "NCPATH"
-        topts = TNCPostOptions(
-            form="tcpm-angles" if args.dialect == "heidenhain-tcpm" else "ln-vector",
-            program_name=name, tool=args.tool, spindle_rpm=args.spindle,
+        name = name.upper() if upper else name
+        name = "".join(c if c.isalnum() or c in extra else "_" for c in name)[:longest] \
+            or "NCPATH"
+        popts = Options(
+            form=form, program_name=name, tool=args.tool, spindle_rpm=args.spindle,
             linear_decimals=args.decimals, header=not args.no_header,
             source=os.path.basename(args.cl),
             singular_cone_rad=math.radians(args.singular_cone_deg))
-        res = write_heidenhain(args.output, cl, machine, topts)
-        print(f"wrote {args.output}: {len(cl)} cutter locations, Klartext "
-              f"{topts.form}, read back within 1 um / 1e-4 deg, "
+        res = write(args.output, cl, machine, popts)
+        print(f"wrote {args.output}: {len(cl)} cutter locations, {label} "
+              f"{popts.form}, read back within 1 um / 1e-4 deg, "
               f"{res.singular_points} points at the singularity (free axis held)")
         return 0
     try:  # the options' own checks name the option (tool, spindle_rpm, ...)
