@@ -71,10 +71,11 @@ _PREFIX = "Fanuc macro B: "
 
 def needs_macro_b(text: str) -> bool:
     """True for an ISO program with Fanuc control flow, M98/M97/M99 or G65/G66,
-    or with ``#`` variables and an ``O1234`` program number line."""
+    or with ``#`` variables or ``[ ]`` and an ``O1234`` program number line."""
     if _DETECT.search(text):
         return True
-    return "#" in text and "#<" not in text and _O_LINE.search(text) is not None
+    return (("#" in text or "[" in text) and "#<" not in text
+            and _O_LINE.search(text) is not None)
 
 
 @dataclass
