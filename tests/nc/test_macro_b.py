@@ -9,6 +9,7 @@ NCParseError line naming file:line:col; a seeded fuzz finds no crash.
 from __future__ import annotations
 
 import math
+import os
 import random
 
 import pytest
@@ -17,7 +18,7 @@ from hypothesis import strategies as st
 
 from nc import constants as K
 from nc.errors import NCParseError
-from nc.gcode import parse_program
+from nc.gcode import parse_program, read_program
 from nc.macro_b import expand_macro_b, needs_macro_b
 
 
@@ -247,3 +248,47 @@ def test_seeded_fuzz_never_crashes(monkeypatch):
             assert "\n" not in str(exc)
             refused += 1
     assert read + refused == 400 and read > 0 and refused > 0
+
+
+# -- public programs (not committed; see external_fanuc_macro.txt) ---------------
+_HERE = os.path.dirname(__file__)
+_CORPUS_DIR = os.path.join(os.environ.get("NC_CORPUS_DIR") or os.path.join(
+    _HERE, "..", "..", "..", "shared", "nc-corpus"), "fanuc")
+
+#: status -> what the one-line message of the refusal says
+CORPUS_REASONS = {
+    "g80axis": "axis words without a motion mode",
+    "otherfile": "calls to other files are not supported",
+    "typo": "expected one macro statement per block",
+    "divzero": "division by zero",
+    "vacantgoto": "GOTO's N number is vacant",
+    "m99main": "M99 in the main program",
+    "system": "system variable #5405",
+}
+
+
+def _corpus() -> list[tuple[str, int, str]]:
+    out = []
+    with open(os.path.join(_HERE, "external_fanuc_macro.txt"), encoding="utf-8") as fh:
+        for line in fh:
+            if line.strip() and not line.startswith("#"):
+                cells = line.split()
+                assert len(cells) == 6 and len(cells[4]) == 40, line
+                status, _, at = cells[0].partition("@")
+                assert status == "read" or status in CORPUS_REASONS, line
+                out.append((status, int(at or 0), cells[1]))
+    return out
+
+
+@pytest.mark.parametrize("status,line,name", _corpus(), ids=[c[2] for c in _corpus()])
+def test_public_macro_programs(status, line, name):
+    path = os.path.join(_CORPUS_DIR, name)
+    if not os.path.exists(path):
+        pytest.skip(f"{path} is not on this machine")
+    if status == "read":
+        assert len(read_program(path)) > 0
+        return
+    with pytest.raises(NCParseError) as info:
+        read_program(path)
+    assert info.value.line == line and CORPUS_REASONS[status] in str(info.value)
+    assert "\n" not in str(info.value)
