@@ -66,6 +66,7 @@ _SPECIAL = re.compile(r"[#\[]|(?<![A-Z])(?:M\s*0*9[789]|G\s*0*6[567])(?![\d.])|"
 _END = re.compile(r"(?<![A-Z])M\s*0*(?:2|30)(?![\d.])")
 _LOOP = re.compile(r"\s*(?:N\s*\d+\s*)?(?:WHILE|DO|END)(?![A-Z])")
 _LABEL = re.compile(r"\s*N\s*(\d+)")
+_ASSIGN = re.compile(r"\s*(?:N\s*\d+\s*)?#")
 _PREFIX = "Fanuc macro B: "
 
 
@@ -86,6 +87,7 @@ class _Program:
     end: int             # one past the last block
     labels: dict | None = None
     loops: dict | None = None
+    blocks: bool = False  # the text before the first O: has blocks, not just assignments
 
 
 def _blank(raw: str) -> str:
@@ -109,6 +111,9 @@ class _Run:
         self.cache: dict[int, Statement] = {}
         self.programs: dict[int, _Program] = {}
         self.main: _Program | None = None
+        #: the program run after the main one (when the text before the first O
+        #: holds only assignments)
+        self.then: _Program | None = None
         self.prelude = 0
         self._split()
 
@@ -146,15 +151,22 @@ class _Run:
                 first = first or cur
                 content = True
             elif b.strip():
-                if not content and header is None:
+                if header is None and first is None:
                     header = _Program(None, -1, k, len(self.lines))
-                content = True
+                # assignments alone before the tape start are not blocks: the
+                # program still starts at '%' or at its O number
+                if _ASSIGN.match(b) is None:
+                    content = True
+                    if header is not None and first is None:
+                        header.blocks = True
         else:
             k = len(self.lines)
         if cur is not None:
             cur.end = min(cur.end, k)
         if header is not None:
             header.end = min(header.end, k)
+        if header is not None and not header.blocks and first is not None:
+            self.then = first  # assignments only: they run, then the first O program
         self.main = header or first
         if self.main is not None:
             self.prelude = self.main.start
@@ -315,6 +327,12 @@ def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
     try:
         while True:
             if pc >= prog.end:
+                if not stack and prog is main and run.then is not None:
+                    prog = run.then  # after the assignments before the first O
+                    out.append(lines[prog.head])
+                    numbers.append(prog.head + 1)
+                    pc = prog.start
+                    continue
                 if not stack:
                     break
                 raise run.error(prog.head, f"{_name(prog)} ends at line {prog.end} without "

@@ -82,6 +82,10 @@ KNOWN = [
     ("indirect variables #[..] and a G65 with L repeats",
      "O1\n#5=7\n#6=#[#5-2]\nG65 P2 L2 A#6\nM30\nO2\n#100=#100+#1\nG0 X#100\nM99\n",
      [(7, 0, 0), (14, 0, 0)], [8, 8]),
+    ("assignments before '%' run, then the first O program",
+     "#1=2\n%\nO1001 (PART)\nG0 X[1+#1]\nM30\n%\n", [(3, 0, 0)], [4]),
+    ("blocks, then '%': the tape ends there, as the reader reads it",
+     "G0 X1\n%\nO1\nG0 X[2]\nM98 P1\n", [(1, 0, 0)], [1]),
     ("M30 in a subprogram ends the run",
      "O1\nM98 P2\nG0 X9\nO2\nG0 X1\nM30\n", [(1, 0, 0)], [5]),
 ]
