@@ -28,9 +28,14 @@ intermediate point; to the machine's point when ``reference_points`` gives
 it, else to a position not known, NaN, until absolute coordinates come
 again) and G28.1/G30.1.
 
+Fanuc macro B programs and subprograms in the same file (:mod:`nc.macro_b`)
+are run first into the straight-line blocks read here, each with its source
+line; LinuxCNC ``#`` parameters without control flow are substituted
+(:mod:`nc.macro`).
+
 Anything else is refused with an :class:`~nc.errors.NCParseError` naming the
-file, line and column; Siemens, Heidenhain and Fanuc macro B programs with a
-sentence that names the dialect as not supported yet.
+file, line and column; Siemens and Heidenhain programs with a sentence that
+names the dialect.
 
 The execution order inside a block follows LinuxCNC (feed mode, F, S, T, M6,
 spindle, plane, units, tool length, work offset, distance mode, motion), so a

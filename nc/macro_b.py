@@ -56,9 +56,21 @@ from .macro_b_blocks import (
 
 __all__ = ["needs_macro_b", "expand_macro_b"]
 
-_DETECT = re.compile(r"(?im)^[ \t/]*(?:N[ \t]*\d+[ \t]*)?(?:IF[ \t]*\[|WHILE[ \t]*\[|"
-                     r"GOTO[ \t]*[\d#\[]|DO[ \t]*\d|END[ \t]*\d)"
-                     r"|(?<![A-Z])(?:M[ \t]*0*9[789]|G[ \t]*0*6(?:5|6(?:\.1)?))(?![\d.])")
+# detection runs on every ISO program read, so it is kept to fast scans: a
+# keyword at a line's start (after N), a call word (checked not to follow a letter)
+_KEYWORDS = re.compile(r"\n[ \t/]*(?:[Nn][ \t]*\d+[ \t]*)?(?:[Ii][Ff][ \t]*\[|"
+                       r"[Ww][Hh][Ii][Ll][Ee][ \t]*\[|[Gg][Oo][Tt][Oo][ \t]*[\d#\[]|"
+                       r"[Dd][Oo][ \t]*\d|[Ee][Nn][Dd][ \t]*\d)")
+_HINTS = ("[", "GOTO", "goto", "END", "end")  # (IF/WHILE need '[', a DO loop its END)
+# (one pattern per letter and case: a pattern starting with a literal is searched
+# ~10x faster than one starting with a class or an alternation)
+_CALLS = tuple(re.compile(letter + r"[ \t]*0*" + number + r"(?![\d.])")
+               for letter, number in (("M", "9[789]"), ("m", "9[789]"),
+                                      ("G", r"6(?:5|6(?:\.1)?)"), ("g", r"6(?:5|6(?:\.1)?)")))
+# LinuxCNC's O-words (o100 sub, o<name> if ...) and named parameters: not Fanuc
+_LINUXCNC = re.compile(r"(?im)^[ \t/]*(?:N[ \t]*\d+[ \t]*)?O[ \t]*(?:<|\d+[ \t]*(?:SUB|"
+                       r"ENDSUB|CALL|RETURN|IF|ELSEIF|ELSE|ENDIF|WHILE|ENDWHILE|DO|REPEAT|"
+                       r"ENDREPEAT|BREAK|CONTINUE)\b)")
 _O_LINE = re.compile(r"(?m)^[ \t]*[Oo:][ \t]*\d+[ \t]*(?:\([^()\n]*\))?[ \t]*\r?$")
 _PROGRAM = re.compile(r"\s*[O:]\s*(\d+)\s*$")
 _SPECIAL = re.compile(r"[#\[]|(?<![A-Z])(?:M\s*0*9[789]|G\s*0*6[567])(?![\d.])|"
@@ -72,11 +84,23 @@ _PREFIX = "Fanuc macro B: "
 
 def needs_macro_b(text: str) -> bool:
     """True for an ISO program with Fanuc control flow, M98/M97/M99 or G65/G66,
-    or with ``#`` variables or ``[ ]`` and an ``O1234`` program number line."""
-    if _DETECT.search(text):
+    or with ``#`` variables or ``[ ]`` and an ``O1234`` program number line;
+    False for a program with LinuxCNC's O-words or ``#<name>`` parameters."""
+    if _fanuc_signs(text):
+        return "#<" not in text and _LINUXCNC.search(text) is None
+    return False
+
+
+def _fanuc_signs(text: str) -> bool:
+    for pattern in _CALLS:
+        for m in pattern.finditer(text):
+            k = m.start()
+            if k == 0 or not text[k - 1].isalpha():
+                return True
+    # IF and WHILE need '['; the others are looked for only where their letters are
+    if any(h in text for h in _HINTS) and _KEYWORDS.search("\n" + text):
         return True
-    return (("#" in text or "[" in text) and "#<" not in text
-            and _O_LINE.search(text) is not None)
+    return ("#" in text or "[" in text) and _O_LINE.search(text) is not None
 
 
 @dataclass
