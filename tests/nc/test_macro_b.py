@@ -86,6 +86,9 @@ KNOWN = [
      "#1=2\n%\nO1001 (PART)\nG0 X[1+#1]\nM30\n%\n", [(3, 0, 0)], [4]),
     ("blocks, then '%': the tape ends there, as the reader reads it",
      "G0 X1\n%\nO1\nG0 X[2]\nM98 P1\n", [(1, 0, 0)], [1]),
+    ("a G65 argument given a vacant variable stays vacant",
+     "O1\nG65 P2 A#9 B1\nM30\nO2\nIF [#1 EQ #0] THEN #1=7\nG0 X#1 Y#2\nM99\n",
+     [(7, 1, 0)], [6]),
     ("M30 in a subprogram ends the run",
      "O1\nM98 P2\nG0 X9\nO2\nG0 X1\nM30\n", [(1, 0, 0)], [5]),
 ]
@@ -110,6 +113,12 @@ def test_detection_leaves_plain_and_linuxcnc_programs_alone():
     assert not needs_macro_b("o100 while [#1 LT 3]\no100 endwhile\n")
     assert needs_macro_b("O1\n#1=2\nG0 X#1\n")  # an O program number: Fanuc
     assert needs_macro_b("G0 X1\nM98 P2\n") and needs_macro_b("N5 WHILE [1 EQ 1] DO1\n")
+    assert needs_macro_b("O1\nN5 G0 X1\nGOTO 5\n") and needs_macro_b("g0 x1\nm99\n")
+    # LinuxCNC's M65/M66 (digital outputs, wait), O-words and #<name>: not Fanuc
+    assert not needs_macro_b("M66 P0 L3 Q5\nM65 P1\nG0 X1\n")
+    assert not needs_macro_b("#<a>=1\nG0 X#<a>\nM99\n")
+    assert not needs_macro_b("o100 sub\nG0 X[1]\no100 endsub\nM98 P100\n")
+    assert not needs_macro_b("G0 X1\nG1 X2 F100 (END OF PASS)\nM9\nM30\n")
 
 
 def test_error_columns_point_into_expanded_and_plain_lines():
