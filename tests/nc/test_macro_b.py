@@ -20,6 +20,7 @@ from nc import constants as K
 from nc.errors import NCParseError
 from nc.gcode import parse_program, read_program
 from nc.macro_b import expand_macro_b, needs_macro_b
+from nc.rewrite import RewriteError, rewrite_coordinates
 
 
 def _moves(src: str) -> tuple[list[tuple[float, float, float]], list[int]]:
@@ -126,6 +127,13 @@ def test_error_columns_point_into_expanded_and_plain_lines():
     with pytest.raises(NCParseError) as info:
         parse_program("O1\n#1=1\nG0 X#1\nG0 X1 X2\nM30\n", file="m.nc")
     assert str(info.value).startswith("m.nc:4:") and info.value.column == 7
+
+
+def test_rewriting_a_macro_program_is_refused():
+    # one source line makes three moves: a corrected coordinate has no one place to go
+    prog = parse_program("O1\nM98 P2 L3\nM30\nO2\nG91 G1 X1 F10\nM99\n", file="m.nc")
+    with pytest.raises(RewriteError, match="Fanuc macro B programs and subprograms"):
+        rewrite_coordinates(prog, ends={0: prog.end[0] + 0.001})
 
 
 # -- arithmetic against Python ------------------------------------------------
