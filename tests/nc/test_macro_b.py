@@ -141,7 +141,7 @@ _LEAF = st.integers(-50, 50).map(float) | st.sampled_from([0.5, 1.25, -2.75, 3.0
 
 
 def _tree(children):
-    return st.tuples(st.sampled_from("+-*"), children, children)
+    return st.tuples(st.sampled_from("+-*/"), children, children)
 
 
 _EXPR = st.recursive(_LEAF, _tree, max_leaves=8)
@@ -152,7 +152,9 @@ def _render(t) -> tuple[str, float]:
         return repr(t), t
     op, a, b = t
     (sa, va), (sb, vb) = _render(a), _render(b)
-    value = {"+": va + vb, "-": va - vb, "*": va * vb}[op]
+    if op == "/" and vb == 0:
+        op = "+"
+    value = {"+": va + vb, "-": va - vb, "*": va * vb, "/": va / vb if vb else 0.0}[op]
     return f"[{sa} {op} {sb}]", value
 
 
@@ -164,6 +166,22 @@ def test_arithmetic_matches_python(tree):
         return
     prog = parse_program(f"O1\n#1={text}\nG0 X#1\nM30\n")
     assert prog.end[0, 0] == pytest.approx(value, rel=1e-12, abs=1e-12)
+
+
+_CMP = {"EQ": lambda a, b: a == b, "NE": lambda a, b: a != b, "GT": lambda a, b: a > b,
+        "GE": lambda a, b: a >= b, "LT": lambda a, b: a < b, "LE": lambda a, b: a <= b}
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.sampled_from(sorted(_CMP)), st.integers(-3, 3), st.integers(-3, 3),
+       st.integers(0, 15), st.integers(0, 15))
+def test_comparisons_and_bitwise_logic_match_python(op, a, b, m, n):
+    # IF [a op b] THEN, and AND / OR / XOR of whole numbers bit by bit, as Fanuc
+    src = (f"O1\n#1=0\nIF [{a} {op} {b}] THEN #1=1\n"
+           f"G0 X#1 Y[{m} AND {n}] Z[[{m} OR {n}] + [{m} XOR {n}] * 100]\nM30\n")
+    end = parse_program(src).end[0]
+    assert end[0] == float(_CMP[op](a, b))
+    assert (end[1], end[2]) == (m & n, (m | n) + (m ^ n) * 100)
 
 
 @settings(max_examples=100, deadline=None)
