@@ -74,7 +74,8 @@ _LINUXCNC = re.compile(r"(?im)^[ \t/]*(?:N[ \t]*\d+[ \t]*)?O[ \t]*(?:<|\d+[ \t]*
 _O_LINE = re.compile(r"(?m)^[ \t]*[Oo:][ \t]*\d+[ \t]*(?:\([^()\n]*\))?[ \t]*\r?$")
 _PROGRAM = re.compile(r"\s*[O:]\s*(\d+)\s*$")
 _SPECIAL = re.compile(r"[#\[]|(?<![A-Z])(?:M\s*0*9[789]|G\s*0*6[567])(?![\d.])|"
-                      r"^\s*(?:N\s*\d+\s*)?(?:IF|WHILE|GOTO|DO|END|THEN)(?![A-Z])")
+                      r"^\s*(?:N\s*\d+\s*)?(?:IF|WHILE|GOTO|DO|END|THEN|POPEN|PCLOS|DPRNT|BPRNT)"
+                      r"(?![A-Z])")
 _END = re.compile(r"(?<![A-Z])M\s*0*(?:2|30)(?![\d.])")
 _LOOP = re.compile(r"\s*(?:N\s*\d+\s*)?(?:WHILE|DO|END)(?![A-Z])")
 _LABEL = re.compile(r"\s*N\s*(\d+)")

@@ -1,5 +1,8 @@
 """One Fanuc macro B block compiled into a statement, and the variables it reads.
 
+External output (POPEN, DPRNT, BPRNT, PCLOS) moves nothing: such blocks are
+passed over.
+
 :func:`compile_block` reads one line (comments blanked, upper case, same
 length as the source line so that offsets are its columns) into a
 :class:`Statement`; :mod:`nc.macro_b` executes the statements. The
@@ -38,6 +41,7 @@ ARGUMENTS = {"A": 1, "B": 2, "C": 3, "I": 4, "J": 5, "K": 6, "D": 7, "E": 8, "F"
 _NUMBER = re.compile(r"[-+]?\s*(?:\d+\.?\d*|\.\d+)")
 _LABEL = re.compile(r"\s*N\s*(\d+)")
 _KEYWORD = re.compile(r"(IF|WHILE|GOTO|DO|END|THEN)(?![A-Z])|(IF|WHILE|GOTO|DO|END)(?=\s*[\d#\[])")
+_OUTPUT = re.compile(r"(?:POPEN|PCLOS|DPRNT|BPRNT)(?![A-Z])")
 _COMMENT = re.compile(r"\(([^()]*)\)")
 _VARIABLES = "#0, #1-#33, #100-#999"
 
@@ -151,6 +155,8 @@ def compile_block(blank: str) -> Statement:
         i = _skip(blank, m.end())
         if i == n:
             return Statement("none")
+    if _OUTPUT.match(blank, i) is not None:  # output to a device: nothing moves
+        return Statement("none", column=i)
     c = blank[i]
     if c == "#":
         st = Statement("assign", column=i)

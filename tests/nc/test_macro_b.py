@@ -90,6 +90,8 @@ KNOWN = [
     ("a G65 argument given a vacant variable stays vacant",
      "O1\nG65 P2 A#9 B1\nM30\nO2\nIF [#1 EQ #0] THEN #1=7\nG0 X#1 Y#2\nM99\n",
      [(7, 1, 0)], [6]),
+    ("external output (POPEN, DPRNT, PCLOS) moves nothing",
+     "O1\n#100=2\nPOPEN\nDPRNT[X#100[53]]\nPCLOS\nG0 X#100\nM30\n", [(2, 0, 0)], [6]),
     ("M30 in a subprogram ends the run",
      "O1\nM98 P2\nG0 X9\nO2\nG0 X1\nM30\n", [(1, 0, 0)], [5]),
 ]
