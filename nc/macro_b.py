@@ -153,8 +153,11 @@ class _Run:
             if not s:
                 continue
             if s[0] == "%":
-                if content:
-                    break  # the closing '%': the tape ends
+                if content:  # a closing '%' ends the program before it (the reader
+                    for prog in (cur, header):  # stops there); later O programs
+                        if prog is not None:    # of the file may still be called
+                            prog.end = min(prog.end, k)
+                    cur = None
                 continue
             if s[0] == "$" and not content:
                 content = True  # Okuma's header line
@@ -184,12 +187,6 @@ class _Run:
                     content = True
                     if header is not None and first is None:
                         header.blocks = True
-        else:
-            k = len(self.lines)
-        if cur is not None:
-            cur.end = min(cur.end, k)
-        if header is not None:
-            header.end = min(header.end, k)
         if header is not None and not header.blocks and first is not None:
             self.then = first  # assignments only: they run, then the first O program
         self.main = header or first

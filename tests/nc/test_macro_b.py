@@ -92,6 +92,9 @@ KNOWN = [
      [(7, 1, 0)], [6]),
     ("external output (POPEN, DPRNT, PCLOS) moves nothing",
      "O1\n#100=2\nPOPEN\nDPRNT[X#100[53]]\nPCLOS\nG0 X#100\nM30\n", [(2, 0, 0)], [6]),
+    ("programs each between '%' lines: the main ends at its '%', the others are called",
+     "%\nO1\nM98 P2\nG0 Y1\nM30\n%\n%\nO2\nG0 X1\nM99\n%\n",
+     [(1, 0, 0), (1, 1, 0)], [9, 4]),
     ("M30 in a subprogram ends the run",
      "O1\nM98 P2\nG0 X9\nO2\nG0 X1\nM30\n", [(1, 0, 0)], [5]),
 ]
