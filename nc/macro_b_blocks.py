@@ -202,8 +202,9 @@ def _control(s: str, i: int, word: str) -> Statement:
         j = _skip(s, j)
         st = Statement("if", column=i, cond=cond)
         if s.startswith("GOTO", j):
+            at = j
             target, j = compile_expression(s, FANUC, j + 4, whole=True)
-            st.then = Statement("goto", column=j, target=target)
+            st.then = Statement("goto", column=at, target=target)
         else:
             if s.startswith("THEN", j):
                 j = _skip(s, j + 4)

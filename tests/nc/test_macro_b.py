@@ -252,6 +252,15 @@ def test_bad_input_is_one_line(what, src, line, fragment):
     assert err.line == line and err.column is not None and err.column >= 1
 
 
+def test_runtime_errors_point_at_the_statement():
+    with pytest.raises(NCParseError) as info:
+        parse_program("O1\n#1=1\nIF [#1 EQ 1] GOTO 77\nM30\n", file="m.nc")
+    assert info.value.column == info.value.text.index("GOTO") + 1
+    with pytest.raises(NCParseError) as info:
+        parse_program("O1\nG0 X[2 / [#5 - #5]]\nM30\n", file="m.nc")
+    assert info.value.column == info.value.text.index("/") + 1
+
+
 def test_runaway_loop_ends_in_one_line(monkeypatch):
     monkeypatch.setattr(K, "MACRO_B_MAX_EXECUTED_BLOCKS", 10_000)
     with pytest.raises(NCParseError, match=r"m\.nc:3:1: .*more than 10,000 blocks executed"):
