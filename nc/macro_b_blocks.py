@@ -93,9 +93,9 @@ def _unsupported(key: int) -> str:
 
 @dataclass
 class Statement:
-    """One compiled block. ``kind``: "pass" (the source line as is), "words",
-    "none" (nothing to do), "assign", "if", "goto", "while", "do", "end",
-    "m98", "m97", "m99", "g65", "alarm", "stop"."""
+    """One compiled block. ``kind``: "pass" (the source line as is), "words"
+    (NC words with values to fill in), "none" (nothing to do), "assign", "if",
+    "goto", "while", "do", "end", "m98", "m97", "m99", "g65"."""
 
     kind: str
     column: int = 0                    # 0-based offset of the statement's keyword
