@@ -68,6 +68,35 @@ def finishing_program(n_lines: int) -> str:
     return "\n".join(out) + "\n"
 
 
+def macro_b_program(n_moves: int) -> str:
+    """The finishing raster of :func:`finishing_program` as a Fanuc macro B program:
+    a WHILE loop of G65 calls, one per pass, each pass a WHILE loop of 400 G1
+    blocks; about ``n_moves`` moves, 5 executed blocks a move [mm]."""
+    passes = max(1, n_moves // 400)
+    return f"""%
+O1000 (MACRO B RASTER)
+G21 G17 G90 G94 G40 G49 G80
+G0 X0. Y0. Z25.
+G1 Z2. F2000.
+#100=0
+WHILE [#100 LT {passes}] DO1
+G65 P9000 Y[#100*0.4]
+#100=#100+1
+END1
+G0 Z25.
+M30
+O9000 (ONE PASS, Y=#25)
+#10=0
+WHILE [#10 LT 400] DO2
+#24=#10*0.05
+G1 X#24 Y#25 Z[2.*SIN[#24/7.*57.2957795]*COS[#25/5.*57.2957795]-3.] F1500.
+#10=#10+1
+END2
+M99
+%
+"""
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lines", type=int, default=120_000)
@@ -96,12 +125,24 @@ def main(argv=None) -> int:
         # the same program with LinuxCNC parameters: every X word an expression
         macro = path + ".ngc"
         with open(macro, "w") as fh:
-            fh.write("#1=0\n" + re.sub(r"X(-?[\d.]+)", r"X[\1+#1]", text))
+            # (without the O number line, which with '#' would make it Fanuc macro B)
+            body = re.sub(r"(?m)^O\d+.*\n", "", text)
+            fh.write("#1=0\n" + re.sub(r"X(-?[\d.]+)", r"X[\1+#1]", body))
         macro_times = []
         for _ in range(args.repeat):
             t0 = time.perf_counter()
             read_program(macro)
             macro_times.append(time.perf_counter() - t0)
+        # Fanuc macro B: the raster made by WHILE loops and G65 calls (nc.macro_b)
+        fanuc = path + ".fanuc.nc"
+        with open(fanuc, "w") as fh:
+            fh.write(macro_b_program(n_lines))
+        macro_b_times, macro_b_cpu = [], []
+        for _ in range(args.repeat):
+            t0, c0 = time.perf_counter(), time.process_time()
+            macro_b_moves = len(read_program(fanuc))
+            macro_b_times.append(time.perf_counter() - t0)
+            macro_b_cpu.append(time.process_time() - c0)
         tracemalloc.start()
         read_program(path)
         _, peak = tracemalloc.get_traced_memory()
@@ -116,6 +157,12 @@ def main(argv=None) -> int:
     print(f"read_program, X words as '#' expressions (nc.macro): median "
           f"{n_lines / statistics.median(macro_times):,.0f} lines/s, best "
           f"{n_lines / min(macro_times):,.0f} lines/s")
+    mb = statistics.median(macro_b_times)
+    print(f"read_program, Fanuc macro B raster (nc.macro_b, WHILE + G65, 5 executed blocks "
+          f"a move): {macro_b_moves} moves, median {macro_b_moves / mb:,.0f} produced "
+          f"lines/s ({5 * macro_b_moves / mb:,.0f} executed blocks/s), best "
+          f"{macro_b_moves / min(macro_b_times):,.0f} lines/s; median "
+          f"{macro_b_moves / statistics.median(macro_b_cpu):,.0f} lines per CPU-second")
     print(f"baseline re.findall tokenize only: {best_base * 1e3:.0f} ms -> "
           f"{n_lines / best_base:,.0f} lines/s; reader/baseline time ratio "
           f"{best / best_base:.2f}")

@@ -27,6 +27,8 @@ class BlockReader:
 
     lines: list[str]
     source: list[str]
+    source_lines: list[int] | None
+    rewritten: set[int]
     file: str
     strict: bool
     frames: Frames
@@ -37,7 +39,9 @@ class BlockReader:
     def _error(self, lineno: int, message: str, token: int | None = None,
                column: int | None = None) -> NCParseError:
         raw = self.lines[lineno - 1]
-        if token is not None and column is None and self.source[lineno - 1] is raw:
+        same = (self.source[lineno - 1] is raw if self.source_lines is None
+                else lineno not in self.rewritten)
+        if token is not None and column is None and same:
             column = token_column(raw, token)  # (an expanded line's tokens are not raw's)
         if column is None:  # the block as a whole: its first character
             column = len(raw) - len(raw.lstrip()) + 1

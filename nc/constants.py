@@ -178,3 +178,15 @@ LINEARIZE_MAX_POINTS_EXTRA = 10_000
 #: LinuxCNC's EQ and NE compare within this (its TOLERANCE_EQUAL; rs274 gives
 #: [1 EQ 1.00001] = 1) [same units as the operands]
 MACRO_EQ_TOL = 1.0e-4
+
+#: Fanuc macro B expansion (nc.macro_b): most blocks executed in one read,
+#: counting every pass through a WHILE loop, GOTO and subprogram repeat, before
+#: the read stops with an error (a loop that does not end). At ~2-5 us a block
+#: in Python this bounds a runaway program to tens of seconds, while a real
+#: macro program (a bolt circle, a pocket of a few thousand passes) executes
+#: far fewer [blocks].
+MACRO_B_MAX_EXECUTED_BLOCKS = 5_000_000
+#: ... and deepest nesting of M98/M97 subprogram and G65 macro calls together:
+#: Fanuc controls nest at most 10 subprogram levels and 5 macro levels, so a
+#: deeper chain is a call that recurses without end [calls].
+MACRO_B_MAX_CALL_DEPTH = 15

@@ -28,9 +28,14 @@ intermediate point; to the machine's point when ``reference_points`` gives
 it, else to a position not known, NaN, until absolute coordinates come
 again) and G28.1/G30.1.
 
+Fanuc macro B programs and subprograms in the same file (:mod:`nc.macro_b`)
+are run first into the straight-line blocks read here, each with its source
+line; LinuxCNC ``#`` parameters without control flow are substituted
+(:mod:`nc.macro`).
+
 Anything else is refused with an :class:`~nc.errors.NCParseError` naming the
-file, line and column; Siemens, Heidenhain and Fanuc macro B programs with a
-sentence that names the dialect as not supported yet.
+file, line and column; Siemens and Heidenhain programs with a sentence that
+names the dialect.
 
 The execution order inside a block follows LinuxCNC (feed mode, F, S, T, M6,
 spindle, plane, units, tool length, work offset, distance mode, motion), so a
@@ -69,6 +74,7 @@ from .rotation import RotationBlocks, RotationError
 from .frames import Frames, convert_position, reference_table, work_offset_table
 from .lexer import TOKEN, find_token, foreign_syntax
 from .macro import expand_parameters, needs_expansion
+from .macro_b import expand_macro_b, needs_macro_b
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
 __all__ = ["read_program", "parse_program", "ALLOWABLE_EXAMPLES"]
@@ -168,8 +174,18 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
             lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
         self.lines = lines
         self.file = file
+        #: source line number of each line of self.source, when they differ (macro B)
+        self.source_lines: list[int] | None = None
+        #: source lines whose expanded text is not the source line (macro B)
+        self.rewritten: set[int] = set()
+        if needs_macro_b(text):  # Fanuc macro B, subprograms: run first (nc.macro_b)
+            self.source, self.source_lines, self.rewritten = expand_macro_b(
+                lines, file, block_delete)
         # '#' parameters and '[ ]' expressions without control flow: substituted first
-        self.source = expand_parameters(lines, file) if needs_expansion(text) else lines
+        elif needs_expansion(text):
+            self.source = expand_parameters(lines, file)
+        else:
+            self.source = lines
         self.allow = allow
         self.allowed_names = frozenset(
             code_name(letter, k) for letter, ks in allow.items() for k in ks)
@@ -237,8 +253,8 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
 
         first_content = True
         ended = False
-        for lineno0, raw in enumerate(self.source):
-            lineno = lineno0 + 1
+        numbers = self.source_lines or range(1, len(self.source) + 1)
+        for lineno, raw in zip(numbers, self.source):
             s = raw.strip()
             if not s:
                 continue

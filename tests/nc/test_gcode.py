@@ -408,7 +408,7 @@ def test_program_headers(header, number):
     ("G21\nX=R1 Y=2\n", "X", "Siemens Sinumerik assignments"),
     ("0 BEGIN PGM PART MM\n", "0", "Heidenhain conversational"),
     ("%PART G71 *\nN10 G00 X+0 *\n", "%", "Heidenhain ISO"),
-    ("G21\nIF [#1 GT 5] GOTO 10\n", "IF", "macro B control flow (IF)"),
+    ("G21\nG66 P9000 A1\n", "G66", "modal macro calls (G66/G66.1)"),
     ("G21\nG0 X#5420\n", "#", "parameters and expressions: system parameter #5420"),
 ])
 def test_foreign_dialects_are_named(src, bad, fragment):
