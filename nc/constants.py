@@ -81,6 +81,16 @@ TNC_MAX_CALL_DEPTH = 19
 #: Siemens reader: most blocks executed in one read, counting every pass through
 #: a GOTOB loop, before the read stops with an error (a loop that does not end) [-].
 SIEMENS_MAX_EXECUTED_BLOCKS = 20_000_000
+#: ... most passes of one loop (WHILE FOR LOOP REPEAT/UNTIL, counted from its
+#: last entry) and most repetitions one REPEAT/REPEATB may ask for (P=): more
+#: than any NC program makes (10^6 passes of a one-line body is already 10^6
+#: moves), few enough that a loop whose condition never changes is refused in
+#: about a second instead of running to SIEMENS_MAX_EXECUTED_BLOCKS [passes].
+SIEMENS_MAX_LOOP_PASSES = 1_000_000
+#: ... deepest nesting of running section repeats (REPEAT/REPEATB inside a
+#: repeated section); it stops a section that repeats itself through a second
+#: REPEAT long before memory runs out [-].
+SIEMENS_MAX_REPEAT_DEPTH = 16
 
 # --- paths ------------------------------------------------------------------
 

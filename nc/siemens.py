@@ -45,10 +45,10 @@ import os
 import re
 from collections.abc import Iterable
 
-from . import constants as K
 from .errors import NCParseError
 from .program import Program
 from .siemens_blocks import split_blocks
+from .siemens_flow import plan, run
 from .siemens_moves import execute
 from .siemens_state import SState
 
@@ -124,53 +124,7 @@ def parse_siemens(text: str, *, file: str = "<string>", block_delete: bool = Fal
     st.metadata["dialect"] = "siemens"
     if name is not None:
         st.metadata["name"] = name
-    labels: dict[str, list[int]] = {}
-    for i, b in enumerate(blocks):
-        for lab in b.labels:
-            at = labels.setdefault(lab, [])
-            if lab[0] not in "N:" and at:
-                raise NCParseError(f"label {lab} defined twice (first at line "
-                                   f"{blocks[at[0]].line})", file=file, line=b.line,
-                                   column=1, text=lines[b.line - 1])
-            at.append(i)
-    limit = K.SIEMENS_MAX_EXECUTED_BLOCKS
-    executed = 0
-    pc = 0
-    n = len(blocks)
-    while pc < n:
-        b = blocks[pc]
-        pc += 1
-        if b.skip and block_delete:
-            continue
-        executed += 1
-        if executed > limit:
-            raise NCParseError(f"more than {limit:,} blocks executed (SIEMENS_MAX_EXECUTED_"
-                               "BLOCKS): a jump loop that does not end?", file=file,
-                               line=b.line, text=lines[b.line - 1])
-        if execute(st, b):
-            break
-        if st.jump is not None:
-            pc = _target(st, labels, pc - 1, file, lines, b)
+    flow = plan(blocks, file, lines)
+    run(st, blocks, flow, block_delete, execute)
     return st.program(file, tuple(lines), newline, name, block_delete)
 
-
-def _target(st: SState, labels: dict[str, list[int]], here: int, file: str,
-            lines: list[str], b) -> int:
-    """Index of the block a GOTOF/GOTOB/GOTO at block ``here`` jumps to."""
-    kind, target = st.jump
-    st.jump = None
-    at = labels.get(target, [])
-    after = [i for i in at if i > here]
-    before = [i for i in at if i < here]
-    if kind == "GOTOF":
-        found = after[:1]
-    elif kind == "GOTOB":
-        found = before[-1:]
-    else:
-        found = after[:1] or before[-1:]
-    if not found:
-        where = {"GOTOF": "after", "GOTOB": "before"}.get(kind, "in")
-        raise NCParseError(f"{kind} {target}: no label or block number {target} {where} "
-                           "this block", file=file, line=b.line, column=b.col,
-                           text=lines[b.line - 1])
-    return found[0]

@@ -29,7 +29,8 @@ SUPPORTED_BLOCKS = ("G0 G1 G2 G3 (I J K, I=AC(..), CR=, TURN=), X Y Z A B C with
                     "G17-G19, G90/G91, G93/G94, G700/G71/G710, G54-G57/G500/G505-G599, "
                     "G53/G153/SUPA, F S T D, M0-M9 M17 M30, TRAORI/TRAFOOF with A3= B3= C3=, "
                     "TRANS ATRANS ROT AROT, CYCLE800, CYCLE832, MSG, DEF REAL/INT, R parameters, "
-                    "labels with GOTOF/GOTOB/GOTO and IF condition GOTO..")
+                    "labels with GOTOF/GOTOB/GOTO/GOTOC, IF/ELSE/ENDIF, WHILE, FOR, LOOP, "
+                    "REPEAT/UNTIL, REPEAT/REPEATB label P=n")
 _M_START = {3: 1, 4: -1}
 _M_NOTHING = frozenset({0, 1, 6, 7, 8, 9})  # M6 handled apart; coolant, stops
 _M_END = frozenset({2, 17, 30})
@@ -75,21 +76,18 @@ K_REFUSED = {
     "TRAANG": "inclined-axis transformations are not read",
     "GOTOF": "a jump must be its block's only statement (GOTOF label, or IF condition "
     "GOTOF label)", "GOTOB": "a jump must be its block's only statement",
-    "GOTO": "a jump must be its block's only statement", "IF": "IF must begin its block: "
-    "IF condition GOTOF|GOTOB|GOTO label",
-    "GOTOC": "GOTOC (a jump that may find no target) is not read; expected GOTOF, GOTOB "
-    "or GOTO", "WHILE": "structured control flow (WHILE FOR REPEAT LOOP CASE, IF ... ENDIF) "
-    "is not read; expected IF condition GOTOF|GOTOB|GOTO label",
-    "FOR": "structured control flow is not read; expected IF condition GOTOF label",
-    "REPEAT": "structured control flow is not read; expected IF condition GOTOB label",
-    "LOOP": "structured control flow is not read; expected IF condition GOTOB label",
-    "CASE": "structured control flow is not read; expected IF condition GOTOF label",
-    "ELSE": "structured control flow is not read; expected IF condition GOTOF label",
-    "ENDIF": "structured control flow is not read; expected IF condition GOTOF label",
+    "GOTO": "a jump must be its block's only statement",
+    "GOTOC": "a jump must be its block's only statement",
+}
+_CONTROL = ("IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE", "FOR", "ENDFOR", "LOOP", "ENDLOOP",
+            "REPEAT", "REPEATB", "UNTIL", "CASE", "TO", "ENDLABEL")
+K_REFUSED.update({k: f"{k} must begin its own block (control statements stand alone)"
+                  for k in _CONTROL[:13]})
+K_REFUSED.update({
     "CALL": "subprogram calls are not read",
     "PCALL": "subprogram calls are not read", "MCALL": "modal subprogram calls are not read",
     "EXTCALL": "external subprogram calls are not read",
-}
+})
 _DEF = re.compile(r"DEF\s+(REAL|INT)\s+(.+)")
 _DEF_ITEM = re.compile(r"\s*([A-Z_][A-Z0-9_]*)\s*(?:=\s*(.+?))?\s*")
 _AXIS_FN = re.compile(r"(AC|IC|DC|ACP|ACN)\s*\((.*)\)")
@@ -98,7 +96,8 @@ _PLAIN = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
 _RESERVED = frozenset({"X", "Y", "Z", "A", "B", "C", "I", "J", "K", "F", "S", "T", "D", "M",
                        "G", "N", "H", "L", "P", "R", "CR", "AR", "TURN", "A3", "B3", "C3",
                        "DIV", "MOD", "SIN", "COS", "TAN", "SQRT", "ABS", "POT", "TRUNC",
-                       "ROUND", "ATAN2", "AC", "IC", "DC"})
+                       "ROUND", "ATAN2", "AC", "IC", "DC", "AND", "OR", "XOR", "NOT",
+                       *_CONTROL})
 
 
 class SState(ProgramRows):
@@ -128,8 +127,6 @@ class SState(ProgramRows):
         self.init_rows()
         self.o_machine: list[int] = []
         self.b: SBlock | None = None
-        #: (GOTOF|GOTOB|GOTO, target label) when the last block jumps
-        self.jump: tuple[str, str] | None = None
 
     # -- helpers ---------------------------------------------------------
     def err(self, msg: str, col: int | None = None) -> NCParseError:

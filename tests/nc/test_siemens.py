@@ -168,6 +168,73 @@ KNOWN = [
       dict(m=1, xyz=(10, 0, -2), f=100), dict(m=1, xyz=(10, 0, -2), f=100),
       dict(m=1, xyz=(10, 0, -3), f=100), dict(m=1, xyz=(10, 0, -3), f=100),
       dict(m=0, xyz=(10, 0, 50), f=100), dict(m=1, xyz=(1, 0, 50), f=100)]),
+    # R1 = 2: the first IF takes its branch (X1), the second its ELSE (Y6), the third
+    # has no ELSE and is true (Z1)
+    ("if-else", ["R1=2", "IF R1>1", "G1 X1 F100", "ELSE", "G1 X2 F100", "ENDIF", "IF R1<1",
+                 "G1 Y5", "ELSE", "G1 Y6", "ENDIF", "IF (R1==2) AND NOT (R1==3)", "G1 Z1",
+                 "ENDIF"],
+     [dict(m=1, xyz=(1, 0, 0), f=100), dict(m=1, xyz=(1, 6, 0), f=100),
+      dict(m=1, xyz=(1, 6, 1), f=100)]),
+    # R1 = 1, 2, 3 inside the loop: X10 X20 X30; R1 = 3 ends it
+    ("while", ["R1=0", "G1 X0 F100", "WHILE R1<3", "R1=R1+1", "G1 X=R1*10", "ENDWHILE",
+               "G1 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(10, 0, 0), f=100),
+      dict(m=1, xyz=(20, 0, 0), f=100), dict(m=1, xyz=(30, 0, 0), f=100),
+      dict(m=1, xyz=(30, 1, 0), f=100)]),
+    # II = 1, 2, 3: Z-1 Z-2 Z-3; after ENDFOR II is 4 (X4); FOR R5 = 3 TO 1 runs nothing
+    ("for", ["DEF INT II", "G1 X0 F100", "FOR II=1 TO 3", "G1 Z=-II", "ENDFOR", "G1 X=II",
+             "FOR R5=3 TO 1", "G1 Y99", "ENDFOR", "G1 Y=R5"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(0, 0, -1), f=100),
+      dict(m=1, xyz=(0, 0, -2), f=100), dict(m=1, xyz=(0, 0, -3), f=100),
+      dict(m=1, xyz=(4, 0, -3), f=100), dict(m=1, xyz=(4, 3, -3), f=100)]),
+    # LOOP left by IF ... GOTOF after X1 X2
+    ("loop-goto", ["R1=0", "G1 X0 F100", "LOOP", "R1=R1+1", "G1 X=R1", "IF R1>=2 GOTOF OUT",
+                   "ENDLOOP", "OUT: G1 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(2, 0, 0), f=100), dict(m=1, xyz=(2, 1, 0), f=100)]),
+    # the body of REPEAT ... UNTIL runs once even though R1 > 5 after it
+    ("repeat-until", ["R1=5", "G1 X0 F100", "REPEAT", "G1 X=R1", "R1=R1+1", "UNTIL R1>5",
+                      "G1 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(5, 0, 0), f=100),
+      dict(m=1, xyz=(5, 1, 0), f=100)]),
+    # R1 = 1, 2; R2 = 1, 2 inside: the move only at R2 = 2: (1,2) then (2,2)
+    ("nested", ["G1 X0 F100", "FOR R1=1 TO 2", "R2=0", "WHILE R2<2", "R2=R2+1", "IF R2==2",
+                "G1 X=R1 Y=R2", "ENDIF", "ENDWHILE", "ENDFOR"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 2, 0), f=100),
+      dict(m=1, xyz=(2, 2, 0), f=100)]),
+    # the section START..(the block before REPEAT) runs once, then twice more: X+1 Y+1 x3
+    ("repeat-section", ["G1 X0 F100", "START: G91 X1", "Y1", "REPEAT START P=2", "G90 G1 Z5"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(1, 1, 0), f=100), dict(m=1, xyz=(2, 1, 0), f=100),
+      dict(m=1, xyz=(2, 2, 0), f=100), dict(m=1, xyz=(3, 2, 0), f=100),
+      dict(m=1, xyz=(3, 3, 0), f=100), dict(m=1, xyz=(3, 3, 5), f=100)]),
+    # REPEATB: the labelled block once, then 3 times more: X2 X4 X6 X8
+    ("repeatb", ["G1 X0 F100", "ST: G91 X2", "REPEATB ST P=3", "G90 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(2, 0, 0), f=100),
+      dict(m=1, xyz=(4, 0, 0), f=100), dict(m=1, xyz=(6, 0, 0), f=100),
+      dict(m=1, xyz=(8, 0, 0), f=100), dict(m=1, xyz=(8, 1, 0), f=100)]),
+    # GOTOF skips A1..A2; REPEAT A1 A2 P=2 runs them twice, then the block after REPEAT
+    ("repeat-two-labels", ["G1 X0 F100", "GOTOF OVER", "A1: G91 X1", "A2: Y1",
+                           "OVER: REPEAT A1 A2 P=2", "G90 Z1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(1, 1, 0), f=100), dict(m=1, xyz=(2, 1, 0), f=100),
+      dict(m=1, xyz=(2, 2, 0), f=100), dict(m=1, xyz=(2, 2, 1), f=100)]),
+    # ENDLABEL ends the section: X1 Y1 again, not Z1
+    ("repeat-endlabel", ["G1 X0 F100", "BEG: G91 X1", "ENDLABEL: Y1", "Z1", "REPEAT BEG",
+                         "G90 X0"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(1, 1, 0), f=100), dict(m=1, xyz=(1, 1, 1), f=100),
+      dict(m=1, xyz=(2, 1, 1), f=100), dict(m=1, xyz=(2, 2, 1), f=100),
+      dict(m=1, xyz=(0, 2, 1), f=100)]),
+    # GOTOC without a target goes on; GOTOC N60 skips N50 (X9)
+    ("gotoc", ["G1 X0 F100", "GOTOC NOWHERE", "G1 X1", "GOTOC N60", "G1 X9", "G1 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(1, 1, 0), f=100)]),
+    # a jump may leave a WHILE: X1 X2, then out at R1 = 3
+    ("jump-out-of-while", ["R1=0", "G1 X0 F100", "WHILE 1", "R1=R1+1", "IF R1==3 GOTOF DONE",
+                           "G1 X=R1", "ENDWHILE", "DONE: G1 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(2, 0, 0), f=100), dict(m=1, xyz=(2, 1, 0), f=100)]),
     ("g700-inch", ["G700 G1 X1 Y2 F10"], [dict(m=1, xyz=(25.4, 50.8, 0), f=254)]),
     # G4 F2 is a dwell of 2 s, not a feed
     ("g4-dwell", ["G1 X1 F100", "G4 F2", "X2"],
@@ -433,10 +500,33 @@ BAD = [
     (["ENDE: G1 X1 F100", "GOTOF ENDE"], "no label or block number ENDE after"),
     (["GOTOB ENDE", "ENDE: G1 X1 F100"], "no label or block number ENDE before"),
     (["A1: G1 X1 F100", "A1: X2"], "label A1 defined twice"),
-    (["IF R1==1 X2"], "IF without a jump"),
+    (["IF R1==1 X2"], "IF not closed; expected ENDIF"),
     (["R1=1", "IF R1=1 GOTOF E", "E: X1"], "unexpected '=1' in an expression"),
-    (["WHILE R1<3"], "structured control flow"),
+    (["WHILE R1<3"], "WHILE not closed; expected ENDWHILE"),
     (["G1 X1 F100 GOTOF E"], "a jump must be its block's only statement"),
+    (["IF R1==1", "G1 X1 F100"], "IF not closed; expected ENDIF"),
+    (["R1=1", "FOR R1=1 TO 3", "G1 X1 F100"], "FOR not closed; expected ENDFOR"),
+    (["REPEAT", "G1 X1 F100"], "REPEAT not closed; expected UNTIL"),
+    (["G1 X1 F100", "ENDFOR"], "ENDFOR without FOR"),
+    (["UNTIL R1>1"], "UNTIL without REPEAT"),
+    (["WHILE 1", "ENDIF"], "ENDIF closes the WHILE of line 3; expected ENDWHILE first"),
+    (["ELSE"], "ELSE without IF"),
+    (["IF 1", "ELSE", "ELSE", "ENDIF"], "a second ELSE"),
+    (["REPEAT NOWHERE P=2"], "REPEAT NOWHERE: no label or block number NOWHERE"),
+    (["REPEATB NOWHERE"], "REPEATB NOWHERE: no label or block number NOWHERE"),
+    (["GOTOF IN", "IF 1", "IN: G1 X1 F100", "ENDIF"], "inside a structured block"),
+    (["FOR XX=1 TO 3", "ENDFOR"], "the counter must be an R parameter or a DEF variable"),
+    (["FOR R1=1 TO", "ENDFOR"], "expected FOR variable = start TO end"),
+    (["CASE R1 OF 1 GOTOF A"], "CASE ... OF ... DEFAULT is not read"),
+    (["LOOP X1", "ENDLOOP"], "LOOP with more in its block"),
+    (["G1 X1 F100 ENDIF"], "ENDIF must begin its own block"),
+    (["L1: G1 X1 F100", "REPEAT L1 P=0.5"], "expected a whole count"),
+    (["R1=0", "IF R1==0", "A1: G1 X1 F100", "ENDIF", "REPEAT A1"], "cuts through the ENDIF"),
+    (["G1 X0 F100", "R1=0", "A1: R1=R1+1", "IF R1==2 GOTOF OUT", "REPEAT A1 P=3", "OUT: X1"],
+     "a jump out of the section"),
+    (["A1: G1 X1 F100", "REPEAT A1 A9 P=2"], "no label A9 at or after A1"),
+    (["WHILE R7>1", "ENDWHILE"], "WHILE: R7 is used before it is set"),
+    (["GOTOF R1"], "no label or block number R1 after"),
     (["L100"], "subprogram calls"),
     (["CYCLE81(10,0,2,-5)"], "CYCLE81 is not read"),
     (["MYSUB(1,2)"], "unsupported call MYSUB"),
@@ -502,6 +592,45 @@ def test_endless_jump_loop_hits_the_limit(monkeypatch):
     monkeypatch.setattr(K, "SIEMENS_MAX_EXECUTED_BLOCKS", 1000)
     with pytest.raises(NCParseError, match="SIEMENS_MAX_EXECUTED_BLOCKS"):
         parse_siemens(sin840("G1 X0 F100", "L1: G91 X1", "GOTOB L1"))
+
+
+@pytest.mark.parametrize("blocks,what", [
+    (["G1 X0 F100", "LOOP", "G91 X1", "ENDLOOP"], "passes of the LOOP at line 4"),
+    (["WHILE 1", "R1=1", "ENDWHILE"], "passes of the WHILE at line 3"),
+    (["R1=0", "REPEAT", "R1=1", "UNTIL R1>1"], "passes of the REPEAT at line 4"),
+    (["FOR R1=1 TO 5000", "R1=1", "ENDFOR"], "passes of the FOR at line 3"),
+])
+def test_runaway_loop_ends_in_one_line(monkeypatch, blocks, what):
+    import nc.constants as K
+
+    monkeypatch.setattr(K, "SIEMENS_MAX_LOOP_PASSES", 1000)
+    with pytest.raises(NCParseError) as exc:
+        parse_siemens(sin840(*blocks), file="r.mpf")
+    msg = str(exc.value)
+    assert "\n" not in msg and msg.startswith("r.mpf:") and what in msg, msg
+    assert "SIEMENS_MAX_LOOP_PASSES" in msg
+
+
+def test_loop_passes_count_from_the_last_entry(monkeypatch):
+    """An inner loop entered 30 times with 30 passes each (900 passes in all) stays under
+    a bound of 50 passes: the count starts again at each entry."""
+    import nc.constants as K
+
+    monkeypatch.setattr(K, "SIEMENS_MAX_LOOP_PASSES", 50)
+    prog = parse_siemens(sin840("G1 X0 F100", "FOR R1=1 TO 30", "R2=0", "WHILE R2<30",
+                                "R2=R2+1", "ENDWHILE", "G1 X=R1", "ENDFOR"))
+    assert len(prog) == 31 and prog[30].end[0] == 30
+
+
+def test_nested_section_repeats_are_bounded(monkeypatch):
+    import nc.constants as K
+
+    monkeypatch.setattr(K, "SIEMENS_MAX_REPEAT_DEPTH", 3)
+    # REPEAT A1 A2 repeats a section that holds REPEATB: depth 2, allowed
+    prog = parse_siemens(sin840("G1 X0 F100", "GOTOF GO", "A1: G91 X1", "REPEATB A1 P=1",
+                                "A2: G90", "GO: REPEAT A1 A2 P=2", "G1 Y1"))
+    # X1 then X1 again (REPEATB) per pass, two passes: X4; then Y1
+    assert [round(b.end[0]) for b in prog] == [0, 1, 2, 3, 4, 4]
 
 
 def test_program_ends_at_m30_and_tape_marks_pass():
