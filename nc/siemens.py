@@ -57,8 +57,9 @@ __all__ = ["read_siemens", "parse_siemens", "normalise_allow"]
 _ALLOW = re.compile(r"(?:[GMH]\d+|[A-Z_][A-Z0-9_]*)")
 #: Codes that move the tool or the frame: never passed over.
 _NOT_ALLOWABLE = frozenset({"G41", "G42", "G95", "G96", "G70", "G74", "G75", "TRANS",
-                            "ATRANS", "ROT", "AROT", "SCALE", "MIRROR", "TCARR", "TOROT",
-                            "PAROT", "CIP", "CT", "ASPLINE", "BSPLINE", "CSPLINE", "POLY"})
+                            "ATRANS", "ROT", "AROT", "ROTS", "AROTS", "SCALE", "MIRROR",
+                            "TCARR", "TOROT", "PAROT", "CIP", "CT", "ASPLINE", "BSPLINE",
+                            "CSPLINE", "POLY"})
 
 
 def read_siemens(path: str | os.PathLike, **options) -> Program:

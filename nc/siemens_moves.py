@@ -25,7 +25,7 @@ _MOVE_WORDS = ("X", "Y", "Z", "A", "B", "C", "I", "J", "K", "CR", "AR", "TURN", 
 _LIN = (("X", 0), ("Y", 1), ("Z", 2))
 _ROT = (("A", 0), ("B", 1), ("C", 2))
 _TWO_PI = 2.0 * math.pi
-_FRAME_WORDS = frozenset({"TRANS", "ATRANS", "ROT", "AROT"})
+_FRAME_WORDS = frozenset({"TRANS", "ATRANS", "ROT", "AROT", "ROTS", "AROTS"})
 
 
 

@@ -21,14 +21,16 @@ from .program import PLANE_AXES, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 from .siemens_blocks import SBlock, Word, split_args
 from .siemens_expr import ExprError, evaluate
 from .siemens_frames import PARAMS as C800_PARAMS
-from .siemens_frames import FrameError, Swivel, cycle800, rotation
+from .siemens_frames import (FrameError, Swivel, cycle800, plane_order, projection_frame,
+                             rotation)
 
 __all__ = ["SState", "SUPPORTED_BLOCKS", "G_IGNORED", "G_REFUSED", "K_IGNORED", "K_REFUSED"]
 
 SUPPORTED_BLOCKS = ("G0 G1 G2 G3 (I J K, I=AC(..), CR=, TURN=), X Y Z A B C with AC/IC, "
                     "G17-G19, G90/G91, G93/G94, G700/G71/G710, G54-G57/G500/G505-G599, "
                     "G53/G153/SUPA, F S T D, M0-M9 M17 M30, TRAORI/TRAFOOF with A3= B3= C3=, "
-                    "TRANS ATRANS ROT AROT, CYCLE800, CYCLE832, MSG, DEF REAL/INT, R parameters, "
+                    "TRANS ATRANS ROT AROT ROTS AROTS, CYCLE800, CYCLE832, MSG, DEF REAL/INT, "
+                    "R parameters, "
                     "labels with GOTOF/GOTOB/GOTO/GOTOC, IF/ELSE/ENDIF, WHILE, FOR, LOOP, "
                     "REPEAT/UNTIL, REPEAT/REPEATB label P=n")
 _M_START = {3: 1, 4: -1}
@@ -320,8 +322,12 @@ class SState(ProgramRows):
         self.ppos = fr.R.T @ (wpos - fr.shift) if self.tilted else wpos
 
     def frame_statement(self, w: Word, ax: dict) -> None:
-        """``TRANS ATRANS ROT AROT`` and their axis words: the programmable frame.
+        """``TRANS ATRANS ROT AROT ROTS AROTS`` and their axis words: the programmable
+        frame.
 
+        ``ROTS``/``AROTS`` take one axis (as ``ROT``) or two solid angles
+        (``X.. Y..``, ``Z.. X..``, ``Y.. Z..``:
+        :func:`~nc.siemens_frames.projection_frame`).
         ``TRANS X..`` / ``ROT Z..`` replace it (no words: reset), ``ATRANS`` /
         ``AROT`` act on top of it; a rotation names one axis per block (the
         order of several depends on the machine's FRAME_ANGLE_INPUT_MODE).
@@ -334,6 +340,17 @@ class SState(ProgramRows):
         if name in ("TRANS", "ATRANS"):
             t = np.array([vals.get(k, 0.0) * self.scale for k in "XYZ"])
             new = Swivel(np.eye(3), t)
+        elif name in ("ROTS", "AROTS") and len(vals) >= 2:
+            if len(vals) > 2:
+                raise self.err(f"{name} with three axes; expected at most two solid angles "
+                               f"({name} X.. Y.., Z.. X.. or Y.. Z..)", w.col)
+            first, second = plane_order(*("XYZ".index(k) for k in vals))
+            try:
+                R = projection_frame(first, second, vals["XYZ"[first]], vals["XYZ"[second]])
+            except FrameError as exc:
+                raise self.err(str(exc).replace("CYCLE800 projection", f"{name} solid"),
+                               w.col) from None
+            new = Swivel(R, np.zeros(3))
         else:
             if len(vals) > 1:
                 raise self.err(f"{name} with more than one axis: the order of the rotations "

@@ -138,6 +138,41 @@ KNOWN = [
     ("cycle800-additive", [c800(57, 0, 0, 90), c800(57, 0, 0, 90, st_=1),
                            "G1 X10 Y0 Z0 F100"],
      [dict(m=1, xyz=(-10, 0, 0), f=100, tcp=TCP_OFF)]),
+    # solid angle (64): Rz(90) Ry(30). X10 -> Ry30 (8.660, 0, -5) -> Rz90 (0, 8.660, -5);
+    # tool axis Z -> (sin30, 0, cos30) -> (0, 0.5, 0.866)
+    ("cycle800-solid-angle", [c800(64, 90, 30, 0), "G1 X10 Y0 Z0 F100"],
+     [dict(m=1, xyz=(0, 10 * math.cos(math.radians(30)), -5), f=100, tcp=TCP_VECTOR,
+           tv=(0, 0.5, math.cos(math.radians(30))))]),
+    # projection X Y Z (185), one angle: _A = 30 about X is Rx(30): Y10 -> (0, 8.660, 5),
+    # tool axis (0, -0.5, 0.866)
+    ("cycle800-projection-x", [c800(185, 30, 0, 0), "G1 X0 Y10 Z0 F100"],
+     [dict(m=1, xyz=(0, 10 * math.cos(math.radians(30)), 5), f=100, tcp=TCP_VECTOR,
+           tv=(0, -0.5, math.cos(math.radians(30))))]),
+    # projection X Y Z, 45 deg about both: new X = Ry(45) X = (1, 0, -1)/sqrt2 (the line
+    # where the plane meets the Z-X plane); the plane meets the Y-Z plane along
+    # Rx(45) Y = (0, 1, 1)/sqrt2; normal = (1,0,-1) x (0,1,1) ~ (1, -1, 1)/sqrt3; new Y =
+    # normal x new X = (1, 2, 1)/sqrt6. X10 Y10 -> 10 (1,0,-1)/sqrt2 + 10 (1,2,1)/sqrt6
+    ("cycle800-projection-xy", [c800(185, 45, 45, 0), "G1 X10 Y0 Z0 F100", "X0 Y10"],
+     [dict(m=1, xyz=(10 / math.sqrt(2), 0, -10 / math.sqrt(2)), f=100, tcp=TCP_VECTOR,
+           tv=(1 / math.sqrt(3), -1 / math.sqrt(3), 1 / math.sqrt(3))),
+      dict(m=1, xyz=(10 / math.sqrt(6), 20 / math.sqrt(6), 10 / math.sqrt(6)), f=100,
+           tcp=TCP_VECTOR, tv=(1 / math.sqrt(3), -1 / math.sqrt(3), 1 / math.sqrt(3)))]),
+    # projection Y X Z (182): _A is about Y: _A = 45 alone is Ry(45), X10 -> (7.07, 0, -7.07);
+    # _C = 90 turns about the new Z: X10 -> Ry45 Rz90 (10,0,0) = Ry45 (0,10,0) = (0,10,0)
+    ("cycle800-projection-yx", [c800(182, 45, 0, 0), "G1 X10 Y0 Z0 F100", c800(182, 45, 0, 90),
+                                "G1 X10 Y0 Z0"],
+     [dict(m=1, xyz=(10 / math.sqrt(2), 0, -10 / math.sqrt(2)), f=100),
+      dict(m=1, xyz=(0, 10, 0), f=100)]),
+    # projection Z X Y (128 + 3 + 1*4 + 2*16 = 167): _B = 30 about X alone: Rx(30);
+    # the new Z (0, -0.5, 0.866) stays in the old Y-Z plane: Z10 -> (0, -5, 8.660)
+    ("cycle800-projection-zx", [c800(167, 0, 30, 0), "G1 X0 Y0 Z10 F100"],
+     [dict(m=1, xyz=(0, -5, 10 * math.cos(math.radians(30))), f=100, tcp=TCP_VECTOR,
+           tv=(0, -0.5, math.cos(math.radians(30))))]),
+    # ROTS X45 Y45 is the plane of cycle800-projection-xy
+    ("rots-xy", ["ROTS X45 Y45", "G1 X10 Y0 Z0 F100", "ROTS", "G1 X1 Y0 Z0"],
+     [dict(m=1, xyz=(10 / math.sqrt(2), 0, -10 / math.sqrt(2)), f=100, tcp=TCP_VECTOR,
+           tv=(1 / math.sqrt(3), -1 / math.sqrt(3), 1 / math.sqrt(3))),
+      dict(m=1, xyz=(1, 0, 0), f=100, tcp=TCP_OFF)]),
     # SUPA: Z50 in the frame below the swivel (offsets zero), X Y where they were
     ("supa", [c800(57, 0, 0, 90), "G1 X10 Y0 Z5 F100", "SUPA G0 Z50", "G1 X10 Y0 Z5"],
      [dict(m=1, xyz=(0, 10, 5), f=100), dict(m=0, xyz=(0, 10, 50), f=100),
@@ -480,7 +515,12 @@ BAD = [
     (["X1"], "without a motion mode"),
     (["G1 X=R7 F100"], "R7 is used before it is set"),
     ([c800(192, 0, 30, 0)], "swivel mode 192 (direct (rotary axis positions)) is not read"),
-    ([c800(64, 0, 30, 0)], "swivel mode 64 (solid angle) is not read"),
+    ([c800(64, 0, 30, 10)], "_C = 10 with solid angle (_MODE 64) is not read"),
+    ([c800(121, 0, 30, 0)], "solid angle is _MODE 64"),
+    ([c800(128, 0, 30, 0)], "bits 0-5 must name X, Y and Z once"),
+    ([c800(185, 90, 90, 0)], "projection angles of +-90 deg about both axes"),
+    (["ROTS X10 Y10 Z10"], "ROTS with three axes"),
+    (["AROTS X90 Y90"], "AROTS solid angles of +-90 deg"),
     ([c800(21, 0, 30, 0)], "bits 0-5 must name X, Y and Z once"),
     (["CYCLE800(1,\"TC1\",2,57)"], "units digit must be 0"),
     (["G1 X1 A3=1 F100"], "without TRAORI"),
@@ -631,6 +671,23 @@ def test_nested_section_repeats_are_bounded(monkeypatch):
                                 "A2: G90", "GO: REPEAT A1 A2 P=2", "G1 Y1"))
     # X1 then X1 again (REPEATB) per pass, two passes: X4; then Y1
     assert [round(b.end[0]) for b in prog] == [0, 1, 2, 3, 4, 4]
+
+
+def test_projection_frame_against_a_closed_form():
+    """Projection (ROTS) angles a about X, b about Y are ROT Y b then AROT X a' with
+    tan a' = tan a cos b (the plane's line in the Y-Z plane rises by tan a: its normal
+    (cos a' sin b, -sin a', cos a' cos b) ~ (tan b, -tan a, 1)); the same for the
+    other pairs with the axes renamed cyclically (Z X: Y -> Z, X -> X ...)."""
+    from nc.siemens_frames import projection_frame, rotation
+
+    rng = np.random.default_rng(11)
+    for _ in range(50):
+        a, b = rng.uniform(-80, 80, 2)
+        ap = math.degrees(math.atan(math.tan(math.radians(a)) * math.cos(math.radians(b))))
+        for first, second in ((0, 1), (2, 0), (1, 2)):
+            expected = rotation(second, b) @ rotation(first, ap)
+            np.testing.assert_allclose(projection_frame(first, second, a, b), expected,
+                                       atol=1e-12)
 
 
 def test_program_ends_at_m30_and_tape_marks_pass():
