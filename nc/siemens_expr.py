@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
+from functools import lru_cache
 
 from .errors import InputError
 
@@ -81,7 +82,9 @@ def condition(text: str, params: Mapping[str, float]) -> bool:
     return bool(value)
 
 
-def _tokens(text: str) -> list[tuple[str, str, int]]:
+@lru_cache(maxsize=4096)
+def _tokens(text: str) -> tuple[tuple[str, str, int], ...]:
+    """The tokens of ``text`` (kept: a loop evaluates the same texts again)."""
     toks: list[tuple[str, str, int]] = []
     pos = 0
     n = len(text)
@@ -99,7 +102,7 @@ def _tokens(text: str) -> list[tuple[str, str, int]]:
                             f"expression; supported: {SUPPORTED}", m.start(k))
         toks.append((("num", "name", "", "op")[k - 1], s, m.start(k)))
         pos = m.end()
-    return toks
+    return tuple(toks)
 
 
 def evaluate(text: str, params: Mapping[str, float]) -> float:

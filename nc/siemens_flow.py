@@ -87,6 +87,9 @@ class Flow:
         self.scope: list[int] = []
         self.parent: dict[int, int] = {-1: -1}
         self.labels: dict[str, list[int]] = {}
+        #: line numbers of the blocks inside WHILE/FOR/LOOP/REPEAT loops (run again:
+        #: their words are worth keeping)
+        self.looped: set[int] = set()
 
 
 def _err(msg: str, file: str, lines: list[str], b: SBlock, col: int | None = None):
@@ -161,7 +164,10 @@ def plan(blocks: list[SBlock], file: str, lines: list[str]) -> Flow:
     stack: list[tuple[str, int, int]] = []  # (opener keyword, opener index, scope id)
     cur = -1
     scope = fl.scope
+    loops = 0
     for i, b in enumerate(blocks):
+        if loops:
+            fl.looped.add(b.line)
         for lab in b.labels:
             at = labels.setdefault(lab, [])
             if lab[0] not in "N:" and lab != _END_LABEL and at:
@@ -176,6 +182,7 @@ def plan(blocks: list[SBlock], file: str, lines: list[str]) -> Flow:
         fl.ops[i] = op
         k = op.kind
         if k in _OPEN:
+            loops += k != "IF"
             scope.append(cur)
             fl.parent[i] = cur
             stack.append((k, i, i))
@@ -200,6 +207,7 @@ def plan(blocks: list[SBlock], file: str, lines: list[str]) -> Flow:
                 raise _err(f"{k} closes the {top} of line {blocks[opener].line}; expected "
                            f"{_OPEN[top]} first", file, lines, b)
             scope.append(cur)
+            loops -= k != "ENDIF"
             stack.pop()
             fl.partner[sid] = i
             fl.partner[i] = opener
@@ -407,14 +415,16 @@ class _Run:
 
 
 def run(st, blocks: list[SBlock], fl: Flow, block_delete: bool,
-        execute: Callable[[object, SBlock], bool]) -> None:
+        execute: Callable[[object, SBlock], bool]) -> int:
     """Run ``blocks`` from the first in execution order until the program ends.
 
     ``execute(st, block)`` runs a block that is not a control statement and is
-    True when it ends the program (M2, M17, M30, RET).
+    True when it ends the program (M2, M17, M30, RET). Returns the number of
+    blocks executed [blocks].
     """
     limit = K.SIEMENS_MAX_EXECUTED_BLOCKS
     r = _Run(st, blocks, fl)
+    st.lex_keep = fl.looped
     ops = fl.ops
     reps = r.reps
     executed = 0
@@ -433,7 +443,7 @@ def run(st, blocks: list[SBlock], fl: Flow, block_delete: bool,
             op = ops.get(i)
             if op is None:
                 if execute(st, b):
-                    return
+                    return executed
             else:
                 st.b = b
                 pc = r.step(i, op)
@@ -446,3 +456,4 @@ def run(st, blocks: list[SBlock], fl: Flow, block_delete: bool,
                 reps.pop()
                 i = top[3]
                 pc = i + 1
+    return executed

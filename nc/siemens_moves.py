@@ -44,7 +44,13 @@ def execute(st: SState, b: SBlock) -> bool:
     calls: list[Word] = []
     keys: list[Word] = []
     unknown: Word | None = None
-    for w in lex(b, st.file, st.lines):
+    if b.line in st.lex_keep:  # a block in a loop: its words are kept
+        words = st.lexed.get(b.line)
+        if words is None:
+            words = st.lexed[b.line] = lex(b, st.file, st.lines)
+    else:
+        words = lex(b, st.file, st.lines)
+    for w in words:
         kind, name = w.kind, w.name
         if kind == "A":
             if name == "G" or name == "M":

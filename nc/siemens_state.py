@@ -129,6 +129,9 @@ class SState(ProgramRows):
         self.init_rows()
         self.o_machine: list[int] = []
         self.b: SBlock | None = None
+        #: lines of blocks whose words are kept once lexed (blocks in loops), and those
+        self.lex_keep: set[int] | frozenset[int] = frozenset()
+        self.lexed: dict[int, list[Word]] = {}
 
     # -- helpers ---------------------------------------------------------
     def err(self, msg: str, col: int | None = None) -> NCParseError:

@@ -695,16 +695,25 @@ def test_program_ends_at_m30_and_tape_marks_pass():
     assert len(prog) == 1
 
 
-def test_fuzz_never_crashes():
+def test_fuzz_never_crashes(monkeypatch):
+    import nc.constants as K
+
+    monkeypatch.setattr(K, "SIEMENS_MAX_LOOP_PASSES", 1000)
+    monkeypatch.setattr(K, "SIEMENS_MAX_EXECUTED_BLOCKS", 100_000)
     rng = random.Random(4321)
     base = sin840(*BY_NAME["g3-ijk"][1], *BY_NAME["r-params"][1], *BY_NAME["supa"][1],
                   "TRAORI", "G1 X1 Y2 Z3 A3=0 B3=0.6 C3=0.8 F500", "TRAFOOF",
                   c800(27, 10, 0, 20), "G2 X5 Y5 CR=10", "CYCLE800()", 'MSG("x;y")',
                   "G1 C=DC(20)", "G3 X=IC(0) Y=IC(0) Z2 I-10 J0 TURN=1", "R3=0",
-                  "AG: R3=R3+1 G1 X=R3", "IF R3<4 GOTOB AG", "TRANS X2", "AROT Z10", "X1")
+                  "AG: R3=R3+1 G1 X=R3", "IF R3<4 GOTOB AG", "TRANS X2", "AROT Z10", "X1",
+                  "TRANS", "ROT", c800(185, 20, -15, 30), "G1 X2 Y2 Z0", c800(64, 45, 10, 0),
+                  "CYCLE800()", "ROTS X10 Y20", "ROTS", *BY_NAME["if-else"][1][1:],
+                  *BY_NAME["nested"][1][1:], *BY_NAME["repeat-until"][1],
+                  *BY_NAME["loop-goto"][1], *BY_NAME["repeat-endlabel"][1][1:],
+                  "REPEATB BEG P=1", "GOTOC NOWHERE")
     alphabet = "GXYZABCIJKRFMNTDS+-.=()\"',;:/$ 0123456789\n"
     ok = bad = 0
-    for _ in range(1500):
+    for _ in range(800):
         s = list(base)
         for _ in range(rng.randint(1, 4)):
             k = rng.randrange(len(s))
