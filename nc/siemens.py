@@ -25,14 +25,18 @@ What is read:
   rotary axis words ``A B C`` (machine angles, stored as G43.4 would be);
   ``TRAFOOF``.
 * ``CYCLE800`` (swivel plane, :mod:`nc.siemens_frames`): axis-by-axis modes
-  (e.g. 57 = X Y Z, 27 = Z Y X); the following moves are turned into the
-  workpiece frame, carry the swivelled tool axis as a tool vector, and arcs
-  in a swivelled plane are stored as chords.
-* ``TRANS ATRANS ROT AROT`` (one rotation axis per block): the programmable
-  frame, inside the CYCLE800 swivel.
-* Jump labels (``MARK1:``) and block numbers as targets of ``GOTOF``, ``GOTOB``,
-  ``GOTO`` and ``IF condition GOTOF|GOTOB|GOTO label`` (comparisons ``== <> < >
-  <= >=``, ``AND OR XOR NOT``); at most ``SIEMENS_MAX_EXECUTED_BLOCKS`` blocks run.
+  (e.g. 57 = X Y Z, 27 = Z Y X), solid angle (64) and projection angle (128 +
+  axis sequence, e.g. 185); the following moves are turned into the workpiece
+  frame, carry the swivelled tool axis as a tool vector, and arcs in a
+  swivelled plane are stored as chords.
+* ``TRANS ATRANS ROT AROT`` (one rotation axis per block), ``ROTS AROTS`` (one
+  axis or two solid angles): the programmable frame, inside the CYCLE800 swivel.
+* Control flow (:mod:`nc.siemens_flow`): jump labels (``MARK1:``) and block
+  numbers as targets of ``GOTOF GOTOB GOTO GOTOC``, alone or after ``IF
+  condition``; ``IF/ELSE/ENDIF``, ``WHILE/ENDWHILE``, ``FOR/ENDFOR``,
+  ``LOOP/ENDLOOP``, ``REPEAT/UNTIL``; ``REPEAT``/``REPEATB label P=n`` section
+  repeats; bounded by ``SIEMENS_MAX_EXECUTED_BLOCKS``, ``SIEMENS_MAX_LOOP_PASSES``
+  and ``SIEMENS_MAX_REPEAT_DEPTH``.
 * ``M30 M2 M17 RET`` end the program.
 
 Everything else ends the read with one :class:`~nc.errors.NCParseError`
