@@ -690,6 +690,20 @@ def test_projection_frame_against_a_closed_form():
                                        atol=1e-12)
 
 
+def test_a_kept_expression_reads_the_parameters_of_each_evaluation():
+    """Expressions are parsed once and kept: the same text must still give each
+    evaluation's value, and its run-time errors (unset name, division by zero)."""
+    from nc.siemens_expr import ExprError, condition, evaluate
+
+    assert evaluate("R1*2+AB MOD 3", {"R1": 1.0, "AB": 5.0}) == 4.0
+    assert evaluate("R1*2+AB MOD 3", {"R1": 2.5, "AB": 7.0}) == 6.0
+    with pytest.raises(ExprError, match="AB in an expression"):
+        evaluate("R1*2+AB MOD 3", {"R1": 1.0})
+    assert condition("R1<>0 AND 1/R1>0.5", {"R1": 1.0})
+    with pytest.raises(ExprError, match="division by zero"):
+        condition("R1<>0 AND 1/R1>0.5", {"R1": 0.0})  # both sides run, as before
+
+
 def test_program_ends_at_m30_and_tape_marks_pass():
     prog = parse_siemens("%\nG1 X1 F100\nM30\nG1 X2\n%\n")
     assert len(prog) == 1
