@@ -447,8 +447,10 @@ def run(st, blocks: list[SBlock], fl: Flow, block_delete: bool,
             else:
                 st.b = b
                 pc = r.step(i, op)
-        while reps and i == reps[-1][1] and pc == i + 1:
+        while reps:  # the section ends when control leaves its last block forward
             top = reps[-1]
+            if pc != top[1] + 1 or not top[0] <= i <= top[1]:
+                break
             top[2] -= 1
             if top[2] > 0:
                 pc = top[0]

@@ -261,6 +261,14 @@ KNOWN = [
       dict(m=1, xyz=(1, 1, 0), f=100), dict(m=1, xyz=(1, 1, 1), f=100),
       dict(m=1, xyz=(2, 1, 1), f=100), dict(m=1, xyz=(2, 2, 1), f=100),
       dict(m=1, xyz=(0, 2, 1), f=100)]),
+    # a section whose last block is ENDWHILE (the WHILE leaves it past ENDWHILE) and one
+    # whose last block is an ENDIF skipped by a false IF: each still repeats once more
+    ("repeat-ends-in-loop", ["G1 X0 F100", "R1=0", "S1: R2=0", "WHILE R2<2", "R2=R2+1",
+                             "X=IC(1)", "ENDWHILE", "REPEAT S1 P=1", "S2: IF R1==1",
+                             "G1 Y=R1", "E2: ENDIF", "REPEAT S2 E2 P=1", "G1 Z1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(2, 0, 0), f=100), dict(m=1, xyz=(3, 0, 0), f=100),
+      dict(m=1, xyz=(4, 0, 0), f=100), dict(m=1, xyz=(4, 0, 1), f=100)]),
     # GOTOC without a target goes on; GOTOC N60 skips N50 (X9)
     ("gotoc", ["G1 X0 F100", "GOTOC NOWHERE", "G1 X1", "GOTOC N60", "G1 X9", "G1 Y1"],
      [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
