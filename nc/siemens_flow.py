@@ -23,7 +23,8 @@ its block's only statement (after an ``N`` number and a label):
   structured blocks, and no jump may leave it while it repeats.
 
 Bounds: at most ``SIEMENS_MAX_EXECUTED_BLOCKS`` blocks run in one read, at most
-``SIEMENS_MAX_LOOP_PASSES`` passes of one loop (counted from its last entry)
+``SIEMENS_MAX_LOOP_PASSES`` passes of one loop (counted from its last entry; for a
+jump back, the times in a row it is taken: a conditional one not taken ends its loop)
 and ``SIEMENS_MAX_REPEAT_DEPTH`` nested section repeats; past a bound the read
 ends with one :class:`~nc.errors.NCParseError`. ``CASE`` is refused by name.
 """
@@ -215,6 +216,11 @@ def plan(blocks: list[SBlock], file: str, lines: list[str]) -> Flow:
             cur = fl.parent[opener]
         else:
             scope.append(cur)
+    for i, op in fl.ops.items():  # blocks a jump back or a section repeat may run again
+        if op.kind == "JUMP" and op.a != "GOTOF" or op.kind == "SECTION":
+            back = [k for k in labels.get(op.b, ()) if k <= i]
+            if back:
+                fl.looped.update(blocks[k].line for k in range(back[-1], i + 1))
     if stack:
         top, opener, _ = stack[-1]
         raise _err(f"{top} not closed; expected {_OPEN[top]} before the program's end", file,
@@ -241,6 +247,7 @@ class _Run:
         self.for_end: dict[int, float] = {}
         self.passes: dict[int, int] = {}
         self.back = -1                     # WHILE reached from its ENDWHILE
+        self.targets: dict[int, int] = {}  # jump block -> its target (-1: none, GOTOC)
 
     def err(self, msg: str, col: int | None = None) -> NCParseError:
         return self.st.err(msg, col)
@@ -256,13 +263,27 @@ class _Run:
         n = self.passes.get(opener, 0) + 1
         if n > K.SIEMENS_MAX_LOOP_PASSES:
             ob = self.blocks[opener]
-            raise self.err(f"more than {K.SIEMENS_MAX_LOOP_PASSES:,} passes of the "
-                           f"{self.fl.ops[opener].kind} at line {ob.line} "
+            op = self.fl.ops[opener]
+            what = (f"{op.a} {op.b} at line {ob.line} jumping back" if op.kind == "JUMP"
+                    else f"the {op.kind} at line {ob.line}")
+            raise self.err(f"more than {K.SIEMENS_MAX_LOOP_PASSES:,} passes of {what} "
                            "(SIEMENS_MAX_LOOP_PASSES): a loop that does not end?")
         self.passes[opener] = n
 
     def find(self, here: int, kind: str, target: str, col: int) -> int:
         """Index of the target block of a jump at ``here``; -1: GOTOC found none."""
+        t = self.targets.get(here)
+        if t is None:
+            t = self.targets[here] = self._find(here, kind, target, col)
+        if self.reps and t >= 0:
+            start, end = self.reps[-1][0], self.reps[-1][1]
+            if not start <= t <= end:
+                raise self.err(f"{kind} {target}: a jump out of the section a REPEAT at line "
+                               f"{self.blocks[self.reps[-1][3]].line} repeats is not read",
+                               col)
+        return t
+
+    def _find(self, here: int, kind: str, target: str, col: int) -> int:
         at = self.fl.labels.get(target, [])
         after = [i for i in at if i > here]
         before = [i for i in at if i < here]
@@ -280,12 +301,6 @@ class _Run:
             raise self.err(f"{kind} {target}: the target (line {self.blocks[t].line}) is "
                            "inside a structured block (IF/ELSE/WHILE/FOR/LOOP/REPEAT) the jump "
                            "is not in; jumps may leave such blocks, not enter them", col)
-        if self.reps:
-            start, end = self.reps[-1][0], self.reps[-1][1]
-            if not start <= t <= end:
-                raise self.err(f"{kind} {target}: a jump out of the section a REPEAT at line "
-                               f"{self.blocks[self.reps[-1][3]].line} repeats is not read",
-                               col)
         return t
 
     def section(self, i: int, op: Op) -> int:
@@ -349,9 +364,14 @@ class _Run:
         nxt = i + 1
         if k == "JUMP":
             if op.c and not self.cond(op.c, op.cb, "IF"):
+                self.passes[i] = 0  # the loop this jump closes has ended
                 return nxt
             t = self.find(i, op.a, op.b, op.ca)
-            return nxt if t < 0 else t
+            if t < 0:
+                return nxt
+            if t <= i:
+                self.again(i)
+            return t
         if k == "IF":
             return nxt if self.cond(op.a, op.ca, "IF") else fl.partner[i] + 1
         if k == "ELSE":

@@ -647,6 +647,8 @@ def test_endless_jump_loop_hits_the_limit(monkeypatch):
     (["WHILE 1", "R1=1", "ENDWHILE"], "passes of the WHILE at line 3"),
     (["R1=0", "REPEAT", "R1=1", "UNTIL R1>1"], "passes of the REPEAT at line 4"),
     (["FOR R1=1 TO 5000", "R1=1", "ENDFOR"], "passes of the FOR at line 3"),
+    (["L1: R1=1", "GOTOB L1"], "passes of GOTOB L1 at line 4 jumping back"),
+    (["R1=0", "L1: R1=R1+1", "IF R1>0 GOTO L1"], "passes of GOTO L1 at line 5 jumping back"),
 ])
 def test_runaway_loop_ends_in_one_line(monkeypatch, blocks, what):
     import nc.constants as K
@@ -659,6 +661,29 @@ def test_runaway_loop_ends_in_one_line(monkeypatch, blocks, what):
     assert "SIEMENS_MAX_LOOP_PASSES" in msg
 
 
+@pytest.mark.parametrize("a,b", [(1, 3), (-2, 2), (4, 4), (5, 2), (0, 0)])
+def test_every_loop_form_gives_the_same_moves(a, b):
+    """X = a, a+1, ..., b (none when a > b) written as FOR, WHILE, LOOP with a jump out,
+    IF ... GOTOB, GOTO (found behind) and REPEAT ... UNTIL (a <= b: it runs at least
+    once): the same moves, those worked out by hand."""
+    forms = {
+        "for": [f"FOR R1={a} TO {b}", "G1 X=R1", "ENDFOR"],
+        "while": [f"R1={a}", f"WHILE R1<={b}", "G1 X=R1", "R1=R1+1", "ENDWHILE"],
+        "loop": [f"R1={a}", "LOOP", f"IF R1>{b} GOTOF OUT", "G1 X=R1", "R1=R1+1", "ENDLOOP",
+                 "OUT:"],
+        "gotob": [f"R1={a}", f"IF R1>{b} GOTOF OUT", "BACK: G1 X=R1", "R1=R1+1",
+                  f"IF R1<={b} GOTOB BACK", "OUT:"],
+        "goto": [f"R1={a}", f"IF R1>{b} GOTOC OUT", "BACK: G1 X=R1", "R1=R1+1",
+                 f"IF R1<={b} GOTO BACK", "OUT:"],
+    }
+    if a <= b:
+        forms["until"] = [f"R1={a}", "REPEAT", "G1 X=R1", "R1=R1+1", f"UNTIL R1>{b}"]
+    expected = [0.0] + [float(x) for x in range(a, b + 1)]
+    for name, blocks in forms.items():
+        prog = parse_siemens(sin840("G1 X0 Y0 Z0 F100", *blocks))
+        assert [b_.end[0] for b_ in prog] == expected, name
+
+
 def test_loop_passes_count_from_the_last_entry(monkeypatch):
     """An inner loop entered 30 times with 30 passes each (900 passes in all) stays under
     a bound of 50 passes: the count starts again at each entry."""
@@ -667,6 +692,10 @@ def test_loop_passes_count_from_the_last_entry(monkeypatch):
     monkeypatch.setattr(K, "SIEMENS_MAX_LOOP_PASSES", 50)
     prog = parse_siemens(sin840("G1 X0 F100", "FOR R1=1 TO 30", "R2=0", "WHILE R2<30",
                                 "R2=R2+1", "ENDWHILE", "G1 X=R1", "ENDFOR"))
+    assert len(prog) == 31 and prog[30].end[0] == 30
+    # the same with the inner loop an IF ... GOTOB: not taken, it ends its loop's count
+    prog = parse_siemens(sin840("G1 X0 F100", "FOR R1=1 TO 30", "R2=0", "IN: R2=R2+1",
+                                "IF R2<30 GOTOB IN", "G1 X=R1", "ENDFOR"))
     assert len(prog) == 31 and prog[30].end[0] == 30
 
 
