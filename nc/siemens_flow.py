@@ -82,8 +82,6 @@ class Flow:
         self.ops: dict[int, Op] = {}
         #: opener -> ELSE or closer; ELSE -> ENDIF; closer -> opener
         self.partner: dict[int, int] = {}
-        #: IF -> its ENDIF (also when it has an ELSE)
-        self.close: dict[int, int] = {}
         #: innermost structure (opener or ELSE index) holding each block; -1: none
         self.scope: list[int] = []
         self.parent: dict[int, int] = {-1: -1}
@@ -212,7 +210,6 @@ def plan(blocks: list[SBlock], file: str, lines: list[str]) -> Flow:
             stack.pop()
             fl.partner[sid] = i
             fl.partner[i] = opener
-            fl.close[opener] = i
             cur = fl.parent[opener]
         else:
             scope.append(cur)
