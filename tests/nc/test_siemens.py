@@ -725,6 +725,10 @@ def test_projection_frame_against_a_closed_form():
             expected = rotation(second, b) @ rotation(first, ap)
             np.testing.assert_allclose(projection_frame(first, second, a, b), expected,
                                        atol=1e-12)
+    for a, b in rng.uniform(-180, 180, (50, 2)):  # beyond 90 deg: still a rotation
+        R = projection_frame(0, 1, a, b)
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+        assert np.linalg.det(R) == pytest.approx(1.0)
 
 
 def test_a_kept_expression_reads_the_parameters_of_each_evaluation():
