@@ -3,7 +3,10 @@
 The program mixes what CAM writes for an 840D: numbered G1 lines with and
 without feed, rapids, G2/G3 arcs with I J (and CR=), R-parameter
 arithmetic and (with --five-axis) TRAORI blocks with A3= B3= C3= tool
-vectors. Run: ``PYTHONPATH=. python benchmarks/bench_siemens.py``.
+vectors. With --loops the program is a short one whose FOR, WHILE and
+IF/ELSE blocks run a zigzag of moves (``loop_program``): its speed is given in
+blocks executed (and moves) per CPU-second, since it has few lines.
+Run: ``PYTHONPATH=. python benchmarks/bench_siemens.py [--five-axis | --loops]``.
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ import argparse
 import math
 import time
 
+import nc.siemens
 from nc.siemens import parse_siemens
 
 
@@ -53,11 +57,71 @@ def program(n_lines: int, five_axis: bool = False) -> str:
                      for j, ln in enumerate(out)) + "\n"
 
 
+def loop_program(n_moves: int) -> str:
+    """A zigzag of about ``n_moves`` moves made by loops: FOR over rows, WHILE over
+    columns, IF/ELSE for the direction, R and DEF variables with SIN."""
+    cols = 500
+    rows = max(1, n_moves // cols)
+    return f"""%_N_BENCHLOOP_MPF
+;$PATH=/_N_MPF_DIR
+N10 G17 G90 G71 G94 G642
+N20 T1 M6
+N30 S12000 M3
+N40 DEF INT ROW, COL
+N50 DEF REAL XX, YY
+N60 G0 X0 Y0 Z5
+N70 G1 Z-1 F1500
+N80 FOR ROW=0 TO {rows - 1}
+N90   YY=ROW*0.5
+N100  COL=0
+N110  WHILE COL<{cols}
+N120    IF ROW MOD 2 == 0
+N130      XX=COL*0.2
+N140    ELSE
+N150      XX=({cols}-1-COL)*0.2
+N160    ENDIF
+N170    G1 X=XX Y=YY Z=-1-0.1*SIN(COL*3)
+N180    COL=COL+1
+N190  ENDWHILE
+N200 ENDFOR
+N210 G0 Z50
+N220 M30
+"""
+
+
+def _bench_loops(n_moves: int) -> None:
+    text = loop_program(n_moves)
+    counts: list[int] = []
+    run = nc.siemens.run
+
+    def counting(*args):
+        counts.append(run(*args))
+        return counts[-1]
+
+    nc.siemens.run = counting
+    best = math.inf
+    try:
+        for _ in range(3):
+            t0 = time.process_time()
+            prog = parse_siemens(text)
+            best = min(best, time.process_time() - t0)
+    finally:
+        nc.siemens.run = run
+    print(f"{text.count(chr(10))} lines, {counts[-1]:,} blocks executed, {len(prog):,} moves: "
+          f"{best:.2f} CPU s, {counts[-1] / best:,.0f} blocks and {len(prog) / best:,.0f} "
+          "moves per CPU-second")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--lines", type=int, default=100_000)
     ap.add_argument("--five-axis", action="store_true")
+    ap.add_argument("--loops", action="store_true",
+                    help="a program of loops making --lines moves")
     a = ap.parse_args()
+    if a.loops:
+        _bench_loops(a.lines)
+        return
     text = program(a.lines, a.five_axis)
     best = math.inf
     for _ in range(3):

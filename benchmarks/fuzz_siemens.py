@@ -2,7 +2,9 @@
 
 Mutates a Sinumerik program written here (header, R parameters and DEF
 variables, arcs with I J K / CR= / TURN=, SUPA, TRAORI with A3= B3= C3=,
-CYCLE800, TRANS/AROT, DC() on a rotary axis, an IF ... GOTOB loop) by deleting, inserting and
+CYCLE800 axis by axis, projection and solid angle, TRANS/AROT, ROTS, DC() on a
+rotary axis, an IF ... GOTOB loop, IF/ELSE/ENDIF, WHILE, FOR, REPEAT/UNTIL, LOOP,
+REPEAT label P=, REPEATB, ENDLABEL, GOTOC) by deleting, inserting and
 replacing characters, and runs each mutant through
 :func:`nc.siemens.parse_siemens`, :func:`nc.summary.summarize` and
 :func:`nc.path.cutter_locations` (on a table-table B/C machine).
@@ -61,18 +63,54 @@ N254 AGAIN: R3=R3+1 G1 X=R3
 N256 IF (R3<4) AND NOT (R3==9) GOTOB AGAIN
 N258 GOTOF N260
 N259 G1 X99
-N260 M30
+N260 CYCLE800(1,"TC1",0,185,0,0,0,20,-15,30,0,0,0,-1,100,1)
+N262 G1 X2 Y2 Z0
+N264 CYCLE800(1,"TC1",1,64,0,0,0,45,10,0,0,0,0,-1,100,1)
+N266 G1 X1
+N268 CYCLE800()
+N270 ROTS X10 Y20
+N272 G1 X3 Y1
+N274 ROTS
+N276 R4=0
+N278 WHILE R4<3
+N280 R4=R4+1
+N282 IF R4==2
+N284 G1 Y=R4
+N286 ELSE
+N288 G1 Y=-R4
+N290 ENDIF
+N292 ENDWHILE
+N294 FOR R5=1 TO 3
+N296 G1 Z=-R5
+N298 ENDFOR
+N300 REPEAT
+N302 R4=R4-1
+N304 UNTIL R4<=0
+N306 LOOP
+N308 R4=R4+1 G1 X=R4
+N310 IF R4>2 GOTOF OUT
+N312 ENDLOOP
+N314 OUT: G91 X1
+N316 ENDLABEL: Y1
+N318 REPEAT OUT P=2
+N320 REPEATB OUT P=1
+N321 G90
+N322 GOTOC NOWHERE
+N324 M30
 """
 ALPHABET = "GXYZABCIJKRFMNTDS+-.=()\"',;:/$*[] 0123456789\n"
 
 
-def fuzz(n: int, seed: int, show: int = 3, max_blocks: int = 100_000) -> dict:
+def fuzz(n: int, seed: int, show: int = 3, max_blocks: int = 100_000,
+         max_passes: int = 10_000) -> dict:
     """Mutate ``BASE`` ``n`` times; tallies of refused, read, unclear, crashed.
 
     ``max_blocks`` replaces ``SIEMENS_MAX_EXECUTED_BLOCKS`` while fuzzing: a mutant
-    whose loop never ends is refused after that many blocks, not 2*10^7.
+    whose loop never ends is refused after that many blocks, not 2*10^7; ``max_passes``
+    replaces ``SIEMENS_MAX_LOOP_PASSES`` the same way.
     """
     K.SIEMENS_MAX_EXECUTED_BLOCKS = max_blocks
+    K.SIEMENS_MAX_LOOP_PASSES = max_passes
     rng = random.Random(seed)
     machine = get_machine("xyzbc-trt")
     tally = dict(refused=0, read=0, unclear=0, crashed=0)

@@ -81,6 +81,18 @@ TNC_MAX_CALL_DEPTH = 19
 #: Siemens reader: most blocks executed in one read, counting every pass through
 #: a GOTOB loop, before the read stops with an error (a loop that does not end) [-].
 SIEMENS_MAX_EXECUTED_BLOCKS = 20_000_000
+#: ... most passes of one loop (WHILE FOR LOOP REPEAT/UNTIL counted from its
+#: last entry; a jump back, the times in a row it is taken) and most repetitions
+#: one REPEAT/REPEATB may ask for (P=): more than a loop in an NC program makes
+#: (10^6 passes of a one-line body is already 10^6 moves), few enough that a
+#: loop whose condition never changes is refused in seconds (1-10 s on two
+#: shared cores; longer if it moves the tool) rather than after
+#: SIEMENS_MAX_EXECUTED_BLOCKS [passes].
+SIEMENS_MAX_LOOP_PASSES = 1_000_000
+#: ... deepest nesting of running section repeats (REPEAT/REPEATB inside a
+#: repeated section); it stops a section that repeats itself through a second
+#: REPEAT long before memory runs out [-].
+SIEMENS_MAX_REPEAT_DEPTH = 16
 
 # --- paths ------------------------------------------------------------------
 

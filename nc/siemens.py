@@ -25,14 +25,18 @@ What is read:
   rotary axis words ``A B C`` (machine angles, stored as G43.4 would be);
   ``TRAFOOF``.
 * ``CYCLE800`` (swivel plane, :mod:`nc.siemens_frames`): axis-by-axis modes
-  (e.g. 57 = X Y Z, 27 = Z Y X); the following moves are turned into the
-  workpiece frame, carry the swivelled tool axis as a tool vector, and arcs
-  in a swivelled plane are stored as chords.
-* ``TRANS ATRANS ROT AROT`` (one rotation axis per block): the programmable
-  frame, inside the CYCLE800 swivel.
-* Jump labels (``MARK1:``) and block numbers as targets of ``GOTOF``, ``GOTOB``,
-  ``GOTO`` and ``IF condition GOTOF|GOTOB|GOTO label`` (comparisons ``== <> < >
-  <= >=``, ``AND OR XOR NOT``); at most ``SIEMENS_MAX_EXECUTED_BLOCKS`` blocks run.
+  (e.g. 57 = X Y Z, 27 = Z Y X), solid angle (64) and projection angle (128 +
+  axis sequence, e.g. 185); the following moves are turned into the workpiece
+  frame, carry the swivelled tool axis as a tool vector, and arcs in a
+  swivelled plane are stored as chords.
+* ``TRANS ATRANS ROT AROT`` (one rotation axis per block), ``ROTS AROTS`` (one
+  axis or two solid angles): the programmable frame, inside the CYCLE800 swivel.
+* Control flow (:mod:`nc.siemens_flow`): jump labels (``MARK1:``) and block
+  numbers as targets of ``GOTOF GOTOB GOTO GOTOC``, alone or after ``IF
+  condition``; ``IF/ELSE/ENDIF``, ``WHILE/ENDWHILE``, ``FOR/ENDFOR``,
+  ``LOOP/ENDLOOP``, ``REPEAT/UNTIL``; ``REPEAT``/``REPEATB label P=n`` section
+  repeats; bounded by ``SIEMENS_MAX_EXECUTED_BLOCKS``, ``SIEMENS_MAX_LOOP_PASSES``
+  and ``SIEMENS_MAX_REPEAT_DEPTH``.
 * ``M30 M2 M17 RET`` end the program.
 
 Everything else ends the read with one :class:`~nc.errors.NCParseError`
@@ -45,10 +49,10 @@ import os
 import re
 from collections.abc import Iterable
 
-from . import constants as K
 from .errors import NCParseError
 from .program import Program
 from .siemens_blocks import split_blocks
+from .siemens_flow import plan, run
 from .siemens_moves import execute
 from .siemens_state import SState
 
@@ -57,8 +61,9 @@ __all__ = ["read_siemens", "parse_siemens", "normalise_allow"]
 _ALLOW = re.compile(r"(?:[GMH]\d+|[A-Z_][A-Z0-9_]*)")
 #: Codes that move the tool or the frame: never passed over.
 _NOT_ALLOWABLE = frozenset({"G41", "G42", "G95", "G96", "G70", "G74", "G75", "TRANS",
-                            "ATRANS", "ROT", "AROT", "SCALE", "MIRROR", "TCARR", "TOROT",
-                            "PAROT", "CIP", "CT", "ASPLINE", "BSPLINE", "CSPLINE", "POLY"})
+                            "ATRANS", "ROT", "AROT", "ROTS", "AROTS", "SCALE", "MIRROR",
+                            "TCARR", "TOROT", "PAROT", "CIP", "CT", "ASPLINE", "BSPLINE",
+                            "CSPLINE", "POLY"})
 
 
 def read_siemens(path: str | os.PathLike, **options) -> Program:
@@ -124,53 +129,7 @@ def parse_siemens(text: str, *, file: str = "<string>", block_delete: bool = Fal
     st.metadata["dialect"] = "siemens"
     if name is not None:
         st.metadata["name"] = name
-    labels: dict[str, list[int]] = {}
-    for i, b in enumerate(blocks):
-        for lab in b.labels:
-            at = labels.setdefault(lab, [])
-            if lab[0] not in "N:" and at:
-                raise NCParseError(f"label {lab} defined twice (first at line "
-                                   f"{blocks[at[0]].line})", file=file, line=b.line,
-                                   column=1, text=lines[b.line - 1])
-            at.append(i)
-    limit = K.SIEMENS_MAX_EXECUTED_BLOCKS
-    executed = 0
-    pc = 0
-    n = len(blocks)
-    while pc < n:
-        b = blocks[pc]
-        pc += 1
-        if b.skip and block_delete:
-            continue
-        executed += 1
-        if executed > limit:
-            raise NCParseError(f"more than {limit:,} blocks executed (SIEMENS_MAX_EXECUTED_"
-                               "BLOCKS): a jump loop that does not end?", file=file,
-                               line=b.line, text=lines[b.line - 1])
-        if execute(st, b):
-            break
-        if st.jump is not None:
-            pc = _target(st, labels, pc - 1, file, lines, b)
+    flow = plan(blocks, file, lines)
+    run(st, blocks, flow, block_delete, execute)
     return st.program(file, tuple(lines), newline, name, block_delete)
 
-
-def _target(st: SState, labels: dict[str, list[int]], here: int, file: str,
-            lines: list[str], b) -> int:
-    """Index of the block a GOTOF/GOTOB/GOTO at block ``here`` jumps to."""
-    kind, target = st.jump
-    st.jump = None
-    at = labels.get(target, [])
-    after = [i for i in at if i > here]
-    before = [i for i in at if i < here]
-    if kind == "GOTOF":
-        found = after[:1]
-    elif kind == "GOTOB":
-        found = before[-1:]
-    else:
-        found = after[:1] or before[-1:]
-    if not found:
-        where = {"GOTOF": "after", "GOTOB": "before"}.get(kind, "in")
-        raise NCParseError(f"{kind} {target}: no label or block number {target} {where} "
-                           "this block", file=file, line=b.line, column=b.col,
-                           text=lines[b.line - 1])
-    return found[0]

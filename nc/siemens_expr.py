@@ -4,17 +4,22 @@ Supported: numbers, ``R`` parameters (``R1``), variables defined with ``DEF
 REAL|INT``, ``+ - * /``, ``DIV`` (integer division), ``MOD``, parentheses,
 unary signs, and the functions ``SIN COS TAN ASIN ACOS ATAN2`` (degrees, as
 the 840D), ``SQRT ABS POT`` (square), ``TRUNC ROUND EXP LN``, ``MINVAL
-MAXVAL``; conditions (:func:`condition`, for ``IF``) compare with ``== <> < > <=
->=`` and join with ``AND OR XOR NOT``. Anything else raises :class:`ExprError` naming what was found and
-what is supported; a parameter used before it is set is refused (the control
-would take whatever an earlier program left in it).
+MAXVAL``; conditions (:func:`condition`, for ``IF WHILE UNTIL``) compare with
+``== <> < > <= >=`` and join with ``AND OR XOR NOT``. Anything else raises
+:class:`ExprError` naming what was found and what is supported; a parameter
+used before it is set is refused (the control would take whatever an earlier
+program left in it). Each text is parsed once into a function of the
+parameters and kept (a loop evaluates the same texts again): syntax errors
+are raised when it is parsed, the others (unset parameter, division by zero,
+a function outside its domain) when it is evaluated.
 """
 
 from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from functools import lru_cache
 
 from .errors import InputError
 
@@ -73,15 +78,12 @@ def condition(text: str, params: Mapping[str, float]) -> bool:
     ExprError
         As :func:`evaluate`.
     """
-    parser = _Parser(_tokens(text), params, len(text))
-    value = parser.logic()
-    if parser.i != len(parser.toks):
-        t = parser.toks[parser.i]
-        raise ExprError(f"unexpected {t[1]!r} in a condition", t[2])
-    return bool(value)
+    return bool(_compiled(text, True)(params))
 
 
-def _tokens(text: str) -> list[tuple[str, str, int]]:
+@lru_cache(maxsize=4096)
+def _tokens(text: str) -> tuple[tuple[str, str, int], ...]:
+    """The tokens of ``text`` (kept: a loop evaluates the same texts again)."""
     toks: list[tuple[str, str, int]] = []
     pos = 0
     n = len(text)
@@ -99,7 +101,7 @@ def _tokens(text: str) -> list[tuple[str, str, int]]:
                             f"expression; supported: {SUPPORTED}", m.start(k))
         toks.append((("num", "name", "", "op")[k - 1], s, m.start(k)))
         pos = m.end()
-    return toks
+    return tuple(toks)
 
 
 def evaluate(text: str, params: Mapping[str, float]) -> float:
@@ -122,87 +124,143 @@ def evaluate(text: str, params: Mapping[str, float]) -> float:
         Unsupported token or function, unset parameter, division by zero,
         a result that is not finite.
     """
-    toks = _tokens(text)
-    parser = _Parser(toks, params, len(text))
-    value = parser.expr()
-    if parser.i != len(toks):
-        t = toks[parser.i]
-        raise ExprError(f"unexpected {t[1]!r} in an expression", t[2])
+    value = _compiled(text, False)(params)
     if not math.isfinite(value):
         raise ExprError("expression gives a value that is not finite", 0)
     return value
 
 
+@lru_cache(maxsize=4096)
+def _compiled(text: str, logic: bool) -> Callable[[Mapping[str, float]], float]:
+    """``text`` made once into a function of the parameters (kept: a loop evaluates
+    the same texts again); syntax errors are raised here, the others when run."""
+    toks = _tokens(text)
+    parser = _Parser(toks, len(text))
+    fn = parser.logic() if logic else parser.expr()
+    if parser.i != len(toks):
+        t = toks[parser.i]
+        raise ExprError(f"unexpected {t[1]!r} in {'a condition' if logic else 'an expression'}",
+                        t[2])
+    return fn
+
+
+def _const(v: float) -> Callable:
+    return lambda p: v
+
+
+def _name(s: str, off: int) -> Callable:
+    def get(p):
+        try:
+            return p[s]
+        except KeyError:
+            if re.fullmatch(r"R\d+", s):
+                raise ExprError(f"{s} is used before it is set in this program", off) from None
+            raise ExprError(f"unknown name {s[:20]} in an expression (not an R parameter or "
+                            f"a DEF variable); supported: {SUPPORTED}", off) from None
+    return get
+
+
+def _logic_op(op: str, a: Callable, b: Callable) -> Callable:
+    if op == "AND":
+        return lambda p: float((a(p) != 0) & (b(p) != 0))
+    if op == "OR":
+        return lambda p: float((a(p) != 0) | (b(p) != 0))
+    return lambda p: float((a(p) != 0) != (b(p) != 0))
+
+
+def _arith(op: str, a: Callable, b: Callable, off: int) -> Callable:
+    if op == "+":
+        return lambda p: a(p) + b(p)
+    if op == "-":
+        return lambda p: a(p) - b(p)
+    if op == "*":
+        return lambda p: a(p) * b(p)
+
+    def div(p):
+        x, y = a(p), b(p)
+        if y == 0:
+            raise ExprError(f"division by zero ({op}) in an expression", off)
+        if op == "/":
+            return x / y
+        if op == "DIV":
+            return float(math.trunc(x / y))
+        return math.fmod(x, y)
+    return div
+
+
+def _call(s: str, args: list[Callable], off: int) -> Callable:
+    fn = _FUNCS1.get(s) or _FUNCS2[s]
+
+    def call(p):
+        vals = [f(p) for f in args]
+        try:
+            return float(fn(*vals))
+        except (ValueError, OverflowError):
+            raise ExprError(f"{s} of {', '.join(f'{a:g}' for a in vals)} is not defined",
+                            off) from None
+    return call
+
+
 class _Parser:
-    def __init__(self, toks, params, end) -> None:
-        self.toks, self.params, self.i, self.end = toks, params, 0, end
+    """Recursive descent over the tokens, making one closure per node."""
+
+    def __init__(self, toks, end) -> None:
+        self.toks, self.i, self.end = toks, 0, end
 
     def _peek(self):
         return self.toks[self.i] if self.i < len(self.toks) else None
 
-    def _expect(self, ch: str, off: int) -> None:
+    def _expect(self, ch: str) -> None:
         t = self._peek()
         if t is None or t[1] != ch:
             raise ExprError(f"expected {ch!r} in an expression", t[2] if t else self.end)
         self.i += 1
 
-    def logic(self) -> float:
+    def logic(self) -> Callable:
         v = self.compare()
         while (t := self._peek()) and t[0] == "name" and t[1] in ("AND", "OR", "XOR"):
             self.i += 1
-            r = self.compare()
-            a, b = v != 0, r != 0
-            v = float(a and b if t[1] == "AND" else a or b if t[1] == "OR" else a != b)
+            v = _logic_op(t[1], v, self.compare())
         return v
 
-    def compare(self) -> float:
+    def compare(self) -> Callable:
         t = self._peek()
         if t and t[0] == "name" and t[1] == "NOT":
             self.i += 1
-            return float(self.compare() == 0)
+            inner = self.compare()
+            return lambda p: float(inner(p) == 0)
         v = self.expr()
         t = self._peek()
         if t and t[0] == "op" and t[1] in _COMPARE:
             self.i += 1
-            return float(_COMPARE[t[1]](v, self.expr()))
+            cmp, r = _COMPARE[t[1]], self.expr()
+            return lambda p: float(cmp(v(p), r(p)))
         return v
 
-    def expr(self) -> float:
+    def expr(self) -> Callable:
         v = self.term()
         while (t := self._peek()) and t[0] == "op" and t[1] in "+-":
             self.i += 1
-            r = self.term()
-            v = v + r if t[1] == "+" else v - r
+            v = _arith(t[1], v, self.term(), t[2])
         return v
 
-    def term(self) -> float:
+    def term(self) -> Callable:
         v = self.unary()
         while (t := self._peek()) and ((t[0] == "op" and t[1] in "*/")
                                        or (t[0] == "name" and t[1] in ("DIV", "MOD"))):
             self.i += 1
-            r = self.unary()
-            if t[1] == "*":
-                v = v * r
-                continue
-            if r == 0:
-                raise ExprError(f"division by zero ({t[1]}) in an expression", t[2])
-            if t[1] == "/":
-                v = v / r
-            elif t[1] == "DIV":
-                v = float(math.trunc(v / r))
-            else:
-                v = math.fmod(v, r)
+            v = _arith(t[1], v, self.unary(), t[2])
         return v
 
-    def unary(self) -> float:
+    def unary(self) -> Callable:
         t = self._peek()
         if t and t[0] == "op" and t[1] in "+-":
             self.i += 1
             v = self.unary()
-            return -v if t[1] == "-" else v
+            return (lambda p: -v(p)) if t[1] == "-" else v
         return self.atom()
 
-    def atom(self) -> float:
+    def atom(self) -> Callable:
         t = self._peek()
         if t is None:
             raise ExprError("expression ends early; expected a number or a parameter",
@@ -210,29 +268,20 @@ class _Parser:
         kind, s, off = t
         self.i += 1
         if kind == "num":
-            return float(s.replace("EX", "E"))
+            return _const(float(s.replace("EX", "E")))
         if kind == "name":
             if s in _FUNCS1 or s in _FUNCS2:
-                self._expect("(", off)
+                self._expect("(")
                 args = [self.expr()]
                 while (c := self._peek()) and c[1] == ",":
                     self.i += 1
                     args.append(self.expr())
-                self._expect(")", off)
+                self._expect(")")
                 want = 1 if s in _FUNCS1 else 2
                 if len(args) != want:
                     raise ExprError(f"{s} takes {want} argument(s), got {len(args)}", off)
-                try:
-                    return float(_FUNCS1[s](*args) if want == 1 else _FUNCS2[s](*args))
-                except (ValueError, OverflowError):
-                    raise ExprError(f"{s} of {', '.join(f'{a:g}' for a in args)} is not "
-                                    "defined", off) from None
-            if s not in self.params:
-                if re.fullmatch(r"R\d+", s):
-                    raise ExprError(f"{s} is used before it is set in this program", off)
-                raise ExprError(f"unknown name {s[:20]} in an expression (not an R "
-                                f"parameter or a DEF variable); supported: {SUPPORTED}", off)
-            return self.params[s]
+                return _call(s, args, off)
+            return _name(s, off)
         if s == "(":
             v = self.logic()
             c = self._peek()

@@ -3,12 +3,20 @@
 ``CYCLE800(_FR, _TC, _ST, _MODE, _X0, _Y0, _Z0, _A, _B, _C, _X1, _Y1, _Z1, _DIR,
 _FR_I, _DMODE)``. What is read:
 
-* ``_MODE`` bits 7-6 swivel mode: only ``00`` axis by axis; bits 1-0, 3-2 and
-  5-4 the axes ``_A``, ``_B`` and ``_C`` turn about (``01`` X, ``10`` Y, ``11`` Z),
-  in that order, each about the axes the previous rotations left (``AROT``):
-  ``57`` = X then Y then Z, ``27`` = Z then Y then X. Solid angle (64),
-  projection angle (128) and direct rotary-axis positions (192, which need the
-  machine's swivel data) are refused by name.
+* ``_MODE`` bits 7-6 the swivel mode, bits 1-0, 3-2 and 5-4 the axes ``_A``,
+  ``_B`` and ``_C`` belong to (``01`` X, ``10`` Y, ``11`` Z):
+
+  - ``00`` axis by axis: ``_A _B _C`` turn about those axes in that order,
+    each about the axes the previous rotations left (``AROT``): ``57`` = X then
+    Y then Z, ``27`` = Z then Y then X;
+  - ``01`` solid angle (``_MODE`` 64): ``_A`` about Z, then ``_B`` about the Y
+    that turn left, ``Rz(_A) Ry(_B)``; a ``_C`` other than 0 is refused;
+  - ``10`` projection angle (``_MODE`` 128 + the axis sequence, e.g. 185 = X Y
+    Z, 182 = Y X Z): ``_A`` and ``_B`` are projection angles about their axes,
+    defined as the 840D's solid angles of ``ROTS`` (:func:`projection_frame`),
+    ``_C`` a turn about the new third axis;
+  - ``11`` direct (rotary axis positions, 192) needs the machine's swivel data
+    and is refused by name.
 * ``_X0 _Y0 _Z0`` the point rotated about (a shift before the rotation) and
   ``_X1 _Y1 _Z1`` the zero point of the swivelled plane (a shift after it):
   a point ``p`` of the swivelled plane is ``X0 + R (X1 + p)`` in the frame
@@ -28,7 +36,8 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["FrameError", "Swivel", "cycle800", "rotation", "MODE_NAMES"]
+__all__ = ["FrameError", "Swivel", "cycle800", "rotation", "projection_frame", "plane_order",
+           "MODE_NAMES"]
 
 MODE_NAMES = {0: "axis by axis", 1: "solid angle", 2: "projection angle",
               3: "direct (rotary axis positions)"}
@@ -74,6 +83,70 @@ def rotation(axis: int, deg: float) -> np.ndarray:
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
 
 
+def _solid_angle(mode: int, alpha: float, beta: float, gamma: float) -> np.ndarray:
+    """Solid angle (``_MODE`` 64): ``alpha`` [deg] about Z, then ``beta`` [deg] about
+    the Y that rotation left: ``Rz(alpha) Ry(beta)``."""
+    if mode != 64:
+        raise FrameError(f"CYCLE800 _MODE = {mode}: solid angle is _MODE 64 (bits 0-5 "
+                         "zero)", 3)
+    if gamma:
+        raise FrameError(f"CYCLE800 _C = {gamma:g} with solid angle (_MODE 64) is not read; "
+                         "expected _C = 0 (solid angle takes _A about Z and _B about Y)", 9)
+    return rotation(2, alpha) @ rotation(1, beta)
+
+
+def projection_frame(first: int, second: int, a_first: float, a_second: float) -> np.ndarray:
+    """Rotation whose plane has the projection angles ``a_first``, ``a_second`` [deg].
+
+    ``first``, ``second`` are the axes of the plane in G17/G18/G19 order (X Y, Z X
+    or Y Z; 0 X, 1 Y, 2 Z), the third axis ``k`` the one left. As the 840D
+    defines its solid angles (ROTS) and CYCLE800's projection angles: the first
+    axis turned about the second by ``a_second`` is the line where the swivelled
+    plane meets the first-third plane, and it is the swivelled first axis; the
+    second axis turned about the first by ``a_first`` is the line where the plane
+    meets the second-third plane. The new third axis is the plane's normal.
+
+    Raises
+    ------
+    FrameError
+        When both lines are the third axis (both angles +-90 deg): no plane.
+    """
+    e = np.eye(3)
+    f_new = rotation(second, a_second) @ e[first]
+    u = rotation(first, a_first) @ e[second]
+    normal = np.cross(f_new, u)
+    norm = float(np.linalg.norm(normal))
+    if not norm > 1e-9:
+        raise FrameError("CYCLE800 projection angles of +-90 deg about both axes leave the "
+                         "plane undefined", 7)
+    normal /= norm
+    s_new = np.cross(normal, f_new)
+    R = np.empty((3, 3))
+    R[:, first], R[:, second], R[:, 3 - first - second] = f_new, s_new, normal
+    return R
+
+
+def plane_order(a: int, b: int) -> tuple[int, int]:
+    """Axes ``a``, ``b`` (0 X, 1 Y, 2 Z; different) in G17/G18/G19 order: (X, Y),
+    (Z, X) or (Y, Z)."""
+    return _PLANE_ORDER[frozenset((a, b))]
+
+
+_PLANE_ORDER = {frozenset((0, 1)): (0, 1), frozenset((2, 0)): (2, 0), frozenset((1, 2)): (1, 2)}
+
+
+def _projection(axes: list[int], angles: list[float]) -> np.ndarray:
+    """Projection angle (``_MODE`` 128 + axis sequence): ``_A`` and ``_B`` are the
+    projection angles about the first two axes of the sequence, ``_C`` a turn about
+    the swivelled third axis (the axis the two leave: Z after X Y or Y X)."""
+    first, second = plane_order(axes[0], axes[1])
+    by_axis = {axes[0]: angles[0], axes[1]: angles[1]}
+    R = projection_frame(first, second, by_axis[first], by_axis[second])
+    if angles[2]:
+        R = R @ rotation(axes[2], angles[2])
+    return R
+
+
 def cycle800(values: list, current: Swivel) -> Swivel:
     """The swivel frame after a CYCLE800 call.
 
@@ -93,8 +166,9 @@ def cycle800(values: list, current: Swivel) -> Swivel:
     Raises
     ------
     FrameError
-        Swivel modes other than axis by axis, an axis sequence that is not a
-        permutation of X Y Z, a ``_ST`` or ``_MODE`` that is not a whole code.
+        The direct swivel mode (192), an axis sequence that is not a
+        permutation of X Y Z, a solid angle with ``_C``, projection angles with
+        no plane, a ``_ST`` or ``_MODE`` that is not a whole code.
     """
     ident = Swivel(np.eye(3), np.zeros(3))
     if not values or all(v is None for v in values):
@@ -116,22 +190,31 @@ def cycle800(values: list, current: Swivel) -> Swivel:
         raise FrameError(f"CYCLE800 _ST = {st}: its units digit must be 0 (new swivel "
                          "plane) or 1 (additive)", 2)
     kind = (mode >> 6) & 3
-    if mode > 255 or kind != 0:
+    if mode > 255 or kind == 3:
         raise FrameError(f"CYCLE800 swivel mode {mode} ({MODE_NAMES[kind]}"
                          + (", bits above 7" if mode > 255 else "")
-                         + ") is not read; supported: axis by axis (_MODE 0..63 with the "
-                         "axis sequence in bits 0-5, e.g. 57 = X Y Z, 27 = Z Y X)", 3)
-    codes = [mode & 3, (mode >> 2) & 3, (mode >> 4) & 3]
-    if sorted(codes) != [1, 2, 3]:
-        raise FrameError(f"CYCLE800 _MODE = {mode}: bits 0-5 must name X, Y and Z once "
-                         "each (01 X, 10 Y, 11 Z), e.g. 57 = X Y Z, 27 = Z Y X", 3)
+                         + ") is not read (rotary axis positions need the machine's swivel "
+                         "data); supported: axis by axis (_MODE 0..63, e.g. 57 = X Y Z, "
+                         "27 = Z Y X), solid angle (64), projection angle (128 + axis "
+                         "sequence, e.g. 185 = X Y Z)", 3)
     for k in range(4, 13):
         if not isinstance(nums[k], float):
             raise FrameError(f"CYCLE800 {PARAMS[k]}: expected a number", k)
-    R = np.eye(3)
-    for code, ang in zip(codes, nums[7:10]):
-        if ang:
-            R = R @ rotation(_AXIS_OF_CODE[code], ang)
+    if kind == 1:
+        R = _solid_angle(mode, nums[7], nums[8], nums[9])
+    else:
+        codes = [mode & 3, (mode >> 2) & 3, (mode >> 4) & 3]
+        if sorted(codes) != [1, 2, 3]:
+            raise FrameError(f"CYCLE800 _MODE = {mode}: bits 0-5 must name X, Y and Z once "
+                             "each (01 X, 10 Y, 11 Z), e.g. 57 = X Y Z, 27 = Z Y X", 3)
+        axes = [_AXIS_OF_CODE[c] for c in codes]
+        if kind == 2:
+            R = _projection(axes, nums[7:10])
+        else:
+            R = np.eye(3)
+            for ax, ang in zip(axes, nums[7:10]):
+                if ang:
+                    R = R @ rotation(ax, ang)
     x0, x1 = np.array(nums[4:7]), np.array(nums[10:13])
     new = Swivel(R, x0 + R @ x1)
     return current.then(new) if st % 10 == 1 else new

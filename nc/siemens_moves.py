@@ -9,13 +9,11 @@ end (M5, M2/M17/M30). Every word a block does not use is refused by name.
 from __future__ import annotations
 
 import math
-import re
 
 import numpy as np
 
 from .arcs import ArcWordError, arc_from_words
 from .siemens_blocks import SBlock, Word, lex
-from .siemens_expr import ExprError, condition
 from .siemens_state import G_IGNORED, G_REFUSED, K_IGNORED, K_REFUSED, SUPPORTED_BLOCKS, SState
 
 __all__ = ["execute"]
@@ -27,11 +25,8 @@ _MOVE_WORDS = ("X", "Y", "Z", "A", "B", "C", "I", "J", "K", "CR", "AR", "TURN", 
 _LIN = (("X", 0), ("Y", 1), ("Z", 2))
 _ROT = (("A", 0), ("B", 1), ("C", 2))
 _TWO_PI = 2.0 * math.pi
-_FRAME_WORDS = frozenset({"TRANS", "ATRANS", "ROT", "AROT"})
-_JUMP = re.compile(r"(?:IF(?=[ (])\s*(.+?)\s*)?(GOTOF|GOTOB|GOTO)\s+([A-Z_][A-Z0-9_]*|N\d+)")
-_IF = re.compile(r"IF(?=[ (])")
-_STRUCT = re.compile(r"(WHILE|FOR|REPEATB?|UNTIL|LOOP|ENDLOOP|ENDWHILE|ENDFOR|CASE|ELSE|ENDIF)"
-                     r"(?![A-Z0-9_])")
+_FRAME_WORDS = frozenset({"TRANS", "ATRANS", "ROT", "AROT", "ROTS", "AROTS"})
+
 
 
 def execute(st: SState, b: SBlock) -> bool:
@@ -43,19 +38,19 @@ def execute(st: SState, b: SBlock) -> bool:
     if s.startswith("DEF "):
         st.define(s)
         return False
-    if s.startswith(("IF", "GOTO")) and _jump(st, s):
-        return False
-    m = _STRUCT.match(s)
-    if m:
-        raise st.err(f"{m.group(1)}: structured control flow (WHILE FOR REPEAT LOOP CASE, "
-                     "IF ... ENDIF) is not read; expected IF condition GOTOF|GOTOB|GOTO label")
     gs: list[tuple[int, int]] = []
     ms: list[tuple[int, int]] = []
     ax: dict[str, Word] = {}
     calls: list[Word] = []
     keys: list[Word] = []
     unknown: Word | None = None
-    for w in lex(b, st.file, st.lines):
+    if b.line in st.lex_keep:  # a block in a loop: its words are kept
+        words = st.lexed.get(b.line)
+        if words is None:
+            words = st.lexed[b.line] = lex(b, st.file, st.lines)
+    else:
+        words = lex(b, st.file, st.lines)
+    for w in words:
         kind, name = w.kind, w.name
         if kind == "A":
             if name == "G" or name == "M":
@@ -193,29 +188,6 @@ def execute(st: SState, b: SBlock) -> bool:
                          next(iter(ax.values())).col)
         _move(st, ax, suppress)
     return st.m_end(ms) or end
-
-
-def _jump(st: SState, s: str) -> bool:
-    """``GOTOF|GOTOB|GOTO label`` and ``IF condition GOTO.. label``: sets ``st.jump``
-    when the jump is taken; False when ``s`` is not a jump statement."""
-    m = _JUMP.fullmatch(s)
-    if m is None:
-        if _IF.match(s):
-            raise st.err("IF without a jump (IF ... ELSE ... ENDIF blocks) is not read; "
-                         "expected IF condition GOTOF|GOTOB|GOTO label")
-        return False
-    cond, kind, target = m.group(1), m.group(2), m.group(3)
-    if cond is not None:
-        try:
-            taken = condition(cond, st.params)
-        except ExprError as exc:
-            raise st.err(f"IF: {exc}", st.b.col + m.start(1) + exc.offset) from None
-        if not taken:
-            return True
-    if target[0] == "N" and target[1:].isdigit():
-        target = f"N{int(target[1:])}"
-    st.jump = (kind, target)
-    return True
 
 
 def _put(st: SState, ax: dict, w: Word) -> None:

@@ -21,15 +21,18 @@ from .program import PLANE_AXES, TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 from .siemens_blocks import SBlock, Word, split_args
 from .siemens_expr import ExprError, evaluate
 from .siemens_frames import PARAMS as C800_PARAMS
-from .siemens_frames import FrameError, Swivel, cycle800, rotation
+from .siemens_frames import (FrameError, Swivel, cycle800, plane_order, projection_frame,
+                             rotation)
 
 __all__ = ["SState", "SUPPORTED_BLOCKS", "G_IGNORED", "G_REFUSED", "K_IGNORED", "K_REFUSED"]
 
 SUPPORTED_BLOCKS = ("G0 G1 G2 G3 (I J K, I=AC(..), CR=, TURN=), X Y Z A B C with AC/IC, "
                     "G17-G19, G90/G91, G93/G94, G700/G71/G710, G54-G57/G500/G505-G599, "
                     "G53/G153/SUPA, F S T D, M0-M9 M17 M30, TRAORI/TRAFOOF with A3= B3= C3=, "
-                    "TRANS ATRANS ROT AROT, CYCLE800, CYCLE832, MSG, DEF REAL/INT, R parameters, "
-                    "labels with GOTOF/GOTOB/GOTO and IF condition GOTO..")
+                    "TRANS ATRANS ROT AROT ROTS AROTS, CYCLE800, CYCLE832, MSG, DEF REAL/INT, "
+                    "R parameters, "
+                    "labels with GOTOF/GOTOB/GOTO/GOTOC, IF/ELSE/ENDIF, WHILE, FOR, LOOP, "
+                    "REPEAT/UNTIL, REPEAT/REPEATB label P=n")
 _M_START = {3: 1, 4: -1}
 _M_NOTHING = frozenset({0, 1, 6, 7, 8, 9})  # M6 handled apart; coolant, stops
 _M_END = frozenset({2, 17, 30})
@@ -75,21 +78,18 @@ K_REFUSED = {
     "TRAANG": "inclined-axis transformations are not read",
     "GOTOF": "a jump must be its block's only statement (GOTOF label, or IF condition "
     "GOTOF label)", "GOTOB": "a jump must be its block's only statement",
-    "GOTO": "a jump must be its block's only statement", "IF": "IF must begin its block: "
-    "IF condition GOTOF|GOTOB|GOTO label",
-    "GOTOC": "GOTOC (a jump that may find no target) is not read; expected GOTOF, GOTOB "
-    "or GOTO", "WHILE": "structured control flow (WHILE FOR REPEAT LOOP CASE, IF ... ENDIF) "
-    "is not read; expected IF condition GOTOF|GOTOB|GOTO label",
-    "FOR": "structured control flow is not read; expected IF condition GOTOF label",
-    "REPEAT": "structured control flow is not read; expected IF condition GOTOB label",
-    "LOOP": "structured control flow is not read; expected IF condition GOTOB label",
-    "CASE": "structured control flow is not read; expected IF condition GOTOF label",
-    "ELSE": "structured control flow is not read; expected IF condition GOTOF label",
-    "ENDIF": "structured control flow is not read; expected IF condition GOTOF label",
+    "GOTO": "a jump must be its block's only statement",
+    "GOTOC": "a jump must be its block's only statement",
+}
+_CONTROL = ("IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE", "FOR", "ENDFOR", "LOOP", "ENDLOOP",
+            "REPEAT", "REPEATB", "UNTIL", "CASE", "TO", "ENDLABEL")
+K_REFUSED.update({k: f"{k} must begin its own block (control statements stand alone)"
+                  for k in _CONTROL[:13]})
+K_REFUSED.update({
     "CALL": "subprogram calls are not read",
     "PCALL": "subprogram calls are not read", "MCALL": "modal subprogram calls are not read",
     "EXTCALL": "external subprogram calls are not read",
-}
+})
 _DEF = re.compile(r"DEF\s+(REAL|INT)\s+(.+)")
 _DEF_ITEM = re.compile(r"\s*([A-Z_][A-Z0-9_]*)\s*(?:=\s*(.+?))?\s*")
 _AXIS_FN = re.compile(r"(AC|IC|DC|ACP|ACN)\s*\((.*)\)")
@@ -98,7 +98,8 @@ _PLAIN = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
 _RESERVED = frozenset({"X", "Y", "Z", "A", "B", "C", "I", "J", "K", "F", "S", "T", "D", "M",
                        "G", "N", "H", "L", "P", "R", "CR", "AR", "TURN", "A3", "B3", "C3",
                        "DIV", "MOD", "SIN", "COS", "TAN", "SQRT", "ABS", "POT", "TRUNC",
-                       "ROUND", "ATAN2", "AC", "IC", "DC"})
+                       "ROUND", "ATAN2", "AC", "IC", "DC", "AND", "OR", "XOR", "NOT",
+                       *_CONTROL})
 
 
 class SState(ProgramRows):
@@ -128,8 +129,9 @@ class SState(ProgramRows):
         self.init_rows()
         self.o_machine: list[int] = []
         self.b: SBlock | None = None
-        #: (GOTOF|GOTOB|GOTO, target label) when the last block jumps
-        self.jump: tuple[str, str] | None = None
+        #: lines of blocks whose words are kept once lexed (blocks in loops), and those
+        self.lex_keep: set[int] | frozenset[int] = frozenset()
+        self.lexed: dict[int, list[Word]] = {}
 
     # -- helpers ---------------------------------------------------------
     def err(self, msg: str, col: int | None = None) -> NCParseError:
@@ -323,8 +325,12 @@ class SState(ProgramRows):
         self.ppos = fr.R.T @ (wpos - fr.shift) if self.tilted else wpos
 
     def frame_statement(self, w: Word, ax: dict) -> None:
-        """``TRANS ATRANS ROT AROT`` and their axis words: the programmable frame.
+        """``TRANS ATRANS ROT AROT ROTS AROTS`` and their axis words: the programmable
+        frame.
 
+        ``ROTS``/``AROTS`` take one axis (as ``ROT``) or two solid angles
+        (``X.. Y..``, ``Z.. X..``, ``Y.. Z..``:
+        :func:`~nc.siemens_frames.projection_frame`).
         ``TRANS X..`` / ``ROT Z..`` replace it (no words: reset), ``ATRANS`` /
         ``AROT`` act on top of it; a rotation names one axis per block (the
         order of several depends on the machine's FRAME_ANGLE_INPUT_MODE).
@@ -337,6 +343,17 @@ class SState(ProgramRows):
         if name in ("TRANS", "ATRANS"):
             t = np.array([vals.get(k, 0.0) * self.scale for k in "XYZ"])
             new = Swivel(np.eye(3), t)
+        elif name in ("ROTS", "AROTS") and len(vals) >= 2:
+            if len(vals) > 2:
+                raise self.err(f"{name} with three axes; expected at most two solid angles "
+                               f"({name} X.. Y.., Z.. X.. or Y.. Z..)", w.col)
+            first, second = plane_order(*("XYZ".index(k) for k in vals))
+            try:
+                R = projection_frame(first, second, vals["XYZ"[first]], vals["XYZ"[second]])
+            except FrameError as exc:
+                raise self.err(str(exc).replace("CYCLE800 projection", f"{name} solid"),
+                               w.col) from None
+            new = Swivel(R, np.zeros(3))
         else:
             if len(vals) > 1:
                 raise self.err(f"{name} with more than one axis: the order of the rotations "

@@ -138,6 +138,41 @@ KNOWN = [
     ("cycle800-additive", [c800(57, 0, 0, 90), c800(57, 0, 0, 90, st_=1),
                            "G1 X10 Y0 Z0 F100"],
      [dict(m=1, xyz=(-10, 0, 0), f=100, tcp=TCP_OFF)]),
+    # solid angle (64): Rz(90) Ry(30). X10 -> Ry30 (8.660, 0, -5) -> Rz90 (0, 8.660, -5);
+    # tool axis Z -> (sin30, 0, cos30) -> (0, 0.5, 0.866)
+    ("cycle800-solid-angle", [c800(64, 90, 30, 0), "G1 X10 Y0 Z0 F100"],
+     [dict(m=1, xyz=(0, 10 * math.cos(math.radians(30)), -5), f=100, tcp=TCP_VECTOR,
+           tv=(0, 0.5, math.cos(math.radians(30))))]),
+    # projection X Y Z (185), one angle: _A = 30 about X is Rx(30): Y10 -> (0, 8.660, 5),
+    # tool axis (0, -0.5, 0.866)
+    ("cycle800-projection-x", [c800(185, 30, 0, 0), "G1 X0 Y10 Z0 F100"],
+     [dict(m=1, xyz=(0, 10 * math.cos(math.radians(30)), 5), f=100, tcp=TCP_VECTOR,
+           tv=(0, -0.5, math.cos(math.radians(30))))]),
+    # projection X Y Z, 45 deg about both: new X = Ry(45) X = (1, 0, -1)/sqrt2 (the line
+    # where the plane meets the Z-X plane); the plane meets the Y-Z plane along
+    # Rx(45) Y = (0, 1, 1)/sqrt2; normal = (1,0,-1) x (0,1,1) ~ (1, -1, 1)/sqrt3; new Y =
+    # normal x new X = (1, 2, 1)/sqrt6. X10 Y10 -> 10 (1,0,-1)/sqrt2 + 10 (1,2,1)/sqrt6
+    ("cycle800-projection-xy", [c800(185, 45, 45, 0), "G1 X10 Y0 Z0 F100", "X0 Y10"],
+     [dict(m=1, xyz=(10 / math.sqrt(2), 0, -10 / math.sqrt(2)), f=100, tcp=TCP_VECTOR,
+           tv=(1 / math.sqrt(3), -1 / math.sqrt(3), 1 / math.sqrt(3))),
+      dict(m=1, xyz=(10 / math.sqrt(6), 20 / math.sqrt(6), 10 / math.sqrt(6)), f=100,
+           tcp=TCP_VECTOR, tv=(1 / math.sqrt(3), -1 / math.sqrt(3), 1 / math.sqrt(3)))]),
+    # projection Y X Z (182): _A is about Y: _A = 45 alone is Ry(45), X10 -> (7.07, 0, -7.07);
+    # _C = 90 turns about the new Z: X10 -> Ry45 Rz90 (10,0,0) = Ry45 (0,10,0) = (0,10,0)
+    ("cycle800-projection-yx", [c800(182, 45, 0, 0), "G1 X10 Y0 Z0 F100", c800(182, 45, 0, 90),
+                                "G1 X10 Y0 Z0"],
+     [dict(m=1, xyz=(10 / math.sqrt(2), 0, -10 / math.sqrt(2)), f=100),
+      dict(m=1, xyz=(0, 10, 0), f=100)]),
+    # projection Z X Y (128 + 3 + 1*4 + 2*16 = 167): _B = 30 about X alone: Rx(30);
+    # the new Z (0, -0.5, 0.866) stays in the old Y-Z plane: Z10 -> (0, -5, 8.660)
+    ("cycle800-projection-zx", [c800(167, 0, 30, 0), "G1 X0 Y0 Z10 F100"],
+     [dict(m=1, xyz=(0, -5, 10 * math.cos(math.radians(30))), f=100, tcp=TCP_VECTOR,
+           tv=(0, -0.5, math.cos(math.radians(30))))]),
+    # ROTS X45 Y45 is the plane of cycle800-projection-xy
+    ("rots-xy", ["ROTS X45 Y45", "G1 X10 Y0 Z0 F100", "ROTS", "G1 X1 Y0 Z0"],
+     [dict(m=1, xyz=(10 / math.sqrt(2), 0, -10 / math.sqrt(2)), f=100, tcp=TCP_VECTOR,
+           tv=(1 / math.sqrt(3), -1 / math.sqrt(3), 1 / math.sqrt(3))),
+      dict(m=1, xyz=(1, 0, 0), f=100, tcp=TCP_OFF)]),
     # SUPA: Z50 in the frame below the swivel (offsets zero), X Y where they were
     ("supa", [c800(57, 0, 0, 90), "G1 X10 Y0 Z5 F100", "SUPA G0 Z50", "G1 X10 Y0 Z5"],
      [dict(m=1, xyz=(0, 10, 5), f=100), dict(m=0, xyz=(0, 10, 50), f=100),
@@ -168,6 +203,81 @@ KNOWN = [
       dict(m=1, xyz=(10, 0, -2), f=100), dict(m=1, xyz=(10, 0, -2), f=100),
       dict(m=1, xyz=(10, 0, -3), f=100), dict(m=1, xyz=(10, 0, -3), f=100),
       dict(m=0, xyz=(10, 0, 50), f=100), dict(m=1, xyz=(1, 0, 50), f=100)]),
+    # R1 = 2: the first IF takes its branch (X1), the second its ELSE (Y6), the third
+    # has no ELSE and is true (Z1)
+    ("if-else", ["R1=2", "IF R1>1", "G1 X1 F100", "ELSE", "G1 X2 F100", "ENDIF", "IF R1<1",
+                 "G1 Y5", "ELSE", "G1 Y6", "ENDIF", "IF (R1==2) AND NOT (R1==3)", "G1 Z1",
+                 "ENDIF"],
+     [dict(m=1, xyz=(1, 0, 0), f=100), dict(m=1, xyz=(1, 6, 0), f=100),
+      dict(m=1, xyz=(1, 6, 1), f=100)]),
+    # R1 = 1, 2, 3 inside the loop: X10 X20 X30; R1 = 3 ends it
+    ("while", ["R1=0", "G1 X0 F100", "WHILE R1<3", "R1=R1+1", "G1 X=R1*10", "ENDWHILE",
+               "G1 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(10, 0, 0), f=100),
+      dict(m=1, xyz=(20, 0, 0), f=100), dict(m=1, xyz=(30, 0, 0), f=100),
+      dict(m=1, xyz=(30, 1, 0), f=100)]),
+    # II = 1, 2, 3: Z-1 Z-2 Z-3; after ENDFOR II is 4 (X4); FOR R5 = 3 TO 1 runs nothing
+    ("for", ["DEF INT II", "G1 X0 F100", "FOR II=1 TO 3", "G1 Z=-II", "ENDFOR", "G1 X=II",
+             "FOR R5=3 TO 1", "G1 Y99", "ENDFOR", "G1 Y=R5"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(0, 0, -1), f=100),
+      dict(m=1, xyz=(0, 0, -2), f=100), dict(m=1, xyz=(0, 0, -3), f=100),
+      dict(m=1, xyz=(4, 0, -3), f=100), dict(m=1, xyz=(4, 3, -3), f=100)]),
+    # LOOP left by IF ... GOTOF after X1 X2
+    ("loop-goto", ["R1=0", "G1 X0 F100", "LOOP", "R1=R1+1", "G1 X=R1", "IF R1>=2 GOTOF OUT",
+                   "ENDLOOP", "OUT: G1 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(2, 0, 0), f=100), dict(m=1, xyz=(2, 1, 0), f=100)]),
+    # the body of REPEAT ... UNTIL runs once even though R1 > 5 after it
+    ("repeat-until", ["R1=5", "G1 X0 F100", "REPEAT", "G1 X=R1", "R1=R1+1", "UNTIL R1>5",
+                      "G1 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(5, 0, 0), f=100),
+      dict(m=1, xyz=(5, 1, 0), f=100)]),
+    # R1 = 1, 2; R2 = 1, 2 inside: the move only at R2 = 2: (1,2) then (2,2)
+    ("nested", ["G1 X0 F100", "FOR R1=1 TO 2", "R2=0", "WHILE R2<2", "R2=R2+1", "IF R2==2",
+                "G1 X=R1 Y=R2", "ENDIF", "ENDWHILE", "ENDFOR"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 2, 0), f=100),
+      dict(m=1, xyz=(2, 2, 0), f=100)]),
+    # the section START..(the block before REPEAT) runs once, then twice more: X+1 Y+1 x3
+    ("repeat-section", ["G1 X0 F100", "START: G91 X1", "Y1", "REPEAT START P=2", "G90 G1 Z5"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(1, 1, 0), f=100), dict(m=1, xyz=(2, 1, 0), f=100),
+      dict(m=1, xyz=(2, 2, 0), f=100), dict(m=1, xyz=(3, 2, 0), f=100),
+      dict(m=1, xyz=(3, 3, 0), f=100), dict(m=1, xyz=(3, 3, 5), f=100)]),
+    # REPEATB: the labelled block once, then 3 times more: X2 X4 X6 X8
+    ("repeatb", ["G1 X0 F100", "ST: G91 X2", "REPEATB ST P=3", "G90 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(2, 0, 0), f=100),
+      dict(m=1, xyz=(4, 0, 0), f=100), dict(m=1, xyz=(6, 0, 0), f=100),
+      dict(m=1, xyz=(8, 0, 0), f=100), dict(m=1, xyz=(8, 1, 0), f=100)]),
+    # GOTOF skips A1..A2; REPEAT A1 A2 P=2 runs them twice, then the block after REPEAT
+    ("repeat-two-labels", ["G1 X0 F100", "GOTOF OVER", "A1: G91 X1", "A2: Y1",
+                           "OVER: REPEAT A1 A2 P=2", "G90 Z1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(1, 1, 0), f=100), dict(m=1, xyz=(2, 1, 0), f=100),
+      dict(m=1, xyz=(2, 2, 0), f=100), dict(m=1, xyz=(2, 2, 1), f=100)]),
+    # ENDLABEL ends the section: X1 Y1 again, not Z1
+    ("repeat-endlabel", ["G1 X0 F100", "BEG: G91 X1", "ENDLABEL: Y1", "Z1", "REPEAT BEG",
+                         "G90 X0"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(1, 1, 0), f=100), dict(m=1, xyz=(1, 1, 1), f=100),
+      dict(m=1, xyz=(2, 1, 1), f=100), dict(m=1, xyz=(2, 2, 1), f=100),
+      dict(m=1, xyz=(0, 2, 1), f=100)]),
+    # a section whose last block is ENDWHILE (the WHILE leaves it past ENDWHILE) and one
+    # whose last block is an ENDIF skipped by a false IF: each still repeats once more
+    ("repeat-ends-in-loop", ["G1 X0 F100", "R1=0", "S1: R2=0", "WHILE R2<2", "R2=R2+1",
+                             "X=IC(1)", "ENDWHILE", "REPEAT S1 P=1", "S2: IF R1==1",
+                             "G1 Y=R1", "E2: ENDIF", "REPEAT S2 E2 P=1", "G1 Z1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(2, 0, 0), f=100), dict(m=1, xyz=(3, 0, 0), f=100),
+      dict(m=1, xyz=(4, 0, 0), f=100), dict(m=1, xyz=(4, 0, 1), f=100)]),
+    # GOTOC without a target goes on; GOTOC N60 skips N50 (X9)
+    ("gotoc", ["G1 X0 F100", "GOTOC NOWHERE", "G1 X1", "GOTOC N60", "G1 X9", "G1 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(1, 1, 0), f=100)]),
+    # a jump may leave a WHILE: X1 X2, then out at R1 = 3
+    ("jump-out-of-while", ["R1=0", "G1 X0 F100", "WHILE 1", "R1=R1+1", "IF R1==3 GOTOF DONE",
+                           "G1 X=R1", "ENDWHILE", "DONE: G1 Y1"],
+     [dict(m=1, xyz=(0, 0, 0), f=100), dict(m=1, xyz=(1, 0, 0), f=100),
+      dict(m=1, xyz=(2, 0, 0), f=100), dict(m=1, xyz=(2, 1, 0), f=100)]),
     ("g700-inch", ["G700 G1 X1 Y2 F10"], [dict(m=1, xyz=(25.4, 50.8, 0), f=254)]),
     # G4 F2 is a dwell of 2 s, not a feed
     ("g4-dwell", ["G1 X1 F100", "G4 F2", "X2"],
@@ -413,7 +523,12 @@ BAD = [
     (["X1"], "without a motion mode"),
     (["G1 X=R7 F100"], "R7 is used before it is set"),
     ([c800(192, 0, 30, 0)], "swivel mode 192 (direct (rotary axis positions)) is not read"),
-    ([c800(64, 0, 30, 0)], "swivel mode 64 (solid angle) is not read"),
+    ([c800(64, 0, 30, 10)], "_C = 10 with solid angle (_MODE 64) is not read"),
+    ([c800(121, 0, 30, 0)], "solid angle is _MODE 64"),
+    ([c800(128, 0, 30, 0)], "bits 0-5 must name X, Y and Z once"),
+    ([c800(185, 90, 90, 0)], "projection angles of +-90 deg about both axes"),
+    (["ROTS X10 Y10 Z10"], "ROTS with three axes"),
+    (["AROTS X90 Y90"], "AROTS solid angles of +-90 deg"),
     ([c800(21, 0, 30, 0)], "bits 0-5 must name X, Y and Z once"),
     (["CYCLE800(1,\"TC1\",2,57)"], "units digit must be 0"),
     (["G1 X1 A3=1 F100"], "without TRAORI"),
@@ -433,10 +548,33 @@ BAD = [
     (["ENDE: G1 X1 F100", "GOTOF ENDE"], "no label or block number ENDE after"),
     (["GOTOB ENDE", "ENDE: G1 X1 F100"], "no label or block number ENDE before"),
     (["A1: G1 X1 F100", "A1: X2"], "label A1 defined twice"),
-    (["IF R1==1 X2"], "IF without a jump"),
+    (["IF R1==1 X2"], "IF not closed; expected ENDIF"),
     (["R1=1", "IF R1=1 GOTOF E", "E: X1"], "unexpected '=1' in an expression"),
-    (["WHILE R1<3"], "structured control flow"),
+    (["WHILE R1<3"], "WHILE not closed; expected ENDWHILE"),
     (["G1 X1 F100 GOTOF E"], "a jump must be its block's only statement"),
+    (["IF R1==1", "G1 X1 F100"], "IF not closed; expected ENDIF"),
+    (["R1=1", "FOR R1=1 TO 3", "G1 X1 F100"], "FOR not closed; expected ENDFOR"),
+    (["REPEAT", "G1 X1 F100"], "REPEAT not closed; expected UNTIL"),
+    (["G1 X1 F100", "ENDFOR"], "ENDFOR without FOR"),
+    (["UNTIL R1>1"], "UNTIL without REPEAT"),
+    (["WHILE 1", "ENDIF"], "ENDIF closes the WHILE of line 3; expected ENDWHILE first"),
+    (["ELSE"], "ELSE without IF"),
+    (["IF 1", "ELSE", "ELSE", "ENDIF"], "a second ELSE"),
+    (["REPEAT NOWHERE P=2"], "REPEAT NOWHERE: no label or block number NOWHERE"),
+    (["REPEATB NOWHERE"], "REPEATB NOWHERE: no label or block number NOWHERE"),
+    (["GOTOF IN", "IF 1", "IN: G1 X1 F100", "ENDIF"], "inside a structured block"),
+    (["FOR XX=1 TO 3", "ENDFOR"], "the counter must be an R parameter or a DEF variable"),
+    (["FOR R1=1 TO", "ENDFOR"], "expected FOR variable = start TO end"),
+    (["CASE R1 OF 1 GOTOF A"], "CASE ... OF ... DEFAULT is not read"),
+    (["LOOP X1", "ENDLOOP"], "LOOP with more in its block"),
+    (["G1 X1 F100 ENDIF"], "ENDIF must begin its own block"),
+    (["L1: G1 X1 F100", "REPEAT L1 P=0.5"], "expected a whole count"),
+    (["R1=0", "IF R1==0", "A1: G1 X1 F100", "ENDIF", "REPEAT A1"], "cuts through the ENDIF"),
+    (["G1 X0 F100", "R1=0", "A1: R1=R1+1", "IF R1==2 GOTOF OUT", "REPEAT A1 P=3", "OUT: X1"],
+     "a jump out of the section"),
+    (["A1: G1 X1 F100", "REPEAT A1 A9 P=2"], "no label A9 at or after A1"),
+    (["WHILE R7>1", "ENDWHILE"], "WHILE: R7 is used before it is set"),
+    (["GOTOF R1"], "no label or block number R1 after"),
     (["L100"], "subprogram calls"),
     (["CYCLE81(10,0,2,-5)"], "CYCLE81 is not read"),
     (["MYSUB(1,2)"], "unsupported call MYSUB"),
@@ -504,21 +642,133 @@ def test_endless_jump_loop_hits_the_limit(monkeypatch):
         parse_siemens(sin840("G1 X0 F100", "L1: G91 X1", "GOTOB L1"))
 
 
+@pytest.mark.parametrize("blocks,what", [
+    (["G1 X0 F100", "LOOP", "G91 X1", "ENDLOOP"], "passes of the LOOP at line 4"),
+    (["WHILE 1", "R1=1", "ENDWHILE"], "passes of the WHILE at line 3"),
+    (["R1=0", "REPEAT", "R1=1", "UNTIL R1>1"], "passes of the REPEAT at line 4"),
+    (["FOR R1=1 TO 5000", "R1=1", "ENDFOR"], "passes of the FOR at line 3"),
+    (["L1: R1=1", "GOTOB L1"], "passes of GOTOB L1 at line 4 jumping back"),
+    (["R1=0", "L1: R1=R1+1", "IF R1>0 GOTO L1"], "passes of GOTO L1 at line 5 jumping back"),
+])
+def test_runaway_loop_ends_in_one_line(monkeypatch, blocks, what):
+    import nc.constants as K
+
+    monkeypatch.setattr(K, "SIEMENS_MAX_LOOP_PASSES", 1000)
+    with pytest.raises(NCParseError) as exc:
+        parse_siemens(sin840(*blocks), file="r.mpf")
+    msg = str(exc.value)
+    assert "\n" not in msg and msg.startswith("r.mpf:") and what in msg, msg
+    assert "SIEMENS_MAX_LOOP_PASSES" in msg
+
+
+@pytest.mark.parametrize("a,b", [(1, 3), (-2, 2), (4, 4), (5, 2), (0, 0)])
+def test_every_loop_form_gives_the_same_moves(a, b):
+    """X = a, a+1, ..., b (none when a > b) written as FOR, WHILE, LOOP with a jump out,
+    IF ... GOTOB, GOTO (found behind) and REPEAT ... UNTIL (a <= b: it runs at least
+    once): the same moves, those worked out by hand."""
+    forms = {
+        "for": [f"FOR R1={a} TO {b}", "G1 X=R1", "ENDFOR"],
+        "while": [f"R1={a}", f"WHILE R1<={b}", "G1 X=R1", "R1=R1+1", "ENDWHILE"],
+        "loop": [f"R1={a}", "LOOP", f"IF R1>{b} GOTOF OUT", "G1 X=R1", "R1=R1+1", "ENDLOOP",
+                 "OUT:"],
+        "gotob": [f"R1={a}", f"IF R1>{b} GOTOF OUT", "BACK: G1 X=R1", "R1=R1+1",
+                  f"IF R1<={b} GOTOB BACK", "OUT:"],
+        "goto": [f"R1={a}", f"IF R1>{b} GOTOC OUT", "BACK: G1 X=R1", "R1=R1+1",
+                 f"IF R1<={b} GOTO BACK", "OUT:"],
+    }
+    if a <= b:
+        forms["until"] = [f"R1={a}", "REPEAT", "G1 X=R1", "R1=R1+1", f"UNTIL R1>{b}"]
+    expected = [0.0] + [float(x) for x in range(a, b + 1)]
+    for name, blocks in forms.items():
+        prog = parse_siemens(sin840("G1 X0 Y0 Z0 F100", *blocks))
+        assert [b_.end[0] for b_ in prog] == expected, name
+
+
+def test_loop_passes_count_from_the_last_entry(monkeypatch):
+    """An inner loop entered 30 times with 30 passes each (900 passes in all) stays under
+    a bound of 50 passes: the count starts again at each entry."""
+    import nc.constants as K
+
+    monkeypatch.setattr(K, "SIEMENS_MAX_LOOP_PASSES", 50)
+    prog = parse_siemens(sin840("G1 X0 F100", "FOR R1=1 TO 30", "R2=0", "WHILE R2<30",
+                                "R2=R2+1", "ENDWHILE", "G1 X=R1", "ENDFOR"))
+    assert len(prog) == 31 and prog[30].end[0] == 30
+    # the same with the inner loop an IF ... GOTOB: not taken, it ends its loop's count
+    prog = parse_siemens(sin840("G1 X0 F100", "FOR R1=1 TO 30", "R2=0", "IN: R2=R2+1",
+                                "IF R2<30 GOTOB IN", "G1 X=R1", "ENDFOR"))
+    assert len(prog) == 31 and prog[30].end[0] == 30
+
+
+def test_nested_section_repeats_are_bounded(monkeypatch):
+    import nc.constants as K
+
+    monkeypatch.setattr(K, "SIEMENS_MAX_REPEAT_DEPTH", 3)
+    # REPEAT A1 A2 repeats a section that holds REPEATB: depth 2, allowed
+    prog = parse_siemens(sin840("G1 X0 F100", "GOTOF GO", "A1: G91 X1", "REPEATB A1 P=1",
+                                "A2: G90", "GO: REPEAT A1 A2 P=2", "G1 Y1"))
+    # X1 then X1 again (REPEATB) per pass, two passes: X4; then Y1
+    assert [round(b.end[0]) for b in prog] == [0, 1, 2, 3, 4, 4]
+
+
+def test_projection_frame_against_a_closed_form():
+    """Projection (ROTS) angles a about X, b about Y are ROT Y b then AROT X a' with
+    tan a' = tan a cos b (the plane's line in the Y-Z plane rises by tan a: its normal
+    (cos a' sin b, -sin a', cos a' cos b) ~ (tan b, -tan a, 1)); the same for the
+    other pairs with the axes renamed cyclically (Z X: Y -> Z, X -> X ...)."""
+    from nc.siemens_frames import projection_frame, rotation
+
+    rng = np.random.default_rng(11)
+    for _ in range(50):
+        a, b = rng.uniform(-80, 80, 2)
+        ap = math.degrees(math.atan(math.tan(math.radians(a)) * math.cos(math.radians(b))))
+        for first, second in ((0, 1), (2, 0), (1, 2)):
+            expected = rotation(second, b) @ rotation(first, ap)
+            np.testing.assert_allclose(projection_frame(first, second, a, b), expected,
+                                       atol=1e-12)
+    for a, b in rng.uniform(-180, 180, (50, 2)):  # beyond 90 deg: still a rotation
+        R = projection_frame(0, 1, a, b)
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+        assert np.linalg.det(R) == pytest.approx(1.0)
+
+
+def test_a_kept_expression_reads_the_parameters_of_each_evaluation():
+    """Expressions are parsed once and kept: the same text must still give each
+    evaluation's value, and its run-time errors (unset name, division by zero)."""
+    from nc.siemens_expr import ExprError, condition, evaluate
+
+    assert evaluate("R1*2+AB MOD 3", {"R1": 1.0, "AB": 5.0}) == 4.0
+    assert evaluate("R1*2+AB MOD 3", {"R1": 2.5, "AB": 7.0}) == 6.0
+    with pytest.raises(ExprError, match="AB in an expression"):
+        evaluate("R1*2+AB MOD 3", {"R1": 1.0})
+    assert condition("R1<>0 AND 1/R1>0.5", {"R1": 1.0})
+    with pytest.raises(ExprError, match="division by zero"):
+        condition("R1<>0 AND 1/R1>0.5", {"R1": 0.0})  # both sides run, as before
+
+
 def test_program_ends_at_m30_and_tape_marks_pass():
     prog = parse_siemens("%\nG1 X1 F100\nM30\nG1 X2\n%\n")
     assert len(prog) == 1
 
 
-def test_fuzz_never_crashes():
+def test_fuzz_never_crashes(monkeypatch):
+    import nc.constants as K
+
+    monkeypatch.setattr(K, "SIEMENS_MAX_LOOP_PASSES", 1000)
+    monkeypatch.setattr(K, "SIEMENS_MAX_EXECUTED_BLOCKS", 100_000)
     rng = random.Random(4321)
     base = sin840(*BY_NAME["g3-ijk"][1], *BY_NAME["r-params"][1], *BY_NAME["supa"][1],
                   "TRAORI", "G1 X1 Y2 Z3 A3=0 B3=0.6 C3=0.8 F500", "TRAFOOF",
                   c800(27, 10, 0, 20), "G2 X5 Y5 CR=10", "CYCLE800()", 'MSG("x;y")',
                   "G1 C=DC(20)", "G3 X=IC(0) Y=IC(0) Z2 I-10 J0 TURN=1", "R3=0",
-                  "AG: R3=R3+1 G1 X=R3", "IF R3<4 GOTOB AG", "TRANS X2", "AROT Z10", "X1")
+                  "AG: R3=R3+1 G1 X=R3", "IF R3<4 GOTOB AG", "TRANS X2", "AROT Z10", "X1",
+                  "TRANS", "ROT", c800(185, 20, -15, 30), "G1 X2 Y2 Z0", c800(64, 45, 10, 0),
+                  "CYCLE800()", "ROTS X10 Y20", "ROTS", *BY_NAME["if-else"][1][1:],
+                  *BY_NAME["nested"][1][1:], *BY_NAME["repeat-until"][1],
+                  *BY_NAME["loop-goto"][1], *BY_NAME["repeat-endlabel"][1][1:],
+                  "REPEATB BEG P=1", "GOTOC NOWHERE")
     alphabet = "GXYZABCIJKRFMNTDS+-.=()\"',;:/$ 0123456789\n"
     ok = bad = 0
-    for _ in range(1500):
+    for _ in range(800):
         s = list(base)
         for _ in range(rng.randint(1, 4)):
             k = rng.randrange(len(s))
