@@ -7,7 +7,9 @@ G43.4/G43.5/G49 (tool centre point on/off; under G43.5 the words I J K of a
 G0/G1 block are the tool vector), G54...G59 (offsets from a table), comments
 in parentheses and after ``;``, block delete ``/``, N numbers, ``%`` and O
 program numbers. G40 and G80 (which assert the state the reader assumes;
-G80 may share a block with G0...G3), and M0/M1/M2/M30 are understood.
+G80 may share a block with G0...G3; after G80 alone the G0...G3 mode in
+effect before the cycle moves again, as on Fanuc, where the cycles are a
+modal group of their own), and M0/M1/M2/M30 are understood.
 
 Codes that neither move the tool nor change the frame (coolant M7/M8/M9,
 clamps M10/M11, dwell G4, path blending G61/G64, Fanuc look-ahead G05 P,
@@ -216,6 +218,7 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
         spindle_rpm, spindle_dir, tool, selected, length_offset, tcp, wcs = (
             0.0, 0, 0, 0, 0, TCP_OFF, 1)
         motion_mode: int | None = None
+        base_motion: int | None = None  # the G0...G3 mode a canned cycle leaves standing
         cycle = CycleState()  # canned cycles (nc.cycles): sticky words, initial level
         retract_to_r = False  # G99 (else G98)
         rot = None  # G68/G68.2 in effect, or G53.1's tool axis held (nc.rotation)
@@ -457,6 +460,7 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
                 if v is not None:
                     motion_mode = MOTION_CODES[v]
                     if motion_mode < 4:
+                        base_motion = motion_mode
                         cycle.leave()
                     elif "cycle" in gcodes:
                         raise self._error(lineno, "G80 with a canned cycle in one block; "
@@ -464,7 +468,10 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
                                               toks, "G", next(g for g in gs if code_key(
                                                   "G", g) == 800)))
                 elif "cycle" in gcodes:
-                    motion_mode = None  # G80 alone: no motion mode (LinuxCNC)
+                    # G80 alone: the cycles are a modal group of their own on Fanuc
+                    # (group 09), so the G0...G3 mode in effect before moves again;
+                    # LinuxCNC refuses axis words here, its programs never have them
+                    motion_mode = base_motion
                     cycle.leave()
                 v = gcodes.get("retract")
                 if v is not None:
@@ -534,7 +541,7 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
                 col_letter = next(c for c in "XYZABCIJK" if c in vals)
                 raise self._word_error(lineno, toks, col_letter,
                                        "axis words without a motion mode; expected G0, G1, "
-                                       "G2 or G3 in effect (G80 cancels it)")
+                                       "G2 or G3 in effect")
 
             if motion_mode > 3:  # a canned cycle: its moves, one row each
                 before = pos

@@ -231,7 +231,6 @@ ERRORS = [
     ("G21\nM13\n", {}, 2, "M13", "allow"),
     ("G21\nG5 X1 Y1 I1 J1 P1 Q1\n", {}, 2, "G5", "spline"),
     ("G21\nG5.1 X1 I1 J1\n", {}, 2, "G5.1", "spline"),
-    ("G21\nG0 G80 X1\nG80\nX2\n", {}, 4, "X2", "G80 cancels it"),
     ("G21 G95 G1 X1 F0.1\n", {}, 1, None, "no spindle speed"),
     ("G21\nG1 G0 X1 F1\n", {}, 2, "G0", "motion group"),
     ("G21\nG1 X#1 F10\n", {}, 2, "#", "parameters and expressions"),
@@ -417,3 +416,15 @@ def test_foreign_dialects_are_named(src, bad, fragment):
     err = info.value
     assert fragment in err.message and "not supported" in err.message
     assert err.column == err.text.index(bad) + 1
+
+
+@pytest.mark.parametrize("before, kind", [("G0", 0), ("G1", 1)])
+def test_g80_alone_leaves_the_motion_mode_before_the_cycle(before, kind):
+    """Fanuc's group 09: G80 cancels the cycle, the G0/G1 mode before it moves again
+    (a public bolt-circle program moves right after G80 without a motion code)."""
+    prog = parse_program(f"G21 G17 G90 G94\nS1000 M3\n{before} X0 Y0 Z5 F100\n"
+                         "G98 G81 X10 Y0 Z-1 R1 F50\nG80\nX20 Y5\nM2\n")
+    assert prog.motion[-1] == kind
+    np.testing.assert_allclose(prog.end[-1][:3], [20.0, 5.0, 5.0])
+    prog = parse_program(f"G21\n{before} G80 X1 F100\nG80\nX2\n")
+    assert prog.motion[-1] == kind and prog.end[-1][0] == 2.0

@@ -310,7 +310,7 @@ _CORPUS_DIR = os.path.join(os.environ.get("NC_CORPUS_DIR") or os.path.join(
 
 #: status -> what the one-line message of the refusal says
 CORPUS_REASONS = {
-    "g80axis": "axis words without a motion mode",
+    "rplane": "R plane 0.1 below the bottom Z0.5",
     "otherfile": "calls to other files are not supported",
     "typo": "expected one macro statement per block",
     "divzero": "division by zero",
