@@ -64,8 +64,13 @@ def _from_part(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: Cutt
     if info is not None:
         info.update(source="part", seconds=pc.seconds, **pc.counts())
     fz = cam.feed_mm_min[idx] / (spindle_rpm * scn.base.tool.flutes)
-    return [LocalCut(float(d) * sf, float(p) * sf, int(s), float(z))
-            for d, p, s, z in zip(pc.depth_mm, pc.pick_mm, pc.previous_side, fz)]
+    deep = pc.depth_mm * sf
+    # a stock top folded by the safety factor's deeper cut (1 + k depth <= 0): flat
+    kf = np.where(1.0 + pc.curvature_f_1_mm * deep > 0.1, pc.curvature_f_1_mm, 0.0)
+    kb = np.where(1.0 + pc.curvature_b_1_mm * deep > 0.1, pc.curvature_b_1_mm, 0.0)
+    return [LocalCut(float(d) * sf, float(p) * sf, int(s), float(z), float(kf), float(kb))
+            for d, p, s, z, kf, kb in zip(pc.depth_mm, pc.pick_mm, pc.previous_side, fz,
+                                          kf, kb)]
 
 
 def _previous_pass_cut(points: np.ndarray, toward: np.ndarray, pick_mm: float) -> np.ndarray:

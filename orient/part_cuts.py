@@ -10,25 +10,28 @@ every earlier move but the pass's own trail (the moves of the current pass withi
 ``PART_CUT_OWN_TRAIL_RADII`` tool radii of path behind; a pass ends at a rapid or where
 the path turns by more than ``PART_CUT_PASS_TURN_DEG``):
 
-* **depth**: the height above the contact plane of the material left before this pass,
-  measured up ``PART_CUT_COLUMNS`` columns across the ball's cross-section (sampled,
-  then bisected), the highest among the columns the ball reaches (its top above the
-  ball's profile there);
+* **depth and curvatures** (:class:`orient.engagement.LocalCut`'s stock top): the
+  stock's top above the contact along ``n`` (found by bisection up a column), and its
+  curvature along ``f`` and ``b`` from its top ``PART_CUT_CURVATURE_SPAN_RADII`` tool
+  radii either side, turned into the finished surface's (convex only: a concave one is
+  taken flat, see :meth:`_Section.stock_top`);
 * **previous pass, its side and the pick feed**: the nearest earlier move running
-  within 45 deg of the feed (either way) whose ball centre crosses the cross-section
-  within a tool diameter of the centre: its offset along ``b`` is the pick feed, its
-  sign the side (``LocalCut.previous_side``: the previous pass lies at
+  within ``PART_CUT_PASS_TURN_DEG`` of the feed (either way) whose ball centre crosses
+  the plane through the centre normal to ``f`` within a tool diameter: its offset along
+  ``b`` is the pick feed, its sign the side (the previous pass lies at
   ``previous_side * pick * b``, so passes going the other way get the other side);
   none (a first pass): side 0;
-* **air, entry, exit**: the ball meets no material before this pass on its front
-  lower quarter (where a ball end mill cuts) -> air, depth 0 (no cut); the pass's
-  neighbouring cutter location in air (or none) behind -> entry, ahead -> exit.
+* **air, entry, exit**: the ball meets no material before this pass on its front lower
+  quarter (where a ball end mill cuts) nor above its profile in the centre's section
+  -> air, depth 0 (no cut); material ahead but not yet at the centre's section, or the
+  pass's neighbouring cutter location behind in air (or none) -> entry; ahead in air
+  (or none) -> exit.
 
-Limits: the finished surface is taken as the contact plane (on a curved part a
-column ``y`` from the contact is off it by ``k y^2 / 2``: 0.04 mm at 1.2 mm for
-``k = 1/20 mm``), a previous pass is one line parallel to this one (a crossing pass
-of another operation shows in the depth only), and an entry or exit keeps the full
-cut (conservative: the process gain of a partial cut is smaller).
+Limits: a previous pass is one line parallel to this one, shifted along ``b`` (as in
+the kernels); material an earlier operation removed across the pass (a raster over a
+contoured flank) is not subtracted from the depth, only air is told (conservative:
+the full cut's process gain is the larger); an entry or exit keeps the full cut (its
+gain is the larger too).
 """
 
 from __future__ import annotations
@@ -47,11 +50,12 @@ from nc.path import CutterLocations
 from .constants import (
     PART_CUT_BISECTIONS,
     PART_CUT_COLUMNS,
+    PART_CUT_CURVATURE_SPAN_RADII,
+    PART_CUT_MAX_CURVATURE_RADII,
     PART_CUT_MIN_DEPTH_MM,
     PART_CUT_MIN_PICK_MM,
     PART_CUT_OWN_TRAIL_RADII,
     PART_CUT_PASS_TURN_DEG,
-    PART_CUT_SCAN_SAMPLES,
     PART_CUT_SHELL_STEPS,
 )
 from .contacts import Contacts
@@ -74,8 +78,7 @@ class PartCuts:
     index : ndarray of int, shape (t,)
         Cutter locations (indices into the path).
     depth_mm : ndarray, shape (t,) [mm]
-        Material above the finished surface in the ball's reach before this pass
-        (0 in air).
+        The stock's top above the contact along the normal (0 in air).
     pick_mm : ndarray, shape (t,) [mm]
         Offset along ``b`` of the previous pass (where there is none: the median of
         the others, or 0).
@@ -83,6 +86,9 @@ class PartCuts:
         +1 or -1: the previous pass lies at ``previous_side * pick * b``; 0: none.
     state : ndarray of int8, shape (t,)
         :data:`AIR`, :data:`CUT`, :data:`ENTRY` or :data:`EXIT`.
+    curvature_f_1_mm, curvature_b_1_mm : ndarray, shape (t,) [1/mm]
+        The finished surface's normal curvatures along ``f`` and ``b`` (positive
+        convex), from the stock's top.
     seconds : float [s]
         Time taken.
     """
@@ -92,6 +98,8 @@ class PartCuts:
     pick_mm: np.ndarray
     previous_side: np.ndarray
     state: np.ndarray
+    curvature_f_1_mm: np.ndarray
+    curvature_b_1_mm: np.ndarray
     seconds: float
 
     def counts(self) -> dict[str, int]:
@@ -124,8 +132,8 @@ def pass_starts(cl: CutterLocations, turn_deg: float = PART_CUT_PASS_TURN_DEG) -
 
 def cuts_from_part(tool: Tool, stock, cl: CutterLocations, contacts: Contacts,
                    index: np.ndarray, sweeps=None) -> PartCuts:
-    """Depth, pick feed, side of the previous pass and air/entry/exit at the cutter
-    locations ``index`` from the in-process stock (module docstring).
+    """Depth, curvatures, pick feed, side of the previous pass and air/entry/exit at the
+    cutter locations ``index`` from the in-process stock (module docstring).
 
     Parameters
     ----------
@@ -136,7 +144,8 @@ def cuts_from_part(tool: Tool, stock, cl: CutterLocations, contacts: Contacts,
     cl : CutterLocations
         The whole program's path (every earlier move counts).
     contacts : Contacts
-        The ball's contacts along ``cl`` (:func:`orient.contacts.ball_contacts`).
+        The ball's contacts along ``cl`` (:func:`orient.contacts.ball_contacts`); only
+        those at ``index`` are read.
     index : array_like of int, shape (t,)
         Cutter locations to derive the cut at (touching ones).
     sweeps : errpred.sweeps.Sweeps, optional
@@ -162,14 +171,13 @@ def cuts_from_part(tool: Tool, stock, cl: CutterLocations, contacts: Contacts,
     trail = np.searchsorted(path, path - PART_CUT_OWN_TRAIL_RADII * R, side="right")
     own_first = np.maximum(first, trail)
     t = len(idx)
-    depth = np.zeros(t)
+    out = {k: np.zeros(t) for k in ("depth", "kf", "kb")}
     pick = np.full(t, np.nan)
     side = np.zeros(t, np.int8)
     engaged = np.zeros(t, bool)
-    if t == 0:
-        return PartCuts(idx, depth, np.zeros(0), side, np.zeros(0, np.int8),
-                        time.perf_counter() - t0)
-    f_all, b_all, n_all = local_frame(contacts.normal[idx], contacts.feed[idx])
+    ahead_only = np.zeros(t, bool)
+    if t:
+        f_all, b_all, n_all = local_frame(contacts.normal[idx], contacts.feed[idx])
     geo = _Section(R)
     tail = (tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm,
             EK.MEMBERSHIP_EPS_MM)
@@ -177,32 +185,37 @@ def cuts_from_part(tool: Tool, stock, cl: CutterLocations, contacts: Contacts,
     for r, i in enumerate(idx):
         c = contacts.centre[i]
         f, b, n = f_all[r], b_all[r], n_all[r]
-        # the sweeps that may reach the sample points (all within the ball's box)
-        ids = sw.query(c - R, c + R)
-        ids = ids[sw.cl_index[ids] < own_first[i]]
-        parts = tuple(np.ascontiguousarray(a[ids]) for a in (sw.p0, sw.d, sw.w, sw.lo, sw.hi))
+        j = own_first[i]
+        t1_end = path[j - 1] if j >= 1 else -math.inf
+        # the earlier moves that may reach the ball (every point tested lies in it or
+        # in its box), nearest first
+        t1, _, _ = sw.near(c - R, c + R, c, math.sqrt(2.0) * R + 1e-6, c, t1_end,
+                           math.inf)
+        parts = tuple(np.ascontiguousarray(a) for a in t1)
 
         def material(pts: np.ndarray, parts=parts) -> np.ndarray:
             pts = np.ascontiguousarray(pts)
             inside = stock.contains(pts)
             if parts[0].shape[0] and inside.any():
-                inside &= ~inside_any_sweep(pts, inside, *parts, *tail)
+                inside &= ~inside_any_sweep(pts, inside.copy(), *parts, *tail)
             return inside
 
         contact = c - R * n
-        d_mid, mid_eng, d_front, front_eng = geo.measure(material, contact, c, f, b, n)
-        engaged[r] = mid_eng or front_eng
-        depth[r] = d_mid if mid_eng else (d_front if front_eng else 0.0)
-        if ids.size:
-            s, p = _previous_pass(sw, ids, c, f, b, n, R, cos_par)
-            side[r], pick[r] = s, p
+        mid, front = geo.engaged(material, contact, c, f, b, n)
+        engaged[r] = mid or front
+        ahead_only[r] = front and not mid
+        if engaged[r]:
+            d, kf, kb = geo.stock_top(stock.contains, contact, f, b, n)
+            out["depth"][r], out["kf"][r], out["kb"][r] = d, kf, kb
+        if parts[0].shape[0]:
+            side[r], pick[r] = _previous_pass(parts[0], parts[1], parts[2], c, f, b, n, R,
+                                              cos_par)
     found = np.isfinite(pick)
     fill = float(np.median(pick[found])) if found.any() else 0.0
     pick = np.where(found, pick, fill)
-    depth = np.minimum(depth, R)
-    depth[~engaged] = 0.0
-    state = _states(engaged, first[idx], idx)
-    return PartCuts(idx, depth, pick, side, state, time.perf_counter() - t0)
+    state = _states(engaged, first[idx], idx, ahead_only)
+    return PartCuts(idx, out["depth"], pick, side, state, out["kf"], out["kb"],
+                    time.perf_counter() - t0)
 
 
 class _Section:
@@ -210,63 +223,73 @@ class _Section:
 
     def __init__(self, R: float) -> None:
         self.R = R
-        self.y = np.linspace(-R, R, PART_CUT_COLUMNS)
-        # from just above the contact plane (the finished surface's material counts)
-        self.t = PART_CUT_MIN_DEPTH_MM / 2 + np.arange(PART_CUT_SCAN_SAMPLES) * (
-            R / PART_CUT_SCAN_SAMPLES)
-        self.step = R / PART_CUT_SCAN_SAMPLES
-        with np.errstate(invalid="ignore"):
-            self.t_ball = R - np.sqrt(np.maximum(R * R - self.y ** 2, 0.0))
+        eps = PART_CUT_MIN_DEPTH_MM
+        y = np.linspace(-R, R, PART_CUT_COLUMNS)[1:-1]
+        # the foot of each column: just above the ball's profile in the centre's section
+        self.y = y
+        self.t_foot = R - np.sqrt(R * R - y ** 2) + eps
         # the ball's front lower quarter: polar angle from -n, azimuth over the f side
         k = PART_CUT_SHELL_STEPS
         pol = (np.arange(k) + 0.5) / k * (math.pi / 2)
         azi = (np.arange(k) + 0.5) / k * math.pi - math.pi / 2
         P, A = np.meshgrid(pol, azi, indexing="ij")
-        inner = R - 2 * PART_CUT_MIN_DEPTH_MM
+        inner = R - 2 * eps
         # coordinates along (f, b, n) from the ball centre
         self.shell = inner * np.stack([np.sin(P) * np.cos(A), np.sin(P) * np.sin(A),
                                        -np.cos(P)], axis=-1).reshape(-1, 3)
+        h = PART_CUT_CURVATURE_SPAN_RADII * R
+        self.h = h
+        # the stock-top columns: the contact, then +-h along f, then +-h along b
+        self.top_fb = np.array([[0, 0], [h, 0], [-h, 0], [0, h], [0, -h]], dtype=float)
 
-    def measure(self, material, contact, centre, f, b, n):
-        """(depth at the centre's section, whether the ball reaches it there, highest
-        material on the front shell, whether there is any) [mm]."""
-        R, y, tt = self.R, self.y, self.t
-        K = tt.size
-        cols = contact + y[:, None, None] * b + tt[None, :, None] * n      # (C, K, 3)
+    def engaged(self, material, contact, centre, f, b, n) -> tuple[bool, bool]:
+        """Is there material before this pass above the ball's profile in the centre's
+        section, and on the ball's front lower quarter?"""
+        cols = contact + self.y[:, None] * b + self.t_foot[:, None] * n
         shell = centre + self.shell @ np.stack([f, b, n])
-        inside = material(np.concatenate([cols.reshape(-1, 3), shell]))
-        m = inside[:cols.shape[0] * K].reshape(cols.shape[:2])
-        sh = inside[cols.shape[0] * K:]
-        # the first run of material from the bottom of each column
-        run = np.cumprod(m, axis=1).astype(bool)
-        last = run.sum(axis=1) - 1                                         # -1: none
-        has = last >= 0
-        top = np.zeros(y.size)
-        lo = tt[np.maximum(last, 0)]
-        full = has & (last == K - 1)
-        top[full] = R
-        open_ = np.flatnonzero(has & ~full)
-        if open_.size:
-            a, hi = lo[open_].copy(), lo[open_] + self.step
-            for _ in range(PART_CUT_BISECTIONS):
-                mid = 0.5 * (a + hi)
-                ok = material(contact + y[open_, None] * b + mid[:, None] * n)
-                a = np.where(ok, mid, a)
-                hi = np.where(ok, hi, mid)
-            top[open_] = 0.5 * (a + hi)
-        reach = has & (top > self.t_ball + PART_CUT_MIN_DEPTH_MM)
-        d_mid = float(top[reach].max()) if reach.any() else 0.0
-        d_front = float(((shell[sh] - contact) @ n).max()) if sh.any() else 0.0
-        return d_mid, bool(reach.any()), max(d_front, 0.0), bool(sh.any())
+        inside = material(np.concatenate([cols, shell]))
+        return bool(inside[:len(cols)].any()), bool(inside[len(cols):].any())
+
+    def stock_top(self, contains, contact, f, b, n) -> tuple[float, float, float]:
+        """The stock's top above the contact along ``n`` [mm], and the finished surface's
+        curvatures along ``f`` and ``b`` [1/mm] from the stock's top either side."""
+        R, eps = self.R, PART_CUT_MIN_DEPTH_MM
+        base = contact + self.top_fb[:, :1] * f + self.top_fb[:, 1:] * b       # (5, 3)
+        # from just above the contact, and beside it from as deep as the surface can lie
+        # under the clamped curvature (0.45 h^2 / R), up to one tool radius
+        lo = np.full(len(base), -self.h ** 2 / R)
+        lo[0] = 0.5 * eps
+        hi = np.full(len(base), R)
+        has_lo = contains(base + lo[:, None] * n)
+        has_hi = contains(base + hi[:, None] * n)
+        # the top is where the column leaves the stock
+        for _ in range(PART_CUT_BISECTIONS + 1):
+            mid = 0.5 * (lo + hi)
+            ok = contains(base + mid[:, None] * n)
+            lo = np.where(ok, mid, lo)
+            hi = np.where(ok, hi, mid)
+        top = np.where(has_hi, R, np.where(has_lo, 0.5 * (lo + hi), -math.inf))
+        d = float(top[0])
+        if not d > eps:
+            return max(d, 0.0), 0.0, 0.0
+        kmax = PART_CUT_MAX_CURVATURE_RADII / R
+        ks = []
+        for a, b_ in ((1, 2), (3, 4)):
+            # the stock top's curvature (positive convex), both sides if it has them
+            sides = [top[k] for k in (a, b_) if np.isfinite(top[k]) and top[k] < R]
+            kappa = 2.0 * (d - float(np.mean(sides))) / self.h ** 2 if sides else 0.0
+            k = kappa / (1.0 - kappa * d) if 1.0 - kappa * d > 0 else kmax
+            # concave taken flat: the gain kernels' concave branch was seen to return no
+            # engagement at k = -0.081 1/mm (mold-ball raster, line 19109 region)
+            ks.append(float(np.clip(k, 0.0, kmax)))
+        return d, ks[0], ks[1]
 
 
-def _previous_pass(sw, ids, c, f, b, n, R, cos_par) -> tuple[int, float]:
-    """Side and offset along ``b`` of the nearest earlier move running along ``+-f``
-    whose ball centre crosses the plane through ``c`` normal to ``f`` within ``2 R``;
-    (0, nan) if none."""
-    w = sw.w[ids]
-    q0 = sw.p0[ids] + R * w                   # ball centres (a ball's core radius is 0)
-    d = sw.d[ids]
+def _previous_pass(p0, d, w, c, f, b, n, R, cos_par) -> tuple[int, float]:
+    """Side and offset along ``b`` of the nearest earlier move (tips ``p0``, moves
+    ``d``, axes ``w``) running along ``+-f`` whose ball centre crosses the plane through
+    ``c`` normal to ``f`` within ``2 R``; (0, nan) if none."""
+    q0 = p0 + R * w                           # ball centres (a ball's core radius is 0)
     ln = np.linalg.norm(d, axis=1)
     s0 = (q0 - c) @ f
     s1 = s0 + d @ f
@@ -286,7 +309,8 @@ def _previous_pass(sw, ids, c, f, b, n, R, cos_par) -> tuple[int, float]:
     return int(np.sign(lat[j])), float(abs(lat[j]))
 
 
-def _states(engaged: np.ndarray, pass_first: np.ndarray, idx: np.ndarray) -> np.ndarray:
+def _states(engaged: np.ndarray, pass_first: np.ndarray, idx: np.ndarray,
+            ahead_only: np.ndarray) -> np.ndarray:
     """Air, cut, entry or exit from the neighbours on the same pass (among ``idx``)."""
     t = len(idx)
     state = np.where(engaged, CUT, AIR).astype(np.int8)
@@ -298,7 +322,7 @@ def _states(engaged: np.ndarray, pass_first: np.ndarray, idx: np.ndarray) -> np.
     next_air[:-1] = ~engaged[1:]
     same_next = np.zeros(t, bool)
     same_next[:-1] = same_prev[1:]
-    entry = engaged & (~same_prev | prev_air)
+    entry = engaged & (~same_prev | prev_air | ahead_only)
     exit_ = engaged & (~same_next | next_air) & ~entry
     state[entry] = ENTRY
     state[exit_] = EXIT
