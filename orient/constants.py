@@ -418,7 +418,7 @@ PART_CUT_MIN_PICK_MM = 0.01
 #: Directions on the ball's front-lower quarter sphere sampled for "does the ball meet
 #: material at all" (per angle, polar x azimuth) [-].
 PART_CUT_SHELL_STEPS = 6
-#: The stock's curvatures are kept within +-this over the tool radius [-]: a concave
-#: surface tighter than the ball would gouge (``LocalCut.check_tool``), and a fit over
-#: +-1 mm is not trusted beyond.
-PART_CUT_MAX_CURVATURE_RADII = 0.9
+#: The stock's convex curvature is kept below this over the tool radius [-] (a ridge
+#: of radius R/2; a fit over +-1 mm is not trusted beyond). A concave one is taken
+#: flat (orient.part_cuts: the gain kernels' concave branch).
+PART_CUT_MAX_CURVATURE_RADII = 2.0

@@ -24,8 +24,8 @@ the path turns by more than ``PART_CUT_PASS_TURN_DEG``):
 * **air, entry, exit**: the ball meets no material before this pass on its front lower
   quarter (where a ball end mill cuts) nor above its profile in the centre's section
   -> air, depth 0 (no cut); material ahead but not yet at the centre's section, or the
-  pass's neighbouring cutter location behind in air (or none) -> entry; ahead in air
-  (or none) -> exit.
+  cutter location before it on the path in air (or not touching the design) -> entry;
+  the one after it -> exit.
 
 Limits: a previous pass is one line parallel to this one, shifted along ``b`` (as in
 the kernels); material an earlier operation removed across the pass (a raster over a
@@ -213,7 +213,7 @@ def cuts_from_part(tool: Tool, stock, cl: CutterLocations, contacts: Contacts,
     found = np.isfinite(pick)
     fill = float(np.median(pick[found])) if found.any() else 0.0
     pick = np.where(found, pick, fill)
-    state = _states(engaged, first[idx], idx, ahead_only)
+    state = _states(engaged, idx, ahead_only)
     return PartCuts(idx, out["depth"], pick, side, state, out["kf"], out["kb"],
                     time.perf_counter() - t0)
 
@@ -309,21 +309,18 @@ def _previous_pass(p0, d, w, c, f, b, n, R, cos_par) -> tuple[int, float]:
     return int(np.sign(lat[j])), float(abs(lat[j]))
 
 
-def _states(engaged: np.ndarray, pass_first: np.ndarray, idx: np.ndarray,
-            ahead_only: np.ndarray) -> np.ndarray:
-    """Air, cut, entry or exit from the neighbours on the same pass (among ``idx``)."""
+def _states(engaged: np.ndarray, idx: np.ndarray, ahead_only: np.ndarray) -> np.ndarray:
+    """Air, cut, entry or exit from the neighbouring cutter locations along the path
+    (among ``idx``: a rapid or a location not touching the design between them breaks
+    the run; a corner in the material does not)."""
     t = len(idx)
     state = np.where(engaged, CUT, AIR).astype(np.int8)
-    same_prev = np.zeros(t, bool)
-    same_prev[1:] = (pass_first[1:] == pass_first[:-1]) & (idx[1:] == idx[:-1] + 1)
-    prev_air = np.ones(t, bool)
-    prev_air[1:] = ~engaged[:-1]
-    next_air = np.ones(t, bool)
-    next_air[:-1] = ~engaged[1:]
-    same_next = np.zeros(t, bool)
-    same_next[:-1] = same_prev[1:]
-    entry = engaged & (~same_prev | prev_air | ahead_only)
-    exit_ = engaged & (~same_next | next_air) & ~entry
+    run_prev = np.zeros(t, bool)
+    run_prev[1:] = (idx[1:] == idx[:-1] + 1) & engaged[:-1]
+    run_next = np.zeros(t, bool)
+    run_next[:-1] = (idx[1:] == idx[:-1] + 1) & engaged[1:]
+    entry = engaged & (~run_prev | ahead_only)
+    exit_ = engaged & ~run_next & ~entry
     state[entry] = ENTRY
     state[exit_] = EXIT
     return state
