@@ -422,3 +422,7 @@ PART_CUT_SHELL_STEPS = 6
 #: of radius R/2; a fit over +-1 mm is not trusted beyond). A concave one is taken
 #: flat (orient.part_cuts: the gain kernels' concave branch).
 PART_CUT_MAX_CURVATURE_RADII = 2.0
+#: Consecutive cutter locations whose earlier moves are looked up together [-]: the
+#: lookup (errpred's Sweeps.near) costs about 7 ms on mold-ball's flanks, whatever the
+#: box; each location then keeps the moves before its own trail near its ball.
+PART_CUT_CHUNK = 16
