@@ -311,3 +311,18 @@ def test_mold_gain_agrees_with_errpred(mold, which):
     assert np.median(rels) <= median and max(rels) <= worst, rels
     assert np.median(rels) <= np.median(rels_table) and max(rels) <= max(rels_table)
     assert all(s <= 0.1 * np.median(full) for s in slivers), (slivers, np.median(full))
+
+
+def test_chunked_lookup_gives_the_same_cuts(monkeypatch):
+    """The earlier moves looked up per chunk of locations, or per location: the same."""
+    import orient.part_cuts as PC
+
+    tool, cl, con = _plane_case(32.0)
+    idx = np.flatnonzero(con.touching)
+    stock = plane_stock(0.0, 0.3)
+    a = cuts_from_part(tool, stock, cl, con, idx)
+    monkeypatch.setattr(PC, "PART_CUT_CHUNK", 1)
+    b = cuts_from_part(tool, stock, cl, con, idx)
+    for k in ("depth_mm", "pick_mm", "previous_side", "state", "curvature_f_1_mm",
+              "curvature_b_1_mm"):
+        assert np.array_equal(getattr(a, k), getattr(b, k)), k
