@@ -93,7 +93,7 @@ def test_thin_wall_derived_cut_is_the_designed_one(wall):
     np.testing.assert_allclose(pick, 0.5, atol=1e-3)
     side = np.array([c.previous_side for c in derived])
     assert np.array_equal(side, [c.previous_side for c in tab])
-    assert (side == 0).sum() == len(idx) - (side != 0).sum() > 0     # the top pass: none
+    assert 0 < (side == 0).sum() < len(idx) // 20           # the top pass alone: none
     # fast enough for the planner: measured 1.3-1.8 ms a location on this machine, loaded
     assert info["seconds"] / len(idx) < 0.02
 
