@@ -22,9 +22,10 @@ Tolerances (stated once, measured on these inputs):
   cut says air but errpred cuts, errpred's gain is a sliver's: under 10 % of the slice's
   median full-cut gain (measured 5.2 % and 1.1 % on the raster; the margin scales as
   1 / gain, so such a location has ten times the margin of the pass's full cut, and
-  calling it air changes no choice of the planner's); at an entry or exit the derived (full) cut engages at least 90 % of what
-  errpred's does (measured 94 % at the slice's first location, which is an entry only
-  because the locations before the slice are not in the case).
+  calling it air changes no choice of the planner's); at an entry or exit the derived
+  (full) cut engages at least 90 % of what errpred's does (measured 94 % at the
+  slice's first location, which is an entry only because the locations before the
+  slice are not in the case).
 """
 
 from __future__ import annotations
