@@ -249,7 +249,7 @@ PICKS = {"raster": lambda n: 0.35 / np.sqrt(1 - n[:, 1] ** 2),
 
 #: Every how many locations of the slice errpred's engagement is computed (errpred takes
 #: about 0.13 s a location on the raster and 0.5 s on the contour's flank).
-STEP = {"raster": 2, "contour": 4}
+STEP = {"raster": 2, "contour": 5}
 #: Median and largest relative difference of the process gain (Frobenius norm) at the
 #: full-cut locations (module docstring; measured over every location of the slice:
 #: raster median 0.40, largest 2.04, the one-table cut's 0.44 and 3.89; contour 0.24
@@ -307,7 +307,7 @@ def test_mold_gain_agrees_with_errpred(mold, which):
             full.append(norm)
             rels.append(np.linalg.norm(mine.P - theirs.P) / norm)
             rels_table.append(np.linalg.norm(table.P - theirs.P) / norm)
-    assert len(rels) >= 15
+    assert len(rels) >= 12
     median, worst = TOLERANCE[which]
     assert np.median(rels) <= median and max(rels) <= worst, rels
     assert np.median(rels) <= np.median(rels_table) and max(rels) <= max(rels_table)
