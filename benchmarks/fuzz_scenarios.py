@@ -267,7 +267,8 @@ def _specific() -> list[Case]:
              _set("orient.spindle.range_rpm", [1e9, 2e9])),
         Case("cut-depth-beyond-radius", O, "orient.cut.depth_mm",
              _set("orient.cut.depth_mm", 50.0)),
-        Case("cut-missing", O, "orient.cut", lambda d, f: d["orient"].pop("cut")),
+        # (no [orient.cut] is no error: the cut is then taken from the part)
+        Case("cut-pick-nan", O, "orient.cut.pick_mm", _set("orient.cut.pick_mm", float("nan"))),
         Case("machined-side-nan", O, "orient.cut.machined_side",
              _set("orient.cut.machined_side", [0.0, float("nan"), 1.0])),
         Case("wall-modes-1e6", O, "workpiece.thin_wall.modes",

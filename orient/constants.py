@@ -388,3 +388,41 @@ LOBES_SDM_DISAGREE = 0.05
 LOBES_LIMIT_FACTOR = 1.25
 #: ... and the root is refined to this relative tolerance [-].
 LOBES_LIMIT_RTOL = 2e-3
+
+# --- the local cut from the part (orient/part_cuts.py) -----------------------------
+#: Columns across the ball's cross-section (along b, over [-R, R]) at whose foot (just
+#: above the ball's profile) the material before the pass is probed: is there any in
+#: the ball's reach at the centre's section [-] (R/8 apart: 0.625 mm for a D10 ball).
+PART_CUT_COLUMNS = 17
+#: Halvings of one tool radius that find the stock's top up a column (R / 2^13: 0.6 um
+#: for a D10 ball) [-].
+PART_CUT_BISECTIONS = 13
+#: The stock's curvature is measured from its top this far either side of the contact,
+#: along f and along b, in tool radii [-]: 1 mm for a D10 ball, about the half width a
+#: finishing cut engages (sqrt(2 R depth): 1.2 mm at 0.15 mm depth).
+PART_CUT_CURVATURE_SPAN_RADII = 0.2
+#: The moves of the current pass within this many tool radii of path behind a cutter
+#: location are its own trail, not an earlier pass [-]: farther back they cannot
+#: reach the ball (radius R) nor its cross-section.
+PART_CUT_OWN_TRAIL_RADII = 3.0
+#: A pass ends where the path turns by more than this between two moves [deg]: a
+#: zig-zag's step-over (90 deg) ends one pass and starts the next; an earlier move
+#: counts as a previous pass when it runs within this of the feed (either way).
+PART_CUT_PASS_TURN_DEG = 45.0
+#: Less material than this above the finished surface in the ball's reach is air [mm]
+#: (the stock meshes' own deviation is a few um).
+PART_CUT_MIN_DEPTH_MM = 1.0e-3
+#: An earlier pass whose ball centre lies closer than this to the current line (along
+#: b) runs along the same line (a recut), not beside it [mm].
+PART_CUT_MIN_PICK_MM = 0.01
+#: Directions on the ball's front-lower quarter sphere sampled for "does the ball meet
+#: material at all" (per angle, polar x azimuth) [-].
+PART_CUT_SHELL_STEPS = 6
+#: The stock's convex curvature is kept below this over the tool radius [-] (a ridge
+#: of radius R/2; a fit over +-1 mm is not trusted beyond). A concave one is taken
+#: flat (orient.part_cuts: the gain kernels' concave branch).
+PART_CUT_MAX_CURVATURE_RADII = 2.0
+#: Consecutive cutter locations whose earlier moves are looked up together [-]: the
+#: lookup (errpred's Sweeps.near) costs about 7 ms on mold-ball's flanks, whatever the
+#: box; each location then keeps the moves before its own trail near its ball.
+PART_CUT_CHUNK = 16

@@ -1,7 +1,11 @@
 """The local cut at each cutter location where the ball touches: depth and pick feed,
 the side of the previous pass, the feed per tooth (what the process gain and the
 simulated machine's cut are computed for; the planner's, the point analyses' and the
-simulated machine's cut is this one)."""
+simulated machine's cut is this one).
+
+From the part (:mod:`orient.part_cuts`: the in-process stock, errpred's stock and swept
+tool solids) when the scenario has no ``[orient.cut]``; that table, when given,
+overrides it for the whole program."""
 
 from __future__ import annotations
 
@@ -12,6 +16,7 @@ from nc.path import CutterLocations
 from .contacts import Contacts
 from .engagement import LocalCut
 from .geometry import local_frame
+from .part_cuts import cuts_from_part
 from .scenario import PlanScenario
 
 __all__ = ["FIRST_PASS_TOLERANCE", "local_cuts"]
@@ -22,17 +27,27 @@ FIRST_PASS_TOLERANCE = 0.5
 
 
 def local_cuts(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: CutterLocations,
-               spindle_rpm: float) -> list[LocalCut]:
+               spindle_rpm: float, info: dict | None = None) -> list[LocalCut]:
     """The local cut (depth and pick feed times the safety factor, side of the previous
     pass, feed per tooth at ``spindle_rpm`` [rev/min]) at cutter locations ``idx``.
 
-    The previous pass lies on the ``machined_side``, where an earlier cutter location
-    of ``idx`` touched within a pick feed (``FIRST_PASS_TOLERANCE`` of it); where none
-    did (the first pass of a face), nothing is removed beside the tool and the ball
-    cuts on both sides (``previous_side = 0``).
+    Without ``[orient.cut]``: from the part (:func:`orient.part_cuts.cuts_from_part`;
+    a location in air gets depth 0, no cut). With it: its depth and pick feed
+    everywhere; the previous pass lies on the ``machined_side``, where an earlier cutter
+    location of ``idx`` touched within a pick feed (``FIRST_PASS_TOLERANCE`` of it);
+    where none did (the first pass of a face), nothing is removed beside the tool and the
+    ball cuts on both sides (``previous_side = 0``).
+
+    ``info`` (a dict, optional) is filled with where the cut came from (``source``:
+    ``"part"`` or ``"table"``) and, from the part, the seconds taken and the locations
+    per state (air, cut, entry, exit).
     """
     opt = scn.options
     cut = opt.cut
+    if cut is None:
+        return _from_part(scn, contacts, idx, cam, spindle_rpm, info)
+    if info is not None:
+        info["source"] = "table"
     _, b, _ = local_frame(contacts.normal[idx], contacts.feed[idx])
     side = np.sign(b @ cut.machined_side)
     side[np.abs(b @ cut.machined_side) < 1e-6] = 0.0
@@ -40,6 +55,22 @@ def local_cuts(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: Cutt
     fz = cam.feed_mm_min[idx] / (spindle_rpm * scn.base.tool.flutes)
     return [LocalCut(cut.depth_mm * opt.safety_factor, cut.pick_mm * opt.safety_factor,
                      int(s), float(z)) for s, z in zip(side, fz)]
+
+
+def _from_part(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: CutterLocations,
+               spindle_rpm: float, info: dict | None) -> list[LocalCut]:
+    sf = scn.options.safety_factor
+    pc = cuts_from_part(scn.base.tool, scn.base.stock.load(), cam, contacts, idx)
+    if info is not None:
+        info.update(source="part", seconds=pc.seconds, **pc.counts())
+    fz = cam.feed_mm_min[idx] / (spindle_rpm * scn.base.tool.flutes)
+    deep = pc.depth_mm * sf
+    # a stock top folded by the safety factor's deeper cut (1 + k depth <= 0): flat
+    kf = np.where(1.0 + pc.curvature_f_1_mm * deep > 0.1, pc.curvature_f_1_mm, 0.0)
+    kb = np.where(1.0 + pc.curvature_b_1_mm * deep > 0.1, pc.curvature_b_1_mm, 0.0)
+    return [LocalCut(float(d) * sf, float(p) * sf, int(s), float(z), float(kf), float(kb))
+            for d, p, s, z, kf, kb in zip(pc.depth_mm, pc.pick_mm, pc.previous_side, fz,
+                                          kf, kb)]
 
 
 def _previous_pass_cut(points: np.ndarray, toward: np.ndarray, pick_mm: float) -> np.ndarray:

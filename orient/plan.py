@@ -430,7 +430,8 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     cam_ok = ok[:, -1].copy()
     ok[:, -1] = True            # the CAM posture is always evaluated (for the report)
     t1 = time.perf_counter()
-    cuts = local_cuts(scn, contacts, idx, cam, rpm)
+    cut_info: dict = {}
+    cuts = local_cuts(scn, contacts, idx, cam, rpm, info=cut_info)
     choose_speed = opt.spindle is not None and spindle_rpm is None
     if client is not None and choose_speed:
         # the speed's sample of gains on a worker, which compiles the gain kernel (and
@@ -558,6 +559,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
                "infeasible_points": int(len(infeasible)),
                "infeasible_lines": sorted({int(x) for x in lines}),
                "wall_first_frequencies_hz": wp.first_frequencies_hz() if wp.levels else [],
+               "cut": cut_info,
                "seconds": {"candidates": t1 - t0, "setup": t2 - t1, "margins": t3 - t2,
                            "choice_and_interference": t4 - t3, "finish": t5 - t4,
                            "total": t5 - t0}},

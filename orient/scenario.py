@@ -8,9 +8,10 @@ with two more tables:
 limits, the smoothness limit, the margin aimed at, interference
 clearances, whether points without a feasible posture may keep the CAM
 posture (``allow_fallback``, default false: the plan is refused), the machine
-dialect of the written program; ``[orient.cut]`` the
-local cut of the finishing passes (depth, pick feed, on which side the
-previous pass lies); ``[orient.spindle]`` optionally a spindle speed chosen
+dialect of the written program; ``[orient.cut]`` optionally the
+local cut of the finishing passes for the whole program (depth, pick feed, on which
+side the previous pass lies), overriding the cut taken from the part at each cutter
+location (:mod:`orient.part_cuts`); ``[orient.spindle]`` optionally a spindle speed chosen
 from the lobes.
 
 ``[workpiece]`` -- the workpiece's flexibility: rigid when absent; modes with
@@ -419,8 +420,6 @@ def load_plan_scenario(path: str | os.PathLike) -> PlanScenario:
     if base.tool.kind != "ball":
         raise r.fail("tool.type", f"orient plans ball end mills; got {base.tool.kind!r}")
     options = _options(r, r.table(base.extra.get("orient", {}), "orient"), base.tool.radius_mm)
-    if options.cut is None:
-        raise r.fail("orient.cut", "missing; expected [orient.cut] with depth_mm and pick_mm")
     if base.stock.design_path is None:
         raise r.fail("stock.design_stl", "missing; the planner needs the design surface (its "
                                          "normals at the contact points, the interference "
