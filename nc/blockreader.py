@@ -37,7 +37,9 @@ class BlockReader:
     def _error(self, lineno: int, message: str, token: int | None = None,
                column: int | None = None) -> NCParseError:
         raw = self.lines[lineno - 1]
-        if token is not None and column is None and self.source[lineno - 1] is raw:
+        if token is not None and column is None and (
+                self.source[lineno - 1] is raw if getattr(self, "source_line", None) is None
+                else "#" not in raw and "[" not in raw):  # O-word programs: raw lines as read
             column = token_column(raw, token)  # (an expanded line's tokens are not raw's)
         if column is None:  # the block as a whole: its first character
             column = len(raw) - len(raw.lstrip()) + 1

@@ -82,6 +82,19 @@ TNC_MAX_CALL_DEPTH = 19
 #: a GOTOB loop, before the read stops with an error (a loop that does not end) [-].
 SIEMENS_MAX_EXECUTED_BLOCKS = 20_000_000
 
+#: LinuxCNC O-word programs (nc.owords): most lines executed in one read,
+#: counting every pass through a loop and every line of a called subroutine,
+#: before the read stops with an error (a loop that does not end). LinuxCNC's
+#: largest sample (flowsnake.ngc) runs some 40 000; 20 million take about a
+#: minute here and hold about 2 GB of expanded lines [lines].
+LINUXCNC_MAX_EXECUTED_LINES = 20_000_000
+#: ... deepest nesting of O-word subroutine calls: LinuxCNC's
+#: INTERP_SUB_ROUTINE_LEVELS (10 levels with the main program; rs274 refuses
+#: the 10th nested call) [calls].
+LINUXCNC_MAX_CALL_DEPTH = 9
+#: ... arguments of one call, #1-#30 (LinuxCNC's INTERP_SUB_PARAMS) [-].
+LINUXCNC_SUB_ARGS = 30
+
 # --- paths ------------------------------------------------------------------
 
 #: Chord tolerance when arcs are expanded into lines [mm].

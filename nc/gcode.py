@@ -69,6 +69,7 @@ from .rotation import RotationBlocks, RotationError
 from .frames import Frames, convert_position, reference_table, work_offset_table
 from .lexer import TOKEN, find_token, foreign_syntax
 from .macro import expand_parameters, needs_expansion
+from .owords import expand_owords, has_owords
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
 __all__ = ["read_program", "parse_program", "ALLOWABLE_EXAMPLES"]
@@ -168,8 +169,15 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
             lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
         self.lines = lines
         self.file = file
-        # '#' parameters and '[ ]' expressions without control flow: substituted first
-        self.source = expand_parameters(lines, file) if needs_expansion(text) else lines
+        # '#' parameters and '[ ]' expressions without control flow: substituted first;
+        # O-word control flow: run first (nc.owords), each line with its source line
+        self.source_line: list[int] | None = None
+        if needs_expansion(text):
+            self.source = expand_parameters(lines, file)
+        elif has_owords(text):
+            self.source, self.source_line = expand_owords(lines, file)
+        else:
+            self.source = lines
         self.allow = allow
         self.allowed_names = frozenset(
             code_name(letter, k) for letter, ks in allow.items() for k in ks)
@@ -237,8 +245,8 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
 
         first_content = True
         ended = False
-        for lineno0, raw in enumerate(self.source):
-            lineno = lineno0 + 1
+        for lineno, raw in zip(self.source_line or range(1, len(self.source) + 1),
+                               self.source):
             s = raw.strip()
             if not s:
                 continue

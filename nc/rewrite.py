@@ -26,6 +26,7 @@ from .errors import InputError
 from .gcode import parse_program
 from .lexer import words_with_spans
 from .macro import needs_expansion
+from .owords import has_owords
 from .program import PLANE_AXES, TCP_VECTOR, Program
 
 __all__ = ["rewrite_coordinates", "write_rewritten", "RewriteError"]
@@ -116,6 +117,10 @@ def rewrite_coordinates(
         raise RewriteError(f"{program.file}: rewriting programs with '#' parameters or '[ ]' "
                            "expressions is not supported; expected plain numbers in every "
                            "word")
+    if has_owords("\n".join(program.lines)):
+        raise RewriteError(f"{program.file}: rewriting programs with O-word control flow "
+                           "(subroutines, loops) is not supported; expected a straight-line "
+                           "program (one block, one move)")
     n = len(program)
     if len(program.reframed) or len(program.machine_moves):
         i = int((list(program.reframed) + list(program.machine_moves))[0])
