@@ -85,9 +85,10 @@ SIEMENS_MAX_EXECUTED_BLOCKS = 20_000_000
 #: LinuxCNC O-word programs (nc.owords): most lines executed in one read,
 #: counting every pass through a loop and every line of a called subroutine,
 #: before the read stops with an error (a loop that does not end). LinuxCNC's
-#: largest sample (flowsnake.ngc) runs some 40 000; 20 million take about a
-#: minute here and hold about 2 GB of expanded lines [lines].
-LINUXCNC_MAX_EXECUTED_LINES = 20_000_000
+#: largest sample (flowsnake.ngc) runs some 37 000 lines and a roughing loop
+#: of 100 000 moves some 500 000; a runaway loop with an expression per line
+#: reaches this in about 18 s here (measured 3.7 s per million) [lines].
+LINUXCNC_MAX_EXECUTED_LINES = 5_000_000
 #: ... deepest nesting of O-word subroutine calls: LinuxCNC's
 #: INTERP_SUB_ROUTINE_LEVELS (10 levels with the main program; rs274 refuses
 #: the 10th nested call) [calls].

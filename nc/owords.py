@@ -369,8 +369,13 @@ def expand_owords(lines: list[str], file: str) -> tuple[list[str], list[int]]:
     plain: dict[int, object] = {}
     registered: set[str] = set()
     used: dict[tuple[str, str], int] = {}  # (sub, label) -> line of its first use
-    frames: list[tuple] = []       # (return line, saved #1-#30, locals, repeat counts)
-    repeats: dict[int, int] = {}   # repeat line -> passes left, in the running call
+    frames: list[tuple] = []       # (return line, saved #1-#30, named locals)
+    # LinuxCNC's loop state, kept as its interpreter keeps it: passes left per repeat
+    # line (shared by every call, as its label table), and the flags break and
+    # continue set for the line that closes the loop (a break out of a while loop
+    # also ends the next do loop's pass; LinuxCNC clears the flag only there)
+    repeats: dict[int, int] = {}
+    skipping = doing_break = doing_continue = False
     limit = K.LINUXCNC_MAX_EXECUTED_LINES
     steps = 0
     n = len(lines)
@@ -405,10 +410,10 @@ def expand_owords(lines: list[str], file: str) -> tuple[list[str], list[int]]:
             kind = op.kind
             if kind in _LABELLED:
                 first = used.setdefault((op.scope, op.key), pc)
-                if first != pc and kind != "DO":
+                if first != pc:
                     raise _FlowError(f"{op.label} is used again (first at line {first + 1}); "
-                                     "LinuxCNC expects each if/while/repeat label once per "
-                                     "subroutine")
+                                     "LinuxCNC expects each if/while/do/repeat label once "
+                                     "per subroutine")
             if kind == "SUB":
                 if op.key in registered:
                     raise _FlowError(f"{op.label} sub is reached after a call already ran it "
@@ -436,10 +441,10 @@ def expand_owords(lines: list[str], file: str) -> tuple[list[str], list[int]]:
                                     "expected a recursion that ends sooner")
                 num = store.num
                 saved = {q: num[q] for q in range(1, K.LINUXCNC_SUB_ARGS + 1) if q in num}
-                frames.append((pc + 1, saved, store.local, repeats))
+                frames.append((pc + 1, saved, store.local))
                 for q in range(1, K.LINUXCNC_SUB_ARGS + 1):
                     num[q] = args[q - 1] if q <= len(args) else 0.0
-                store.local, repeats = {}, {}
+                store.local = {}
                 pc = start + 1
             elif kind == "ENDSUB" or kind == "RETURN":
                 if op.expr is not None:
@@ -448,7 +453,7 @@ def expand_owords(lines: list[str], file: str) -> tuple[list[str], list[int]]:
                     store.value, store.returned = 0.0, 0.0
                 if not frames:  # only a sub's body has these; the main program skips it
                     raise _FlowError(f"{op.label} {kind.lower()} reached outside a call")
-                pc, saved, store.local, repeats = frames.pop()
+                pc, saved, store.local = frames.pop()
                 num = store.num
                 for q in range(1, K.LINUXCNC_SUB_ARGS + 1):
                     if q in saved:
@@ -470,29 +475,44 @@ def expand_owords(lines: list[str], file: str) -> tuple[list[str], list[int]]:
             elif kind == "ELSEIF" or kind == "ELSE":
                 pc = op.end + 1  # the branch before ran: on to the endif
             elif kind == "WHILE":
-                pc = pc + 1 if op.expr(store) != 0.0 else op.target + 1
-            elif kind == "ENDWHILE":
-                pc = op.target
+                if op.expr(store) != 0.0:
+                    pc += 1
+                else:
+                    pc, skipping = op.target, True
+            elif kind == "ENDWHILE" or kind == "ENDREPEAT":
+                if skipping:  # came by break, continue or a loop test that failed
+                    skipping = False
+                    if doing_continue:
+                        doing_continue = False
+                        pc = op.target
+                    else:
+                        pc += 1
+                else:
+                    pc = op.target
             elif kind == "DOWHILE":
-                pc = op.target + 1 if op.expr(store) != 0.0 else pc + 1
+                skipping = False
+                if op.expr(store) != 0.0 and not doing_break:
+                    pc = op.target + 1
+                else:
+                    doing_break = False
+                    pc += 1
             elif kind == "REPEAT":
-                count = round(op.expr(store))  # LinuxCNC: nearest, halves to even
-                if count > 0:
-                    repeats[pc] = count - 1
-                    pc += 1
-                else:
-                    pc = op.target + 1
-            elif kind == "ENDREPEAT":
-                left = repeats.get(op.target, 0)
+                count = op.expr(store)
+                left = repeats.get(pc)
+                if left is None:
+                    left = round(count)  # LinuxCNC: nearest, halves to even
                 if left > 0:
-                    repeats[op.target] = left - 1
-                    pc = op.target + 1
-                else:
+                    repeats[pc] = left - 1
                     pc += 1
+                else:
+                    repeats.pop(pc, None)
+                    pc, skipping = op.target, True
             elif kind == "BREAK":
-                pc = ops[op.target].target + 1
+                doing_break = skipping = True
+                pc = ops[op.target].target
             elif kind == "CONTINUE":
-                pc = ops[op.target].target  # endwhile loops back; do's while tests
+                doing_continue = skipping = True
+                pc = ops[op.target].target
             else:  # ENDIF, DO
                 pc += 1
         except _FlowError as exc:
