@@ -52,6 +52,15 @@ TABLE = {
     "numbered-label-in-two-subs": (
         "G21\no100 sub\no1 if [1]\nG0 X1\no1 endif\no100 endsub\no200 sub\no1 if [1]\nG0 Y1\n"
         "o1 endif\no200 endsub\no100 call\no200 call\nM2\n", [[1, 0, 0], [1, 1, 0]], [4, 9]),
+    # LinuxCNC's own loop state (nc.owords): a break out of a while loop also ends the
+    # next do loop after its first pass ...
+    "quirk-break-then-do": ("G21\no1 while [1]\no1 break\no1 endwhile\n#2=0\no2 do\n"
+                            "#2=[#2+1]\nG0 X#2\no2 while [#2 LT 3]\nM2\n", [[1, 0, 0]], [8]),
+    # ... and a continue in a do loop makes the next repeat that runs out start again
+    "quirk-continue-then-repeat": (
+        "G21\n#1=0\no1 do\n#1=[#1+1]\no2 if [#1 EQ 1]\no1 continue\no2 endif\n"
+        "o1 while [#1 LT 2]\no3 repeat [2]\nG91 G0 X1\no3 endrepeat\nM2\n",
+        [[1, 0, 0], [2, 0, 0], [3, 0, 0], [4, 0, 0]], [10, 10, 10, 10]),
     "label-in-exclusive-branches": (  # qt_auto_probe_tool.ngc: one label, two branches
         "G21\no1 if [1]\no2 if [0]\no2 endif\nG0 X1\no1 else\no2 if [0]\no2 endif\no1 endif\n"
         "M2\n", [[1, 0, 0]], [5]),
@@ -228,7 +237,7 @@ def _terminating(rng: random.Random, depth: int, label: list) -> list[str]:
     n = label[0]
     c = f"#<c{n}>"
     body = [ln for _ in range(rng.randint(1, 3)) for ln in _terminating(rng, depth + 1, label)]
-    kind = rng.choice(["if", "while", "do", "repeat", "break", "continue", "do-continue"])
+    kind = rng.choice(["if", "while", "do", "repeat", "break", "continue"])
     if kind == "if":
         return ([f"o{n} if [#1 GT {rng.randint(0, 4)}]"] + body +
                 [f"o{n} elseif [#2 LT 3]", "G0 X-1", f"o{n} else"] + body + [f"o{n} endif"])
@@ -243,9 +252,6 @@ def _terminating(rng: random.Random, depth: int, label: list) -> list[str]:
     if kind == "continue":
         return [f"{c}=0", f"o{n} while [{c} LT 3]", f"{c}=[{c}+1]", f"o{n}9 if [{c} EQ 2]",
                 f"o{n} continue", f"o{n}9 endif"] + body + [f"o{n} endwhile"]
-    if kind == "do-continue":  # leaves LinuxCNC's continue flag set (see nc.owords)
-        return [f"{c}=0", f"o{n} do", f"{c}=[{c}+1]", f"o{n}9 if [{c} EQ 1]",
-                f"o{n} continue", f"o{n}9 endif"] + body + [f"o{n} while [{c} LT 3]"]
     return [f"o{n} repeat [{rng.randint(0, 3)}]"] + body + [f"o{n} endrepeat"]
 
 
