@@ -56,6 +56,12 @@ _WHAT = "O-word control flow: "
 
 def has_owords(text: str) -> bool:
     """True for a program with LinuxCNC O-word lines (``o100 sub``, ``o<x> if``...)."""
+    if "[" not in text and "#" not in text:
+        # without brackets only sub/call lines can be O-words (if, while and repeat
+        # need '['); a plain ISO program is passed in a few C-speed scans
+        up = text.upper()
+        if "SUB" not in up and "CALL" not in up:
+            return False
     return _CONTROL.search(text) is not None
 
 
