@@ -276,3 +276,19 @@ def test_random_terminating_programs_agree_with_rs274(tmp_path):
         assert result.ok and result.moves == len(prog), result.message + "\n" + src
         checked += len(prog)
     assert checked > 100
+
+
+@pytest.mark.parametrize("src,expected", [
+    ("o100 sub\nG0 X1\no100 endsub\no100 call\nM2\n", True),   # no bracket at all
+    ("G21\n  N10 o1 if [1]\no1 endif\n", True),
+    ("%\nO1000\nG0 X1\nM30\n%\n", False),       # a program number, then a block
+    ("O1000 (PART)\nG0 X1\n", False),
+    ("G0 X1 (do the sub call)\n", False),
+])
+def test_has_owords_looks_only_at_o_word_lines(src, expected):
+    assert has_owords(src) is expected
+
+
+def test_program_numbers_still_read_as_before():
+    prog = parse_program("%\nO1000\nG21 G0 X1\nM30\n%\n")
+    np.testing.assert_allclose(prog.end[:, :3], [[1, 0, 0]])
