@@ -117,7 +117,7 @@ class _Store:
                                 "not supported; expected #1-#4999 or #<name>", offset)
             raise ExprError(f"#{key} is used before it is set in this program; expected a "
                             "parameter the program sets", offset)
-        if key[0] == "_":
+        if key.startswith("_"):
             if key == "_value":
                 return self.value
             if key == "_value_returned":
@@ -135,14 +135,14 @@ class _Store:
         return v
 
     def exists(self, key):
-        if key[0] == "_":
+        if key.startswith("_"):
             return key in _READ_ONLY or key in self.glob
         return key in self.local
 
     def set(self, key, v) -> None:
         if key.__class__ is int:
             self.num[key] = v
-        elif key[0] == "_":
+        elif key.startswith("_"):
             self.glob[key] = v
         else:
             self.local[key] = v
@@ -167,9 +167,10 @@ def _parse_o(s: str, m: re.Match, scope: str) -> _Op:
         label = f"o{key}"
     word = m.group(5)
     if word not in _KINDS:
-        raise ExprError(f"unknown O-word command {word or 'after ' + label!r}; expected "
-                        "sub, endsub, call, if, elseif, else, endif, while, endwhile, do, "
-                        "repeat, endrepeat, break, continue or return", m.start(5))
+        what = f"unknown O-word command {word!r}" if word else f"no command after {label}"
+        raise ExprError(f"{what}; expected sub, endsub, call, if, elseif, else, endif, "
+                        "while, endwhile, do, repeat, endrepeat, break, continue or return",
+                        m.start(5))
     op = _Op(word, key, label, col, scope)
     i = _skip(s, m.end())
     n = len(s)

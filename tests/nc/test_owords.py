@@ -143,6 +143,21 @@ def test_runaway_loops_stop_at_the_line_budget(src, line, monkeypatch):
     assert info.value.line in (line, line + 1, line + 2)
 
 
+@pytest.mark.parametrize("src", [
+    "G21\no<s> sub\nG0 X#[" + "9" * 400 + "]\no<s> endsub\no<s> call\nM2\n",
+    "G21\no1 if [#" + "9" * 400 + " GT 0]\no1 endif\nM2\n",
+    "G21\n#<\x1d>=[1/2]\nG0 X#<\x1d>\nM2\no1 if [1]\no1 endif\n",
+    "G21\no<> call\nM2\n",
+    "G21\no1\x0b if [1]\no1 endif\nM2\n",
+])
+def test_inputs_the_fuzz_found_are_read_or_refused_in_one_line(src):
+    try:
+        parse_program(src, file="f.ngc")
+    except NCParseError as exc:
+        assert "\n" not in str(exc) and str(exc).startswith("f.ngc:"), str(exc)
+        assert exc.line in (2, 3), str(exc)  # the line with the bad parameter or O-word
+
+
 def test_error_in_a_called_sub_names_the_sub_line():
     src = "G21\no<s> sub\nG0 X[#1/0]\no<s> endsub\no<s> call [1]\nM2\n"
     with pytest.raises(NCParseError) as info:
