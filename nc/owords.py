@@ -31,6 +31,7 @@ or M30, or a closing ``%``.
 
 from __future__ import annotations
 
+import math
 import re
 
 from . import constants as K
@@ -517,6 +518,9 @@ def expand_owords(lines: list[str], file: str) -> tuple[list[str], list[int]]:
                 count = op.expr(store)
                 left = repeats.get(pc)
                 if left is None:
+                    if not math.isfinite(count):
+                        raise ExprError(f"repeat count {count} is not a finite number; "
+                                        "expected a whole number of passes", op.col - 1)
                     left = round(count)  # LinuxCNC: nearest, halves to even
                 if left > 0:
                     repeats[pc] = left - 1

@@ -148,6 +148,7 @@ def test_runaway_loops_stop_at_the_line_budget(src, line, monkeypatch):
     "G21\no1 if [#" + "9" * 400 + " GT 0]\no1 endif\nM2\n",
     "G21\n#<\x1d>=[1/2]\nG0 X#<\x1d>\nM2\no1 if [1]\no1 endif\n",
     "G21\no<> call\nM2\n",
+    "G21\no6 repeat [-" + "9" * 400 + "]\no6 endrepeat\nM2\n",
     "G21\no1\x0b if [1]\no1 endif\nM2\n",
 ])
 def test_inputs_the_fuzz_found_are_read_or_refused_in_one_line(src):
