@@ -42,9 +42,9 @@ from .macro import _END, _FIRST_SYSTEM, _PREFIX, _skip, _strip, _target, _text
 
 __all__ = ["has_owords", "expand_owords"]
 
-#: an O-word command at a line's start (within the line: 'O1000' then a line is a
-#: program number)
-_CONTROL = re.compile(r"(?im)^[ \t/]*(?:N[ \t]*\d+[ \t]*)?O[ \t]*(?:<|\d+[ \t]*[A-Z])")
+#: an O-word command at a line's start: o<name>, or a number and a word of letters
+#: (within the line: 'O1000' then a block, or 'O12 G0 X1', is a program number)
+_CONTROL = re.compile(r"(?im)^[ \t/]*(?:N[ \t]*\d+[ \t]*)?O[ \t]*(?:<|\d+[ \t]*[A-Z][A-Z])")
 #: a line that may be an O-word line (raw text; the full parse follows)
 _MAYBE_O = re.compile(r"\s*(?:/\s*)?(?:[Nn]\s*\d+(?:\.\d*)?\s*)?[Oo]")
 #: the head of an O-word line, comments blanked and upper case

@@ -299,6 +299,8 @@ def test_random_terminating_programs_agree_with_rs274(tmp_path):
     ("G21\n  N10 o1 if [1]\no1 endif\n", True),
     ("%\nO1000\nG0 X1\nM30\n%\n", False),       # a program number, then a block
     ("O1000 (PART)\nG0 X1\n", False),
+    ("O12 G0 X1\n", False),                   # a program number and a block: refused
+    ("G21\no12 frob\n", True),               # by the reader, a misspelt command here
     ("G0 X1 (do the sub call)\n", False),
 ])
 def test_has_owords_looks_only_at_o_word_lines(src, expected):
