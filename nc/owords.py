@@ -17,10 +17,17 @@ the main program) that sets them; ``#<_name>`` and #31-#4999 are global.
 
 As LinuxCNC: a subroutine may be defined before or after its call, but the
 main program must not run into the definition of one it already called;
-labels of ``if``/``while``/``do``/``repeat`` are used once per subroutine
-(and once in the main program); calls nest at most
-:data:`nc.constants.LINUXCNC_MAX_CALL_DEPTH` deep; ``break``/``continue``
-name a ``while`` or ``do`` loop. Refused, each with one line naming file,
+labels of ``if``/``while``/``do``/``repeat`` run from one line only per
+subroutine (and in the main program; checked when the line runs, as rs274
+does); calls nest at most :data:`nc.constants.LINUXCNC_MAX_CALL_DEPTH` deep;
+``break``/``continue`` name a ``while`` or ``do`` loop. LinuxCNC's own loop
+state is kept, quirks included (checked against ``rs274``): a ``break`` out
+of a ``while`` loop also ends the next ``do`` loop after one pass; a
+``continue`` in a ``do`` loop makes the next ``while``/``repeat`` that ends
+run its test (a repeat: all its passes) once more; repeat counts are shared
+by every call of a sub. Blocks must nest (a sub at the top level, each block
+closed by its own label inside the block around it); LinuxCNC, which skips
+by label, would run some programs that do not. Refused, each with one line naming file,
 line and column: a sub not defined in this file (LinuxCNC would look for a
 file of that name; this reader does not), blocks that are not closed or
 closed by another label, an ``endsub`` or ``return`` outside a sub, and a
