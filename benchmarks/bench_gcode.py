@@ -8,6 +8,9 @@ times :func:`nc.read_program` on it.
 Prints: lines, lines per second, peak memory of the parse (tracemalloc), and
 the ratio to a baseline run in the same process: Python's own ``re.findall``
 tokenization of the same text, which is a floor for any pure-Python reader.
+Then the same kind of program with LinuxCNC '#' expressions (nc.macro), and a
+LinuxCNC O-word program (nc.owords): a sub with a while loop and an if per
+move, called once per pass, timed as moves and expanded lines per second.
 
 Usage: python benchmarks/bench_gcode.py [--lines N] [--repeat R]
 """
@@ -27,6 +30,20 @@ import tracemalloc
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from nc import read_program  # noqa: E402
+from nc.owords import expand_owords  # noqa: E402
+
+
+def oword_program(passes: int) -> str:
+    """A LinuxCNC raster finish written with O-words: 400 moves per pass [mm]."""
+    return "\n".join([
+        "G21 G90 G17", "#<_step>=0.05", "o<pass> sub", "  #<k>=0",
+        "  o10 while [#<k> LT 400]", "    #<x>=[#<k>*#<_step>]", "    o11 if [#2 LT 0]",
+        "      #<x>=[[399-#<k>]*#<_step>]", "    o11 endif",
+        "    G1 X#<x> Z[2*SIN[#<x>/7*57.29578]*COS[#1/5*57.29578]-3] F1500",
+        "    #<k>=[#<k>+1]", "  o10 endwhile", "o<pass> endsub",
+        "G0 X0 Y0 Z25", "G1 Z2 F2000", "#<y>=0 #<d>=1", f"o1 repeat [{passes}]",
+        "  G1 Y#<y>", "  o<pass> call [#<y>] [#<d>]", "  #<y>=[#<y>+0.4] #<d>=[-#<d>]",
+        "o1 endrepeat", "G0 Z25", "M30", ""])
 
 
 def finishing_program(n_lines: int) -> str:
@@ -143,6 +160,16 @@ def main(argv=None) -> int:
             macro_b_moves = len(read_program(fanuc))
             macro_b_times.append(time.perf_counter() - t0)
             macro_b_cpu.append(time.process_time() - c0)
+        oword = path + ".oword.ngc"
+        with open(oword, "w") as fh:
+            fh.write(oword_program(max(1, args.lines // 1200)))
+        oword_times = []
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            oprog = read_program(oword)
+            oword_times.append(time.perf_counter() - t0)
+        with open(oword) as fh:
+            expanded = len(expand_owords(fh.read().split("\n"), oword)[0])
         tracemalloc.start()
         read_program(path)
         _, peak = tracemalloc.get_traced_memory()
@@ -163,6 +190,10 @@ def main(argv=None) -> int:
           f"lines/s ({5 * macro_b_moves / mb:,.0f} executed blocks/s), best "
           f"{macro_b_moves / min(macro_b_times):,.0f} lines/s; median "
           f"{macro_b_moves / statistics.median(macro_b_cpu):,.0f} lines per CPU-second")
+    ot = statistics.median(oword_times)
+    print(f"read_program, LinuxCNC O-word program (nc.owords: sub, while, if per move): "
+          f"{len(oprog)} moves from {expanded} expanded lines; median "
+          f"{len(oprog) / ot:,.0f} moves/s, {expanded / ot:,.0f} expanded lines/s")
     print(f"baseline re.findall tokenize only: {best_base * 1e3:.0f} ms -> "
           f"{n_lines / best_base:,.0f} lines/s; reader/baseline time ratio "
           f"{best / best_base:.2f}")

@@ -22,7 +22,9 @@ Every program ends one of three ways:
 Mutations: byte flips, digit runs of 1..400 digits, deleted and duplicated
 words and lines, huge / NaN / inf / tiny numbers, random letters, random
 codes (G2/G3 with large P among them), comment and tape characters,
-truncation. The address space is capped (``--mem-limit-mb``) so that a
+truncation. Seeds include O-word programs (LinuxCNC's daisy, flowsnake and
+retval samples and ``tests/nc/test_owords.py``), whose executed-line bound is
+lowered here to 100,000. The address space is capped (``--mem-limit-mb``) so that a
 runaway allocation is a ``MemoryError`` in seconds, not a swapped machine.
 
 Usage: nice -n 10 python benchmarks/fuzz_gcode.py [-n 100000] [--seed 1]
@@ -50,11 +52,15 @@ from dataclasses import dataclass, field
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, ROOT)
 
-from nc import read_program  # noqa: E402
+from nc import constants, read_program  # noqa: E402
 from nc.cli import build_parser  # noqa: E402
 from nc.errors import InputError  # noqa: E402
 from nc.kinematics import get_machine  # noqa: E402
 from nc.path import cutter_locations  # noqa: E402
+
+#: A mutated O-word loop that no longer ends stops after this many executed lines
+#: (the reader's own bound, 5 million, takes some 18 s a program) [lines].
+constants.LINUXCNC_MAX_EXECUTED_LINES = 100_000
 
 #: The machine the programs' rotary words are turned into tool axes on.
 MACHINE = get_machine("xyzac-trt")
@@ -69,6 +75,10 @@ LINUXCNC_SAMPLES = [
     "table-rotary-tilting/examples/impeller-7bl-xyzac.ngc",
     "/usr/share/doc/linuxcnc/examples/sample-configs/sim/gmoccapy/non_trivial_kinematics/"
     "table-rotary-tilting/examples/boat-xyzac.ngc",
+    # O-word control flow (nc.owords)
+    "/usr/share/linuxcnc/ncfiles/daisy.ngc",
+    "/usr/share/linuxcnc/ncfiles/flowsnake.ngc",
+    "/usr/share/linuxcnc/ncfiles/retval.ngc",
 ]
 
 #: Small programs that reach the reader's less common paths.
@@ -138,6 +148,12 @@ def _seed_texts() -> list[tuple[str, str]]:
             seeds.append((f"tests/nc/test_gcode.py:{case[0]}", case[1]))
         for i, err in enumerate(test_gcode.ERRORS):
             seeds.append((f"tests/nc/test_gcode.py:ERRORS[{i}]", err[0]))
+    except ImportError:  # pragma: no cover - the tests are not shipped
+        pass
+    try:
+        from tests.nc import test_owords
+        for name, case in test_owords.TABLE.items():
+            seeds.append((f"tests/nc/test_owords.py:{name}", case[0]))
     except ImportError:  # pragma: no cover - the tests are not shipped
         pass
     for i, text in enumerate(INLINE_SEEDS):

@@ -94,6 +94,20 @@ SIEMENS_MAX_LOOP_PASSES = 1_000_000
 #: REPEAT long before memory runs out [-].
 SIEMENS_MAX_REPEAT_DEPTH = 16
 
+#: LinuxCNC O-word programs (nc.owords): most lines executed in one read,
+#: counting every pass through a loop and every line of a called subroutine,
+#: before the read stops with an error (a loop that does not end). LinuxCNC's
+#: largest sample (flowsnake.ngc) runs some 37 000 lines and a roughing loop
+#: of 100 000 moves some 500 000; a runaway loop with an expression per line
+#: reaches this in about 18 s here (measured 3.7 s per million) [lines].
+LINUXCNC_MAX_EXECUTED_LINES = 5_000_000
+#: ... deepest nesting of O-word subroutine calls: LinuxCNC's
+#: INTERP_SUB_ROUTINE_LEVELS (10 levels with the main program; rs274 refuses
+#: the 10th nested call) [calls].
+LINUXCNC_MAX_CALL_DEPTH = 9
+#: ... arguments of one call, #1-#30 (LinuxCNC's INTERP_SUB_PARAMS) [-].
+LINUXCNC_SUB_ARGS = 30
+
 # --- paths ------------------------------------------------------------------
 
 #: Chord tolerance when arcs are expanded into lines [mm].

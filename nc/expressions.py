@@ -279,8 +279,8 @@ class _Parser:
         if t[0] == 1:
             self.pos = t[3]
             v = float(t[1])
-            if v != int(v):
-                raise ExprError(f"parameter number #{t[1]} is not a whole number", t[2])
+            if not math.isfinite(v) or v != int(v):  # (400 digits make an infinity)
+                raise ExprError(f"parameter number #{t[1][:20]} is not a whole number", t[2])
             return int(v)
         if t[0] == 4 and t[1] in "[#":
             return self.unary()
@@ -292,7 +292,7 @@ class _Parser:
         if callable(key):
             def indirect(st):
                 v = _num(key(st))
-                if v != int(v) or v < 0:
+                if not math.isfinite(v) or v != int(v) or v < 0:
                     raise ExprError(f"parameter number {v:g} is not a whole number >= 0", off)
                 return st.read(int(v), off)
             return indirect

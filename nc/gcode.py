@@ -77,6 +77,7 @@ from .frames import Frames, convert_position, reference_table, work_offset_table
 from .lexer import TOKEN, find_token, foreign_syntax
 from .macro import expand_parameters, needs_expansion
 from .macro_b import expand_macro_b, needs_macro_b
+from .owords import expand_owords, has_owords
 from .program import TCP_ANGLES, TCP_OFF, TCP_VECTOR, Modal, Program
 
 __all__ = ["read_program", "parse_program", "ALLOWABLE_EXAMPLES"]
@@ -176,11 +177,16 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
             lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
         self.lines = lines
         self.file = file
-        #: source line number of each line of self.source, when they differ (macro B)
+        #: source line number of each line of self.source, when they differ (O-words,
+        #: macro B)
         self.source_lines: list[int] | None = None
-        #: source lines whose expanded text is not the source line (macro B)
+        #: source lines whose expanded text is not the source line
         self.rewritten: set[int] = set()
-        if needs_macro_b(text):  # Fanuc macro B, subprograms: run first (nc.macro_b)
+        if has_owords(text):  # LinuxCNC O-word control flow: run first (nc.owords)
+            self.source, self.source_lines = expand_owords(lines, file)
+            self.rewritten = {n for n in set(self.source_lines)
+                              if "#" in lines[n - 1] or "[" in lines[n - 1]}
+        elif needs_macro_b(text):  # Fanuc macro B, subprograms: run first (nc.macro_b)
             self.source, self.source_lines, self.rewritten = expand_macro_b(
                 lines, file, block_delete)
         # '#' parameters and '[ ]' expressions without control flow: substituted first

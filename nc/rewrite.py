@@ -27,6 +27,7 @@ from .gcode import parse_program
 from .lexer import words_with_spans
 from .macro import needs_expansion
 from .macro_b import needs_macro_b
+from .owords import has_owords
 from .program import PLANE_AXES, TCP_VECTOR, Program
 
 __all__ = ["rewrite_coordinates", "write_rewritten", "RewriteError"]
@@ -113,14 +114,19 @@ def rewrite_coordinates(
         raise RewriteError(f"{program.file}: rewriting Siemens Sinumerik programs is not "
                            "supported; expected a G-code program (post the corrected path "
                            "with nc.siemens_writer instead)")
-    if needs_expansion("\n".join(program.lines)):
+    text = "\n".join(program.lines)
+    if needs_expansion(text):
         raise RewriteError(f"{program.file}: rewriting programs with '#' parameters or '[ ]' "
                            "expressions is not supported; expected plain numbers in every "
                            "word")
-    if needs_macro_b("\n".join(program.lines)):
+    if needs_macro_b(text):
         raise RewriteError(f"{program.file}: rewriting Fanuc macro B programs and "
                            "subprograms (M98/G65 calls, loops: one source line, many moves) "
                            "is not supported; expected a straight-line program")
+    if has_owords(text):
+        raise RewriteError(f"{program.file}: rewriting programs with O-word control flow "
+                           "(subroutines, loops) is not supported; expected a straight-line "
+                           "program (one block, one move)")
     n = len(program)
     if len(program.reframed) or len(program.machine_moves):
         i = int((list(program.reframed) + list(program.machine_moves))[0])

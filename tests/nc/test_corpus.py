@@ -29,7 +29,7 @@ EXTERNAL_DIR = os.environ.get("NC_CORPUS_DIR") or os.path.join(
 
 #: status -> (what the reader's message says, what the reader needs to read it)
 REASONS = {
-    "oword": ("O-word subroutines and control flow", "O-word control flow"),
+    "oword": ("O-word control flow:", "O-word syntax rs274 refuses too (o<name> callsub)"),
     "param": ("parameters and expressions", "'#' parameters and expressions"),
     "polar": ("unexpected character '^'", "LinuxCNC polar coordinates (^ @)"),
     "comp": ("(cutter compensation", "cutter radius compensation"),
@@ -37,7 +37,13 @@ REASONS = {
     "probe": ("(a probing move", "probing moves"),
     "kins": ("unsupported code M42", "kinematics switching (LinuxCNC user M428/M429)"),
     "userm": ("unsupported code M190", "LinuxCNC user M-codes (M100-M199)"),
-    "m70": ("unsupported code M70", "modal state save and restore (M70-M73)"),
+    "m70": ("unsupported code M7", "modal state save and restore (M70-M73)"),
+    "lathe": ("unsupported code G7", "LinuxCNC lathe cycles G70-G72 (G71.1, G72)"),
+    "g43.1": ("code G43.1", "dynamic tool length offset G43.1"),
+    "osubfile": ("sub in this file", "O-word subroutines from other files (SUBROUTINE_PATH)"),
+    "w": ("unknown word W", "axes U V W"),
+    "polar@": ("unexpected character '@'", "LinuxCNC polar coordinates (^ @)"),
+    "g33": ("code G33", "spindle-synchronized motion G33"),
     "uvw": ("unknown word U", "axes U V W"),
     "rotation": ("rotation of a work offset (G10 R)", "work offsets with rotation (G10 L2 R)"),
     "nurbs": ("G5.2 (a spline", "NURBS G5.2/G5.3"),
