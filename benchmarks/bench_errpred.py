@@ -47,7 +47,7 @@ from numba import njit
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from errpred import bottomview, geometry  # noqa: E402
+from errpred import bottomview, geometry, t1memo  # noqa: E402
 from errpred import constants as K  # noqa: E402
 from errpred._kernels import sweep_within  # noqa: E402
 from errpred.physics import WearState, evaluate  # noqa: E402
@@ -237,7 +237,7 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
     print(f"{workers} workers  blocks/s: {_fmt(two)}   (x{max(two) / max(one):.2f} of one core, "
           "best against best)")
     # breakdown and sweeps, one more single-core run with the probes in
-    memo_init, memo_call = geometry._RemovedMemo.__init__, geometry._RemovedMemo.__call__
+    memo_init, memo_call = t1memo.RemovedMemo.__init__, t1memo.RemovedMemo.__call__
 
     def init(self, tool, t1, *rest):
         memo_init(self, tool, t1, *rest)
@@ -247,14 +247,14 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
         self.tested.append((tag, np.asarray(world)))
         return memo_call(self, tag, keys, world)
 
-    geometry._RemovedMemo.__init__, geometry._RemovedMemo.__call__ = init, call
+    t1memo.RemovedMemo.__init__, t1memo.RemovedMemo.__call__ = init, call
     try:
         with _Probe(sweep_stats=True) as probe:
             t0 = time.perf_counter()
             geoms = [g for gl in pred.geometries(blocks) for g in gl]
             t_geo = time.perf_counter() - t0
     finally:
-        geometry._RemovedMemo.__init__, geometry._RemovedMemo.__call__ = memo_init, memo_call
+        t1memo.RemovedMemo.__init__, t1memo.RemovedMemo.__call__ = memo_init, memo_call
     wear = WearState.new(pred.edges)
     t0 = time.perf_counter()
     for g in geoms:

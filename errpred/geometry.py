@@ -30,6 +30,7 @@ from .raster.camera import View
 from .surface import GenerationPoint, envelope_hits, generation_point, regions, strip_samples
 from .sweeps import Sweeps, build_sweeps
 from .tool import MicroEdges, Tool
+from .t1memo import RemovedMemo as _RemovedMemo
 from .zmap import SweepMap, sweep_map
 
 __all__ = ["Resolution", "PointGeometry", "GeometryModel", "STATUS", "ERROR_STATUSES"]
@@ -443,15 +444,21 @@ class GeometryModel:
         shrink = np.maximum(rho - inset, 0.0) / np.maximum(rho, 1e-300)
         local = np.column_stack([local[:, 0] * shrink, local[:, 1] * shrink,
                                  local[:, 2] + inset])
-        inside = self.bottom.in_stock_local(self.stock, interval, tip, frame, local)
-        if not inside.any():
+        # the stock's interval, then T1, then the mesh where unsure and not removed
+        # (as :meth:`_cut`)
+        inside, unsure = self.bottom.stock_interval(self.stock, interval, tip, frame, local)
+        ask = np.flatnonzero(inside | unsure)
+        if not ask.size:
             return 0
-        world = tip + local[inside] @ frame
+        world = tip + local[ask] @ frame
         removed = inside_any_sweep_clustered(world, np.ones(world.shape[0], dtype=np.bool_),
                                              *t1, tool.core_radius_mm, tool.corner_radius_mm,
                                              tool.flute_length_mm, K.MEMBERSHIP_EPS_MM,
                                              K.CLUSTER_CELL_MM)
-        return int((~removed).sum())
+        mesh = ask[unsure[ask] & ~removed]
+        if mesh.size:
+            inside[mesh] = self.stock.contains(tip + local[mesh] @ frame)
+        return int((inside[ask] & ~removed).sum())
 
     # --- one point ---------------------------------------------------------
     def point(self, block: int, L: float, cut_length: float) -> PointGeometry:
@@ -567,13 +574,10 @@ class GeometryModel:
             n, m = grid.shape
             rows = np.arange(n) if window is None else np.flatnonzero(window)
             idx = (rows[:, None] * m + edge_ok[None, :]).ravel()
-            local = grid.samples[idx]
-            cand = self.bottom.in_stock_local(self.stock, interval, tip, frame,
-                                              local if stock_shift is None else local - shift_vec)
-            idx, local = idx[cand], local[cand]
-            removed = removed_by_t1(("grid", factor), idx, tip + local @ frame)
+            cut = self._cut(interval, tip, frame, grid.samples[idx], shift_vec, removed_by_t1,
+                            ("grid", factor), idx)
             cutting0 = np.zeros(n * m, dtype=bool)
-            cutting0[idx[~removed]] = True
+            cutting0[idx[cut]] = True
             cutting0 = cutting0.reshape(n, m)
             if not cutting0.any():
                 return None
@@ -599,6 +603,26 @@ class GeometryModel:
             return None  # only slivers thinner than the sub-samples: nothing measurable
         return weight0 > 0, weight0, shift0, cl_rev
 
+    def _cut(self, interval, tip, frame, local, shift, removed_by_t1, tag, keys) -> np.ndarray:
+        """Which samples ``keys`` (tool frame ``local``) cut: inside the stock (displaced
+        by ``shift`` [mm]) and not inside T1 (``removed_by_t1``, under ``tag``).
+
+        The cheap tests first: the view's stock interval, then T1 (remembered, so the
+        sensitivity pass asks nothing twice); the mesh (a ray per sample) only where
+        the interval is unsure and T1 has not already removed the sample. The same
+        answer as testing the stock first, without the mesh tests that cannot matter.
+        """
+        q = local - shift
+        inside, unsure = self.bottom.stock_interval(self.stock, interval, tip, frame, q)
+        removed = removed_by_t1.known_inside(tag, keys)
+        ask = np.flatnonzero((inside | unsure) & ~removed)
+        if ask.size:
+            removed[ask] = removed_by_t1(tag, keys[ask], tip + local[ask] @ frame)
+        mesh = np.flatnonzero(unsure & ~removed)
+        if mesh.size:
+            inside[mesh] = self.stock.contains(tip + q[mesh] @ frame)
+        return inside & ~removed
+
     def _step_weights(self, grid, cutting0, interval, tip, frame, removed_by_t1, factor,
                       stock_shift):
         """Share of each sample's cell (rotation step x micro edge) that cuts, (n, m),
@@ -608,12 +632,11 @@ class GeometryModel:
         with a neighbour in the other state, in rotation or along the edge)
         each cell is sub-sampled ``ENGAGEMENT_SUBSTEPS`` times in rotation and
         ``ENGAGEMENT_SUBEDGES`` times along the edge and tested exactly like
-        the samples (stock, then T1). The share and the centroid resolve the
+        the samples (:meth:`_cut`). The share and the centroid resolve the
         boundary within a cell, so the force does not move in whole steps
         when the boundary moves: the reason the prediction converges with
         resolution.
         """
-        bt = self.bottom
         c0 = cutting0
         n, m = c0.shape
         pad = np.pad(c0, ((0, 0), (1, 1)), mode="edge")
@@ -638,13 +661,10 @@ class GeometryModel:
         z = np.broadcast_to(sub_z[j][:, None, :], shape)
         phi = ang - sub_lag[j][:, None, :]
         local = np.stack([rho * np.sin(phi), rho * np.cos(phi), z], axis=-1).reshape(-1, 3)
-        inside = bt.in_stock_local(self.stock, interval, tip, frame, local - stock_shift)
         # sub-sample keys: the cell, then the sub-sample within it
         keys = ((i * m + j)[:, None] * (st * se) + np.arange(st * se)[None, :]).ravel()
-        removed = np.zeros(inside.size, dtype=bool)
-        removed[inside] = removed_by_t1(("sub", factor), keys[inside],
-                                        tip + local[inside] @ frame)
-        cut = (inside & ~removed).reshape(i.size, st, se)
+        cut = self._cut(interval, tip, frame, local, stock_shift, removed_by_t1, ("sub", factor),
+                        keys).reshape(i.size, st, se)
         count = cut.sum(axis=(1, 2))
         weight[i, j] = count / (st * se)
         ushare = (cut * du[None, :, None]).sum(axis=(1, 2))
@@ -728,83 +748,6 @@ class GeometryModel:
             if gen is not None:
                 return gen
         return None
-
-
-class _RemovedMemo:
-    """Which tool-frame samples of one prediction point are inside T1, remembered.
-
-    The engagement and its sensitivity pass (the stock a little thicker) test
-    the same samples against the same sweeps; only the stock moves. Each
-    sample is tested once (:func:`~errpred._kernels.inside_any_sweep_clustered`,
-    exact per point, so the answer does not depend on what else is asked with it).
-    Where a height map of the sweeps applies (:class:`~errpred.zmap.SweepMap`),
-    it answers first: a sample it finds inside an earlier sweep is inside T1; one
-    below every sweep it holds is tested against the rest of T1 only (the move
-    the tool is on); the others as before.
-
-    Parameters
-    ----------
-    tool : Tool
-    t1 : tuple
-        The point's T1 sweeps ``(p0, d, w, lo, hi)``.
-    zmap : SweepMap or None
-    t1_end : float [mm]
-        The path length where T1 ends.
-    t1_ids : ndarray of int
-        The sweep each part of T1 comes from.
-    """
-
-    def __init__(self, tool: Tool, t1, zmap: SweepMap | None = None, t1_end: float = math.inf,
-                 t1_ids: np.ndarray | None = None) -> None:
-        self._tail = (tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm,
-                      K.MEMBERSHIP_EPS_MM, K.CLUSTER_CELL_MM)
-        self._t1 = t1
-        self._zmap = zmap if t1_ids is not None else None
-        self._t1_end = t1_end
-        self._t1_ids = t1_ids
-        self._rest = None
-        self._known: dict = {}
-
-    def _test(self, world: np.ndarray) -> np.ndarray:
-        ones = np.ones(world.shape[0], dtype=np.bool_)
-        zmap = self._zmap
-        if zmap is None or world.shape[0] == 0:
-            return inside_any_sweep_clustered(world, ones, *self._t1, *self._tail)
-        state = zmap.classify(world, self._t1_end)
-        out = state > 0
-        unsure = state == 0
-        if unsure.any():
-            out |= inside_any_sweep_clustered(world, unsure, *self._t1, *self._tail)
-        below = state < 0
-        if below.any():
-            if self._rest is None:
-                # the parts of T1 the map does not hold yet (the current move)
-                late = np.flatnonzero(self._t1_ids >= zmap.time)
-                self._rest = tuple(np.ascontiguousarray(a[late]) for a in self._t1)
-            if self._rest[0].shape[0]:
-                out |= inside_any_sweep_clustered(world, below, *self._rest, *self._tail)
-        return out
-
-    def __call__(self, tag, keys: np.ndarray, world: np.ndarray) -> np.ndarray:
-        """Inside T1? for the samples ``keys`` (int, unique per ``tag``) at ``world`` (k, 3)."""
-        keys = np.asarray(keys, dtype=np.int64)
-        k_known, v_known = self._known.get(tag, (None, None))
-        out = np.zeros(keys.size, dtype=bool)
-        miss = np.ones(keys.size, dtype=bool)
-        if k_known is not None and k_known.size:
-            pos = np.minimum(np.searchsorted(k_known, keys), k_known.size - 1)
-            hit = k_known[pos] == keys
-            out[hit] = v_known[pos[hit]]
-            miss = ~hit
-        if miss.any():
-            w = np.ascontiguousarray(world[miss])
-            new = self._test(w)
-            out[miss] = new
-            k_all = keys[miss] if k_known is None else np.concatenate([k_known, keys[miss]])
-            v_all = new if v_known is None else np.concatenate([v_known, new])
-            order = np.argsort(k_all, kind="stable")
-            self._known[tag] = (k_all[order], v_all[order])
-        return out
 
 
 def _generation(tool: Tool, xyz, phi, kappa, frame, tip) -> GenerationPoint:
