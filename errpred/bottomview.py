@@ -173,27 +173,19 @@ class BottomTemplate:
         bilinearly between pixel centres where the surface is gentle; where
         it is steep or at a silhouette, the mesh decides (exact, slower).
         """
-        inside, unsure = self.stock_interval(stock, interval, tip, frame, xyz_local)
-        if unsure.any():
-            world = tip + xyz_local[unsure] @ frame
-            inside[unsure] = stock.contains(world)
-        return inside
-
-    def stock_interval(self, stock, interval: StockView | None, tip, frame,
-                       xyz_local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`in_stock_local` without the mesh: (inside, unsure), bool each; where
-        ``unsure`` (a steep or silhouette cell) the mesh decides, not ``inside``
-        (``stock.contains`` at ``tip + xyz_local @ frame``). A box is never unsure."""
         if getattr(stock, "is_box", False):
             world = tip + xyz_local @ frame
             lo, hi = stock.bounds
             e = K.MEMBERSHIP_EPS_MM
-            inside = np.all((world >= lo - e) & (world <= hi + e), axis=1)
-            return inside, np.zeros(inside.shape, dtype=bool)
-        return interval_membership(
+            return np.all((world >= lo - e) & (world <= hi + e), axis=1)
+        inside, unsure = interval_membership(
             np.ascontiguousarray(xyz_local, dtype=float), interval.top, interval.bottom,
             interval.smooth_top, interval.smooth_bottom, self.pixel_mm, self.depth_offset_mm,
             K.MEMBERSHIP_EPS_MM)
+        if unsure.any():
+            world = tip + xyz_local[unsure] @ frame
+            inside[unsure] = stock.contains(world)
+        return inside
 
     def _bound(self, m: np.ndarray, known: np.ndarray) -> np.ndarray:
         """How much ``m`` may rise from a pixel centre to its corners [mm].

@@ -444,21 +444,15 @@ class GeometryModel:
         shrink = np.maximum(rho - inset, 0.0) / np.maximum(rho, 1e-300)
         local = np.column_stack([local[:, 0] * shrink, local[:, 1] * shrink,
                                  local[:, 2] + inset])
-        # the stock's interval, then T1, then the mesh where unsure and not removed
-        # (as :meth:`_cut`)
-        inside, unsure = self.bottom.stock_interval(self.stock, interval, tip, frame, local)
-        ask = np.flatnonzero(inside | unsure)
-        if not ask.size:
+        inside = self.bottom.in_stock_local(self.stock, interval, tip, frame, local)
+        if not inside.any():
             return 0
-        world = tip + local[ask] @ frame
+        world = tip + local[inside] @ frame
         removed = inside_any_sweep_clustered(world, np.ones(world.shape[0], dtype=np.bool_),
                                              *t1, tool.core_radius_mm, tool.corner_radius_mm,
                                              tool.flute_length_mm, K.MEMBERSHIP_EPS_MM,
                                              K.CLUSTER_CELL_MM)
-        mesh = ask[unsure[ask] & ~removed]
-        if mesh.size:
-            inside[mesh] = self.stock.contains(tip + local[mesh] @ frame)
-        return int((inside[ask] & ~removed).sum())
+        return int((~removed).sum())
 
     # --- one point ---------------------------------------------------------
     def point(self, block: int, L: float, cut_length: float) -> PointGeometry:
@@ -574,10 +568,13 @@ class GeometryModel:
             n, m = grid.shape
             rows = np.arange(n) if window is None else np.flatnonzero(window)
             idx = (rows[:, None] * m + edge_ok[None, :]).ravel()
-            cut = self._cut(interval, tip, frame, grid.samples[idx], shift_vec, removed_by_t1,
-                            ("grid", factor), idx)
+            local = grid.samples[idx]
+            cand = self.bottom.in_stock_local(self.stock, interval, tip, frame,
+                                              local if stock_shift is None else local - shift_vec)
+            idx, local = idx[cand], local[cand]
+            removed = removed_by_t1(("grid", factor), idx, tip + local @ frame)
             cutting0 = np.zeros(n * m, dtype=bool)
-            cutting0[idx[cut]] = True
+            cutting0[idx[~removed]] = True
             cutting0 = cutting0.reshape(n, m)
             if not cutting0.any():
                 return None
@@ -603,26 +600,6 @@ class GeometryModel:
             return None  # only slivers thinner than the sub-samples: nothing measurable
         return weight0 > 0, weight0, shift0, cl_rev
 
-    def _cut(self, interval, tip, frame, local, shift, removed_by_t1, tag, keys) -> np.ndarray:
-        """Which samples ``keys`` (tool frame ``local``) cut: inside the stock (displaced
-        by ``shift`` [mm]) and not inside T1 (``removed_by_t1``, under ``tag``).
-
-        The cheap tests first: the view's stock interval, then T1 (remembered, so the
-        sensitivity pass asks nothing twice); the mesh (a ray per sample) only where
-        the interval is unsure and T1 has not already removed the sample. The same
-        answer as testing the stock first, without the mesh tests that cannot matter.
-        """
-        q = local - shift
-        inside, unsure = self.bottom.stock_interval(self.stock, interval, tip, frame, q)
-        removed = removed_by_t1.known_inside(tag, keys)
-        ask = np.flatnonzero((inside | unsure) & ~removed)
-        if ask.size:
-            removed[ask] = removed_by_t1(tag, keys[ask], tip + local[ask] @ frame)
-        mesh = np.flatnonzero(unsure & ~removed)
-        if mesh.size:
-            inside[mesh] = self.stock.contains(tip + q[mesh] @ frame)
-        return inside & ~removed
-
     def _step_weights(self, grid, cutting0, interval, tip, frame, removed_by_t1, factor,
                       stock_shift):
         """Share of each sample's cell (rotation step x micro edge) that cuts, (n, m),
@@ -632,11 +609,12 @@ class GeometryModel:
         with a neighbour in the other state, in rotation or along the edge)
         each cell is sub-sampled ``ENGAGEMENT_SUBSTEPS`` times in rotation and
         ``ENGAGEMENT_SUBEDGES`` times along the edge and tested exactly like
-        the samples (:meth:`_cut`). The share and the centroid resolve the
+        the samples (stock, then T1). The share and the centroid resolve the
         boundary within a cell, so the force does not move in whole steps
         when the boundary moves: the reason the prediction converges with
         resolution.
         """
+        bt = self.bottom
         c0 = cutting0
         n, m = c0.shape
         pad = np.pad(c0, ((0, 0), (1, 1)), mode="edge")
@@ -661,10 +639,13 @@ class GeometryModel:
         z = np.broadcast_to(sub_z[j][:, None, :], shape)
         phi = ang - sub_lag[j][:, None, :]
         local = np.stack([rho * np.sin(phi), rho * np.cos(phi), z], axis=-1).reshape(-1, 3)
+        inside = bt.in_stock_local(self.stock, interval, tip, frame, local - stock_shift)
         # sub-sample keys: the cell, then the sub-sample within it
         keys = ((i * m + j)[:, None] * (st * se) + np.arange(st * se)[None, :]).ravel()
-        cut = self._cut(interval, tip, frame, local, stock_shift, removed_by_t1, ("sub", factor),
-                        keys).reshape(i.size, st, se)
+        removed = np.zeros(inside.size, dtype=bool)
+        removed[inside] = removed_by_t1(("sub", factor), keys[inside],
+                                        tip + local[inside] @ frame)
+        cut = (inside & ~removed).reshape(i.size, st, se)
         count = cut.sum(axis=(1, 2))
         weight[i, j] = count / (st * se)
         ushare = (cut * du[None, :, None]).sum(axis=(1, 2))

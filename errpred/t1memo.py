@@ -70,15 +70,6 @@ class RemovedMemo:
                 out |= inside_any_sweep_clustered(world, below, *self._rest, *self._tail)
         return out
 
-    def known_inside(self, tag, keys: np.ndarray) -> np.ndarray:
-        """Of the samples ``keys`` (int) under ``tag``: those already found inside T1."""
-        k_known, v_known = self._known.get(tag, (None, None))
-        keys = np.asarray(keys, dtype=np.int64)
-        if k_known is None or not k_known.size:
-            return np.zeros(keys.size, dtype=bool)
-        pos = np.minimum(np.searchsorted(k_known, keys), k_known.size - 1)
-        return (k_known[pos] == keys) & v_known[pos]
-
     def __call__(self, tag, keys: np.ndarray, world: np.ndarray) -> np.ndarray:
         """Inside T1? for the samples ``keys`` (int, unique per ``tag``) at ``world`` (k, 3)."""
         keys = np.asarray(keys, dtype=np.int64)
