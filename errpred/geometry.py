@@ -555,7 +555,7 @@ class GeometryModel:
         window only: the force pulse must be resolved for its dynamic
         response. ``stock_shift`` (tool frame, [mm]) displaces the stock, as if
         the tool cut that much deeper (for the correction's sensitivity).
-        ``removed_by_t1`` (:class:`_RemovedMemo`) answers whether a sample is
+        ``removed_by_t1`` (:class:`~errpred.t1memo.RemovedMemo`) answers whether a sample is
         inside T1, remembering it for a second call at the same point.
         """
         tool = self.tool
