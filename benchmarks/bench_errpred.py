@@ -11,8 +11,11 @@ resolution it prints:
 * on 3-axis ball end milling, the same without the sweeps' height map
   (``errpred.zmap``: every T1 test exact), the ratio, and the share of the
   tests the map answered;
+* the same per CPU-second of this process, and the CPU/wall ratio (the share
+  of a core the run got: on a shared machine the wall rate follows the load);
 * blocks per second with two worker processes for stage 1 (physics in order
-  in this process) and the ratio to one core;
+  in this process) and the ratio to one core; blocks per CPU-second of this
+  process and its workers, and their CPU/wall (how many cores they got);
 * where a block's time goes (inclusive, so nested stages overlap): the
   pre-check, the stock's bottom view, the sweep lookup, the engagement (with
   its step weights and sensitivity pass), the finished surface, the side
@@ -47,7 +50,7 @@ from numba import njit
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from errpred import bottomview, geometry  # noqa: E402
+from errpred import bottomview, geometry, t1memo  # noqa: E402
 from errpred import constants as K  # noqa: E402
 from errpred._kernels import sweep_within  # noqa: E402
 from errpred.physics import WearState, evaluate  # noqa: E402
@@ -166,10 +169,20 @@ def stage_seconds(pred, blocks) -> tuple[float, float, int]:
     return t_geo, time.perf_counter() - t0, len(geoms)
 
 
-def _one_core(pred, blocks):
-    """Stage 1 then stage 2 of ``blocks`` in this process: (seconds, geometry seconds)."""
+def _one_core(pred, blocks, cpu=None):
+    """Stage 1 then stage 2 of ``blocks`` in this process: (seconds, geometry seconds);
+    this process's CPU seconds appended to ``cpu`` where given."""
+    c0 = time.process_time()
     t_geo, t_phys, _ = stage_seconds(pred, blocks)
+    if cpu is not None:
+        cpu.append(time.process_time() - c0)
     return t_geo + t_phys, t_geo
+
+
+def _cpu_seconds() -> float:
+    """CPU seconds of this process and its ended children (user + system)."""
+    a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
 
 
 def _fmt(rates):
@@ -198,18 +211,22 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
         print(f"  sweeps' height map filled to the slice ({zmap.time:,} sweeps): "
               f"{time.perf_counter() - t0:.1f} s")
     pred.run(blocks[:10])  # kernels compiled or loaded from the cache
-    one, geo_share = [], []
+    one, geo_share, cpu = [], [], []
     for _ in range(repeat):
-        total, t_geo = _one_core(pred, blocks)
+        total, t_geo = _one_core(pred, blocks, cpu)
         one.append(len(blocks) / total)
         geo_share.append(t_geo / total)
     print(f"1 core     blocks/s: {_fmt(one)}   (geometry {100 * statistics.median(geo_share):.0f} %"
           " of it)")
+    # on a shared machine the wall rate is the share of a core this process got
+    print(f"  per CPU-second: {_fmt([len(blocks) / c for c in cpu])}   (CPU/wall "
+          f"{statistics.median([c * r / len(blocks) for c, r in zip(cpu, one)]):.2f})")
     zmap = pred.model._sweep_map()
     if zmap is not None:
         # the same blocks without the sweeps' height map (every T1 test exact), same run
         pred.model.use_sweep_map = False
-        base = [len(blocks) / _one_core(pred, blocks)[0] for _ in range(repeat)]
+        base_cpu = []
+        base = [len(blocks) / _one_core(pred, blocks, base_cpu)[0] for _ in range(repeat)]
         pred.model.use_sweep_map = True  # forced, as above
         counts = np.zeros(3)
         classify = type(zmap).classify
@@ -229,15 +246,25 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
               f" best against best; map answered {100 * (share[0] + share[2]):.1f} % of the T1 "
               f"tests: {100 * share[0]:.1f} % outside, {100 * share[2]:.1f} % inside; "
               f"{zmap.nbytes / 1e6:.0f} MB, {int((zmap.tile_index >= 0).sum())} tiles)")
-    two = []
+        print(f"    per CPU-second: {_fmt([len(blocks) / c for c in base_cpu])}   (map "
+              f"x{min(base_cpu) / min(cpu):.2f} in CPU, best against best)")
+    two, two_cpu = [], []
     for _ in range(repeat):
+        c0 = _cpu_seconds()
         t0 = time.perf_counter()
         pred.run(blocks, workers=workers)
         two.append(len(blocks) / (time.perf_counter() - t0))
+        two_cpu.append(_cpu_seconds() - c0)
     print(f"{workers} workers  blocks/s: {_fmt(two)}   (x{max(two) / max(one):.2f} of one core, "
           "best against best)")
+    # CPU this process and the workers used (a pool is started and ended per run): the
+    # CPU a block costs there, and how many cores the run got (CPU/wall; 2 workers can
+    # only beat one process when the machine has a second core free)
+    print(f"  per CPU-second (this process + workers): "
+          f"{_fmt([len(blocks) / c for c in two_cpu])}   (CPU/wall "
+          f"{statistics.median([c * r / len(blocks) for c, r in zip(two_cpu, two)]):.2f})")
     # breakdown and sweeps, one more single-core run with the probes in
-    memo_init, memo_call = geometry._RemovedMemo.__init__, geometry._RemovedMemo.__call__
+    memo_init, memo_call = t1memo.RemovedMemo.__init__, t1memo.RemovedMemo.__call__
 
     def init(self, tool, t1, *rest):
         memo_init(self, tool, t1, *rest)
@@ -247,14 +274,14 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
         self.tested.append((tag, np.asarray(world)))
         return memo_call(self, tag, keys, world)
 
-    geometry._RemovedMemo.__init__, geometry._RemovedMemo.__call__ = init, call
+    t1memo.RemovedMemo.__init__, t1memo.RemovedMemo.__call__ = init, call
     try:
         with _Probe(sweep_stats=True) as probe:
             t0 = time.perf_counter()
             geoms = [g for gl in pred.geometries(blocks) for g in gl]
             t_geo = time.perf_counter() - t0
     finally:
-        geometry._RemovedMemo.__init__, geometry._RemovedMemo.__call__ = memo_init, memo_call
+        t1memo.RemovedMemo.__init__, t1memo.RemovedMemo.__call__ = memo_init, memo_call
     wear = WearState.new(pred.edges)
     t0 = time.perf_counter()
     for g in geoms:

@@ -84,6 +84,15 @@ STOCK_INTERPOLATION_SLOPE_RAD = math.radians(60.0)
 #: Tool-axis change inside one sweep segment above which the segment is
 #: split so that each piece has a nearly constant axis [rad].
 SWEEP_AXIS_STEP_RAD = math.radians(1.0)
+#: Cell of the uniform grid over the sweeps' bounds, in tool radii [-]. A query
+#: (the tool near one point, ~2 radii wide) is answered by the cells it overlaps and
+#: then by each sweep's bounds exactly, so the cell changes only the speed: a sweep's
+#: bounds span ~2 radii across and up to the flute length high, and cells of 2.5
+#: radii visit each near sweep in fewer cells than cells of one radius. Measured on
+#: the mold-ball slices (10 mm ball, Sweeps.near per point): 1.28 -> 0.96 ms
+#: (contour), 0.98 -> 0.62 ms (raster), index 13.9 -> 5.3 MB; 2 and 3 radii within
+#: 10 % of it.
+SWEEP_GRID_CELL_PER_RADIUS = 2.5
 
 # --- prediction -------------------------------------------------------------
 #: Blocks longer than this get a prediction point in each of equal parts

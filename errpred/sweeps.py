@@ -290,7 +290,7 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
         axis of each piece's middle (slerp), so a piece's axis is within half
         this of the true one.
     cell_mm : float, optional [mm]
-        Grid cell size (default: the tool radius).
+        Grid cell size (default: ``SWEEP_GRID_CELL_PER_RADIUS`` tool radii).
     """
     n = len(cl)
     tip, axis = cl.tip, cl.axis
@@ -332,7 +332,7 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
     l0, h0 = _cylinder_bounds(p0, w, height, R)
     l1, h1 = _cylinder_bounds(p0 + d, w, height, R)
     lo, hi = np.minimum(l0, l1), np.maximum(h0, h1)
-    cell = float(cell_mm) if cell_mm is not None else R
+    cell = float(cell_mm) if cell_mm is not None else K.SWEEP_GRID_CELL_PER_RADIUS * R
     if not (math.isfinite(cell) and cell > 0):
         raise ValueError(f"cell_mm: expected a finite value > 0, got {cell_mm!r}")
     grid = _build_grid(lo, hi, cell)

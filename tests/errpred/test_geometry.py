@@ -201,7 +201,7 @@ def test_removed_memo_answers_as_the_kernel_in_any_order():
     the samples are split between calls and repeated."""
     from errpred import constants as K
     from errpred._kernels import inside_any_sweep_clustered
-    from errpred.geometry import _RemovedMemo
+    from errpred.t1memo import RemovedMemo as _RemovedMemo
 
     tool, model, g = side_cut("slot", 0.0)
     t1, _, _ = model._near_sweeps(g.tip, g.axis, g.path_mm, 0.05)
