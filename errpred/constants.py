@@ -376,8 +376,10 @@ PAGE_TABLE_ROWS = 40
 PAGE_MIN_HALF_SPAN_MM = 0.5
 
 # --- feed scheduling (errpred/schedule.py) ------------------------------------------
-#: Largest change of the feed from one cutting block to the next, as a share of the
-#: earlier block's feed, up or down [-]. Per block, not per mm: the controller holds
+#: Largest change of the schedule's factor on the programmed feed from one feed block
+#: to the next, as a share of the earlier block's factor, up or down [-] (the CAM's
+#: own feed steps, a plunge at a quarter feed then the cut, are kept as they are).
+#: Per block, not per mm: the controller holds
 #: one programmed feed per block and blends between blocks in its look-ahead, so a
 #: block is the unit the chip load changes in; 20 % keeps the chip thickness, the
 #: force and the surface's mark from stepping visibly between neighbouring blocks

@@ -14,10 +14,12 @@ does not change), less than linearly under Kienzle's. So:
    line in the feed through the two predictions; the block's feed is the highest one
    in ``[min, max]`` at which all three stay ``SCHEDULE_MARGIN`` inside the tolerance
    (``|E| <= T``) and the force limit. A block that cuts nothing gets the largest.
-3. The change from block to block is limited (``MAX_FEED_STEP`` of the earlier
-   block's feed, up or down, within each run of feed moves between rapids; a block
-   outside the scheduled lines keeps its feed and bounds its neighbours' rise): the
-   largest schedule under the per-block caps, by one pass forward and one back.
+3. The change from block to block is limited: the factor on the programmed feed
+   changes by at most ``MAX_FEED_STEP`` of the earlier block's, up or down, within
+   each run of feed moves between rapids (the CAM's own feed steps, a plunge then the
+   cut, are kept); a block outside the scheduled lines keeps its feed (factor 1) and
+   bounds its neighbours' rise. The largest schedule under the per-block caps, by one
+   pass forward and one back.
    Feeds are rounded down to ``FEED_QUANTUM_MM_MIN``.
 4. The program with the new ``F`` words (:func:`nc.refeed.rewrite_feeds`, read back)
    is predicted densely. Blocks over a limit get a lower cap (the line through this
@@ -181,9 +183,13 @@ def _chains(program: Program) -> list[np.ndarray]:
 def limit_steps(program: Program, caps: dict[int, float], limits: FeedLimits
                 ) -> dict[int, float]:
     """The largest feeds at or below ``caps`` (block -> cap [mm/min], the scheduled
-    blocks) that change by at most ``limits.max_step`` from one feed block to the next
-    (the other blocks keep the program's feed and bound their scheduled neighbours'
-    rise), rounded down to ``FEED_QUANTUM_MM_MIN`` and kept within the limits."""
+    blocks) whose factor on the programmed feed changes by at most ``limits.max_step``
+    from one feed block to the next (``f_i / p_i <= (1 + step) f_j / p_j`` both ways;
+    the other blocks keep the program's feed, factor 1, and bound their scheduled
+    neighbours' rise), rounded down to ``FEED_QUANTUM_MM_MIN`` and kept within the
+    limits. The factor, not the feed: the program's own feed changes (a plunge at a
+    quarter of the cutting feed, then the cut) are the CAM's and are kept; the
+    schedule changes them by at most the step more."""
     q = FEED_QUANTUM_MM_MIN
     lo = math.ceil(limits.min_mm_min / q) * q
     hi = math.floor(limits.max_mm_min / q) * q
@@ -192,12 +198,14 @@ def limit_steps(program: Program, caps: dict[int, float], limits: FeedLimits
     for chain in _chains(program):
         f = np.array([caps.get(int(b), np.nan) for b in chain], float)
         fixed = ~np.isfinite(f)
-        f = np.where(fixed, program.feed[chain], np.clip(np.floor(f / q) * q, lo, hi))
+        prog = np.asarray(program.feed[chain], float)
+        f = np.where(fixed, prog, np.clip(np.floor(f / q) * q, lo, hi))
         for order in (range(1, len(f)), range(len(f) - 2, -1, -1)):
             for i in order:
                 j = i - 1 if order.step > 0 else i + 1
-                if not fixed[i] and np.isfinite(f[j]):
-                    f[i] = max(lo, min(f[i], math.floor(f[j] * up / q) * q))
+                if not fixed[i] and np.isfinite(f[j]) and prog[j] > 0:
+                    most = math.floor(f[j] / prog[j] * prog[i] * up / q) * q
+                    f[i] = max(lo, min(f[i], most))
         for b, v, fx in zip(chain, f, fixed, strict=True):
             if not fx:
                 out[int(b)] = float(v)

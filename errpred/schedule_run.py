@@ -162,7 +162,7 @@ def summary_lines(run: ScheduleRun, scenario: Scenario) -> list[str]:
     rapid = (f"rapids at {run.rapid_mm_min:g} mm/min" if run.rapid_mm_min
              else "rapids not counted (no --rapid-mm-min)")
     out = [f"  {b.size} feed blocks scheduled on {scope}: feeds {lim.min_mm_min:g}.."
-           f"{lim.max_mm_min:g} mm/min, at most {lim.max_step * 100:g} % change per block; "
+           f"{lim.max_mm_min:g} mm/min, the factor on the programmed feed changing at most {lim.max_step * 100:g} % per block; "
            f"|E| <= {s.tolerance_um:g} um, peak force <= {s.force_limit_N:g} N",
            f"  {s.reason}"]
     for name, before, after in (("scheduled lines", run.scope_before, run.scope_after),
