@@ -346,6 +346,7 @@ def _worst(loads: BlockLoads, blocks: np.ndarray, program: Program, feeds: np.nd
 def schedule_feeds(program: Program, predict: Callable[[Program], object],
                    blocks: np.ndarray, limits: FeedLimits, *, tolerance_um: float,
                    force_limit_N: float, rounds: int = SCHEDULE_ROUNDS,
+                   margin: float = SCHEDULE_MARGIN,
                    progress: Callable[[str], None] | None = None) -> Schedule:
     """Schedule the feeds of ``blocks`` of ``program`` (see the module docstring).
 
@@ -365,6 +366,8 @@ def schedule_feeds(program: Program, predict: Callable[[Program], object],
         Largest peak resultant force on the tool allowed at every point that cuts.
     rounds : int
         Dense verifications at most.
+    margin : float [-]
+        How far inside the limits the lines through two predictions aim.
     progress : callable, optional
         ``progress(stage)`` before each prediction.
     """
@@ -402,7 +405,7 @@ def schedule_feeds(program: Program, predict: Callable[[Program], object],
     if sched.size == 0:
         out.reason = "no feed move in scope: nothing to schedule"
         return out
-    caps = block_caps(f0, L0, fp, Lp, sched, limits, tolerance_um, force_limit_N)
+    caps = block_caps(f0, L0, fp, Lp, sched, limits, tolerance_um, force_limit_N, margin)
     cap = {int(b): float(c) for b, c in zip(sched, caps, strict=True)}
     for k in range(1, rounds + 1):
         feeds = limit_steps(program, cap, limits)
@@ -434,7 +437,7 @@ def schedule_feeds(program: Program, predict: Callable[[Program], object],
                                ((L0.E_max_um, Lp.E_max_um), (L0.E_min_um, Lp.E_min_um),
                                 (L0.force_N, Lp.force_N))))
         new = block_caps(other_f, other_L, fk, Lk, over, limits, tolerance_um, force_limit_N,
-                         margin=2 * SCHEDULE_MARGIN)
+                         margin=max(2 * margin, SCHEDULE_MARGIN))
         for b, c in zip(over, new, strict=True):
             cap[int(b)] = float(min(c, 0.9 * fk[b], cap[int(b)]))
     out.reason = ("no verified schedule after " f"{rounds} rounds: "
