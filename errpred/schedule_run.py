@@ -149,7 +149,7 @@ def _line_blocks(scenario: Scenario, program) -> np.ndarray:
 def minutes(t: float) -> str:
     """A time in minutes as ``m min s s`` (or seconds under a minute)."""
     s = t * 60.0
-    return f"{s:.1f} s" if s < 60 else f"{int(s // 60)} min {s % 60:04.1f} s"
+    return f"{s:.2f} s" if s < 60 else f"{int(s // 60)} min {s % 60:04.1f} s"
 
 
 def summary_lines(run: ScheduleRun, scenario: Scenario) -> list[str]:
