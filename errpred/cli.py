@@ -270,7 +270,8 @@ def _cmd_schedule(args) -> int:
         run = schedule_scenario(scenario, tolerance_um=args.tolerance_um,
                                 force_limit_N=args.force_limit_n, min_feed=args.min_feed,
                                 max_feed=args.max_feed, max_step_pct=args.max_feed_step,
-                                rapid_mm_min=args.rapid_mm_min, workers=args.workers,
+                                rapid_mm_min=args.rapid_mm_min, correct=args.correct,
+                                workers=args.workers,
                                 client=client, progress=stage)
     s = run.schedule
     if page:
@@ -434,6 +435,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rapid-mm-min", type=float, metavar="MM_MIN",
                    help="the machine's rapid rate, for the cycle time (default: rapids "
                         "not counted)")
+    p.add_argument("--correct", action="store_true",
+                   help="correct the program first as compensate does (verified), then "
+                        "schedule the corrected program's feeds on its error against the "
+                        "original's path")
     _parallel_and_lines(p)
     _page_options(p, "beside the program (-o NAME.nc -> NAME.html); written also when no "
                      "schedule is verified, to say why")

@@ -98,19 +98,26 @@ class BlockLoads:
     E_min_um: np.ndarray
     force_N: np.ndarray
 
-    def over(self, blocks: np.ndarray, tolerance_um: float, force_limit_N: float
-             ) -> np.ndarray:
-        """Of ``blocks``, those over the tolerance or the force limit."""
+    def over(self, blocks: np.ndarray, tolerance_um: float, force_limit_N: float,
+             known: BlockLoads | None = None) -> np.ndarray:
+        """Of ``blocks``, those over the tolerance or the force limit, and with ``known``
+        (another prediction of the same blocks) those that lost their predicted error or
+        force where ``known`` has one (not verified)."""
         b = np.asarray(blocks, np.int64)
         with np.errstate(invalid="ignore"):
             bad = ((self.E_max_um[b] > tolerance_um) | (self.E_min_um[b] < -tolerance_um)
                    | (self.force_N[b] > force_limit_N))
+        if known is not None:
+            bad |= (np.isfinite(known.E_max_um[b]) & ~np.isfinite(self.E_max_um[b])) | (
+                np.isfinite(known.force_N[b]) & ~np.isfinite(self.force_N[b]))
         return b[bad]
 
 
-def block_loads(prediction, n_blocks: int) -> BlockLoads:
+def block_loads(prediction, n_blocks: int, field=None) -> BlockLoads:
     """:class:`BlockLoads` of a :class:`errpred.predict.Prediction` of a program of
-    ``n_blocks`` blocks."""
+    ``n_blocks`` blocks; with ``field`` (its :class:`errpred.verification.ErrorField`
+    against another path, a corrected program's against the original's), the errors
+    are the field's."""
     emax = np.full(n_blocks, -np.inf)
     emin = np.full(n_blocks, np.inf)
     force = np.full(n_blocks, -np.inf)
@@ -121,9 +128,13 @@ def block_loads(prediction, n_blocks: int) -> BlockLoads:
         b = p.block
         if math.isfinite(r.peak_force_N):
             force[b] = max(force[b], r.peak_force_N)
-        if p.status == "predicted" and math.isfinite(r.E_um):
+        if field is None and p.status == "predicted" and math.isfinite(r.E_um):
             emax[b] = max(emax[b], r.E_um)
             emin[b] = min(emin[b], r.E_um)
+    if field is not None and len(field):
+        ok = np.isfinite(field.E_um)
+        np.maximum.at(emax, field.block[ok], field.E_um[ok])
+        np.minimum.at(emin, field.block[ok], field.E_um[ok])
     for a in (emax, emin, force):
         a[~np.isfinite(a)] = np.nan
     return BlockLoads(emax, emin, force)
@@ -131,13 +142,14 @@ def block_loads(prediction, n_blocks: int) -> BlockLoads:
 
 def _cap_line(f_a, v_a, f_b, v_b, limit):
     """Per block, the highest feed at which the line through (f_a, v_a) and (f_b, v_b)
-    stays at or below ``limit``: inf where it does not rise or is unknown (the same
-    feed twice, a value missing)."""
+    stays at or below ``limit``: inf where the line does not rise (a higher feed keeps
+    or brings the value down), NaN where it is unknown (the same feed twice, a value
+    missing)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         slope = (v_b - v_a) / (f_b - f_a)
         cap = f_a + (limit - v_a) / slope
-    rising = np.isfinite(slope) & (slope > 0)
-    return np.where(rising, cap, np.inf)
+    return np.where(np.isfinite(slope) & (slope > 0), cap,
+                    np.where(np.isfinite(slope), np.inf, np.nan))
 
 
 def block_caps(f_a: np.ndarray, loads_a: BlockLoads, f_b: np.ndarray, loads_b: BlockLoads,
@@ -146,9 +158,10 @@ def block_caps(f_a: np.ndarray, loads_a: BlockLoads, f_b: np.ndarray, loads_b: B
     """The highest feed of each of ``blocks`` in ``[min, max]`` at which the lines through
     two predictions (feeds ``f_a`` and ``f_b`` per block) keep the largest E below
     ``(1 - margin) T``, the smallest above ``-(1 - margin) T`` and the force below
-    ``(1 - margin)`` times the limit [mm/min]. A block with no predicted value gets the
-    largest feed; where the line gives no answer (the same feed twice), the lower of
-    the two feeds if it is within the limits, else the smallest."""
+    ``(1 - margin)`` times the limit [mm/min]. A line that does not rise caps nothing
+    (a corrected program overcuts less at a higher feed); a block with no predicted
+    value gets the largest feed; where a line is unknown, a measured value over its
+    limit gives the smallest feed."""
     b = np.asarray(blocks, np.int64)
     fa, fb = f_a[b], f_b[b]
     T, Fl = (1.0 - margin) * tolerance_um, (1.0 - margin) * force_limit_N
@@ -157,10 +170,8 @@ def block_caps(f_a: np.ndarray, loads_a: BlockLoads, f_b: np.ndarray, loads_b: B
                         (-loads_a.E_min_um[b], -loads_b.E_min_um[b], T),
                         (loads_a.force_N[b], loads_b.force_N[b], Fl)):
         c = _cap_line(fa, va, fb, vb, lim)
-        # where the line says nothing, a measured value over the limit caps at the
-        # lower measured feed's neighbourhood: the smallest feed
-        over = (np.nan_to_num(va, nan=-np.inf) > lim) & (np.nan_to_num(vb, nan=-np.inf) > lim)
-        c = np.where(over & ~np.isfinite(c), limits.min_mm_min, c)
+        over = (np.nan_to_num(va, nan=-np.inf) > lim) | (np.nan_to_num(vb, nan=-np.inf) > lim)
+        c = np.where(np.isnan(c), np.where(over, limits.min_mm_min, np.inf), c)
         caps = np.minimum(caps, c)
     return np.clip(caps, limits.min_mm_min, limits.max_mm_min)
 
@@ -328,25 +339,32 @@ class Schedule:
 
 
 def _worst(loads: BlockLoads, blocks: np.ndarray, program: Program, feeds: np.ndarray,
-           tolerance_um: float, force_limit_N: float) -> str:
+           tolerance_um: float, force_limit_N: float, names: np.ndarray) -> str:
     """One clause naming the block furthest over a limit (as a share of the limit)."""
     b = np.asarray(blocks, np.int64)
     with np.errstate(invalid="ignore"):
         e = np.fmax(loads.E_max_um[b], -loads.E_min_um[b]) / max(tolerance_um, 1e-12)
         f = loads.force_N[b] / force_limit_N
+    lost = ~np.isfinite(e) & ~np.isfinite(f)
     e, f = np.nan_to_num(e, nan=0.0), np.nan_to_num(f, nan=0.0)
     i = int(np.argmax(np.maximum(e, f)))
     k = int(b[i])
+    if e[i] == 0 and f[i] == 0 and lost.any():
+        k = int(b[np.argmax(lost)])
+        return (f"line {int(names[k])}: no error predicted at F{feeds[k]:g} mm/min where "
+                "the programmed feed has one (not verified)")
     what = (f"|E| {max(loads.E_max_um[k], -loads.E_min_um[k]):.2f} um > tolerance "
             f"{tolerance_um:g} um" if e[i] >= f[i] else
             f"peak force {loads.force_N[k]:.1f} N > limit {force_limit_N:g} N")
-    return f"line {int(program.line[k])}: {what} at F{feeds[k]:g} mm/min"
+    return f"line {int(names[k])}: {what} at F{feeds[k]:g} mm/min"
 
 
 def schedule_feeds(program: Program, predict: Callable[[Program], object],
                    blocks: np.ndarray, limits: FeedLimits, *, tolerance_um: float,
                    force_limit_N: float, rounds: int = SCHEDULE_ROUNDS,
                    margin: float = SCHEDULE_MARGIN,
+                   loads: Callable[[Program, object], BlockLoads] | None = None,
+                   lines: np.ndarray | None = None,
                    progress: Callable[[str], None] | None = None) -> Schedule:
     """Schedule the feeds of ``blocks`` of ``program`` (see the module docstring).
 
@@ -368,6 +386,12 @@ def schedule_feeds(program: Program, predict: Callable[[Program], object],
         Dense verifications at most.
     margin : float [-]
         How far inside the limits the lines through two predictions aim.
+    loads : callable, optional
+        ``loads(program, prediction) -> BlockLoads`` (default :func:`block_loads` of the
+        prediction's own errors; a corrected program's against the original's path).
+    lines : ndarray of int, optional
+        Per block, the program line a reason names (default the program's own; a
+        corrected program's: the original's line).
     progress : callable, optional
         ``progress(stage)`` before each prediction.
     """
@@ -376,28 +400,29 @@ def schedule_feeds(program: Program, predict: Callable[[Program], object],
     if not (math.isfinite(force_limit_N) and force_limit_N > 0):
         raise ValueError(f"force limit: expected a finite value > 0 N, got {force_limit_N!r}")
     say = progress or (lambda s: None)
-    n = len(program)
+    measure = loads or (lambda prog, pred: block_loads(pred, len(prog)))
+    names = program.line if lines is None else np.asarray(lines)
     blocks = np.asarray(blocks, np.int64)
     sched = blocks[program.motion[blocks] != RAPID] if blocks.size else blocks
     f0 = np.asarray(program.feed, float).copy()
 
-    def run(feeds: dict[int, float]) -> tuple[Program, str, object]:
+    def run(feeds: dict[int, float]) -> tuple[str, object, BlockLoads]:
         text = rewrite_feeds(program, feeds)
         prog = parse_program(text, file=program.file, allow=program.allowed,
                              block_delete=program.block_delete)
-        return prog, text, predict(prog)
+        pred = predict(prog)
+        return text, pred, measure(prog, pred)
 
     say("original")
     p0 = predict(program)
-    L0 = block_loads(p0, n)
+    L0 = measure(program, p0)
     fp = f0.copy()
     near_top = f0[sched] >= 0.95 * limits.max_mm_min
     fp[sched] = np.where(near_top, max(limits.min_mm_min, 0.5 * limits.max_mm_min),
                          limits.max_mm_min)
     fp[sched] = np.floor(fp[sched] / FEED_QUANTUM_MM_MIN) * FEED_QUANTUM_MM_MIN
     say("probe")
-    _, _, pp = run({int(b): float(fp[b]) for b in sched})
-    Lp = block_loads(pp, n)
+    _, pp, Lp = run({int(b): float(fp[b]) for b in sched})
     out = Schedule(ok=False, text=None, program=program, blocks=sched, feeds_before=f0,
                    feeds_after=f0.copy(), before=L0, probe_feeds=fp, probe=Lp,
                    tolerance_um=tolerance_um, force_limit_N=force_limit_N, limits=limits,
@@ -413,9 +438,8 @@ def schedule_feeds(program: Program, predict: Callable[[Program], object],
         for b, v in feeds.items():
             fk[b] = v
         say(f"schedule {k}")
-        _, text, pk = run(feeds)
-        Lk = block_loads(pk, n)
-        over = Lk.over(sched, tolerance_um, force_limit_N)
+        text, pk, Lk = run(feeds)
+        over = Lk.over(sched, tolerance_um, force_limit_N, known=L0)
         out.rounds.append(Round(fk, Lk, over, pk))
         out.predictions.append(pk)
         out.feeds_after = fk
@@ -427,8 +451,18 @@ def schedule_feeds(program: Program, predict: Callable[[Program], object],
         if at_min:
             out.reason = ("no feed within the limits keeps every block within: "
                           + _worst(Lk, np.array(at_min), program, fk, tolerance_um,
-                                   force_limit_N)
+                                   force_limit_N, names)
                           + f" (the lowest allowed feed is {limits.min_mm_min:g} mm/min)")
+            return out
+        with np.errstate(invalid="ignore"):
+            low = over[~((Lk.E_max_um[over] > tolerance_um)
+                         | (Lk.force_N[over] > force_limit_N))]
+        if low.size:                  # overcut only: a lower feed would deepen it
+            k = int(low[np.argmin(Lk.E_min_um[low])])
+            out.reason = (f"line {int(names[k])}: E {Lk.E_min_um[k]:+.2f} um < -tolerance "
+                          f"{tolerance_um:g} um at F{fk[k]:g} mm/min (overcut: a lower "
+                          "feed would cut deeper, a higher one is held by the feed limits "
+                          "or the change per block)")
             return out
         # a lower cap for the blocks over: the line through this round and the nearer of
         # the original and the probe
@@ -440,9 +474,9 @@ def schedule_feeds(program: Program, predict: Callable[[Program], object],
                          margin=max(2 * margin, SCHEDULE_MARGIN))
         for b, c in zip(over, new, strict=True):
             cap[int(b)] = float(min(c, 0.9 * fk[b], cap[int(b)]))
-    out.reason = ("no verified schedule after " f"{rounds} rounds: "
+    out.reason = (f"no verified schedule after {rounds} rounds: "
                   + _worst(out.rounds[-1].loads, out.rounds[-1].over, program,
-                           out.feeds_after, tolerance_um, force_limit_N))
+                           out.feeds_after, tolerance_um, force_limit_N, names))
     return out
 
 

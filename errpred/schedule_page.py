@@ -94,7 +94,8 @@ def schedule_page(scenario: Scenario, run: ScheduleRun) -> str:
              else "rapids not counted (the rapid rate was not given)")
     limit_rows = (("limit", "value"),
                   ("feed", f"{lim.min_mm_min:g} .. {lim.max_mm_min:g} mm/min"),
-                  ("change of the factor on the programmed feed from one feed block to the next", f"at most {lim.max_step * 100:g} %"),
+                  ("change of the factor on the programmed feed from one feed block to "
+                   "the next", f"at most {lim.max_step * 100:g} %"),
                   ("error", f"|E| <= {s.tolerance_um:g} um at every predicted point"),
                   ("force", f"peak resultant force <= {s.force_limit_N:g} N"))
     ct_rows = [("cycle time", "programmed feeds", "scheduled feeds", "change")]
@@ -110,6 +111,11 @@ def schedule_page(scenario: Scenario, run: ScheduleRun) -> str:
         f"{scenario.resolution.dense().point_spacing_mm:g} mm apart, block ends included); "
         "a schedule is written only when that prediction of the very text to be written "
         "keeps every scheduled block within the tolerance and the force limit.",
+        ("The program was corrected first as errpred compensate does ("
+         + run.compensation.reason() + "); the corrected program's feeds were scheduled, "
+         "its errors measured against the original's path, and 'programmed feeds' below "
+         "are the corrected program's at the original feeds." if run.compensation is not None
+         else "The program was scheduled as it is (not corrected)."),
         f"Cycle time model: feed-limited, each block's tool-tip path length over its "
         f"programmed feed, {rapid}; no acceleration, look-ahead, dwell or tool change."),
         tables=(limit_rows, tuple(ct_rows)))]
