@@ -17,9 +17,10 @@ does not change), less than linearly under Kienzle's. So:
 3. The change from block to block is limited: the factor on the programmed feed
    changes by at most ``MAX_FEED_STEP`` of the earlier block's, up or down, within
    each run of feed moves between rapids (the CAM's own feed steps, a plunge then the
-   cut, are kept); a block outside the scheduled lines keeps its feed (factor 1) and
-   bounds its neighbours' rise. The largest schedule under the per-block caps, by one
-   pass forward and one back.
+   cut, are kept); a block outside the scheduled lines keeps its feed (factor 1: it is
+   not predicted) and bounds its neighbours' rise, not their fall (a block that must
+   slow down cannot wait for one outside the scope). The largest schedule under the
+   per-block caps, by one pass forward and one back.
    Feeds are rounded down to ``FEED_QUANTUM_MM_MIN``.
 4. The program with the new ``F`` words (:func:`nc.refeed.rewrite_feeds`, read back)
    is predicted densely. Blocks over a limit get a lower cap (the line through this
