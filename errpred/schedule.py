@@ -466,9 +466,10 @@ def schedule_feeds(program: Program, predict: Callable[[Program], object],
                           "or the change per block)")
             return out
         # a lower cap for the blocks over: the line through this round and the nearer of
-        # the original and the probe
-        other_f = np.where(np.abs(f0 - fk) <= np.abs(fp - fk), f0, fp)
-        other_L = BlockLoads(*(np.where(np.abs(f0 - fk) <= np.abs(fp - fk), a, c) for a, c in
+        # the original and the probe (the probe where the round kept the original feed)
+        near0 = (np.abs(f0 - fk) <= np.abs(fp - fk)) & (np.abs(f0 - fk) >= FEED_QUANTUM_MM_MIN)
+        other_f = np.where(near0, f0, fp)
+        other_L = BlockLoads(*(np.where(near0, a, c) for a, c in
                                ((L0.E_max_um, Lp.E_max_um), (L0.E_min_um, Lp.E_min_um),
                                 (L0.force_N, Lp.force_N))))
         new = block_caps(other_f, other_L, fk, Lk, over, limits, tolerance_um, force_limit_N,

@@ -9,6 +9,7 @@ the same."""
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 from types import SimpleNamespace
@@ -114,6 +115,29 @@ def test_the_highest_feed_under_a_linear_force_is_the_ratio_and_steps_are_limite
     assert f[4] == f[6] == 600.0 and f[3] == f[7] == 720.0
     assert f[1] == 1036.0 and f[8] == 864.0
     _factor_steps_within(prog, parse_program(s.text, file="t.nc"), np.arange(1, n), 0.2)
+
+
+def test_a_block_the_line_overrates_is_lowered_in_later_rounds_until_verified():
+    """A force that rises steeply past the programmed feed and then levels off (the line
+    through F1000 and the probe at F3000 promises too much): the verified rounds lower
+    the feed until the force is within, and the accepted schedule is the last round."""
+    prog = parse_program("G21 G90\nG0 X0 Y0 Z0\nG1 X10 F1000\n", file="t.nc")
+
+    def force(f):
+        return 100.0 + 300.0 * (1.0 - math.exp(-max(f - 1000.0, 0.0) / 300.0))
+
+    def predict(p):
+        res = SimpleNamespace(peak_force_N=force(float(p.feed[1])), E_um=1.0)
+        return SimpleNamespace(points=[SimpleNamespace(block=1, status="predicted",
+                                                       result=res)])
+
+    s = schedule_feeds(prog, predict, np.array([1]), FeedLimits(100.0, 3000.0),
+                       tolerance_um=10.0, force_limit_N=200.0)
+    assert s.ok and len(s.rounds) >= 2
+    feeds = [r.feeds[1] for r in s.rounds]
+    assert all(a > b for a, b in zip(feeds[:-1], feeds[1:], strict=False))
+    assert force(feeds[-1]) <= 200.0 and feeds[-1] > 1000.0
+    assert all(force(f) > 200.0 for f in feeds[:-1])
 
 
 def test_limit_steps_keeps_the_programs_own_feed_steps_and_the_fixed_neighbours():
