@@ -271,6 +271,7 @@ def _cmd_schedule(args) -> int:
                                 force_limit_N=args.force_limit_n, min_feed=args.min_feed,
                                 max_feed=args.max_feed, max_step_pct=args.max_feed_step,
                                 rapid_mm_min=args.rapid_mm_min, correct=args.correct,
+                                iterate=True if args.iterate else None,
                                 workers=args.workers,
                                 client=client, progress=stage)
     s = run.schedule
@@ -439,6 +440,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="correct the program first as compensate does (verified), then "
                         "schedule the corrected program's feeds on its error against the "
                         "original's path")
+    p.add_argument("--iterate", action="store_true",
+                   help="with --correct: predict-correct until the largest change is below "
+                        "the tolerance (as compensate --iterate)")
     _parallel_and_lines(p)
     _page_options(p, "beside the program (-o NAME.nc -> NAME.html); written also when no "
                      "schedule is verified, to say why")

@@ -94,7 +94,8 @@ def feed_limits(scenario: Scenario, program, blocks: np.ndarray, min_feed: float
 def schedule_scenario(scenario: Scenario, *, tolerance_um: float, force_limit_N: float,
                       min_feed: float | None = None, max_feed: float | None = None,
                       max_step_pct: float | None = None, rapid_mm_min: float | None = None,
-                      correct: bool = False, workers: int = 1, client=None,
+                      correct: bool = False, iterate: bool | None = None,
+                      workers: int = 1, client=None,
                       progress: Callable[[str], None] | None = None) -> ScheduleRun:
     """Schedule the feeds of the scenario's program over its line range (see
     :func:`errpred.schedule.schedule_feeds`); every prediction is dense
@@ -105,7 +106,7 @@ def schedule_scenario(scenario: Scenario, *, tolerance_um: float, force_limit_N:
     the corrected program are scheduled with its errors measured against the original's
     path (:func:`errpred.verification.error_field`): the tolerance holds for the
     corrected error at the new feeds. A program with nothing to correct is scheduled as
-    it is.
+    it is. ``iterate``: the correction's passes (None: the scenario's ``[correction]``).
 
     Raises
     ------
@@ -133,7 +134,7 @@ def schedule_scenario(scenario: Scenario, *, tolerance_um: float, force_limit_N:
         from .pipeline import compensate_scenario
 
         say = progress or (lambda s: None)
-        comp = compensate_scenario(scenario, workers=workers, client=client,
+        comp = compensate_scenario(scenario, iterate=iterate, workers=workers, client=client,
                                    progress=lambda st: say(f"correcting, {st}"))
         if not comp.corrected and comp.verified.passes:
             raise Refused(f"{scenario.program_path}: --correct: {comp.reason()}")
