@@ -249,6 +249,8 @@ def _cmd_schedule(args) -> int:
 
     from .schedule_run import page_default, schedule_scenario, summary_lines
 
+    if args.iterate and not args.correct:
+        raise InputError("--iterate: only with --correct (it iterates the correction)")
     page = None if args.no_page else (args.page or page_default(args.output))
     if page and os.path.abspath(page) == os.path.abspath(args.output):
         raise InputError(f"--page: {page} is also the program written; name the page "

@@ -253,6 +253,9 @@ def test_bad_limits_are_refused_before_any_prediction(tmp_path, capsys):
         assert what in capsys.readouterr().err
     assert main(["schedule", str(scn), "-o", str(tmp_path / "x.nc"), "--tolerance-um",
                  "inf", "--force-limit-n", "100"]) == 2
+    assert main(["schedule", str(scn), "-o", str(tmp_path / "x.nc"), "--tolerance-um",
+                 "10", "--force-limit-n", "100", "--iterate"]) == 2
+    assert "--iterate: only with --correct" in capsys.readouterr().err
     assert not (tmp_path / "x.nc").exists()
 
 
