@@ -128,7 +128,10 @@ def rewrite_feeds(program: Program, feeds: Mapping[int, float]) -> str:
 
 
 def _differs(current: float, target: float) -> bool:
-    return not (math.isfinite(current) and abs(current - target) <= 0.5e-3 * max(1.0, target))
+    """Whether a feed in effect differs from the one wanted by more than the rounding of
+    the digits written (half of ``10**-_F_DECIMALS`` mm/min, or in/min) [mm/min]."""
+    return not (math.isfinite(current)
+                and abs(current - target) <= 0.5 * 10.0 ** -_F_DECIMALS)
 
 
 def _set_feed(raw: str, words, fw, value: float) -> str:

@@ -77,3 +77,11 @@ def test_inverse_time_feed_is_refused():
     p = _prog("G21 G90\nG0 X0 Y0 Z0\nG93 G1 X10 F2\nG94 G1 X20 F100\n")
     with pytest.raises(RewriteError, match="G93"):
         rewrite_feeds(p, {2: 50.0})
+
+
+def test_feeds_a_unit_apart_get_their_own_words():
+    """2599 then 2600 mm/min: the second is not the first within any relative share."""
+    p = _prog()
+    out = rewrite_feeds(p, {2: 2599.0, 3: 2600.0, 4: 2600.0})
+    back = parse_program(out, file="t.nc")
+    assert back.feed[2] == 2599.0 and back.feed[3] == back.feed[4] == 2600.0
