@@ -1,5 +1,5 @@
-"""Command line: ``python -m errpred predict|compensate SCENARIO``, ``python -m errpred
-fit TESTS.csv`` (a force law's coefficients from measured mean forces).
+"""Command line: ``python -m errpred predict|compensate|schedule SCENARIO``, ``python -m
+errpred fit TESTS.csv`` (a force law's coefficients from measured mean forces).
 
 Units at this edge: errors in um, forces in N, angles in degrees.
 """
@@ -244,6 +244,58 @@ def _cmd_compensate(args) -> int:
     return 0
 
 
+def _cmd_schedule(args) -> int:
+    from nc.command import Refused
+
+    from .schedule_run import page_default, schedule_scenario, summary_lines
+
+    if args.iterate and not args.correct:
+        raise InputError("--iterate: only with --correct (it iterates the correction)")
+    page = None if args.no_page else (args.page or page_default(args.output))
+    if page and os.path.abspath(page) == os.path.abspath(args.output):
+        raise InputError(f"--page: {page} is also the program written; name the page "
+                         "with --page FILE")
+    if args.page and not os.path.isdir(os.path.dirname(os.path.abspath(args.page))):
+        raise InputError(f"--page: {args.page}: its directory does not exist")
+    scenario = _scenario(args.scenario)
+    if args.lines:
+        scenario = _with_lines(scenario, args.lines)
+    t0 = time.perf_counter()
+    con = _console(sys.stderr)
+
+    def stage(name: str) -> None:
+        if not args.quiet:
+            con.print(f"[dim]{time.perf_counter() - t0:7.1f} s  predicting densely: "
+                      f"{name}[/dim]")
+
+    with _dask_client(args) as client:
+        run = schedule_scenario(scenario, tolerance_um=args.tolerance_um,
+                                force_limit_N=args.force_limit_n, min_feed=args.min_feed,
+                                max_feed=args.max_feed, max_step_pct=args.max_feed_step,
+                                rapid_mm_min=args.rapid_mm_min, correct=args.correct,
+                                iterate=True if args.iterate else None,
+                                workers=args.workers,
+                                client=client, progress=stage)
+    s = run.schedule
+    if page:
+        from .schedule_page import write_schedule_page
+
+        write_schedule_page(page, scenario, run)
+    if not s.ok:
+        raise Refused(f"{scenario.program_path}: nothing written to {args.output}: "
+                      f"{s.reason}")
+    with atomic_write(args.output) as fh:
+        fh.write(s.text)
+    if not args.quiet:
+        print(f"wrote {args.output}: feeds scheduled, {len(s.predictions)} dense predictions, "
+              f"in {time.perf_counter() - t0:.1f} s")
+        for line in summary_lines(run, scenario):
+            print(line)
+        if page:
+            print(f"wrote {page}: the page (feeds, error and force per block before and after)")
+    return 0
+
+
 def _cmd_fit(args) -> int:
     import tomllib
 
@@ -361,6 +413,43 @@ def build_parser() -> argparse.ArgumentParser:
                      "when no correction is verified, to say why")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=_cmd_compensate)
+    p = sub.add_parser("schedule", help=(
+        "write the program with per-block feeds: the highest (within the feed limits and "
+        "a change per block) at which the densely re-predicted error stays within a "
+        "tolerance and the force within a limit (exit status 1 and nothing written "
+        "otherwise)"))
+    p.add_argument("scenario")
+    p.add_argument("-o", "--output", required=True, help="program with the new feeds")
+    p.add_argument("--tolerance-um", type=float, required=True, metavar="UM",
+                   help="largest |E| allowed at every predicted point of a scheduled block")
+    p.add_argument("--force-limit-n", type=float, required=True, metavar="N",
+                   help="largest peak resultant force on the tool allowed")
+    p.add_argument("--min-feed", type=float, metavar="MM_MIN",
+                   help="lowest feed (default: errpred.constants.DEFAULT_MIN_FEED_FACTOR "
+                        "times the smallest programmed cutting feed in scope)")
+    p.add_argument("--max-feed", type=float, metavar="MM_MIN",
+                   help="highest feed, the machine's or the cutter's (default: "
+                        "errpred.constants.DEFAULT_MAX_FEED_FACTOR times the largest "
+                        "programmed cutting feed in scope)")
+    p.add_argument("--max-feed-step", type=float, metavar="PCT",
+                   help="largest change of the schedule's factor on the programmed feed "
+                        "from one feed block to the next [%%] (default: "
+                        "errpred.constants.MAX_FEED_STEP, 20 %%)")
+    p.add_argument("--rapid-mm-min", type=float, metavar="MM_MIN",
+                   help="the machine's rapid rate, for the cycle time (default: rapids "
+                        "not counted)")
+    p.add_argument("--correct", action="store_true",
+                   help="correct the program first as compensate does (verified), then "
+                        "schedule the corrected program's feeds on its error against the "
+                        "original's path")
+    p.add_argument("--iterate", action="store_true",
+                   help="with --correct: predict-correct until the largest change is below "
+                        "the tolerance (as compensate --iterate)")
+    _parallel_and_lines(p)
+    _page_options(p, "beside the program (-o NAME.nc -> NAME.html); written also when no "
+                     "schedule is verified, to say why")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=_cmd_schedule)
     p = sub.add_parser("fit", help=(
         "identify a force law's coefficients from measured mean forces and write the "
         "[cutting] table"), formatter_class=argparse.RawDescriptionHelpFormatter,

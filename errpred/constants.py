@@ -383,3 +383,33 @@ PAGE_TABLE_ROWS = 40
 #: Half the Z span of an unrolled wall's plot at least [mm]: a single waterline level
 #: keeps a readable axis instead of one zoomed to micrometres.
 PAGE_MIN_HALF_SPAN_MM = 0.5
+
+# --- feed scheduling (errpred/schedule.py) ------------------------------------------
+#: Largest change of the schedule's factor on the programmed feed from one feed block
+#: to the next, as a share of the earlier block's factor, up or down [-] (the CAM's
+#: own feed steps, a plunge at a quarter feed then the cut, are kept as they are).
+#: Per block, not per mm: the controller holds
+#: one programmed feed per block and blends between blocks in its look-ahead, so a
+#: block is the unit the chip load changes in; 20 % keeps the chip thickness, the
+#: force and the surface's mark from stepping visibly between neighbouring blocks
+#: (a 20 % step in feed per tooth changes the cutting force by at most 20 %), while
+#: a schedule still reaches double the feed within 4 blocks.
+MAX_FEED_STEP = 0.20
+#: The schedule aims this share below the error tolerance and the force limit [-]:
+#: each block's feed is solved on a line through two predictions (the error and the
+#: force grow nearly linearly with the feed per tooth under the linear law, less
+#: than linearly under Kienzle's), and 5 % absorbs that line's error so that the
+#: dense verification rarely has to lower a block again.
+SCHEDULE_MARGIN = 0.05
+#: Verified rounds at most: after each dense re-prediction the blocks over a limit
+#: get a lower feed and the program is predicted again [-].
+SCHEDULE_ROUNDS = 4
+#: Scheduled feeds are whole multiples of this [mm/min] (rounded down): a
+#: controller's feed resolution is far finer, and whole numbers read well.
+FEED_QUANTUM_MM_MIN = 1.0
+#: Without --min-feed / --max-feed (no machine file gives feed limits), the allowed
+#: range is this share of the smallest and this multiple of the largest programmed
+#: cutting feed in scope [-]: a bounded change around the CAM's own feed, which is
+#: within a cutter maker's recommended range.
+DEFAULT_MIN_FEED_FACTOR = 0.25
+DEFAULT_MAX_FEED_FACTOR = 2.0

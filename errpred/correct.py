@@ -228,12 +228,16 @@ class Compensation(VerifiedResult):
         The loop's record: the original's and every candidate's dense comparison.
     original, program : Program
         The original and the program returned.
+    origin : ndarray of int, optional
+        Per source line of :attr:`program`, the line of the original it comes from
+        (1-based; a split block's added lines come from their block's line).
     """
 
     text: str
     verified: VerifiedCorrection
     original: Program | None = None
     program: Program | None = None
+    origin: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -310,7 +314,8 @@ def compensate(program: Program, predict: Callable[[Program, np.ndarray], Predic
                            max_iterations=max_iterations, tolerance_mm=tolerance_mm,
                            tolerance_um=tolerance_um, spacing_mm=spacing_mm,
                            reach_mm=reach_mm, lines=lines, progress=progress)
-    best = res.best.program
+    best, origin = res.best.program, res.best.origin
     res.best = best
     text = best.newline.join(best.lines) + best.newline
-    return Compensation(text=text, verified=res, original=program, program=best)
+    return Compensation(text=text, verified=res, original=program, program=best,
+                        origin=origin)
