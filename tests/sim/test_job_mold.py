@@ -60,3 +60,14 @@ def test_error_map_is_seen_from_above_on_a_free_form_part_and_from_the_side_on_a
     assert _map_view(np.tile([1.0, 0.0, 0.0], (200, 1)), w)[0] == (1, 2)
     png = error_map_png([("a", p, rng.normal(size=200))], 0, 1)
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_job_takes_a_bundled_scenarios_name(tmp_path, monkeypatch):
+    from sim.job_cli import _scenario_path
+
+    assert _scenario_path("mold-core") == bundled_scenario("mold-core")
+    assert _scenario_path(None) == bundled_scenario("thin-wall")
+    # a file of that name in the working folder wins
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mold-core").write_text("")
+    assert _scenario_path("mold-core").name == "mold-core"
