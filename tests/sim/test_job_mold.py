@@ -71,3 +71,52 @@ def test_the_job_takes_a_bundled_scenarios_name(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "mold-core").write_text("")
     assert _scenario_path("mold-core").name == "mold-core"
+
+
+def mold_slice(folder, first: int, last: int, edits: dict | None = None, *,
+               speed_choice: bool = True):
+    """The mold-core scenario on raster.nc's lines ``first``-``last`` (whole raster runs)
+    after its header, written into ``folder`` (without ``[orient.spindle]`` unless
+    ``speed_choice``); returns the TOML's path."""
+    src = bundled_scenario("mold-core")
+    lines = (src.parent / "raster.nc").read_text().splitlines()
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "slice.nc").write_text("\n".join(lines[:15] + lines[first - 1:last]
+                                               + ["M9", "M5", "G0 Z50", "M30", "%"]) + "\n")
+    text = src.read_text().replace("../../../errpred/", f"{src.parents[3].as_posix()}/errpred/")
+    text = text.replace('gcode = "raster.nc"', 'gcode = "slice.nc"')
+    if not speed_choice:
+        text = text.split("[orient.spindle]")[0]
+    for a, b in (edits or {}).items():
+        assert a in text, a
+        text = text.replace(a, b)
+    (folder / "scenario.toml").write_text(text)
+    return folder / "scenario.toml"
+
+
+#: one raster pass over the saddle's top and the base (Y 20.15; raster.nc lines
+#: 5283-5368: the pass's runs and their links), planned on a coarse grid without the
+#: speed choice and the time-periodic check, so that it takes seconds
+SADDLE_PASS = (5283, 5368)
+FAST = {"grid = [15, 15]": "grid = [7, 7]\nverify_sdm = false"}
+
+
+def test_the_planner_on_a_free_form_pass_keeps_the_ball_centre_within_limits(tmp_path):
+    from orient.plan import plan
+
+    scn = load_plan_scenario(mold_slice(tmp_path, *SADDLE_PASS, FAST,
+                                                speed_choice=False))
+    res = plan(scn)
+    idx = res.touching_index
+    assert idx.size > 40 and res.infeasible.size == 0
+    R = scn.base.tool.radius_mm
+    np.testing.assert_allclose(res.cl.tip[idx] + R * res.cl.axis[idx],
+                               res.contacts.centre[idx], atol=1e-9)
+    incl = np.degrees(np.arccos(np.clip(np.sum(res.cl.axis[idx] * res.contacts.normal[idx],
+                                               axis=1), -1, 1)))
+    assert incl.min() >= 5.0 - 1e-6 and incl.max() <= 60.0 + 1e-6
+    # the 3-axis CAM posture has the ball's tip cutting on the flat base (inclination
+    # below 5 deg): the planner tilts away from it there
+    cam = np.degrees(np.arccos(np.clip(res.contacts.normal[idx, 2], -1, 1)))
+    assert np.any(cam < 5.0)
+    assert np.all(np.isfinite(res.margin[idx]) & (res.margin[idx] > 0))
