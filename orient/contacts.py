@@ -15,7 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from nc.path import CutterLocations
-from .constants import CONTACT_NEAREST_CHECK_MM, CONTACT_PROBE_RADIUS_MM, CONTACT_TOL_MM
+from .constants import (
+    CONTACT_CONTAINS_CHUNK,
+    CONTACT_NEAREST_CHECK_MM,
+    CONTACT_PROBE_RADIUS_MM,
+    CONTACT_TOL_MM,
+)
 
 __all__ = ["CONTACT_TOL_MM", "Contacts", "ball_contacts", "closest_points", "feed_directions"]
 
@@ -108,11 +113,21 @@ def ball_contacts(cl: CutterLocations, radius_mm: float, design, *,
     # a centre on the surface (gouging CAM data): fall back to the tool axis
     bad = ~np.isfinite(normal).all(axis=1)
     normal[bad] = cl.axis[bad]
-    inside = design.contains(centre) if design.is_watertight else np.zeros(len(cl), bool)
+    inside = _contains(design, centre) if design.is_watertight else np.zeros(len(cl), bool)
     gap = np.where(inside, -dist, dist) - radius_mm
     normal[inside] = -normal[inside]
     touching = (np.abs(gap) <= tol_mm) & ~cl.rapid
     return Contacts(centre, point, normal, gap, touching, feed_directions(centre, cl.rapid))
+
+
+def _contains(mesh, points: np.ndarray) -> np.ndarray:
+    """trimesh's ``contains`` (ray tests) ``CONTACT_CONTAINS_CHUNK`` points at a time: its
+    memory grows with the points asked at once (about 0.6 MB a point on errpred's
+    mold-ball design: 10,000 ball centres took 5 GB)."""
+    out = np.zeros(len(points), bool)
+    for k in range(0, len(points), CONTACT_CONTAINS_CHUNK):
+        out[k:k + CONTACT_CONTAINS_CHUNK] = mesh.contains(points[k:k + CONTACT_CONTAINS_CHUNK])
+    return out
 
 
 def closest_points(mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
