@@ -18,7 +18,10 @@ With ``--warm`` the cache of the first run is kept and the job runs a second tim
 (the kernels compiled). Machine load changes the times: the load average at the
 start is printed; repeat with ``--repeats`` for the spread.
 
-Usage: python benchmarks/bench_job.py [--warm] [--repeats N] [--sample-s S] [--keep DIR]
+``--scenario`` runs another scenario (a file or a bundled name, e.g. ``mold-core``).
+
+Usage: python benchmarks/bench_job.py [--scenario S] [--warm] [--repeats N] [--sample-s S]
+[--keep DIR]
 """
 
 from __future__ import annotations
@@ -55,12 +58,14 @@ def _label(p: psutil.Process, root_pid: int) -> str | None:
     return cmd[:60] or None
 
 
-def _run(out: Path, cache: Path, sample_s: float) -> tuple[float, dict[int, dict]]:
+def _run(out: Path, cache: Path, sample_s: float, scenario: str | None = None
+         ) -> tuple[float, dict[int, dict]]:
     """Run the job; wall time [s] and per process ``pid -> {label, peak RSS [bytes],
     time of the peak [s since the start]}``."""
     env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
     t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "sim", "job", "--out", str(out)],
+    proc = subprocess.Popen([sys.executable, "-m", "sim", "job", *([scenario] if scenario
+                                                                     else []), "--out", str(out)],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             text=True)
     root = psutil.Process(proc.pid)
@@ -92,6 +97,8 @@ def _run(out: Path, cache: Path, sample_s: float) -> tuple[float, dict[int, dict
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenario", help="a scenario file or a bundled scenario's name "
+                                       "(default: the bundled default)")
     ap.add_argument("--warm", action="store_true", help="also runs with the kernels cached")
     ap.add_argument("--repeats", type=int, default=1, help="warm runs (with --warm)")
     ap.add_argument("--sample-s", type=float, default=SAMPLE_S,
@@ -107,7 +114,7 @@ def main(argv=None) -> int:
             runs += [(f"kernels compiled (run {i + 1})", Path(tmp) / f"warm{i + 1}")
                      for i in range(max(1, args.repeats))]
         for name, out in runs:
-            wall, peaks = _run(out, cache, args.sample_s)
+            wall, peaks = _run(out, cache, args.sample_s, args.scenario)
             rep = json.loads((out / "report.json").read_text())
             sec = rep["seconds"]
             stages = ", ".join(f"{k} {v:.1f} s" for k, v in sec.items() if k != "total")

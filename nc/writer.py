@@ -142,6 +142,10 @@ class PostResult:
         Moves written in G93.
     singular_points : int
         Points where the free rotary axis was held (inside the singular cone).
+    first_written : int
+        Index of the first of ``tip`` written as a move of its own: :func:`post` does
+        not write the rapid points before the first feed point (the approach above that
+        point replaces them), so that a read-back program starts there.
     """
 
     text: str
@@ -152,6 +156,7 @@ class PostResult:
     inverse_time_moves: int
     singular_points: int = 0
     notes: tuple[str, ...] = field(default_factory=tuple)
+    first_written: int = 0
 
 
 class _Lines:
@@ -364,7 +369,7 @@ def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptio
         L.add("%", numbered=False)
     return PostResult(text="\n".join(L.out) + "\n", tip=tip, axis=axis, joints=joints,
                       source=source, inverse_time_moves=n_inv,
-                      singular_points=int(np.sum(sol.singular)))
+                      singular_points=int(np.sum(sol.singular)), first_written=first)
 
 
 def _fmt_feed(f: float) -> str:
@@ -391,8 +396,11 @@ def write_program(path: str | os.PathLike, cl: CutterLocations, machine: Machine
 
 def round_trip_error(post_res: PostResult, back: CutterLocations) -> tuple[float, float]:
     """Largest tip [mm] and axis [rad] difference between written and read-back points
-    (the writer's approach and retract points are skipped by the best alignment)."""
-    tip, axis = post_res.tip, post_res.axis
+    (the writer's approach and retract points are skipped by the best alignment; the
+    rapid points before the first feed point, which the writer leaves out, are not
+    compared: ``PostResult.first_written``)."""
+    tip = post_res.tip[post_res.first_written:]
+    axis = post_res.axis[post_res.first_written:]
     n = min(len(tip), len(back))
     best = (math.inf, math.inf)
     for off in range(max(1, len(back) - len(tip) + 1)):

@@ -324,6 +324,17 @@ ANGLE_SLACK_RAD = 1e-6
 FALLBACK_SCORE = -1.0e6
 #: The ball touches the design where its centre is within R + this of it [mm].
 CONTACT_TOL_MM = 0.01
+#: Radius of the sphere that stands for a point in FCL's distance query of the ball
+#: centre against the design (``orient.contacts.closest_points``; FCL has no point shape,
+#: the distance is corrected by it) [mm]: far below any tolerance here.
+CONTACT_PROBE_RADIUS_MM = 1e-9
+#: Ball centres tested at once for lying inside the design (trimesh's ray tests, whose
+#: memory grows with the points asked at once: about 0.6 MB a point on errpred's mold-ball
+#: design, 55,604 triangles) [-]: about 120 MB a chunk there.
+CONTACT_CONTAINS_CHUNK = 200
+#: An FCL answer whose nearest point is not at its distance from the query point within
+#: this is asked again of trimesh's exact query [mm] (a safeguard; none seen).
+CONTACT_NEAREST_CHECK_MM = 1e-6
 
 # --- the workpiece's modes (orient/workpiece.py, orient/workpiece_fem.py, orient/fem/) ---
 #: In-process cut levels at which the thin wall's modes are solved [-].

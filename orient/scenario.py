@@ -53,7 +53,7 @@ __all__ = [
 
 _HERE = Path(__file__).resolve().parent / "scenarios"
 #: Bundled planning scenarios: name -> path of their ``scenario.toml``.
-BUNDLED: dict[str, Path] = {n: _HERE / n / "scenario.toml" for n in ("thin-wall",)}
+BUNDLED: dict[str, Path] = {n: _HERE / n / "scenario.toml" for n in ("thin-wall", "mold-core")}
 #: The scenario ``python -m orient plan`` runs when given none.
 DEFAULT_SCENARIO = "thin-wall"
 

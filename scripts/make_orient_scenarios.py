@@ -1,4 +1,5 @@
-"""Make the bundled orient scenario ``orient/scenarios/thin-wall/``.
+"""Make the bundled orient scenarios ``orient/scenarios/thin-wall/`` and the program of
+``orient/scenarios/mold-core/``.
 
 Run from anywhere: ``python scripts/make_orient_scenarios.py`` rewrites every
 file (deterministic: same bytes on every run); ``--check`` regenerates into a
@@ -14,6 +15,13 @@ the plate). One-way passes along +X, 0.5 mm apart in Z, from the top down
 allowance 0.2 mm. The wall is the flexible side (its first bending mode,
 clamped at the plate, is a few kHz with little damping); the tool is a stiff
 short carbide ball end mill.
+
+mold-core: errpred's bundled mold-ball core (its design and stock STLs are referenced,
+not copied) finished on a 5-axis head-table machine; its CAM program ``raster.nc`` is
+the raster operation of errpred's ``finish.nc`` (lines MOLD_RASTER_FIRST to the end:
+every raster pass, along +X, pick 0.35 mm, where the surface is shallower than 40 deg)
+after the program's own header, lifted first to the safe height. Only the program is
+written here; ``scenario.toml`` is committed by hand (it holds the sources).
 
 Other ribs: :class:`Rib` holds the geometry and the program's layout (its
 defaults are the bundled thin wall) and :func:`write_rib` writes a rib's files,
@@ -186,7 +194,35 @@ def write_rib(out: str, rib: Rib, *, design_title: str, stock_title: str, source
             res.text.count("\n")}
 
 
+#: errpred's mold-ball program and the first line of its raster operation (the line
+#: after the contour's last retract ``G0 Z25``; the scenario's description says so too).
+MOLD_PROGRAM = os.path.join(ROOT, "errpred", "scenarios", "mold-ball", "finish.nc")
+MOLD_RASTER_FIRST = 13836
+#: the header lines of finish.nc kept (``%`` to ``G43 H1``) and the safe height [mm]
+MOLD_HEADER_LAST = 13
+MOLD_SAFE_Z = 25.0
+
+
+def write_mold_core(out: str) -> dict:
+    """Write ``raster.nc`` (the raster operation of errpred's mold-ball program) into the
+    folder ``out`` (created). Returns a few facts of the program."""
+    with open(MOLD_PROGRAM, encoding="ascii") as fh:
+        lines = fh.read().splitlines()
+    head, body = lines[:MOLD_HEADER_LAST], lines[MOLD_RASTER_FIRST - 1:]
+    assert head[-1] == "G43 H1" and lines[MOLD_RASTER_FIRST - 2] == f"G0 Z{MOLD_SAFE_Z:g}", (
+        "errpred's finish.nc changed: update MOLD_HEADER_LAST / MOLD_RASTER_FIRST")
+    head = head[:2] + [f"(RASTER OPERATION OF ERRPRED MOLD-BALL FINISH.NC, ITS LINES "
+                       f"{MOLD_RASTER_FIRST}-{len(lines)}, AFTER ITS HEADER)"] + head[2:]
+    text = "\n".join(head + [f"G0 Z{MOLD_SAFE_Z:g}"] + body) + "\n"
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, "raster.nc"), "w", encoding="ascii", newline="\n") as fh:
+        fh.write(text)
+    return {"program_lines": text.count("\n"),
+            "offset_to_finish_nc_lines": MOLD_RASTER_FIRST - (len(head) + 2)}
+
+
 def build(out_root: str) -> dict:
+    write_mold_core(os.path.join(out_root, "mold-core"))
     return write_rib(os.path.join(out_root, "thin-wall"), THIN_WALL,
                      design_title="thin-wall design: rib 60 x 30 x 3 mm on a plate",
                      stock_title="thin-wall stock: rib with 0.2 mm on the +Y face",

@@ -6,7 +6,8 @@ One run, the four packages in order (``docs/architecture.md``, "Data flow"):
 2. plan lead/tilt per cutter location (:func:`orient.plan.plan`): stability
    margin above 1 where it can be had, interference and axis limits;
 3. predict the machining error along the planned 5-axis path (errpred, the
-   tilted tool, the thin wall's compliance at each cutting point) and correct
+   tilted tool, the workpiece's compliance at each cutting point: a thin wall's
+   modes, or none for a rigid part) and correct
    the path, iterated (:func:`errpred.correct_path.compensate_path`);
 4. write the 5-axis program for the scenario's machine and dialect
    (:mod:`nc.writer`) and read it back (round trip);

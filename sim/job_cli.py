@@ -1,7 +1,8 @@
 """The main job's command line, ``python -m sim job [SCENARIO]`` (:mod:`sim.cli` adds
 these arguments and calls :func:`run`).
 
-Without a scenario the bundled default (orient's thin wall) runs. Everything is
+Without a scenario the bundled default (orient's thin wall) runs; ``mold-core`` names the
+second bundled scenario (a free-form mold core). Everything is
 written into one folder (default ``./NAME-job``): the final program
 ``NAME.nc``, the planned one before correction ``NAME-planned.nc``,
 ``report.html`` (self-contained) and ``report.json``. The folder is filled
@@ -36,8 +37,9 @@ __all__ = ["NOT_FOR_CUTTING_SUFFIX", "add_job_arguments", "run"]
 
 def add_job_arguments(a: argparse.ArgumentParser) -> None:
     """The options of ``python -m sim job``."""
-    a.add_argument("scenario", nargs="?", help="planning scenario TOML (default: the bundled "
-                                               "thin wall)")
+    a.add_argument("scenario", nargs="?", help="planning scenario TOML, or the name of a "
+                                               "bundled one (thin-wall, mold-core; default: "
+                                               "the thin wall)")
     a.add_argument("--out", metavar="DIR", help="folder for the program and the report "
                                                 "(default: ./NAME-job)")
     a.add_argument("--allow-fallback", action="store_true",
@@ -69,14 +71,14 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from errpred.cluster import dask_client
-    from orient.scenario import bundled_scenario, load_plan_scenario
+    from orient.scenario import load_plan_scenario
 
     from threadpoolctl import threadpool_limits
 
     from .job import run_job
     from .job_report import write_job_report
 
-    scn = load_plan_scenario(args.scenario if args.scenario else bundled_scenario())
+    scn = load_plan_scenario(_scenario_path(args.scenario))
     out = Path(args.out if args.out else f"{scn.name}-job").resolve()
     if not out.parent.is_dir():
         raise FileNotFoundError(f"{out}: directory {out.parent} does not exist")
@@ -128,6 +130,18 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {out / res.final_path.name}, {out / 'report.html'}, {out / 'report.json'} "
           f"in {time.perf_counter() - t0:.0f} s")
     return 0
+
+
+def _scenario_path(arg: str | None) -> Path:
+    """The scenario file: ``arg``, or the bundled scenario of that name when no such file
+    exists (``orient.scenario.BUNDLED``), or the bundled default without one."""
+    from orient.scenario import BUNDLED, bundled_scenario
+
+    if not arg:
+        return bundled_scenario()
+    if arg in BUNDLED and not Path(arg).exists():
+        return BUNDLED[arg]
+    return Path(arg)
 
 
 #: What a program of a job whose checks failed is renamed to end with.

@@ -92,7 +92,9 @@ def posture_png(distance_mm: np.ndarray, cutting: np.ndarray,
 def error_map_png(panels: list[tuple[str, np.ndarray, np.ndarray]], along: int = 0,
                   up: int = 2) -> bytes:
     """Error maps over the part: one panel per (title, contact points (m, 3) [mm],
-    error (m,) [um]), coloured on one symmetric scale (red: material left)."""
+    error (m,) [um]), coloured on one symmetric scale (red: material left); the
+    points' coordinates ``along`` (0, 1, 2: X, Y, Z) and ``up`` are the axes (a wall
+    seen from the side, X and Z; a free-form part from above, X and Y)."""
     vals = [np.asarray(e, dtype=float) for _, _, e in panels]
     lim = max((float(np.nanpercentile(np.abs(v), 99)) for v in vals if v.size), default=1.0)
     lim = max(lim, 1e-3)
@@ -109,8 +111,10 @@ def error_map_png(panels: list[tuple[str, np.ndarray, np.ndarray]], along: int =
                         vmax=lim)
         ax.set_title(f"{title}\nRMS {rms:.2f} um, largest |E| {np.nanmax(np.abs(e)):.1f} um",
                      fontsize=9)
-        ax.set_xlabel("X [mm]")
-        ax.set_ylabel("Z [mm]")
+        ax.set_xlabel(f"{'XYZ'[along]} [mm]")
+        ax.set_ylabel(f"{'XYZ'[up]} [mm]")
+        if up != 2:
+            ax.set_aspect("equal", adjustable="datalim")
     for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
     if sc is not None:

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from errpred.constants import PAGE_WALL_NORMAL_Z
 from errpred.correct_path import error_points
 from errpred.page import Figure, Section, render_page
 from nc.atomic import atomic_write
@@ -170,6 +171,17 @@ def _rotary(res: JobResult, d: np.ndarray) -> tuple[dict, str]:
     return out, note
 
 
+def _map_view(normal: np.ndarray, point: np.ndarray) -> tuple[tuple[int, int], str]:
+    """The error map's axes (along, up) and their caption: a wall (median |n_z| below
+    ``errpred.constants.PAGE_WALL_NORMAL_Z``, as errpred's pages decide) from the side, its
+    longer horizontal extent along; a free-form part from above (X, Y)."""
+    if len(normal) and float(np.median(np.abs(normal[:, 2]))) < PAGE_WALL_NORMAL_Z:
+        span = np.ptp(point[:, :2], axis=0)
+        along = int(np.argmax(span))
+        return (along, 2), f"seen from the side: {'XY'[along]} along the wall, Z up"
+    return (0, 1), "seen from above: X and Y"
+
+
 def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -> str:
     """The self-contained HTML page of a job (``errors`` as in :func:`job_report`)."""
     p = res.plan
@@ -185,6 +197,10 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
     cutting = np.zeros(len(p.cl), bool)
     cutting[p.touching_index] = True
     rotary, rotary_note = _rotary(res, d)
+    view, view_text = _map_view(p.contacts.normal[p.touching_index],
+                                p.contacts.point[p.touching_index])
+    wp_text = {"rigid": "", "modes": " and the workpiece's modes",
+               "thin_wall": " and the wall's"}.get(res.scenario.workpiece.kind, "")
     vp, vf, vc = res.verify_planned, res.verify_final, res.verify_cam
     max_hz = min(SPECTRUM_MAX_HZ,
                  float(vp.spectrum_hz[-1]) if vp.spectrum_hz.size else SPECTRUM_MAX_HZ)
@@ -244,11 +260,11 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
                            ("predicted, corrected path", pa, ea),
                            ("simulated machine, planned program", vp.contact_mm, vp.surface_um),
                            ("simulated machine, corrected program", vf.contact_mm,
-                            vf.surface_um)]),
-            "Surface error against the design along its normal over the finished face "
-            "(X along the wall, Z up). Top: the error prediction (rasterized engagement, "
-            "micro-edge forces, tool and wall compliance); bottom: the time-domain simulation "
-            "of the written programs."),)),
+                            vf.surface_um)], *view),
+            f"Surface error against the design along its normal over the finished face "
+            f"({view_text}). Top: the error prediction (rasterized engagement, micro-edge "
+            f"forces, the tool's compliance{wp_text}); bottom: the time-domain simulation "
+            f"of the written programs."),)),
         Section("Stability lobes at representative points", figures=(Figure(
             lobes_png(res.lobes, s["cam_spindle_rpm"]),
             "Limiting depth of cut over spindle speed (zero-order method) for the CAM posture "

@@ -232,3 +232,25 @@ def test_source_name_cannot_break_the_header_comment(dialect, tmp_path):
     assert header.count("(") == 1 and header.count(")") == 1 and ";" not in header
     assert "[lead 15 deg], pass 1" in header
     assert len(read_program(path)) > 0     # the reader takes the whole program
+
+
+def test_round_trip_skips_the_rapid_points_before_the_first_cut():
+    """A CAM path that starts with several rapid moves (a retract, a move over the start,
+    a descent): the writer replaces them by its approach, and the round trip compares
+    what was written (it had compared shifted points: 75 mm on the mold core)."""
+    from nc.gcode import parse_program
+    from nc.writer import PostOptions, post, round_trip_error
+
+    m = get_machine("xyzbc-head-table", tool_length_mm=40.0)
+    x = np.linspace(0.0, 20.0, 41)
+    tip = np.r_[[[0.0, 0.0, 25.0], [-5.0, 20.0, 25.0], [-5.0, 20.0, 1.0]],
+                np.c_[x, np.full(41, 20.0), 0.1 * x]]
+    ax = np.tile([np.sin(0.3), 0.0, np.cos(0.3)], (len(tip), 1))
+    rapid = np.r_[[True, True, True], np.zeros(41, bool)]
+    cl = CutterLocations.from_arrays(tip, ax, np.where(rapid, np.nan, 1600.0), 10000.0,
+                                     rapid=rapid)
+    res = post(cl, m, PostOptions(dialect="linuxcnc"))
+    assert res.first_written == 3
+    back = cutter_locations(parse_program(res.text, file="<round trip>"), m)
+    e_tip, e_axis = round_trip_error(res, back)
+    assert e_tip < 1e-3 and e_axis < 1e-6
