@@ -305,20 +305,25 @@ class AccelerometerStream:
                     per_chunk)
         step = 1.0 / s.sample_rate_hz
         nxt = self._next_sample
-        instants = []
+        first = np.zeros(len(chunks))
         t_end = self._t_last
         for c, tc in enumerate(chunks):     # as push steps them, chunk by chunk
             if tc.size:
                 t_end = float(tc[-1])
             if t_end is None:
                 continue
-            ts = nxt + step * np.arange(max(0, math.floor((t_end - nxt) / step + 1e-9) + 1))
-            ts = ts[ts <= t_end]
-            if ts.size:
-                nxt = float(ts[-1]) + step
-                instants.append(ts)
-                per_chunk[c] = ts.size
-        ts = np.concatenate(instants) if instants else np.zeros(0)
+            # the instants nxt + step * j, j = 0 .. m - 1, that are <= t_end (the
+            # same float operations as numpy's nxt + step * arange(m))
+            m = max(0, math.floor((t_end - nxt) / step + 1e-9) + 1)
+            while m > 0 and nxt + step * float(m - 1) > t_end:
+                m -= 1
+            if m:
+                first[c] = nxt
+                per_chunk[c] = m
+                nxt = (nxt + step * float(m - 1)) + step
+        j = np.arange(int(per_chunk.sum())) - np.repeat(np.cumsum(per_chunk) - per_chunk,
+                                                         per_chunk)
+        ts = np.repeat(first, per_chunk) + step * j
         y = np.stack([np.interp(ts, t, x[:, c]) for c in range(2)], axis=1)
         if s.noise_rms_m_s2 > 0:
             y = y + self._rng.normal(0.0, s.noise_rms_m_s2, size=y.shape)
