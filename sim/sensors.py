@@ -256,8 +256,32 @@ class AccelerometerStream:
         self.samples = 0
 
     def push(self, time_s: np.ndarray, tool_acceleration_m_s2: np.ndarray) -> SensorSignals:
-        """New converter samples for a chunk of the simulation (equally spaced times)."""
-        return self.push_many([time_s], [tool_acceleration_m_s2])[0]
+        """New converter samples for a chunk of the simulation (equally spaced times).
+        (The real-time server's path, one tick a call: kept lean; :meth:`push_many`
+        gives the same samples for many chunks at once.)"""
+        t = np.asarray(time_s, dtype=float).reshape(-1)
+        acc = np.asarray(tool_acceleration_m_s2, dtype=float).reshape(-1, 3)
+        s = self.sensors
+        x = s.location_factor * (acc @ self.rotation.T)[:, :2]
+        if len(self._sos) and x.shape[0]:
+            x, self._zi = signal.sosfilt(self._sos, x, axis=0, zi=self._zi)
+        if self._t_last is not None:
+            t = np.concatenate([[self._t_last], t])
+            x = np.concatenate([self._y_last[None], x])
+        if t.size == 0:
+            return SensorSignals(np.zeros(0), np.zeros((0, 2), np.int32), np.zeros((0, 2)), 0)
+        step = 1.0 / s.sample_rate_hz
+        ts = self._next_sample + step * np.arange(
+            max(0, math.floor((t[-1] - self._next_sample) / step + 1e-9) + 1))
+        ts = ts[ts <= t[-1]]
+        y = np.stack([np.interp(ts, t, x[:, c]) for c in range(2)], axis=1)
+        if s.noise_rms_m_s2 > 0:
+            y = y + self._rng.normal(0.0, s.noise_rms_m_s2, size=y.shape)
+        self._t_last, self._y_last = float(t[-1]), x[-1].copy()
+        if ts.size:
+            self._next_sample = float(ts[-1]) + step
+        self.samples += ts.size
+        return _convert(s, ts, y)
 
     def push_many(self, time_s: list[np.ndarray], tool_acceleration_m_s2: list[np.ndarray]
                   ) -> tuple[SensorSignals, np.ndarray]:
