@@ -94,6 +94,7 @@ class Cutter:
         #: The cut in effect after the last :meth:`advance` or :meth:`switch` (None: idle).
         self.cut: Cut | None = None
         self._forced_cache: OrderedDict = OrderedDict()
+        self._idle: tuple | None = None          # (system, dt_s, model) of the last idle
 
     def switch(self, new: Cut | CuttingModel | None,
                carry: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
@@ -227,12 +228,20 @@ class Cutter:
                           chip_mean_mm=chip, contact_loss=lost, surface_offset_mm=surf, scale=s)
 
     def idle(self, dt_s: float, n_steps: int, system: ModalSystem) -> MillingRun:
-        """Advance without cutting (the modes ring down; no force), ``dt_s`` [s] per step."""
-        spr = self.steps_per_rev
-        model = CuttingModel(spindle_rpm=rpm_for_tooth_period(dt_s, spr), flutes=1, steps_per_rev=spr,
-                             dt_s=dt_s, system=system, normal=np.array([0.0, 0.0, 1.0]),
-                             fz_mm=0.0, table=empty_table(spr), n_edges=self.n_edges,
-                             step_map=_step_map(system, dt_s), generating=np.zeros(spr))
+        """Advance without cutting (the modes ring down; no force), ``dt_s`` [s] per step.
+        The idle model of the last ``system`` and step is kept (the air moves of a run
+        ring down the same tool modes tick after tick: one step map, not one a tick)."""
+        hit = self._idle
+        if hit is not None and hit[0] is system and hit[1] == dt_s:
+            model = hit[2]
+        else:
+            spr = self.steps_per_rev
+            model = CuttingModel(spindle_rpm=rpm_for_tooth_period(dt_s, spr), flutes=1,
+                                 steps_per_rev=spr, dt_s=dt_s, system=system,
+                                 normal=np.array([0.0, 0.0, 1.0]), fz_mm=0.0,
+                                 table=empty_table(spr), n_edges=self.n_edges,
+                                 step_map=_step_map(system, dt_s), generating=np.zeros(spr))
+            self._idle = (system, dt_s, model)
         run = self.advance(model, n_steps, 0.0)
         self.cut = None
         return run

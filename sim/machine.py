@@ -357,6 +357,13 @@ class SimulatedNC:
         -------
         SensorSignals
         """
+        return self.stream.push(*self.tick_motion(dt_s))
+
+    def tick_motion(self, dt_s: float = TICK_S) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`tick` without the accelerometers: the period's simulation instants [s]
+        and tool acceleration [m/s^2] (shapes (k,) and (k, 3)), which the caller hands to
+        ``self.stream`` in order (several periods at once:
+        :meth:`sim.sensors.AccelerometerStream.push_many`, the same samples)."""
         st = self.state
         s0 = self.s
         if self.done:
@@ -377,7 +384,9 @@ class SimulatedNC:
             accel.append(run.tool_acceleration_m_s2)
         st.cutting = int(touching)
         st.time_s = self.cutter.time_s
-        return self.stream.push(np.concatenate(times), np.concatenate(accel))
+        if len(times) == 1:
+            return times[0], accel[0]
+        return np.concatenate(times), np.concatenate(accel)
 
     def _run(self, i: int, n: int, w0: float, w1: float, moving: bool):
         """``n`` steps on the segment into cutter location ``i`` (weights ``w0`` to ``w1``

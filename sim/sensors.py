@@ -256,12 +256,14 @@ class AccelerometerStream:
         self.samples = 0
 
     def push(self, time_s: np.ndarray, tool_acceleration_m_s2: np.ndarray) -> SensorSignals:
-        """New converter samples for a chunk of the simulation (equally spaced times)."""
+        """New converter samples for a chunk of the simulation (equally spaced times).
+        (The real-time server's path, one tick a call: kept lean; :meth:`push_many`
+        gives the same samples for many chunks at once.)"""
         t = np.asarray(time_s, dtype=float).reshape(-1)
         acc = np.asarray(tool_acceleration_m_s2, dtype=float).reshape(-1, 3)
         s = self.sensors
         x = s.location_factor * (acc @ self.rotation.T)[:, :2]
-        if len(self._sos):
+        if len(self._sos) and x.shape[0]:
             x, self._zi = signal.sosfilt(self._sos, x, axis=0, zi=self._zi)
         if self._t_last is not None:
             t = np.concatenate([[self._t_last], t])
@@ -280,6 +282,79 @@ class AccelerometerStream:
             self._next_sample = float(ts[-1]) + step
         self.samples += ts.size
         return _convert(s, ts, y)
+
+    def push_many(self, time_s: list[np.ndarray], tool_acceleration_m_s2: list[np.ndarray]
+                  ) -> tuple[SensorSignals, np.ndarray]:
+        """Several chunks in one call: the samples that :meth:`push` gives for each chunk
+        in turn, bit for bit, concatenated, and how many came from each chunk.
+
+        The filters run once over all the chunks (a recurrence: the same arithmetic
+        as chunk by chunk), the sample instants are stepped chunk by chunk as
+        :meth:`push` steps them, the interpolation and the noise take them all at once
+        (each sample between the same two simulation instants; the noise generator's
+        draws in the same order). One call for a run's 200 servo ticks instead of 200
+        saves scipy's and numpy's per-call cost (the simulated verification of the main
+        job pushed 28,243 ticks).
+
+        Parameters
+        ----------
+        time_s : list of ndarray, each shape (k_i,) [s]
+            The chunks' simulation instants (equally spaced, increasing across chunks).
+        tool_acceleration_m_s2 : list of ndarray, each shape (k_i, 3) [m/s^2]
+
+        Returns
+        -------
+        SensorSignals
+            All the chunks' samples.
+        ndarray of int, shape (len(time_s),)
+            Samples per chunk.
+        """
+        chunks = [np.asarray(t, dtype=float).reshape(-1) for t in time_s]
+        accs = [np.asarray(a, dtype=float).reshape(-1, 3) for a in tool_acceleration_m_s2]
+        if len(chunks) != len(accs):
+            raise ValueError(f"tool_acceleration_m_s2: expected {len(chunks)} chunks, got "
+                             f"{len(accs)}")
+        s = self.sensors
+        t = np.concatenate([np.zeros(0), *chunks])
+        acc = np.concatenate([np.zeros((0, 3)), *accs])
+        x = s.location_factor * (acc @ self.rotation.T)[:, :2]
+        if len(self._sos) and x.shape[0]:
+            x, self._zi = signal.sosfilt(self._sos, x, axis=0, zi=self._zi)
+        if self._t_last is not None:
+            t = np.concatenate([[self._t_last], t])
+            x = np.concatenate([self._y_last[None], x])
+        per_chunk = np.zeros(len(chunks), dtype=np.int64)
+        if t.size == 0:
+            return (SensorSignals(np.zeros(0), np.zeros((0, 2), np.int32), np.zeros((0, 2)), 0),
+                    per_chunk)
+        step = 1.0 / s.sample_rate_hz
+        nxt = self._next_sample
+        first = np.zeros(len(chunks))
+        t_end = self._t_last
+        for c, tc in enumerate(chunks):     # as push steps them, chunk by chunk
+            if tc.size:
+                t_end = float(tc[-1])
+            if t_end is None:
+                continue
+            # the instants nxt + step * j, j = 0 .. m - 1, that are <= t_end (the
+            # same float operations as numpy's nxt + step * arange(m))
+            m = max(0, math.floor((t_end - nxt) / step + 1e-9) + 1)
+            while m > 0 and nxt + step * float(m - 1) > t_end:
+                m -= 1
+            if m:
+                first[c] = nxt
+                per_chunk[c] = m
+                nxt = (nxt + step * float(m - 1)) + step
+        j = np.arange(int(per_chunk.sum())) - np.repeat(np.cumsum(per_chunk) - per_chunk,
+                                                         per_chunk)
+        ts = np.repeat(first, per_chunk) + step * j
+        y = np.stack([np.interp(ts, t, x[:, c]) for c in range(2)], axis=1)
+        if s.noise_rms_m_s2 > 0:
+            y = y + self._rng.normal(0.0, s.noise_rms_m_s2, size=y.shape)
+        self._t_last, self._y_last = float(t[-1]), x[-1].copy()
+        self._next_sample = nxt
+        self.samples += ts.size
+        return _convert(s, ts, y), per_chunk
 
 
 def detector_settings(sensors: Accelerometers, **overrides: Any) -> DetectorSettings:

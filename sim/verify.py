@@ -40,7 +40,7 @@ import numpy as np
 from orient.detect import ChatterDetector
 from orient.scenario import PlanScenario
 
-from .constants import COVERAGE_LISTED, SPECTRUM_SEGMENT
+from .constants import COVERAGE_LISTED, SPECTRUM_SEGMENT, VERIFY_TICKS_PER_PUSH
 from .machine import SimulatedNC
 from .report import summarize_run
 from .sensors import detector_settings
@@ -184,6 +184,18 @@ def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
         raise ValueError(f"max_machining_s: expected a time > 0 s, got {max_machining_s!r}")
     nc = SimulatedNC(scn, points=points, seed=seed, workpiece=workpiece)
     times, accel, cutting = [], [], []
+    batch_t, batch_a, batch_cut = [], [], []
+
+    def push() -> None:         # the batch's ticks to the accelerometers, in one call
+        sig, per_tick = nc.stream.push_many(batch_t, batch_a)
+        if sig.time_s.size:
+            times.append(sig.time_s)
+            accel.append(sig.acceleration_m_s2)
+            cutting.append(np.repeat(np.array(batch_cut, dtype=bool), per_tick))
+        batch_t.clear()
+        batch_a.clear()
+        batch_cut.clear()
+
     total = nc.last - nc.first
     k = 0
     stop = None
@@ -191,14 +203,16 @@ def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
         if max_machining_s is not None and nc.state.time_s >= max_machining_s:
             stop = f"the run's time budget ({max_machining_s:g} s simulated) ran out"
             break
-        sig = nc.tick()
-        if sig.time_s.size:
-            times.append(sig.time_s)
-            accel.append(sig.acceleration_m_s2)
-            cutting.append(np.full(sig.time_s.size, bool(nc.state.cutting)))
+        t_tick, a_tick = nc.tick_motion()
+        batch_t.append(t_tick)
+        batch_a.append(a_tick)
+        batch_cut.append(bool(nc.state.cutting))
         k += 1
+        if k % VERIFY_TICKS_PER_PUSH == 0:
+            push()
         if progress is not None and k % 200 == 0:
             progress(nc.point_index() - nc.first, total)
+    push()
     if progress is not None:
         progress(nc.point_index() - nc.first if stop else total, total)
     t = np.concatenate(times) if times else np.zeros(0)

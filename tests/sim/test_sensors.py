@@ -108,3 +108,29 @@ def test_stream_in_chunks_equals_one_call():
     np.testing.assert_array_equal(counts[:n], one.counts)
     np.testing.assert_allclose(np.concatenate([p.time_s for p in parts])[:n], one.time_s,
                                atol=1e-12)
+
+
+def test_stream_push_many_equals_push_chunk_by_chunk():
+    """Several ticks at once give the samples of pushing them one by one, bit for bit
+    (noise included), and say how many came from each tick."""
+    from sim.sensors import AccelerometerStream
+
+    rng = np.random.default_rng(7)
+    dt = 1 / 120_000.0
+    t = np.arange(20_000) * dt
+    a = rng.normal(0, 50, size=(t.size, 3))
+    cuts = (0, 3, 77, 600, 601, 601, 5000, 12_345, t.size)
+    s = Accelerometers(noise_rms_m_s2=0.5)
+    one = AccelerometerStream(s, dt, seed=3)
+    each = [one.push(t[i:j], a[i:j]) for i, j in itertools.pairwise(cuts)]
+    many = AccelerometerStream(s, dt, seed=3)
+    pairs = list(itertools.pairwise(cuts))
+    first, n1 = many.push_many([t[i:j] for i, j in pairs[:4]], [a[i:j] for i, j in pairs[:4]])
+    rest, n2 = many.push_many([t[i:j] for i, j in pairs[4:]], [a[i:j] for i, j in pairs[4:]])
+    np.testing.assert_array_equal(np.r_[n1, n2], [p.time_s.size for p in each])
+    assert sum(p.time_s.size for p in each) > 2000
+    for key in ("time_s", "counts", "acceleration_m_s2"):
+        np.testing.assert_array_equal(
+            np.concatenate([getattr(first, key), getattr(rest, key)]),
+            np.concatenate([getattr(p, key) for p in each]))
+    assert many.samples == one.samples
