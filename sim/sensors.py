@@ -255,19 +255,25 @@ class AccelerometerStream:
         self._next_sample = 0.0
         self.samples = 0
 
-    def push(self, time_s: np.ndarray, tool_acceleration_m_s2: np.ndarray) -> SensorSignals:
-        """New converter samples for a chunk of the simulation (equally spaced times).
-        (The real-time server's path, one tick a call: kept lean; :meth:`push_many`
-        gives the same samples for many chunks at once.)"""
-        t = np.asarray(time_s, dtype=float).reshape(-1)
-        acc = np.asarray(tool_acceleration_m_s2, dtype=float).reshape(-1, 3)
-        s = self.sensors
-        x = s.location_factor * (acc @ self.rotation.T)[:, :2]
+    def _filtered(self, t: np.ndarray, acc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The instants and the two filtered signals of new simulation samples ``t``
+        [s], ``acc`` (k, 3) [m/s^2], the last sample of the previous call before them
+        (the interpolation's left end); advances the filters' state."""
+        x = self.sensors.location_factor * (acc @ self.rotation.T)[:, :2]
         if len(self._sos) and x.shape[0]:
             x, self._zi = signal.sosfilt(self._sos, x, axis=0, zi=self._zi)
         if self._t_last is not None:
             t = np.concatenate([[self._t_last], t])
             x = np.concatenate([self._y_last[None], x])
+        return t, x
+
+    def push(self, time_s: np.ndarray, tool_acceleration_m_s2: np.ndarray) -> SensorSignals:
+        """New converter samples for a chunk of the simulation (equally spaced times).
+        (The real-time server's path, one tick a call: kept lean; :meth:`push_many`
+        gives the same samples for many chunks at once.)"""
+        s = self.sensors
+        t, x = self._filtered(np.asarray(time_s, dtype=float).reshape(-1),
+                              np.asarray(tool_acceleration_m_s2, dtype=float).reshape(-1, 3))
         if t.size == 0:
             return SensorSignals(np.zeros(0), np.zeros((0, 2), np.int32), np.zeros((0, 2)), 0)
         step = 1.0 / s.sample_rate_hz
@@ -315,14 +321,8 @@ class AccelerometerStream:
             raise ValueError(f"tool_acceleration_m_s2: expected {len(chunks)} chunks, got "
                              f"{len(accs)}")
         s = self.sensors
-        t = np.concatenate([np.zeros(0), *chunks])
-        acc = np.concatenate([np.zeros((0, 3)), *accs])
-        x = s.location_factor * (acc @ self.rotation.T)[:, :2]
-        if len(self._sos) and x.shape[0]:
-            x, self._zi = signal.sosfilt(self._sos, x, axis=0, zi=self._zi)
-        if self._t_last is not None:
-            t = np.concatenate([[self._t_last], t])
-            x = np.concatenate([self._y_last[None], x])
+        t, x = self._filtered(np.concatenate([np.zeros(0), *chunks]),
+                              np.concatenate([np.zeros((0, 3)), *accs]))
         per_chunk = np.zeros(len(chunks), dtype=np.int64)
         if t.size == 0:
             return (SensorSignals(np.zeros(0), np.zeros((0, 2), np.int32), np.zeros((0, 2)), 0),
