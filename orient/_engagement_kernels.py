@@ -257,7 +257,16 @@ def _refine(a, ga, b, gb, ox, oy, oz, rho, geo, c0, r, top, mem_eps, tol, maxit)
 
 @njit(cache=True)
 def _top_bound(ox, oy, oz, on, rho, geo):
-    """``(A, B, C)`` of the circle's necessary material condition ``A sin + B cos + C > 0``."""
+    """``(A, B, C)`` of the circle's necessary material condition ``A sin + B cos + C > 0``.
+
+    A concave top rises by at most ``kc ((f.x)^2 + (b.x)^2) / 2`` (``kc`` its
+    tightest concave curvature), and ``(f.x)^2 + (b.x)^2 = |x|^2 - (n.x)^2 <=
+    |x|^2 - m^2`` with ``m`` the least ``|n.x|`` on the circle: ``|x|^2`` is of the
+    form A sin + B cos + C on the circle, ``m`` a constant. (Without ``m`` the
+    bound let the flank high above the contact pass for material on a tilted
+    tool, the band of the profile that can cut grew to the whole flank, and its
+    probes missed the true band near the contact: no engagement at all.)
+    """
     kc = -min(geo[_KF], geo[_KB], 0.0)
     a = -rho * geo[_NXY]
     b = -rho * geo[_NXY + 1]
@@ -265,9 +274,10 @@ def _top_bound(ox, oy, oz, on, rho, geo):
     if kc > 0.0:
         ox_ = ox * geo[_F] + oy * geo[_F + 1] + oz * geo[_F + 2]
         oy_ = ox * geo[_F + 3] + oy * geo[_F + 4] + oz * geo[_F + 5]
+        m = max(abs(on) - rho * math.sqrt(geo[_NXY] ** 2 + geo[_NXY + 1] ** 2), 0.0)
         a += kc * rho * ox_
         b += kc * rho * oy_
-        c += 0.5 * kc * (ox * ox + oy * oy + oz * oz + rho * rho)
+        c += 0.5 * kc * (ox * ox + oy * oy + oz * oz + rho * rho - m * m)
     return a, b, c
 
 

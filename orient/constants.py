@@ -430,9 +430,12 @@ PART_CUT_MIN_PICK_MM = 0.01
 #: material at all" (per angle, polar x azimuth) [-].
 PART_CUT_SHELL_STEPS = 6
 #: The stock's convex curvature is kept below this over the tool radius [-] (a ridge
-#: of radius R/2; a fit over +-1 mm is not trusted beyond). A concave one is taken
-#: flat (orient.part_cuts: the gain kernels' concave branch).
+#: of radius R/2; a fit over +-1 mm is not trusted beyond).
 PART_CUT_MAX_CURVATURE_RADII = 2.0
+#: The stock's concave curvature is kept below this over the tool radius [-] (a hollow
+#: of radius 2 R: a ball in a tighter hollow would touch it away from its contact,
+#: which the local model does not hold; a hollow of radius R would gouge).
+PART_CUT_MAX_CONCAVE_RADII = 0.5
 #: Consecutive cutter locations whose earlier moves are looked up together [-]: the
 #: lookup (errpred's Sweeps.near) costs about 7 ms on mold-ball's flanks, whatever the
 #: box; each location then keeps the moves before its own trail near its ball.

@@ -13,8 +13,9 @@ the path turns by more than ``PART_CUT_PASS_TURN_DEG``):
 * **depth and curvatures** (:class:`orient.engagement.LocalCut`'s stock top): the
   stock's top above the contact along ``n`` (found by bisection up a column), and its
   curvature along ``f`` and ``b`` from its top ``PART_CUT_CURVATURE_SPAN_RADII`` tool
-  radii either side, turned into the finished surface's (convex only: a concave one is
-  taken flat, see :meth:`_Section.stock_top`);
+  radii either side, turned into the finished surface's (convex up to
+  ``PART_CUT_MAX_CURVATURE_RADII``, concave up to ``PART_CUT_MAX_CONCAVE_RADII`` over
+  the tool radius, see :meth:`_Section.stock_top`);
 * **previous pass, its side and the pick feed**: the nearest earlier move running
   within ``PART_CUT_PASS_TURN_DEG`` of the feed (either way) whose ball centre crosses
   the plane through the centre normal to ``f`` within a tool diameter: its offset along
@@ -52,6 +53,7 @@ from .constants import (
     PART_CUT_CHUNK,
     PART_CUT_COLUMNS,
     PART_CUT_CURVATURE_SPAN_RADII,
+    PART_CUT_MAX_CONCAVE_RADII,
     PART_CUT_MAX_CURVATURE_RADII,
     PART_CUT_MIN_DEPTH_MM,
     PART_CUT_MIN_PICK_MM,
@@ -295,9 +297,7 @@ class _Section:
             sides = [top[k] for k in (a, b_) if np.isfinite(top[k]) and top[k] < R]
             kappa = 2.0 * (d - float(np.mean(sides))) / self.h ** 2 if sides else 0.0
             k = kappa / (1.0 - kappa * d) if 1.0 - kappa * d > 0 else kmax
-            # concave taken flat: the gain kernels' concave branch was seen to return no
-            # engagement at k = -0.081 1/mm (mold-ball raster, line 19109 region)
-            ks.append(float(np.clip(k, 0.0, kmax)))
+            ks.append(float(np.clip(k, -PART_CUT_MAX_CONCAVE_RADII / R, kmax)))
         return d, ks[0], ks[1]
 
 

@@ -390,3 +390,26 @@ def test_refuses_bad_input():
     with pytest.raises(ValueError, match="phi"):
         directional_matrices(BALL, default_edges(BALL), COEF, np.eye(3), np.zeros((5, 2, 3)),
                              np.zeros((5, 2, 3), dtype=bool))
+
+
+@pytest.mark.parametrize("tilt_deg", [20.0, 30.0, 45.0])
+@pytest.mark.parametrize("kf, kb", [(-0.081, 0.0), (0.0, -0.081), (-0.081, -0.03)])
+def test_a_concave_top_under_a_tilted_ball_keeps_its_engagement(tilt_deg, kf, kb):
+    """The concave curvature (-0.081 1/mm) a mold core's raster gave, under a ball tilted
+    20-45 deg: the adaptive exact gain against the gain of the sampled engagement.
+    The concave stock-top bound once let the flank far above the contact pass for
+    material, the band of the profile that can cut grew to the whole flank, its probes
+    missed the true band and the gain was 0 from 30 deg on. The two sides place micro
+    edges differently (adaptive against default_edges): on the flat top at the same
+    postures they differ by 0.4-1.2 %, the concave ones by 0.1-2.3 %; a lost band is
+    a difference of 100 %, so 5 % tells the two apart.
+    The mold core's tool: 20 mm of flute (with 15 mm the flank stayed out of the bound)."""
+    tool = Tool("ball", 10.0, flutes=2, helix_deg=30.0, flute_length_mm=20.0)
+    u = posture_axis(Z, X, 0.0, math.radians(tilt_deg))
+    cut = LocalCut(0.15, 0.35, 1, 0.08, kf, kb)
+    exact = process_gain(tool, COEF, u, Z, X, cut)
+    edges = default_edges(tool)
+    s = gain_from_engagement(tool, edges, COEF, engagement(tool, edges, u, Z, X, cut, 720))
+    assert exact.engaged_fraction > 0.05
+    assert np.linalg.norm(s.P - exact.P) / np.linalg.norm(s.P) < 0.05
+    assert exact.engaged_fraction == pytest.approx(s.engaged_fraction, abs=0.01)
