@@ -53,6 +53,7 @@ from .macro_b_blocks import (
     compile_block,
     number_text,
 )
+from .owords import has_owords
 
 __all__ = ["needs_macro_b", "expand_macro_b"]
 
@@ -67,10 +68,6 @@ _HINTS = ("[", "GOTO", "goto", "END", "end")  # (IF/WHILE need '[', a DO loop it
 _CALLS = tuple(re.compile(letter + r"[ \t]*0*" + number + r"(?![\d.])")
                for letter, number in (("M", "9[789]"), ("m", "9[789]"),
                                       ("G", r"6(?:5|6(?:\.1)?)"), ("g", r"6(?:5|6(?:\.1)?)")))
-# LinuxCNC's O-words (o100 sub, o<name> if ...) and named parameters: not Fanuc
-_LINUXCNC = re.compile(r"(?im)^[ \t/]*(?:N[ \t]*\d+[ \t]*)?O[ \t]*(?:<|\d+[ \t]*(?:SUB|"
-                       r"ENDSUB|CALL|RETURN|IF|ELSEIF|ELSE|ENDIF|WHILE|ENDWHILE|DO|REPEAT|"
-                       r"ENDREPEAT|BREAK|CONTINUE)\b)")
 _O_LINE = re.compile(r"(?m)^[ \t]*[Oo:][ \t]*\d+[ \t]*(?:\([^()\n]*\))?[ \t]*\r?$")
 _PROGRAM = re.compile(r"\s*[O:]\s*(\d+)\s*$")
 _SPECIAL = re.compile(r"[#\[]|(?<![A-Z])(?:M\s*0*9[789]|G\s*0*6[567])(?![\d.])|"
@@ -88,7 +85,7 @@ def needs_macro_b(text: str) -> bool:
     or with ``#`` variables or ``[ ]`` and an ``O1234`` program number line;
     False for a program with LinuxCNC's O-words or ``#<name>`` parameters."""
     if _fanuc_signs(text):
-        return "#<" not in text and _LINUXCNC.search(text) is None
+        return "#<" not in text and not has_owords(text)
     return False
 
 
