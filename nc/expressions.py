@@ -9,7 +9,24 @@ Supported, both dialects: numbers, ``#n``, ``#[expr]``, ``##n``, brackets
 ``[ ]``, ``+ - * / MOD``, comparisons ``EQ NE GT GE LT LE`` (1 or 0), ``AND OR
 XOR``, unary signs, and the functions ``SIN COS TAN ASIN ACOS`` (degrees),
 ``ATAN[a]/[b]``, ``SQRT ABS EXP LN ROUND FIX FUP``. LinuxCNC adds ``**``,
-``#<name>`` and ``EXISTS[#<name>]``.
+``#<name>`` and ``EXISTS[#<name>]``. Fanuc macro B adds (Series 30i custom macro
+table) ``ATAN[a,b]`` (the same as ``ATAN[a]/[b]``), the one-argument ``ATAN[x]``,
+``POW[a,b]`` (a to the power b), ``BCD[x]`` (binary to BCD: 12 -> 0x12 = 18) and
+``BIN[x]`` (BCD to binary: 18 -> 12), both on whole numbers 0...99999999 only
+(the BCD digits of a 32-bit signal); other values are refused, as the control's
+treatment of them is not known here. ``ADP`` (add a decimal point to a G65
+argument written without one) depends on how the argument was written, which
+the store does not keep: it is refused by name.
+
+Fanuc's arc tangent range is set by parameter 6004#0 (NAT): 0 (the default)
+gives 0...360 deg, 1 gives -180...180 deg; this reader takes the default.
+The one-argument ``ATAN[x]`` is read as ``ATAN[x]/[1]``, so with the default
+a negative x gives 270...360 deg. Whether the control gives -90...0 there
+instead was not found in the sources at hand; the two differ by exactly 360
+deg, so the same angle reaches SIN/COS and every rotation (only a comparison
+or a linear use of the angle itself would tell them apart). After
+``ATAN[a]`` a ``/`` always starts the two-argument form (``/[b]``); to divide
+the one-argument result, bracket it: ``[ATAN[a]]/2``.
 
 Where the dialects differ, each follows its control (checked against
 LinuxCNC's ``rs274`` for LinuxCNC):
@@ -22,7 +39,8 @@ precedence (low to high)  AND OR XOR; EQ...; + -;      EQ...; + - OR XOR;
 AND OR XOR                logical (0 or 1)            bitwise on whole numbers
 EQ / NE                   within 0.0001               exact; vacant only EQ vacant
 FIX / FUP of -1.5         -2 / -1 (floor / ceil)      -1 / -2 (toward / away from 0)
-ATAN[a]/[b]               -180...180 deg              0...360 deg
+ATAN[a]/[b]               -180...180 deg              0...360 deg (NAT=0)
+ATAN[x], ATAN[a,b], POW   refused                     read (see above)
 a MOD b                   fmod, made >= 0             fmod (sign of a)
 ========================  ==========================  ==========================
 
@@ -35,7 +53,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .constants import MACRO_EQ_TOL
 from .errors import InputError
@@ -64,6 +82,23 @@ def _lmod(a: float, b: float) -> float:
 
 def _bits(f: Callable[[int, int], int]) -> Callable[[float, float], float]:
     return lambda a, b: float(f(int(a), int(b)))
+
+
+def _bcd(v: float) -> float:
+    """Binary -> BCD: the decimal digits of a whole 0...99999999 as hexadecimal digits."""
+    if v != int(v) or not 0 <= v <= 99_999_999:
+        raise ValueError(v)
+    return float(int(str(int(v)), 16))
+
+
+def _bin(v: float) -> float:
+    """BCD -> binary: hexadecimal digits 0-9 read as decimal digits (inverse of :func:`_bcd`)."""
+    if v != int(v) or not 0 <= v <= 0x99999999:
+        raise ValueError(v)
+    digits = f"{int(v):x}"
+    if any(c not in "0123456789" for c in digits):
+        raise ValueError(v)
+    return float(int(digits))
 
 
 def _round(v: float) -> float:
@@ -96,6 +131,12 @@ class Grammar:
     vacant: bool                                  # Fanuc: None is a value of its own
     named: bool                                   # LinuxCNC's #<name> and EXISTS
     supported: str
+    #: two-argument functions ``NAME[a,b]`` (Fanuc's POW)
+    pairs: dict[str, Callable[[float, float], float]] = field(default_factory=dict)
+    #: Fanuc's one-argument ATAN[x] and ATAN[a,b] are read
+    atan_forms: bool = False
+    #: functions refused by name: name -> why
+    refused: dict[str, str] = field(default_factory=dict)
 
 
 def _cmp(tol: float) -> dict[str, Callable[[float, float], float]]:
@@ -133,11 +174,18 @@ FANUC = Grammar(
          "AND": _bits(lambda a, b: a & b), "OR": _bits(lambda a, b: a | b),
          "XOR": _bits(lambda a, b: a ^ b)},
     functions={**_COMMON_FUNCS, "FIX": lambda v: float(math.trunc(v)),
-               "FUP": lambda v: float(math.trunc(v) + (v > math.trunc(v)) - (v < math.trunc(v)))},
+               "FUP": lambda v: float(math.trunc(v) + (v > math.trunc(v)) - (v < math.trunc(v))),
+               "BCD": _bcd, "BIN": _bin},
     atan=lambda a, b: math.degrees(math.atan2(a, b)) % 360.0,
     vacant=True, named=False,
     supported=("numbers, #n, [ ], + - * / MOD, EQ NE GT GE LT LE, AND OR XOR, "
-               "SIN COS TAN ASIN ACOS ATAN[a]/[b] SQRT ABS EXP LN ROUND FIX FUP"))
+               "SIN COS TAN ASIN ACOS ATAN[a]/[b] ATAN[a,b] ATAN[x] POW[a,b] SQRT ABS EXP "
+               "LN ROUND FIX FUP BIN BCD"),
+    pairs={"POW": lambda a, b: a ** b},
+    atan_forms=True,
+    refused={"ADP": "ADP (add a decimal point to a G65 argument) depends on how the "
+                    "argument was written, which this reader does not keep; expected the "
+                    "argument written with a decimal point and no ADP"})
 
 _TOKEN = re.compile(r"\s*(?:(\d+\.?\d*|\.\d+)|(<[^<>]*>)|([A-Z]+)|(\*\*|[-+*/\[\]#,=]))")
 
@@ -311,12 +359,33 @@ class _Parser:
         if name == "ATAN":
             self.expect("[")
             a = self.expr(0)
-            self.expect("]")
-            self.expect("/")
+            t = self.peek()
+            if g.atan_forms and t[0] == 4 and t[1] == ",":  # ATAN[a,b]
+                self.pos = t[3]
+                b = self.expr(0)
+                self.expect("]")
+            else:
+                self.expect("]")
+                t = self.peek()
+                if g.atan_forms and not (t[0] == 4 and t[1] == "/"):  # ATAN[x]
+                    b = lambda st: 1.0
+                else:
+                    self.expect("/")
+                    self.expect("[")
+                    b = self.expr(0)
+                    self.expect("]")
+            f = _checked(g.atan, "ATAN", off)
+            return lambda st: f(_num(a(st)), _num(b(st)))
+        if name in g.refused:
+            raise ExprError(g.refused[name], off)
+        pair = g.pairs.get(name)
+        if pair is not None:
             self.expect("[")
+            a = self.expr(0)
+            self.expect(",")
             b = self.expr(0)
             self.expect("]")
-            f = _checked(g.atan, "ATAN", off)
+            f = _checked(pair, name, off)
             return lambda st: f(_num(a(st)), _num(b(st)))
         fn = g.functions.get(name)
         if fn is None:

@@ -52,6 +52,12 @@ FANUC_TABLE = [
     ("#1 + #2 * 2", 8.0), ("[#1 + #2] * 2", 10.0), ("5 AND 3", 1.0), ("5 OR 3", 7.0),
     ("#10 EQ #0", 1.0), ("#10 EQ 0", 0.0), ("#10 + 1", 1.0), ("-7 MOD 3", -1.0),
     ("#1 GT 1", 1.0), ("ROUND[-0.5]", -1.0),
+    # the 30i table's other functions: ATAN[a,b] = ATAN[a]/[b]; ATAN[x] = ATAN[x]/[1]
+    ("ATAN[-1,-1]", 225.0), ("ATAN[1,0]", 90.0), ("ATAN[1]", 45.0), ("ATAN[-1]", 315.0),
+    ("[ATAN[1]]/2", 22.5), ("ATAN[#1,#2] + 1", math.degrees(math.atan2(2, 3)) + 1),
+    ("POW[2,10]", 1024.0), ("POW[#1,0.5]", math.sqrt(2)), ("POW[-2,3]", -8.0),
+    ("BCD[12]", 18.0), ("BCD[99999999]", float(0x99999999)), ("BIN[18]", 12.0),
+    ("BIN[BCD[4095]]", 4095.0), ("BCD[0]", 0.0),
 ]
 
 
@@ -70,6 +76,16 @@ def test_fanuc_known_values(text, value):
     ("#<x>", FANUC, 0, "after '#'"),
     ("#1.5", LINUXCNC, 1, "whole number"),
     ("#<nope>", LINUXCNC, 0, "not defined"),
+    ("ATAN[1]", LINUXCNC, 7, "expected '/'"),
+    ("ATAN[1]/2", FANUC, 8, "expected '['"),
+    ("1+POW[-8,0.5]", FANUC, 2, "POW of -8, 0.5 is not defined"),
+    ("POW[0,-1]", FANUC, 0, "POW of 0, -1"),
+    ("POW[2]", FANUC, 5, "expected ','"),
+    ("BCD[1.5]", FANUC, 0, "BCD of 1.5"),
+    ("BCD[-1]", FANUC, 0, "BCD of -1"),
+    ("BCD[100000000]", FANUC, 0, "BCD of 1e.08"),
+    ("BIN[10]", FANUC, 0, "BIN of 10"),
+    ("2*ADP[#1]", FANUC, 2, "ADP .add a decimal point"),
 ])
 def test_errors_name_the_place(text, grammar, offset, words):
     with pytest.raises(ExprError, match=words.replace("[", r"\[").replace("*", r"\*")) as exc:

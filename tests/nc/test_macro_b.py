@@ -211,6 +211,25 @@ def test_functions_match_python(angle, positive, x):
         assert list(row[:3]) == pytest.approx(list(w), rel=1e-12, abs=1e-9)
 
 
+@settings(max_examples=100, deadline=None)
+@given(st.floats(-1000, 1000), st.floats(-1000, 1000), st.floats(0.01, 10),
+       st.floats(-4, 4), st.integers(0, 99_999))  # results within the reader's 1e7 coordinates
+def test_30i_functions_match_python(a, b, base, power, whole):
+    """ATAN[a,b], ATAN[x], POW[a,b], BCD/BIN against Python (NAT=0: 0...360 deg)."""
+    a, b, base, power = (float(f"{v:.12f}") for v in (a, b, base, power))
+    if a == 0 and b == 0:
+        return
+    src = (f"O1\n#1={a:.12f}\n#2={b:.12f}\n#3={base:.12f}\n#4={power:.12f}\n#5={whole}\n"
+           "G0 X[ATAN[#1,#2]] Y[ATAN[#1]] Z[POW[#3,#4]]\n"
+           "G0 X[BCD[#5]] Y[BIN[BCD[#5]]] Z[ATAN[#1]/[#2] - ATAN[#1,#2]]\nM30\n")
+    end = parse_program(src).end
+    want = [(math.degrees(math.atan2(a, b)) % 360.0, math.degrees(math.atan(a)) % 360.0,
+             base ** power),
+            (float(int(str(whole), 16)), float(whole), 0.0)]
+    for row, w in zip(end, want):
+        assert list(row[:3]) == pytest.approx(list(w), rel=1e-12, abs=1e-9)
+
+
 # -- bad input: one line each ---------------------------------------------------
 BAD = [
     ("GOTO to a missing N", "O1\nGOTO 99\nM30\n", 2, "no block N99 in program O1"),
@@ -239,6 +258,9 @@ BAD = [
     ("G65 argument letter", "O1\nG65 P2 G1\nM30\nO2\nM99\n", 2, "G is not a G65 argument"),
     ("duplicate program", "O1\nM30\nO2\nM99\nO2\nM99\n", 5, "O2 appears twice"),
     ("bad expression", "O1\n#1=[1+\nM30\n", 2, "expression"),
+    ("ADP", "O1\n#1=1.\nG0 X[ADP[#1]]\nM30\n", 3, "ADP (add a decimal point"),
+    ("POW of a negative base", "O1\n#1=POW[-2,0.5]\nM30\n", 2, "POW of -2, 0.5"),
+    ("BIN of a non-BCD value", "O1\n#1=BIN[26]\nM30\n", 2, "BIN of 26"),
 ]
 
 
