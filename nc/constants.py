@@ -42,6 +42,16 @@ MAX_CYCLE_MOVES_PROGRAM = 1_000_000
 #: program, all arcs together: rows the reader holds as Python lists, so the
 #: same bound as the cycles' [-].
 MAX_TILTED_ARC_CHORDS = 1_000_000
+#: G68.2 P2: the three points must span a plane; below this sine of the angle
+#: at the first point (about 0.06 deg) the plane's normal would be set by the
+#: points' rounding rather than by the programmer [-].
+TILT_POINTS_MIN_SIN = 1.0e-3
+#: G68.2 P3: how far from perpendicular the X and Z directions may be. Posts
+#: write unit vectors with 3-6 decimals, which leaves up to about 0.09 deg; the
+#: reader keeps Z and takes X's part perpendicular to it. Fanuc accepts up to
+#: 5 deg, but which vector it keeps was not found in its text, so a larger
+#: deviation is refused [deg].
+TILT_VECTORS_ANGLE_TOL_DEG = 0.1
 #: G73/G83: how far above the last depth the tool rapids back before the
 #: next peck, LinuxCNC's G83_RAPID_DELTA (0.010 in), in mm [mm].
 CYCLE_PECK_RETRACT_MM = 0.254

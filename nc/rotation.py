@@ -16,6 +16,35 @@ arc centre) into the program frame of the work offset, which is what
   X by J, about the new Z by K): ``M = Rz(I) Rx(J) Rz(K)``, its columns the
   plane's X Y Z axes. Arcs in a plane that the rotation tilts become chords
   (:data:`nc.constants.CHORD_TOL_MM`).
+* ``G68.2 P2``: a plane through three points, in blocks of their own that
+  follow one another: ``G68.2 P2 Q1 X Y Z`` the first point, which is the
+  origin; ``Q2 X Y Z`` the second, the plane's +X from the first;
+  ``Q3 X Y Z`` the third, on the plane's +Y side. An optional ``G68.2 P2 Q0
+  X Y Z R`` before them gives the shift from the first point to the origin,
+  in the plane's axes, and a turn R [deg] about the plane's Z (a post's
+  wording of Fanuc's: "amount of shift from the first point to the origin of
+  a feature coordinate system"). With ``x = (p2 - p1)/|p2 - p1|``,
+  ``z = x × (p3 - p1)`` normalised and ``y = z × x``: ``M = [x y z] Rz(R)``,
+  origin ``p1 + [x y z] s``. A shift and a turn together are refused (which
+  comes first was not found), as are points on one line
+  (:data:`nc.constants.TILT_POINTS_MIN_SIN`).
+* ``G68.2 P3``: a plane from two directions: ``G68.2 P3 Q1 X Y Z I J K``
+  the origin and the plane's X direction, then ``G68.2 P3 Q2 I J K`` its Z
+  direction (the tool axis after G53.1). ``M = [x y z]`` with ``z`` the unit
+  Q2 vector, ``x`` Q1's vector made perpendicular to it
+  (:data:`nc.constants.TILT_VECTORS_ANGLE_TOL_DEG`), ``y = z × x``.
+  Until the last block of a P2/P3 definition no plane is in effect, and any
+  other block there is refused.
+* ``G68.2 P1`` (roll-pitch-yaw, ``Q123``/``Q321``... the order of the three
+  turns) is refused by name. Fanuc's own wording on whether the turns are
+  about the workpiece's fixed axes or the axes already turned was not found.
+  The public implementations disagree: LinuxCNC's tilted-work-plane remap
+  (``remap_twp``) composes ``Rx(I) Ry(J) Rz(K)`` for ``Q123``, turns about
+  the moving axes in the order I, J, K (the same as fixed axes in the order
+  K, J, I), and a simulator's notes derived from it say the same; another
+  implementation found earlier composes the Q order about the fixed axes,
+  the reverse product. The two give different planes for the same words
+  whenever two of I J K are non-zero, so the reader does not guess.
 * ``G53.1``: the tool is turned along the tilted plane's Z. The reader does
   not know the machine's angles, so it takes the turn as one about the tool
   tip (as under tool centre point control), and from there every row is a
@@ -29,7 +58,8 @@ arc centre) into the program frame of the work offset, which is what
 Refused with the word and what is expected: G68 or G68.2 while one is in
 effect, a change of plane, work offset or frame (G92, G52, G10, G28, G53)
 while one is in effect, rotary words or tool centre point control under
-G68.2, G53.1 without G68.2, G68.2 P1...P3 and other forms than Euler angles.
+G68.2, G53.1 without G68.2, G68.2 P1 and LinuxCNC's P0 ``Q`` axis orders, an
+incomplete or interrupted P2/P3 definition.
 """
 
 from __future__ import annotations
@@ -46,7 +76,7 @@ from .lexer import find_token
 from .program import PLANE_AXES, TCP_OFF
 
 __all__ = ["Rotation", "RotationBlocks", "RotationError", "euler_zxz", "rotation_about",
-           "rotation_block"]
+           "rotation_block", "plane_from_points", "plane_from_vectors"]
 
 G68, G68_2, G69, G53_1 = 680, 682, 690, 531
 
@@ -76,6 +106,104 @@ def euler_zxz(i_deg: float, j_deg: float, k_deg: float) -> np.ndarray:
             @ rotation_about(ez, math.radians(k_deg)))
 
 
+def plane_from_points(p1, p2, p3) -> np.ndarray:
+    """G68.2 P2's frame: columns x (p1 -> p2), y, z = x × (p1 -> p3) (see the module).
+
+    Raises
+    ------
+    RotationError
+        Coincident points or points on one line.
+    """
+    p1, p2, p3 = (np.asarray(p, dtype=float) for p in (p1, p2, p3))
+    u, v = p2 - p1, p3 - p1
+    lu, lv = float(np.linalg.norm(u)), float(np.linalg.norm(v))
+    if not (lu > 1e-9 and lv > 1e-9):
+        raise RotationError("G68.2 P2 with two points at one place; expected three points "
+                            "spanning the plane", "Q")
+    x = u / lu
+    n = np.cross(x, v / lv)
+    sn = float(np.linalg.norm(n))
+    if not sn > K.TILT_POINTS_MIN_SIN:
+        raise RotationError("G68.2 P2 with three points on one line; expected the third "
+                            "point off the line through the first two", "Q")
+    z = n / sn
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def plane_from_vectors(xdir, zdir) -> np.ndarray:
+    """G68.2 P3's frame: z along ``zdir``, x along ``xdir``'s part perpendicular to it.
+
+    Raises
+    ------
+    RotationError
+        A zero vector, or directions more than
+        :data:`nc.constants.TILT_VECTORS_ANGLE_TOL_DEG` from perpendicular.
+    """
+    a, b = np.asarray(xdir, dtype=float), np.asarray(zdir, dtype=float)
+    la, lb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    if not (la > 1e-12 and lb > 1e-12):
+        raise RotationError("G68.2 P3 with a zero vector; expected I J K of the plane's X "
+                            "(Q1) and Z (Q2) directions", "Q")
+    z = b / lb
+    off = math.degrees(math.asin(min(1.0, abs(float(a @ z)) / la)))
+    if off > K.TILT_VECTORS_ANGLE_TOL_DEG:
+        raise RotationError(f"G68.2 P3 X and Z directions {90 - off:.3f} deg apart; expected "
+                            f"perpendicular within {K.TILT_VECTORS_ANGLE_TOL_DEG} deg", "Q")
+    x = a - (a @ z) * z
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+#: G68.2 P2/P3: the blocks of one definition in order, and each block's words
+_PARTS = {2: ((0, "XYZR", ""), (1, "XYZ", "XYZ"), (2, "XYZ", "XYZ"), (3, "XYZ", "XYZ")),
+          3: ((1, "XYZIJK", "XYZIJK"), (2, "IJK", "IJK"))}
+
+
+def _plane_part(vals: dict[str, float], form: int, scale: float, current: "Rotation | None",
+                plane: int, held) -> "Rotation":
+    """One block of a G68.2 P2/P3 definition: the pending state, or the plane when complete."""
+    parts = current.pending[1] if current is not None and current.pending else {}
+    order = _PARTS[form]
+    if "Q" not in vals:
+        raise RotationError(f"G68.2 P{form} without Q; expected Q" +
+                            "/Q".join(str(q) for q, _, _ in order), "P")
+    q = vals["Q"]
+    done = [k for k, _, _ in order if k in parts]
+    nxt = [k for k, _, _ in order if k not in parts and (not done or k > done[-1])]
+    allowed = nxt[:2] if form == 2 and not done else nxt[:1]  # P2's Q0 may be left out
+    if q not in allowed:
+        want = " or ".join(f"Q{k}" for k in allowed)
+        raise RotationError(f"G68.2 P{form} Q{q:g} here; expected {want} next (the blocks "
+                            f"of one definition in order, one after another)", "Q")
+    _, words, needed = next(o for o in order if o[0] == q)
+    for c in vals:
+        if c in "XYZIJKRABC" and c not in words:
+            raise RotationError(f"{c} word with G68.2 P{form} Q{int(q)}; expected {' '.join(words)}", c)
+    for c in needed:
+        if c not in vals:
+            raise RotationError(f"G68.2 P{form} Q{int(q)} without {c}; expected "
+                                f"{' '.join(needed)}", "Q")
+    parts = {**parts, int(q): {c: vals[c] * (scale if c in "XYZ" else 1.0)
+                               for c in words if c in vals}}
+    if len(parts) < len(order) - (1 if form == 2 and 0 not in parts else 0):
+        return Rotation(np.eye(3), np.zeros(3), active=False, axis=held, pending=(form, parts))
+    if form == 2:
+        pts = [np.array([parts[k][c] for c in "XYZ"]) for k in (1, 2, 3)]
+        frame = plane_from_points(*pts)
+        q0 = parts.get(0, {})
+        shift = np.array([q0.get(c, 0.0) for c in "XYZ"])
+        r = q0.get("R", 0.0)
+        if r != 0.0 and np.any(shift != 0.0):
+            raise RotationError("G68.2 P2 Q0 with both a shift X Y Z and a turn R; expected "
+                                "one of them (which applies first was not found in Fanuc's "
+                                "text)", "R")
+        M = frame @ rotation_about(np.array([0.0, 0.0, 1.0]), math.radians(r))
+        return Rotation(M, pts[0] + frame @ shift, tilted=True, plane=plane, axis=held)
+    frame = plane_from_vectors([parts[1][c] for c in "IJK"], [parts[2][c] for c in "IJK"])
+    origin = np.array([parts[1][c] for c in "XYZ"])
+    return Rotation(frame, origin, tilted=True, plane=plane, axis=held)
+
+
 @dataclass
 class Rotation:
     """The rotation in effect, or the tool axis G53.1 left after G69.
@@ -94,6 +222,9 @@ class Rotation:
         The plane the rotation was given in (17, 18, 19).
     axis : tuple of 3 float or None
         Tool axis after G53.1, in the program frame; None before.
+    pending : tuple or None
+        A G68.2 P2/P3 definition read in part: (P, {Q: words [mm]}); no
+        plane is in effect until it is complete.
     """
 
     M: np.ndarray
@@ -102,6 +233,7 @@ class Rotation:
     tilted: bool = False
     plane: int = 17
     axis: tuple[float, float, float] | None = None
+    pending: tuple[int, dict] | None = None
 
     def __post_init__(self) -> None:
         # plain floats: one block's conversion is faster without numpy
@@ -187,10 +319,15 @@ def rotation_block(code: int, vals: dict[str, float], pos: list[float], plane: i
     RotationError
     """
     active = current is not None and current.active
-    if "Q" in vals:
+    form = vals.get("P", 0.0) if code == G68_2 else None
+    if current is not None and current.pending is not None and form != current.pending[0]:
+        f = current.pending[0]
+        raise RotationError(f"G68.2 P{f} definition not complete; expected its next "
+                            f"G68.2 P{f} Q block first")
+    if "Q" in vals and form not in (2.0, 3.0):
         raise RotationError("Q word with G68.x (LinuxCNC's G68.2 Q orientation forms, Fanuc's "
                             "P1 roll-pitch-yaw order) is not supported; expected Fanuc's "
-                            "G68.2 X Y Z I J K (Euler angles)", "Q")
+                            "G68.2 X Y Z I J K (Euler angles), P2 or P3 with Q", "Q")
     if "L" in vals:
         raise RotationError("L word with G68.x/G69/G53.1; expected none", "L")
     if code == G69:
@@ -222,9 +359,16 @@ def rotation_block(code: int, vals: dict[str, float], pos: list[float], plane: i
             raise RotationError(f"{c} word with G68/G68.2; expected the centre X Y Z, "
                                 "I J K and R only", c)
     if code == G68_2:
-        if vals.get("P", 0.0) != 0.0:
-            raise RotationError("G68.2 P1...P3 (roll-pitch-yaw, three points, two vectors) "
-                                "is not supported; expected Euler angles I J K (P0)", "P")
+        if form in (2.0, 3.0):
+            return _plane_part(vals, int(form), scale, current, plane, held)
+        if form == 1.0:
+            raise RotationError("G68.2 P1 (roll-pitch-yaw) is not supported: whether its "
+                                "turns are about the fixed or the turned axes was not found "
+                                "in Fanuc's text (nc.rotation); expected P0 Euler angles I J "
+                                "K, P2 three points or P3 two vectors", "P")
+        if form != 0.0:
+            raise RotationError(f"G68.2 P{form:g}; expected P0 (Euler angles), P2 (three "
+                                "points) or P3 (two vectors)", "P")
         if "R" in vals:
             raise RotationError("R word with G68.2; expected X Y Z (origin) and I J K "
                                 "(Euler angles)", "R")
@@ -295,6 +439,10 @@ class RotationBlocks:
                 raise self._word_error(lineno, toks, c, f"rotary word {c} under G68.2; "
                                        "expected G53.1 to turn the tool (G69 first to move "
                                        "rotary axes)")
+        if rot is not None and rot.pending is not None and code is None:
+            f = rot.pending[0]
+            raise self._error(lineno, f"G68.2 P{f} definition not complete; expected its next "
+                              f"G68.2 P{f} Q block here (the blocks follow one another)")
         if code is None and orient is None:
             if rot is not None and not rot.active and any(i >= 3 for i, _ in axes or ()):
                 return None, False  # rotary words: the axes leave G53.1's posture

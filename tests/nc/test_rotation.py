@@ -12,7 +12,7 @@ from nc import NCParseError, parse_program
 from nc.kinematics import get_machine, solve_path
 from nc.path import cutter_locations
 from nc.program import TCP_OFF, TCP_VECTOR
-from nc.rotation import euler_zxz
+from nc.rotation import euler_zxz, plane_from_points, plane_from_vectors
 from nc.writer import PostOptions, post
 
 HEAD = "G21 G17 G90 G94\nT1 M6\nS1000 M3\nF100\nG0 X0 Y0 Z5\n"
@@ -36,6 +36,20 @@ KNOWN = [
      [(100, -10, 0), (100, 0, 0), (105, 0, 3)]),
     # I90 J45: Z turned 90 about Z, then 45 about the new X (world Y): axis (s, 0, s)
     ("G68.2 X0 Y0 Z0 I90 J45 K0\nG53.1\nG1 X0 Y0 Z10", [(10 * S, 0, 10 * S)]),
+    # G68.2 P2: a plane tilted 30 deg about X through (10, 20, 5): x = +X, the third
+    # point 10 along (0, cos 30, sin 30); (1, 2, 3) -> (11, 20 + 2c - 3s, 5 + 2s + 3c)
+    ("G68.2 P2 Q1 X10 Y20 Z5\nG68.2 P2 Q2 X20 Y20 Z5\n"
+     "G68.2 P2 Q3 X10 Y28.660254037844386 Z10\nG53.1\nG1 X1 Y2 Z3",
+     [(11, 20 + 2 * 0.8660254037844386 - 1.5, 5 + 1 + 3 * 0.8660254037844386)]),
+    # P2 with Q0's shift X5 in the plane's axes; x = +Y, third point at -X: z = +Z, y = -X
+    ("G68.2 P2 Q0 X5 Y0 Z0 R0\nG68.2 P2 Q1 X0 Y0 Z0\nG68.2 P2 Q2 X0 Y10 Z0\n"
+     "G68.2 P2 Q3 X-10 Y0 Z0\nG1 X1 Y0 Z0\nY1", [(0, 6, 0), (-1, 6, 0)]),
+    # P2 with Q0 R90: the points give the work frame, then a turn of 90 about its Z
+    ("G68.2 P2 Q0 R90\nG68.2 P2 Q1 X0 Y0 Z0\nG68.2 P2 Q2 X1 Y0 Z0\n"
+     "G68.2 P2 Q3 X0 Y1 Z0\nG1 X1 Y0 Z0", [(0, 1, 0)]),
+    # G68.2 P3: x = +X, z = -Y: the front face as P0's I0 J90 K0 above (y = z x x = +Z)
+    ("G68.2 P3 Q1 X100 Y0 Z0 I1 J0 K0\nG68.2 P3 Q2 I0 J-1 K0\nG53.1\nG0 X0 Y0 Z10\n"
+     "G1 Z0\nX5 Y3", [(100, -10, 0), (100, 0, 0), (105, 0, 3)]),
     # canned cycle under G68: the hole at (10, 0) rotated 90 about the origin -> (0, 10)
     ("G68 X0 Y0 R90\nG98 G81 X10 Y0 Z-1 R1\nG80",
      [(0, 10, 5), (0, 10, 1), (0, 10, -1), (0, 10, 5)]),
@@ -56,6 +70,40 @@ def test_g68_arc_stays_an_arc_with_its_centre_rotated():
     np.testing.assert_allclose(b.end[:3], [-5, 0, 5], atol=1e-9)
     np.testing.assert_allclose(b.arc.centre, [5, 0, 5], atol=1e-9)
     assert b.arc.sweep_rad == pytest.approx(math.pi / 2)  # still G3, a quarter
+
+
+EULER = [(0, 30, 0), (30, 40, -20), (-75, 120, 10), (200, 15, 95)]
+
+
+@pytest.mark.parametrize("angles", EULER)
+def test_three_points_and_two_vectors_give_p0s_plane(angles):
+    """P2 through the P0 plane's origin, origin + x and origin + y + x, and P3 with its
+    x and z columns: the same moves and tool vectors after G53.1 as P0."""
+    M = euler_zxz(*angles)
+    o = np.array([12.0, -7.0, 3.0])
+    fmt = " ".join
+    p1, p2, p3 = o, o + 25 * M[:, 0], o + 10 * M[:, 0] + 40 * M[:, 1]
+    xyz = [fmt(f"{c}{v:.15f}" for c, v in zip("XYZ", p)) for p in (p1, p2, p3)]
+    ijk = [fmt(f"{c}{v:.15f}" for c, v in zip("IJK", M[:, k])) for k in (0, 2)]
+    tail = "G53.1\nG0 X0 Y0 Z20\nG1 Z0 F300\nX10 Y4\nG2 X20 Y4 I5 J0\nG0 Z20\nG69\nM30\n"
+    p0 = parse_program(HEAD + "G68.2 X12 Y-7 Z3 I{} J{} K{}\n".format(*angles) + tail)
+    forms = [HEAD + "".join(f"G68.2 P2 Q{k + 1} {xyz[k]}\n" for k in range(3)) + tail,
+             HEAD + f"G68.2 P3 Q1 {xyz[0]} {ijk[0]}\nG68.2 P3 Q2 {ijk[1]}\n" + tail]
+    for src in forms:
+        prog = parse_program(src)
+        assert len(prog) == len(p0)
+        np.testing.assert_allclose(prog.end, p0.end, atol=1e-9)
+        np.testing.assert_allclose(prog.tool_vector, p0.tool_vector, atol=1e-12)
+        np.testing.assert_array_equal(prog.modal_column("tcp"), p0.modal_column("tcp"))
+    np.testing.assert_allclose(plane_from_points(p1, p2, p3), M, atol=1e-12)
+    np.testing.assert_allclose(plane_from_vectors(M[:, 0], M[:, 2]), M, atol=1e-12)
+
+
+def test_two_vectors_a_hair_from_perpendicular_keep_z():
+    """A post's rounded unit vectors (0.05 deg off): z exact, x made perpendicular."""
+    a = math.radians(0.05)
+    M = plane_from_vectors([math.cos(a), 0, math.sin(a)], [0, 0, 2])
+    np.testing.assert_allclose(M, np.eye(3), atol=1e-15)
 
 
 def test_euler_zxz_columns_are_the_plane_axes():
@@ -134,7 +182,28 @@ def test_tilted_program_through_kinematics_and_the_fanuc_writer(name):
     ("G68 X0 Y0 R10\nG92 X0", "7:1", "change of frame"),
     ("G68 X0 Y0 R10 G1", "6:1", "without motion"),
     ("G68 X0 Y0 Z3 R10", "6:11", "in the plane's two axes"),
-    ("G68.2 X0 Y0 Z0 I0 J30 K0 P1", "6:26", "P1...P3"),
+    ("G68.2 X0 Y0 Z0 I0 J30 K0 P1", "6:26", "G68.2 P1 (roll-pitch-yaw) is not supported"),
+    ("G68.2 X0 Y0 Z0 I0 J30 K0 P4", "6:26", "expected P0"),
+    ("G68.2 P2 Q1 X0 Y0 Z0\nG1 X1", "7:1", "G68.2 P2 definition not complete"),
+    ("G68.2 P2 Q1 X0 Y0 Z0\nG69", "7:1", "G68.2 P2 definition not complete"),
+    ("G68.2 P2 Q1 X0 Y0 Z0\nG68.2 P2 Q3 X0 Y1 Z0", "7:10", "Q3 here; expected Q2 next"),
+    ("G68.2 P2 Q1 X0 Y0 Z0\nG68.2 P2 Q0 X1", "7:10", "Q0 here; expected Q2 next"),
+    ("G68.2 P2 Q1 X0 Y0 Z0\nG68.2 P3 Q1 X0 Y0 Z0 I1 J0 K0", "7:1", "P2 definition not"),
+    ("G68.2 P2 Q1 X0 Y0 Z0 I1", "6:22", "I word with G68.2 P2 Q1"),
+    ("G68.2 P2 Q1 X0 Y0", "6:10", "Q1 without Z"),
+    ("G68.2 P2 X0 Y0 Z0", "6:7", "P2 without Q"),
+    ("G68.2 P2 Q1 X0 Y0 Z0\nG68.2 P2 Q2 X1 Y0 Z0\nG68.2 P2 Q3 X2 Y0 Z0", "8:10",
+     "three points on one line"),
+    ("G68.2 P2 Q1 X0 Y0 Z0\nG68.2 P2 Q2 X0 Y0 Z0\nG68.2 P2 Q3 X2 Y0 Z0", "8:10",
+     "two points at one place"),
+    ("G68.2 P2 Q0 X1 R10\nG68.2 P2 Q1 X0 Y0 Z0\nG68.2 P2 Q2 X1 Y0 Z0\n"
+     "G68.2 P2 Q3 X0 Y1 Z0", "9:1", "both a shift X Y Z and a turn R"),
+    ("G68.2 P3 Q1 X0 Y0 Z0 I1 J0 K0\nG68.2 P3 Q2 I0.0035 J0 K1", "7:10",
+     "perpendicular within 0.1 deg"),
+    ("G68.2 P3 Q1 X0 Y0 Z0 I0 J0 K0\nG68.2 P3 Q2 I0 J0 K1", "7:10", "zero vector"),
+    ("G68.2 P3 Q1 X0 Y0 Z0 I1 J0 K0\nG68.2 P3 Q2 X1 I0 J0 K1", "7:13", "X word with G68.2 P3"),
+    ("G68.2 P3 Q1 X0 Y0 Z0 I1 J0 K0 R5", "6:31", "R word with G68.2 P3 Q1"),
+    ("G68.2 P3 Q1 X0 Y0 Z0 I1 J0 K0\nG53.1", "7:1", "P3 definition not complete"),
     ("G68.2 X0 Y0 Z0 Q123 I0 J30", "6:16", "Q word with G68.x"),
     ("G53.1", "6:1", "without a tilted working plane"),
     ("G68.2 X0 Y0 Z0 I0 J30 K0\nG53.1\nG1 B10", "8:4", "rotary word B under G68.2"),
