@@ -255,11 +255,12 @@ class Scenario:
         return machine.with_tool_length(self.tool.overhang_mm)
 
     def read_program(self):
-        """The NC program (``nc.read_any``: the scenario's dialect and allow list)."""
+        """The NC program (``nc.read_any``: the scenario's dialect, allow list and
+        machine, which a Siemens CYCLE800 in direct mode needs)."""
         from nc import read_any
 
         return read_any(self.program_path, None if self.dialect == "auto" else self.dialect,
-                        allow=self.allow)
+                        allow=self.allow, machine=self.resolve_machine())
 
 
 # --------------------------------------------------------------------------- sections

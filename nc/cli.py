@@ -113,7 +113,8 @@ def _cmd_parse(args) -> int:
             raise InputError("--offsets and --retract-limit do not apply to a Siemens "
                              "program (its work offsets are taken as zero)")
         prog = read_any(args.file, "siemens", allow=_allow_list(args.allow),
-                        block_delete=args.block_delete)
+                        block_delete=args.block_delete,
+                        machine=_machine(args.machine) if args.machine else None)
     elif dialect == "heidenhain":
         if args.offsets:
             raise InputError("--offsets applies to G-code (G54...G59); a Heidenhain "
@@ -242,6 +243,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "Sinumerik words (CYCLE800, TRAORI, ...)")
     p.add_argument("--retract-limit", type=float, metavar="MM",
                    help="Heidenhain: the Z that M140 MB MAX retracts to (else refused)")
+    p.add_argument("--machine", metavar="MACHINE",
+                   help="Siemens: a named machine or machine TOML file, for CYCLE800's "
+                        "direct mode (192: the plane from the rotary axis positions)")
     p.set_defaults(func=_cmd_parse)
 
     p = sub.add_parser("post", help="write an NC program from a cutter-location CSV")

@@ -45,7 +45,8 @@ def detect_dialect(text: str) -> str:
     return "gcode"
 
 
-def read_any(path: str | os.PathLike, dialect: str | None = None, **options) -> Program:
+def read_any(path: str | os.PathLike, dialect: str | None = None, *, machine: object = None,
+             **options) -> Program:
     """Read an NC program with the reader of its dialect.
 
     Parameters
@@ -54,6 +55,9 @@ def read_any(path: str | os.PathLike, dialect: str | None = None, **options) -> 
     dialect : str, optional
         ``"gcode"``, ``"heidenhain"`` or ``"siemens"`` to force a reader; None
         detects it from the first blocks (:func:`detect_dialect`).
+    machine : nc.machines.Machine, optional
+        The machine the program runs on; used by the Siemens reader
+        (CYCLE800's direct mode), not needed by the others.
     **options
         Passed to :func:`nc.gcode.read_program`,
         :func:`nc.heidenhain.read_heidenhain` or :func:`nc.siemens.read_siemens`.
@@ -70,7 +74,7 @@ def read_any(path: str | os.PathLike, dialect: str | None = None, **options) -> 
     if dialect == "siemens":
         from .siemens import read_siemens
 
-        return read_siemens(name, **options)
+        return read_siemens(name, machine=machine, **options)
     if dialect == "gcode":
         from .gcode import read_program
 

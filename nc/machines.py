@@ -278,6 +278,50 @@ class Machine:
         m, u = self._forward(j)
         return (m[0], u[0]) if single else (m, u)
 
+    def tool_frame(self, tilt_rad: float, rot_rad: float) -> NDArray[np.float64]:
+        """The spindle's X, Y and Z (columns) in the workpiece frame at these angles.
+
+        The head axes turn the spindle's frame, the table axes turn the
+        workpiece under it (so their turns are undone), as in :meth:`forward`;
+        column 2 is :meth:`forward`'s tool axis. This is the frame a swivel
+        cycle sets from rotary axis positions (Sinumerik CYCLE800 direct mode).
+
+        Parameters
+        ----------
+        tilt_rad, rot_rad : float [rad]
+            Machine angles of the tilt (column 3) and rotary (column 4) axes.
+
+        Returns
+        -------
+        ndarray, shape (3, 3)
+            Orthonormal, determinant +1.
+        """
+        a = np.array([float(tilt_rad), float(rot_rad)])
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"tool_frame: angles not finite: {tilt_rad!r}, {rot_rad!r}")
+        cs = self._cos_sin(a[:1], a[1:])
+        rows = np.eye(3)  # the frame's axes as rows while turning
+        for ax, q in reversed(self._head_chain()):
+            c, s = cs[q]
+            rows = _rotate(rows, ax.vector, np.repeat(c, 3), np.repeat(s, 3))
+        for ax, q in self._table_chain():
+            c, s = cs[q]
+            rows = _rotate(rows, ax.vector, np.repeat(c, 3), -np.repeat(s, 3))
+        return rows.T.copy()
+
+    def swivel_axes(self) -> tuple[int, int]:
+        """Joint columns of a swivel data set's rotary axes 1 and 2 (Sinumerik's rule).
+
+        Rotary axis 2 is carried by rotary axis 1; with a head and a table axis,
+        axis 1 is the head's (the one that sets the tool orientation).
+        Table-table: (tilt, rotary); head-head: (rotary, tilt); head-table:
+        (tilt, rotary).
+        """
+        tilt, rot = self.axes
+        if tilt.carrier == "head" and rot.carrier == "head":
+            return 4, 3
+        return 3, 4
+
     def inverse(self, tip: ArrayLike, axis: ArrayLike, *, free_rad: ArrayLike = 0.0,
                 singular_cone_rad: float = K.SINGULAR_CONE_RAD) -> tuple[NDArray, NDArray]:
         """Both joint solutions for tool tips and axes in the workpiece frame.

@@ -98,7 +98,7 @@ def normalise_allow(allow: Iterable[str], file: str = "<string>") -> frozenset[s
 
 
 def parse_siemens(text: str, *, file: str = "<string>", block_delete: bool = False,
-                  allow: Iterable[str] = ()) -> Program:
+                  allow: Iterable[str] = (), machine: object = None) -> Program:
     """Interpret Sinumerik text.
 
     Parameters
@@ -113,6 +113,9 @@ def parse_siemens(text: str, *, file: str = "<string>", block_delete: bool = Fal
         Further codes (``"M110"``, ``"H1"``, ``"G26"``, a keyword such as
         ``"FGROUP"`` without parameters) to pass over without effect; those
         that move the tool or the frame cannot be allowed.
+    machine : nc.machines.Machine, optional
+        The machine the program runs on: CYCLE800's direct mode (192) takes
+        its plane from the machine's kinematics and is refused without it.
 
     Returns
     -------
@@ -125,7 +128,7 @@ def parse_siemens(text: str, *, file: str = "<string>", block_delete: bool = Fal
     lines, newline, blocks, name = split_blocks(text, file)
     if not blocks:
         raise NCParseError("empty program; expected blocks such as G1 X10 F500", file=file)
-    st = SState(file, lines, allowed)
+    st = SState(file, lines, allowed, machine)
     st.metadata["dialect"] = "siemens"
     if name is not None:
         st.metadata["name"] = name

@@ -15,8 +15,13 @@ _FR_I, _DMODE)``. What is read:
     Z, 182 = Y X Z): ``_A`` and ``_B`` are projection angles about their axes,
     defined as the 840D's solid angles of ``ROTS`` (:func:`projection_frame`),
     ``_C`` a turn about the new third axis;
-  - ``11`` direct (rotary axis positions, 192) needs the machine's swivel data
-    and is refused by name.
+  - ``11`` direct (``_MODE`` 192): ``_A`` and ``_B`` are the positions [deg]
+    of the swivel data set's rotary axes 1 and 2 (Sinumerik's rule: axis 2 is
+    carried by axis 1; with a head and a table axis, axis 1 is the head's:
+    :meth:`nc.machines.Machine.swivel_axes`). The plane is the spindle's frame
+    at those positions, its Z the tool axis
+    (:meth:`nc.machines.Machine.tool_frame`), so it needs the machine: without
+    one the mode is refused, naming the machine file it needs.
 * ``_X0 _Y0 _Z0`` the point rotated about (a shift before the rotation) and
   ``_X1 _Y1 _Z1`` the zero point of the swivelled plane (a shift after it):
   a point ``p`` of the swivelled plane is ``X0 + R (X1 + p)`` in the frame
@@ -147,7 +152,7 @@ def _projection(axes: list[int], angles: list[float]) -> np.ndarray:
     return R
 
 
-def cycle800(values: list, current: Swivel) -> Swivel:
+def cycle800(values: list, current: Swivel, machine: object = None) -> Swivel:
     """The swivel frame after a CYCLE800 call.
 
     Parameters
@@ -157,6 +162,8 @@ def cycle800(values: list, current: Swivel) -> Swivel:
         others float [mm, deg or codes]; at most 16.
     current : Swivel
         The swivel frame before the call.
+    machine : nc.machines.Machine, optional
+        The machine, for the direct mode (192); without it that mode is refused.
 
     Returns
     -------
@@ -166,7 +173,7 @@ def cycle800(values: list, current: Swivel) -> Swivel:
     Raises
     ------
     FrameError
-        The direct swivel mode (192), an axis sequence that is not a
+        The direct swivel mode (192) without a machine, an axis sequence that is not a
         permutation of X Y Z, a solid angle with ``_C``, projection angles with
         no plane, a ``_ST`` or ``_MODE`` that is not a whole code.
     """
@@ -190,17 +197,27 @@ def cycle800(values: list, current: Swivel) -> Swivel:
         raise FrameError(f"CYCLE800 _ST = {st}: its units digit must be 0 (new swivel "
                          "plane) or 1 (additive)", 2)
     kind = (mode >> 6) & 3
-    if mode > 255 or kind == 3:
+    if mode > 255 or (kind == 3 and (mode != 192 or machine is None)):
+        why = ("needs the machine's kinematics: give a machine file or a named machine "
+               "(nc parse --machine, a scenario's [program] machine)" if mode == 192 else
+               "is not a swivel mode")
         raise FrameError(f"CYCLE800 swivel mode {mode} ({MODE_NAMES[kind]}"
                          + (", bits above 7" if mode > 255 else "")
-                         + ") is not read (rotary axis positions need the machine's swivel "
-                         "data); supported: axis by axis (_MODE 0..63, e.g. 57 = X Y Z, "
+                         + f") {why}; supported: axis by axis (_MODE 0..63, e.g. 57 = X Y Z, "
                          "27 = Z Y X), solid angle (64), projection angle (128 + axis "
-                         "sequence, e.g. 185 = X Y Z)", 3)
+                         "sequence, e.g. 185 = X Y Z), direct (192) with a machine", 3)
     for k in range(4, 13):
         if not isinstance(nums[k], float):
             raise FrameError(f"CYCLE800 {PARAMS[k]}: expected a number", k)
-    if kind == 1:
+    if kind == 3:
+        if nums[9] != 0.0:
+            raise FrameError("CYCLE800 direct mode (192) with _C; expected the two rotary "
+                             "axis positions in _A and _B only", 9)
+        joints = [0.0] * 5
+        for col, val in zip(machine.swivel_axes(), nums[7:9]):
+            joints[col] = math.radians(val)
+        R = machine.tool_frame(joints[3], joints[4])
+    elif kind == 1:
         R = _solid_angle(mode, nums[7], nums[8], nums[9])
     else:
         codes = [mode & 3, (mode >> 2) & 3, (mode >> 4) & 3]

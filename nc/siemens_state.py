@@ -105,8 +105,10 @@ _RESERVED = frozenset({"X", "Y", "Z", "A", "B", "C", "I", "J", "K", "F", "S", "T
 class SState(ProgramRows):
     """Modal state and output columns of one run."""
 
-    def __init__(self, file: str, lines: list[str], allowed: frozenset[str]) -> None:
+    def __init__(self, file: str, lines: list[str], allowed: frozenset[str],
+                 machine: object = None) -> None:
         self.file, self.lines, self.allowed = file, lines, allowed
+        self.machine = machine  # nc.machines.Machine for CYCLE800's direct mode, or None
         self.scale, self.units = 1.0, 21
         self.distance, self.plane, self.feed_mode = 90, 17, 94
         self.motion: int | None = None
@@ -306,7 +308,7 @@ class SState(ProgramRows):
                     raise self.err(f"CYCLE800 {name} = {a[:16]}: expected a number", w.col)
                 vals.append(self.expr(a, w.col, f"CYCLE800 {name}"))
         try:
-            sw = cycle800(vals, self.swivel)
+            sw = cycle800(vals, self.swivel, self.machine)
         except FrameError as exc:
             raise self.err(str(exc), w.col) from None
         self.set_frames(sw, self.pframe)

@@ -522,7 +522,9 @@ BAD = [
     (["G1 X1"], "cutting move with no feed"),
     (["X1"], "without a motion mode"),
     (["G1 X=R7 F100"], "R7 is used before it is set"),
-    ([c800(192, 0, 30, 0)], "swivel mode 192 (direct (rotary axis positions)) is not read"),
+    ([c800(192, 0, 30, 0)], "swivel mode 192 (direct (rotary axis positions)) needs the "
+                            "machine's kinematics: give a machine file"),
+    ([c800(193, 0, 30, 0)], "swivel mode 193 (direct (rotary axis positions)) is not a"),
     ([c800(64, 0, 30, 10)], "_C = 10 with solid angle (_MODE 64) is not read"),
     ([c800(121, 0, 30, 0)], "solid angle is _MODE 64"),
     ([c800(128, 0, 30, 0)], "bits 0-5 must name X, Y and Z once"),
@@ -860,3 +862,60 @@ def test_known_pairs_round_trip_through_the_writer(name, blocks, rows, form):
     cosang = np.clip(np.sum(back.axis[1:-1] * cl.axis, axis=1), -1, 1)
     assert np.degrees(np.arccos(cosang)).max() < 1e-3
     np.testing.assert_array_equal(back.rapid[1:-1][~cl.rapid], False)
+
+
+# -- CYCLE800 direct mode (192): the plane from the machine's rotary axes ---------------
+DIRECT_MACHINES = ["xyzac-trt", "xyzbc-trt", "xyzbc-head-table", "xyzbc-head-head"]
+
+
+@pytest.mark.parametrize("name", DIRECT_MACHINES)
+@pytest.mark.parametrize("ax1,ax2", [(30.0, 50.0), (-45.0, 120.0), (0.0, -90.0)])
+def test_cycle800_direct_mode_against_the_forward_transform(name, ax1, ax2):
+    """_A/_B are rotary axes 1/2 (axis 2 carried by axis 1; mixed: the head's first).
+    The tool vector after the swivel is the kinematics' forward tool axis at those
+    joints; on table-table machines the swivelled X Y Z are the forward transform's
+    tip displacements for machine X Y Z; on all, the plane is right-handed."""
+    from nc.kinematics import get_machine
+
+    m = get_machine(name)
+    tilt, rot = m.axes
+    first = rot if (tilt.carrier, rot.carrier) == ("head", "head") else tilt
+    joints = np.zeros(5)
+    joints[3 if first is tilt else 4] = math.radians(ax1)
+    joints[4 if first is tilt else 3] = math.radians(ax2)
+    p = np.array([10.0, 20.0, 5.0])
+    prog = parse_siemens(sin840("G1 X0 Y0 Z0 F100", c800(192, ax1, ax2, 0, x0=(1, 2, 3)),
+                                "G1 X10 Y20 Z5"), machine=m)
+    _, axis = m.forward(joints)
+    if prog.modal_column("tcp")[-1] == TCP_OFF:  # the plane keeps the tool along Z
+        np.testing.assert_allclose(axis, [0, 0, 1], atol=1e-12)
+    else:
+        np.testing.assert_allclose(prog.tool_vector[-1], axis, atol=1e-12)
+    R = m.tool_frame(joints[3], joints[4])
+    np.testing.assert_allclose(prog.end[-1, :3], [1, 2, 3] + R @ p, atol=1e-9)
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R) == pytest.approx(1.0)
+    if tilt.carrier == rot.carrier == "table":
+        tip0, _ = m.forward(joints)
+        for k in range(3):
+            j = joints.copy()
+            j[k] += 1.0
+            np.testing.assert_allclose(m.forward(j)[0] - tip0, R[:, k], atol=1e-12)
+
+
+def test_cycle800_direct_mode_head_frame_by_closed_form():
+    """Head-table B/C: the spindle turned by B about Y, the table's C undone about Z."""
+    from nc.kinematics import get_machine
+    from nc.rotation import rotation_about
+
+    m = get_machine("xyzbc-head-table")
+    b, c = 25.0, 70.0
+    tilt, rot = m.axes
+    want = (rotation_about(rot.vector, -math.radians(c) * rot.direction)
+            @ rotation_about(tilt.vector, math.radians(b) * tilt.direction))
+    prog = parse_siemens(sin840("G1 X0 Y0 Z0 F100", c800(192, b, c, 0), "G1 X1 Y0 Z0",
+                                "G1 X0 Y1 Z0"), machine=m)
+    np.testing.assert_allclose(prog.end[-2, :3], want[:, 0], atol=1e-12)
+    np.testing.assert_allclose(prog.end[-1, :3], want[:, 1], atol=1e-12)
+    with pytest.raises(NCParseError, match="direct mode .192. with _C"):
+        parse_siemens(sin840(c800(192, b, c, 5)), file="p.mpf", machine=m)
