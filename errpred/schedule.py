@@ -43,8 +43,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from nc.errors import InputError
 from nc.gcode import parse_program
-from nc.path import CutterLocations
+from nc.path import CutterLocations, block_minutes
 from nc.program import RAPID, Program
 from nc.refeed import rewrite_feeds
 
@@ -261,17 +262,34 @@ def block_lengths(cl: CutterLocations, n_blocks: int) -> np.ndarray:
 def cycle_time(program: Program, lengths_mm: np.ndarray, blocks: np.ndarray | None = None,
                rapid_mm_min: float | None = None, feeds: np.ndarray | None = None
                ) -> CycleTime:
-    """Feed-limited cycle time of ``blocks`` (default: all) of ``program``: each feed
-    block's path length over its feed (``feeds``, default the program's [mm/min]),
-    each rapid's over ``rapid_mm_min`` (NaN when None). No acceleration."""
+    """Feed-limited cycle time of ``blocks`` (default: all) of ``program``.
+
+    Each feed block's time is :func:`nc.path.block_minutes` with these lengths
+    and ``feeds`` (default the program's, in each block's feed mode: G94 mm/min,
+    G95 mm per revolution times the spindle speed, G93 inverse time; a move of
+    rotary axes only at its feed in deg/min); each rapid's length over
+    ``rapid_mm_min`` (NaN when None). No acceleration.
+
+    Raises
+    ------
+    InputError
+        A G95 block in ``blocks`` with no spindle speed (naming its line).
+    """
     n = len(program)
     b = np.arange(n) if blocks is None else np.asarray(blocks, np.int64)
-    f = np.asarray(program.feed if feeds is None else feeds, float)
     rapid = program.motion[b] == RAPID
     fb, rb = b[~rapid], b[rapid]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(f[fb] > 0, lengths_mm[fb] / f[fb], np.inf)
-    t = np.where(lengths_mm[fb] > 0, t, 0.0)
+    per_rev = fb[program.modal_column("feed_mode")[fb] == 95]
+    if per_rev.size:
+        rpm = program.modal_column("spindle_rpm")[per_rev]
+        bad = ~(np.isfinite(rpm) & (rpm > 0))
+        if np.any(bad):
+            i = int(per_rev[np.argmax(bad)])
+            raise InputError(f"{program.file}: line {program.line[i]}: feed per revolution "
+                             "(G95) with no spindle speed, so its time is not known; expected "
+                             "an S > 0 before it")
+    t = block_minutes(program, np.asarray(lengths_mm, float), feeds)[fb]
+    t = np.where(np.isnan(t), np.inf, t)  # no feed: never there
     rl = float(lengths_mm[rb].sum())
     rt = rl / rapid_mm_min if rapid_mm_min else math.nan
     return CycleTime(float(t.sum()), rt, float(lengths_mm[fb].sum()), rl)

@@ -159,28 +159,43 @@ def block_lengths(program: Program) -> np.ndarray:
     return length
 
 
-def block_minutes(program: Program, lengths_mm: np.ndarray | None = None) -> np.ndarray:
-    """Time of each block at its programmed feed, shape (n,) [min].
+def block_minutes(program: Program, lengths_mm: np.ndarray | None = None,
+                  feeds: np.ndarray | None = None) -> np.ndarray:
+    """Time of each block at its feed, shape (n,) [min].
 
     G94: path length of the programmed axes X Y Z / feed; a move that only
     turns rotary axes takes its feed in deg/min (LinuxCNC's rule). G95: the
     same with feed x spindle speed (F per revolution). G93: 1 / F. Rapids: 0
-    (their speed is the machine's, not the program's).
+    (their speed is the machine's, not the program's). A G94/G95 block that
+    moves no axis takes 0. A feed of 0 gives inf, a feed per revolution
+    without a spindle speed inf or NaN (the readers refuse both).
+
+    Parameters
+    ----------
+    program : Program
+    lengths_mm : ndarray, shape (n,), optional [mm]
+        Each block's path length (default :func:`block_lengths`, the
+        programmed X Y Z; a caller may give the tool tip's).
+    feeds : ndarray, shape (n,), optional [mm/min, mm/rev or 1/min]
+        F of each block in its feed mode, in place of the program's (a
+        schedule's feeds).
     """
     length = block_lengths(program) if lengths_mm is None else lengths_mm
+    feed = program.feed if feeds is None else np.asarray(feeds, dtype=float)
     feed_mode = program.modal_column("feed_mode")
     minutes = np.zeros(len(program))
     cut = program.motion != RAPID
-    inv = cut & (feed_mode == 93)
-    minutes[inv] = 1.0 / program.feed[inv]
-    per_min = cut & (feed_mode == 94)
     travel = np.where(length > 0, length,
                       np.degrees(np.abs(program.end[:, 3:] - program.start[:, 3:]).max(axis=1)))
-    minutes[per_min] = travel[per_min] / program.feed[per_min]
-    per_rev = cut & (feed_mode == 95)  # G95: F per spindle revolution
-    if np.any(per_rev):
-        rpm = program.modal_column("spindle_rpm")[per_rev]
-        minutes[per_rev] = travel[per_rev] / (program.feed[per_rev] * rpm)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = cut & (feed_mode == 93)
+        minutes[inv] = 1.0 / feed[inv]
+        per_min = cut & (feed_mode == 94) & (travel > 0)
+        minutes[per_min] = travel[per_min] / feed[per_min]
+        per_rev = cut & (feed_mode == 95) & (travel > 0)  # G95: F per spindle revolution
+        if np.any(per_rev):
+            rpm = program.modal_column("spindle_rpm")[per_rev]
+            minutes[per_rev] = travel[per_rev] / (feed[per_rev] * rpm)
     return minutes
 
 

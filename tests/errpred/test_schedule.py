@@ -22,11 +22,14 @@ from errpred.pipeline import blocks_in_scope, build_predictor, load
 from errpred.schedule import (
     FeedLimits,
     block_loads,
+    cycle_time,
     limit_steps,
     schedule_feeds,
 )
 from errpred.scenario import bundled_scenario
 from nc import parse_program
+from nc.errors import InputError
+from nc.path import block_lengths
 from nc.program import RAPID
 from tests.chromium import open_page
 
@@ -308,3 +311,45 @@ def test_correct_then_schedule_keeps_the_corrected_error_within(tmp_path, capsys
     assert prog.feed[feed].max() > 1350.0 and prog.feed[feed].min() >= 337.5
     m = re.search(r"cycle time \(whole program.*?: ([\d.]+) s -> ([\d.]+) s", said)
     assert float(m.group(2)) < float(m.group(1))
+
+
+# -- cycle time in each feed mode (nc.path.block_minutes) --------------------------------
+CYCLE_TIMES = [
+    # (program, feeds given to cycle_time or None, feed minutes by hand)
+    # G95: 10 mm at 0.1 mm/rev x 1000 rev/min = 100 mm/min -> 0.1 min; then 5 mm at
+    # 0.25 x 2000 = 500 mm/min -> 0.01 min
+    ("G21 G90 G95\nS1000 M3\nG0 X0 Y0 Z0\nG1 X10 F0.1\nS2000\nG1 X15 F0.25\nM30\n",
+     None, 0.1 + 0.01),
+    # the same with scheduled feeds per revolution 0.2 and 0.5: half the time
+    ("G21 G90 G95\nS1000 M3\nG0 X0 Y0 Z0\nG1 X10 F0.1\nS2000\nG1 X15 F0.25\nM30\n",
+     [math.nan, 0.2, 0.5], 0.05 + 0.005),
+    # rotary only: 90 deg at F900 deg/min -> 0.1 min (LinuxCNC's rule); then 3-4-5 mm
+    # with A at F500 -> the 5 mm of X Y only, 0.01 min
+    ("G21 G90 G94\nG0 X0 Y0 Z0 A0\nG1 A90 F900\nG1 X3 Y4 A100 F500\nM30\n", None,
+     0.1 + 0.01),
+]
+
+
+@pytest.mark.parametrize("src,feeds,minutes", CYCLE_TIMES)
+def test_cycle_time_per_revolution_and_rotary_only_by_hand(src, feeds, minutes):
+    prog = parse_program(src)
+    lengths = block_lengths(prog)
+    f = None
+    if feeds is not None:
+        f = prog.feed.copy()
+        f[prog.motion != RAPID] = feeds[1:]
+    ct = cycle_time(prog, lengths, feeds=f)
+    assert ct.feed_min == pytest.approx(minutes, rel=1e-12)
+    assert math.isnan(ct.rapid_min) and ct.rapid_length_mm == pytest.approx(0.0)
+
+
+def test_cycle_time_refuses_per_revolution_without_spindle_speed():
+    prog = parse_program("G21 G90 G95\nS1000 M3\nG0 X0\nG1 X10 F0.1\nM30\n", file="r.nc")
+    import dataclasses
+
+    # a Program built without S (the readers refuse G95 without one)
+    prog = dataclasses.replace(prog, modals=tuple(dataclasses.replace(m, spindle_rpm=0.0)
+                                                   for m in prog.modals))
+    with pytest.raises(InputError, match=r"^r\.nc: line 4: feed per revolution \(G95\) "
+                                         r"with no spindle speed"):
+        cycle_time(prog, block_lengths(prog))
