@@ -178,7 +178,8 @@ def _plane_part(vals: dict[str, float], form: int, scale: float, current: "Rotat
     _, words, needed = next(o for o in order if o[0] == q)
     for c in vals:
         if c in "XYZIJKRABC" and c not in words:
-            raise RotationError(f"{c} word with G68.2 P{form} Q{int(q)}; expected {' '.join(words)}", c)
+            raise RotationError(f"{c} word with G68.2 P{form} Q{int(q)}; expected "
+                                f"{' '.join(words)}", c)
     for c in needed:
         if c not in vals:
             raise RotationError(f"G68.2 P{form} Q{int(q)} without {c}; expected "
