@@ -178,17 +178,63 @@ def sweep_distance(x, y, z, p0, d, w, c, r, top):
     return best
 
 
+@njit(cache=True, inline="always")
+def _split_bound(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top):
+    """``(bound, exact)``: a lower bound of the distance from (x, y, z) to the swept
+    core of a tool with ``c > 0``, and whether it is the distance itself.
+
+    In the sweep's frame the distance at ``s`` is ``sqrt(A(s)^2 + B(s)^2)``, ``A``
+    radial (beyond ``c``) and ``B`` axial (outside ``[r, top]``), so it is at least
+    ``sqrt(min A^2 + min B^2)``, both minima closed form; where the move is square
+    to the axis ``B`` is constant and the bound is the distance.
+    """
+    vx, vy, vz = x - px, y - py, z - pz
+    h0 = vx * wx + vy * wy + vz * wz
+    dw = dx * wx + dy * wy + dz * wz
+    ex, ey, ez = vx - h0 * wx, vy - h0 * wy, vz - h0 * wz
+    qx, qy, qz = dx - dw * wx, dy - dw * wy, dz - dw * wz
+    qq = qx * qx + qy * qy + qz * qz
+    t = 0.0
+    if qq > 0.0:
+        t = (ex * qx + ey * qy + ez * qz) / qq
+        if t < 0.0:
+            t = 0.0
+        elif t > 1.0:
+            t = 1.0
+    fx, fy, fz = ex - t * qx, ey - t * qy, ez - t * qz
+    a = math.sqrt(fx * fx + fy * fy + fz * fz) - c
+    if a < 0.0:
+        a = 0.0
+    h1 = h0 - dw
+    hlo = h0 if h0 < h1 else h1
+    hhi = h0 if h0 > h1 else h1
+    b = 0.0
+    if hhi < r:
+        b = r - hhi
+    elif hlo > top:
+        b = hlo - top
+    return math.sqrt(a * a + b * b), dw == 0.0
+
+
 @njit(cache=True)
 def sweep_lower_bound(x, y, z, p0, d, w, c, r, top):
     """A lower bound of :func:`sweep_distance` [mm], closed form.
 
     The core lies within ``c`` of its axis segment, so the distance to the
     swept core is at least the distance to the swept axis strip minus ``c``
-    (exact for ball end mills, ``c = 0``).
+    (exact for ball end mills, ``c = 0``); for ``c > 0`` also at least the
+    radial and axial parts' separate minima (:func:`_split_bound`): the larger
+    of the two.
     """
-    return _dist_half_strip(x - (p0[0] + r * w[0]), y - (p0[1] + r * w[1]),
-                            z - (p0[2] + r * w[2]), d[0], d[1], d[2], w[0], w[1], w[2],
-                            top - r) - c
+    lb = _dist_half_strip(x - (p0[0] + r * w[0]), y - (p0[1] + r * w[1]),
+                          z - (p0[2] + r * w[2]), d[0], d[1], d[2], w[0], w[1], w[2],
+                          top - r) - c
+    if c != 0.0:
+        lb2 = _split_bound(x, y, z, p0[0], p0[1], p0[2], d[0], d[1], d[2], w[0], w[1], w[2],
+                           c, r, top)[0]
+        if lb2 > lb:
+            lb = lb2
+    return lb
 
 
 @njit(cache=True)
@@ -200,7 +246,9 @@ def sweep_within(x, y, z, p0, d, w, c, r, top, lim):
 
     Ball end mills: the closed form. Others: a cutter location at either end
     within ``lim`` answers yes; the closed-form lower bound
-    (:func:`sweep_lower_bound`) above ``lim`` answers no; otherwise the same
+    (:func:`sweep_lower_bound`) above ``lim`` answers no; a move square to the
+    axis is answered by the closed form (:func:`_split_bound`, the distance
+    there); otherwise the same
     golden-section search as :func:`sweep_distance`, stopping at the first
     value within ``lim`` (the search keeps its best value, so the final
     minimum would be within ``lim`` too).
@@ -214,6 +262,10 @@ def sweep_within(x, y, z, p0, d, w, c, r, top, lim):
         return True
     if sweep_lower_bound(x, y, z, p0, d, w, c, r, top) > lim:
         return False
+    bound, exact = _split_bound(x, y, z, p0[0], p0[1], p0[2], d[0], d[1], d[2], w[0], w[1],
+                                w[2], c, r, top)
+    if exact:
+        return bound <= lim  # a move square to the axis: the bound is the distance
     return _golden(x, y, z, p0, d, w, c, r, top, lim) <= lim
 
 
@@ -286,7 +338,8 @@ def _may_reach(j, cx, cy, cz, reach, p0, d, w, lo, hi, c, r, top):
     """Can sweep j come within ``reach`` of the point (cx, cy, cz)?
 
     Axis-aligned bounds first, then a lower bound of the distance: the swept
-    core lies within ``c`` of the swept axis strip (exact for ball end mills).
+    core lies within ``c`` of the swept axis strip (exact for ball end mills);
+    for ``c > 0`` then the radial and axial parts' minima (:func:`_split_bound`).
     """
     if (cx + reach < lo[j, 0] or cx - reach > hi[j, 0] or cy + reach < lo[j, 1]
             or cy - reach > hi[j, 1] or cz + reach < lo[j, 2] or cz - reach > hi[j, 2]):
@@ -296,6 +349,11 @@ def _may_reach(j, cx, cy, cz, reach, p0, d, w, lo, hi, c, r, top):
     az = cz - (p0[j, 2] + r * w[j, 2])
     lb = _dist_half_strip(ax, ay, az, d[j, 0], d[j, 1], d[j, 2], w[j, 0], w[j, 1], w[j, 2],
                           top - r) - c
+    if lb > r + reach:
+        return False
+    if c != 0.0:
+        lb = _split_bound(cx, cy, cz, p0[j, 0], p0[j, 1], p0[j, 2], d[j, 0], d[j, 1], d[j, 2],
+                          w[j, 0], w[j, 1], w[j, 2], c, r, top)[0]
     return lb <= r + reach
 
 
