@@ -291,3 +291,34 @@ def _dist_strip_bound(q, p0, d, w, c, r, top):
     from errpred._kernels import _dist_half_strip
     a = q - (p0 + r * w)
     return _dist_half_strip(*a, *d, *w, top - r) - c
+
+
+def test_shortlists_are_each_bin_tested_alone():
+    """The per-bin short lists (with the Lipschitz shortcuts between levels) are, in
+    order, the sweeps that pass the reach test against the bin's own sphere."""
+    from errpred._kernels import _bins, _may_reach, _shortlists, _sphere
+    rng = np.random.default_rng(12)
+    n = 300
+    p0 = rng.uniform(-6, 6, (n, 3))
+    d = rng.uniform(-2, 2, (n, 3))
+    w = rng.normal(size=(n, 3))
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    w[::3] = [0.0, 0.0, 1.0]
+    d[::3, 2] = 0.0  # square to the axis: the radial/axial bound is exact there
+    pts = rng.uniform(-3, 3, (1500, 3))
+    for c, r in ((0.0, 3.0), (4.0, 1.0), (2.0, 2.0)):
+        top = 8.0
+        lo = np.minimum(p0, p0 + d) - (c + r) - top
+        hi = np.maximum(p0, p0 + d) + (c + r) + top
+        for reach in (1e-6, 0.3):
+            idx, order, keys, m = _bins(pts, np.ones(len(pts), dtype=np.bool_), 0.4)
+            starts, offsets, lists, nb = _shortlists(pts, idx, order, keys, m, p0, d, w, lo,
+                                                     hi, c, r, top, reach)
+            sizes = []
+            for b in range(nb):
+                cx, cy, cz, rad = _sphere(pts, idx, order, starts[b], starts[b + 1])
+                ref = [j for j in range(n)
+                       if _may_reach(j, cx, cy, cz, reach + rad, p0, d, w, lo, hi, c, r, top)]
+                assert lists[offsets[b]:offsets[b + 1]].tolist() == ref
+                sizes.append(len(ref))
+            assert 0 < np.mean(sizes) < n
