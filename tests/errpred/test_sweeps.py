@@ -227,3 +227,98 @@ def test_clustered_kernels_equal_the_plain_ones_on_a_finishing_raster():
                    for j in range(t1[0].shape[0]))
         assert m[i] == pytest.approx(min(max(dmin, floor), -floor), abs=1e-12)
     assert np.all(m[~cand] == floor)
+
+
+def _split_bound_twin(q, p0, d, w, c, r, top):
+    """numpy twin of ``errpred._kernels._split_bound`` (points q: (k, 3))."""
+    v = q - p0
+    h0 = v @ w
+    dw = d[0] * w[0] + d[1] * w[1] + d[2] * w[2]
+    e = v - h0[:, None] * w
+    dp = d - dw * w
+    qq = float(dp @ dp)
+    t = np.clip((e @ dp) / qq, 0.0, 1.0) if qq > 0 else np.zeros(len(q))
+    a = np.maximum(np.linalg.norm(e - t[:, None] * dp, axis=1) - c, 0.0)
+    hlo, hhi = np.minimum(h0, h0 - dw), np.maximum(h0, h0 - dw)
+    b = np.where(hhi < r, r - hhi, np.where(hlo > top, hlo - top, 0.0))
+    return np.hypot(a, b), dw == 0.0
+
+
+def test_split_bound_equals_its_twin_bounds_the_distance_and_is_it_square_to_the_axis():
+    """The radial/axial lower bound of the swept core's distance (tools with c > 0): the
+    kernel equals its numpy twin, never exceeds the distance, is the distance for a move
+    square to the axis (then sweep_within answers without the search), and is often far
+    tighter than the axis-strip bound there."""
+    from errpred._kernels import _split_bound
+    rng = np.random.default_rng(8)
+    top = 10.0
+    tighter = 0
+    for c, r in ((9.0, 1.0), (4.0, 1.0), (5.0, 0.0), (2.5, 2.5)):
+        for square in (True, False):
+            for _ in range(40):
+                a, b, g = rng.uniform(-4, 4, 3)
+                if square:
+                    # square to the axis exactly (the products cancel in floating point)
+                    w, d = [(np.array([0.0, 0.0, 1.0]), np.array([a, b, 0.0])),
+                            (np.array([0.0, 0.6, 0.8]), np.array([a, 0.8, -0.6])),
+                            (np.array([1.0, 0.0, 0.0]), np.array([0.0, a, b]))][_ % 3]
+                else:
+                    w = rng.normal(size=3)
+                    w /= np.linalg.norm(w)
+                    d = np.array([a, b, g])
+                p0 = rng.uniform(-1, 1, 3)
+                q = rng.uniform(-15, 15, (25, 3))
+                twin, exact_twin = _split_bound_twin(q, p0, d, w, c, r, top)
+                for k in range(q.shape[0]):
+                    got, exact = _split_bound(*q[k], *p0, *d, *w, c, r, top)
+                    assert got == pytest.approx(twin[k], rel=1e-12, abs=1e-12)
+                    assert exact == exact_twin == square
+                    dist = sweep_distance(*q[k], p0, d, w, c, r, top)
+                    assert got <= dist + 1e-9
+                    lb = sweep_lower_bound(*q[k], p0, d, w, c, r, top)
+                    assert got <= lb + 1e-12 and lb <= dist + 1e-9
+                    if exact:
+                        assert got == pytest.approx(dist, abs=1e-7)
+                        for lim in (dist - 1e-6, dist + 1e-6, r + 1e-6):
+                            assert sweep_within(*q[k], p0, d, w, c, r, top, lim) == (dist <= lim)
+                        strip = _dist_strip_bound(q[k], p0, d, w, c, r, top)
+                        tighter += got > strip + 1e-6
+    assert tighter > 100
+
+
+def _dist_strip_bound(q, p0, d, w, c, r, top):
+    """The axis-strip bound alone (the swept axis's distance minus c)."""
+    from errpred._kernels import _dist_half_strip
+    a = q - (p0 + r * w)
+    return _dist_half_strip(*a, *d, *w, top - r) - c
+
+
+def test_shortlists_are_each_bin_tested_alone():
+    """The per-bin short lists (with the Lipschitz shortcuts between levels) are, in
+    order, the sweeps that pass the reach test against the bin's own sphere."""
+    from errpred._kernels import _bins, _may_reach, _shortlists, _sphere
+    rng = np.random.default_rng(12)
+    n = 300
+    p0 = rng.uniform(-6, 6, (n, 3))
+    d = rng.uniform(-2, 2, (n, 3))
+    w = rng.normal(size=(n, 3))
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    w[::3] = [0.0, 0.0, 1.0]
+    d[::3, 2] = 0.0  # square to the axis: the radial/axial bound is exact there
+    pts = rng.uniform(-3, 3, (1500, 3))
+    for c, r in ((0.0, 3.0), (4.0, 1.0), (2.0, 2.0)):
+        top = 8.0
+        lo = np.minimum(p0, p0 + d) - (c + r) - top
+        hi = np.maximum(p0, p0 + d) + (c + r) + top
+        for reach in (1e-6, 0.3):
+            idx, order, keys, m = _bins(pts, np.ones(len(pts), dtype=np.bool_), 0.4)
+            starts, offsets, lists, nb = _shortlists(pts, idx, order, keys, m, p0, d, w, lo,
+                                                     hi, c, r, top, reach)
+            sizes = []
+            for b in range(nb):
+                cx, cy, cz, rad = _sphere(pts, idx, order, starts[b], starts[b + 1])
+                ref = [j for j in range(n)
+                       if _may_reach(j, cx, cy, cz, reach + rad, p0, d, w, lo, hi, c, r, top)]
+                assert lists[offsets[b]:offsets[b + 1]].tolist() == ref
+                sizes.append(len(ref))
+            assert 0 < np.mean(sizes) < n
