@@ -256,8 +256,9 @@ def _spindle(r: TableReader, d: dict) -> SpindleChoice:
 def _options(r: TableReader, d: dict, radius_mm: float) -> OrientOptions:
     p = "orient"
     r.keys(d, p, (), ("lead_deg", "tilt_deg", "grid", "min_inclination_deg",
-                      "max_inclination_deg", "max_rate_deg_per_mm", "pole_floor_deg", "margin_target",
-                      "verify_sdm", "allow_fallback", "clearance_mm", "gouge_tol_mm",
+                      "max_inclination_deg", "max_rate_deg_per_mm", "pole_floor_deg",
+                      "margin_target", "verify_sdm", "allow_fallback", "clearance_mm",
+                      "gouge_tol_mm",
                       "safety_factor", "dialect", "cut", "spindle"))
     grid = (K.GRID_STEPS, K.GRID_STEPS)
     if "grid" in d:
