@@ -6,7 +6,8 @@ posture is refused, and with every posture stable the planner prefers the one
 nearest the CAM's: 5 deg from the normal, leaning back, which is 2 deg from
 vertical -- the machine's pole (B = 0), where C is undefined and nc's writer turns
 it while the tip stands. With the floor every planned axis keeps at least the floor
-from the pole; with the floor at 0 the same plan goes within it (the scenario bites).
+from the pole; without it (the default, 0) the same plan goes within it (the scenario
+bites).
 """
 
 from __future__ import annotations
@@ -129,8 +130,8 @@ def _pole_deg(axes: np.ndarray) -> np.ndarray:
 @pytest.fixture(scope="module")
 def plans(tmp_path_factory):
     root = tmp_path_factory.mktemp("pole")
-    on = plan(load_plan_scenario(_scenario(root / "on")))
-    off = plan(load_plan_scenario(_scenario(root / "off", "pole_floor_deg = 0.0\n")))
+    on = plan(load_plan_scenario(_scenario(root / "on", "pole_floor_deg = 5.0\n")))
+    off = plan(load_plan_scenario(_scenario(root / "off")))          # the default: no floor
     return on, off
 
 
