@@ -179,14 +179,7 @@ class _Inherited:
 def _inherited(cam: CutterLocations, contacts: Contacts, idx: np.ndarray) -> _Inherited:
     """:class:`_Inherited` of the path (``idx``: the touching points, ascending)."""
     n = len(cam)
-    # a rapid starts a new run (it leads into a pass), except a retract: the rapid right
-    # after a feed move leaves the pass with its last posture (along its axis) and turns
-    # only in the next rapid, clear of the part. Turning during the retract swung a
-    # tilted tool into the flank on a head machine (the mold core's raster with the pole
-    # floor: a rapid into material)
-    feed_before = np.zeros(n, bool)
-    feed_before[1:] = ~cam.rapid[:-1]
-    run = np.cumsum(cam.rapid & ~feed_before)
+    run = np.cumsum(cam.rapid)          # a rapid starts a new run (it leads into a pass)
     pos = np.arange(n)
     touching = np.zeros(n, bool)
     touching[idx] = True
