@@ -29,10 +29,10 @@ __all__ = ["FALLBACK_SCORE"]
 
 
 # why a candidate posture was rejected (PlanResult.reason): codes
-_FEASIBLE, _OUTSIDE_INCLINATION, _OUTSIDE_LIMITS = 0, 1, 2
+_FEASIBLE, _OUTSIDE_INCLINATION, _OUTSIDE_LIMITS, _AT_POLE = 0, 1, 2, 3
 #: the first interference code: part p of the tool assembly violates at the cutting
 #: point (code _PART + p) or at a point that takes the posture (_PART + n_parts + p)
-_PART = 3
+_PART = 4
 
 
 
@@ -240,7 +240,8 @@ def _cause_labels(part_names: tuple[str, ...]) -> list[str]:
     what = {"flank": "flank gouges the design", "shank": "shank against the stock",
             "holder": "holder against the stock"}
     at_point = [what.get(p, f"{p} collides") for p in part_names]
-    return (["feasible", "outside the inclination range", "outside the axis limits"]
+    return (["feasible", "outside the inclination range", "outside the axis limits",
+             "within the pole floor of the machine's rotary axis"]
             + at_point + [f"{w} at a non-cutting point taking this posture"
                           for w in at_point])
 

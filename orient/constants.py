@@ -85,6 +85,17 @@ MAX_INCLINATION_DEG = 60.0
 #: Largest change of the tool axis per mm of path, so that the rotary axes
 #: are not whipped [deg/mm].
 MAX_RATE_DEG_PER_MM = 2.0
+#: Smallest angle kept between the tool axis and the machine's rotary (free) axis,
+#: e.g. |B| on a B/C head-table machine [deg]; 0: no floor (the default). At the pole
+#: (B = 0) the rotary axis is undefined: nc's writer holds it there and turns it when
+#: the axis leaves, so a path through the pole turns the table while the tip stands (a
+#: dwell mark; on a slice of the mold core's raster C turned 30 deg at one point). A
+#: floor of 5 deg ([orient] pole_floor_deg) removes that, but it is not the default:
+#: with the CAM's vertical posture refused, passes end tilted, and the retract (a G0 to
+#: the CAM's vertical clearance point) turns B while the ball is still at the surface
+#: (on raster.nc 5283-6500 a rapid into material, which the job refuses) until the
+#: planner's retracts keep the last cut's posture until clear.
+POLE_FLOOR_DEG = 0.0
 #: Margin above which postures count as equally good; the planner then
 #: prefers the posture nearest the CAM's [-].
 MARGIN_TARGET = 1.5

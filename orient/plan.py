@@ -69,6 +69,7 @@ from .choice import (
     _FEASIBLE,
     _OUTSIDE_INCLINATION,
     _OUTSIDE_LIMITS,
+    _AT_POLE,
     _PART,
     _cause_labels,
     _choose_collision_free,
@@ -155,6 +156,17 @@ def _reachable(machine, tips: np.ndarray, axes: np.ndarray) -> np.ndarray:
     s0, s1 = machine.inverse(tips.reshape(-1, 3), axes.reshape(-1, 3))
     ok = machine.within_limits(s0) | machine.within_limits(s1)
     return ok.reshape(tips.shape[:-1])
+
+
+def _off_pole(machine, axes: np.ndarray, floor_rad: float) -> np.ndarray:
+    """True where the tool axis is at least ``floor_rad`` [rad] from the machine's rotary
+    (free) axis, e.g. ``|B| >= floor`` on a B/C machine. That axis is fixed in the
+    workpiece frame on every supported machine (a table rotary axis turns with the
+    workpiece; a head rotary axis is carried by nothing that tilts)."""
+    if floor_rad <= 0:
+        return np.ones(axes.shape[:-1], bool)
+    pole = np.asarray(machine.axes[1].vector, dtype=float)
+    return np.abs(axes @ pole) <= np.cos(floor_rad) + 1e-12
 
 
 def _gains_rows(tool, coeffs, normal: np.ndarray, feed: np.ndarray, axes: np.ndarray,
@@ -424,8 +436,13 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     incl = inclination(axes, normal[:, None, :])
     incl_ok = (incl >= opt.min_inclination_rad - 1e-9) & (incl <= opt.max_inclination_rad
                                                            + 1e-9)
-    ok = incl_ok & _reachable(machine, tips, axes)
-    cause = np.where(incl_ok, np.where(ok, _FEASIBLE, _OUTSIDE_LIMITS),
+    reach_ok = _reachable(machine, tips, axes)
+    # off the machine's pole (B near 0 on a B/C machine: there the rotary axis would turn
+    # while the tip stands), the CAM's own posture included (it stays the fallback)
+    pole_ok = _off_pole(machine, axes, opt.pole_floor_rad)
+    ok = incl_ok & reach_ok & pole_ok
+    cause = np.where(incl_ok, np.where(reach_ok, np.where(ok, _FEASIBLE, _AT_POLE),
+                                       _OUTSIDE_LIMITS),
                      _OUTSIDE_INCLINATION).astype(np.int16)
     cam_ok = ok[:, -1].copy()
     ok[:, -1] = True            # the CAM posture is always evaluated (for the report)

@@ -107,6 +107,8 @@ class OrientOptions:
     min_inclination_rad: float = math.radians(K.MIN_INCLINATION_DEG)
     max_inclination_rad: float = math.radians(K.MAX_INCLINATION_DEG)
     max_rate_rad_per_mm: float = math.radians(K.MAX_RATE_DEG_PER_MM)
+    #: smallest angle between the tool axis and the machine's rotary axis (the pole)
+    pole_floor_rad: float = math.radians(K.POLE_FLOOR_DEG)
     margin_target: float = K.MARGIN_TARGET
     verify_sdm: bool = True
     #: keep the CAM posture where no posture is feasible (flagged) instead of refusing
@@ -254,8 +256,9 @@ def _spindle(r: TableReader, d: dict) -> SpindleChoice:
 def _options(r: TableReader, d: dict, radius_mm: float) -> OrientOptions:
     p = "orient"
     r.keys(d, p, (), ("lead_deg", "tilt_deg", "grid", "min_inclination_deg",
-                      "max_inclination_deg", "max_rate_deg_per_mm", "margin_target",
-                      "verify_sdm", "allow_fallback", "clearance_mm", "gouge_tol_mm",
+                      "max_inclination_deg", "max_rate_deg_per_mm", "pole_floor_deg",
+                      "margin_target", "verify_sdm", "allow_fallback", "clearance_mm",
+                      "gouge_tol_mm",
                       "safety_factor", "dialect", "cut", "spindle"))
     grid = (K.GRID_STEPS, K.GRID_STEPS)
     if "grid" in d:
@@ -271,6 +274,10 @@ def _options(r: TableReader, d: dict, radius_mm: float) -> OrientOptions:
         raise r.fail("orient.max_inclination_deg", f"expected min_inclination_deg < "
                                                    f"max_inclination_deg <= 90, got "
                                                    f"{lo_i:g} and {hi_i:g}")
+    pole = r.number(d, "pole_floor_deg", p, default=K.POLE_FLOOR_DEG, sign=">=0")
+    if not pole < 90:
+        raise r.fail("orient.pole_floor_deg", f"expected an angle from 0 to below 90 [deg], "
+                                              f"got {pole:g}")
     verify = d.get("verify_sdm", True)
     if not isinstance(verify, bool):
         raise r.fail("orient.verify_sdm", f"expected true or false, got {verify!r}")
@@ -292,6 +299,7 @@ def _options(r: TableReader, d: dict, radius_mm: float) -> OrientOptions:
         max_rate_rad_per_mm=math.radians(r.number(d, "max_rate_deg_per_mm", p,
                                                   default=K.MAX_RATE_DEG_PER_MM, sign=">0",
                                                   **_limit("MAX_RATE_LIMIT_DEG_PER_MM"))),
+        pole_floor_rad=math.radians(pole),
         margin_target=r.number(d, "margin_target", p, default=K.MARGIN_TARGET, sign=">0",
                                **_limit("MAX_MARGIN_TARGET")),
         verify_sdm=verify, allow_fallback=fallback,

@@ -185,9 +185,12 @@ def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
             raise ValueError(f"parts: unknown part {part!r}")
 
 
-def _lobes(scn: PlanScenario, res: PlanResult, planned_scn: PlanScenario) -> list[dict]:
+def _lobes(scn: PlanScenario, res: PlanResult) -> list[dict]:
     """Lobes (zero-order) at the lowest-CAM-margin and the lowest-planned-margin points,
-    for the CAM posture and for the planned one, at the planned speed."""
+    for the CAM posture and for the planned one, at the planned speed. Both at the plan's
+    cutter location (its contact: the planner keeps the ball centre), with the plan's
+    contacts: the written planned program has more cutter locations than the plan (the
+    writer's linearization), so the plan's index does not name the same point there."""
     idx = res.touching_index
     picks = [(int(idx[np.argmin(res.cam_margin[idx])]), "lowest margin of the CAM posture"),
              (int(idx[np.argmin(res.margin[idx])]), "lowest margin of the planned posture")]
@@ -197,10 +200,12 @@ def _lobes(scn: PlanScenario, res: PlanResult, planned_scn: PlanScenario) -> lis
     speeds = np.linspace(0.5 * rpm, 1.5 * rpm, JOB_LOBE_SPEEDS)
     out = []
     for i, why in picks:
-        cam = point_setup(scn, i, spindle_rpm=rpm, workpiece=res.workpiece)
-        pl = point_setup(planned_scn, i, spindle_rpm=rpm, workpiece=res.workpiece)
+        cam = point_setup(scn, i, spindle_rpm=rpm, workpiece=res.workpiece,
+                          contacts=res.contacts)
+        pl = point_setup(scn, i, axis=res.cl.axis[i], spindle_rpm=rpm,
+                         workpiece=res.workpiece, contacts=res.contacts)
         lc, op = point_lobes(scn, cam, ("zoa",), speeds)
-        lp, _ = point_lobes(planned_scn, pl, ("zoa",), speeds)
+        lp, _ = point_lobes(scn, pl, ("zoa",), speeds)
         out.append({"point": i, "why": why, "cam": lc[0], "planned": lp[0],
                     "operating_point": op})
     return out
@@ -330,7 +335,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     # 6: lobes at representative points
     def lobes_stage() -> list[dict]:
         say("lobes", 0, 1)
-        out = _lobes(scn, res, scenario_with_program(scn, planned_path))
+        out = _lobes(scn, res)
         say("lobes", 1, 1)
         return out
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from errpred.constants import PAGE_WALL_NORMAL_Z
 from errpred.correct_path import error_points
+from errpred.findings import findings_line
 from errpred.page import Figure, Section, render_page
 from nc.atomic import atomic_write
 from nc.errors import KinematicsError
@@ -39,6 +40,50 @@ _CHECK_TEXT = {
     "surface_error_reduced_to_25pct": f"simulated surface error (RMS) after correction at most "
                                       f"{JOB_SURFACE_RATIO:.0%} of before",
 }
+
+
+def _why_not(res: JobResult, rep: dict[str, Any]) -> dict[str, str]:
+    """One line per failed check: what was found instead (``report.json``'s ``checks_why``
+    and the page's check table)."""
+    checks, s, sim = rep["checks"], rep["plan"], rep["simulation"]
+    opt = res.scenario.options
+    p = res.plan
+    lo = [math.degrees(x) for x in (*opt.lead_range_rad, *opt.tilt_range_rad)]
+    sp = opt.spindle
+    speeds = (f" and speeds {sp.range_rpm[0]:.0f}-{sp.range_rpm[1]:.0f} min^-1" if sp is not None
+              else "")
+    why = {
+        "margin_above_1_where_cutting": (
+            f"lowest margin {s['margin_min']} at {p.spindle_rpm:.0f} min^-1 ({s['points_below_1']}"
+            f" of {s['cutting_points']} cutting points below 1; CAM posture "
+            f"{s['cam_margin_min']}): no posture within lead {lo[0]:g}..{lo[1]:g} deg, tilt "
+            f"{lo[2]:g}..{lo[3]:g} deg{speeds} reaches 1 there"),
+        "no_collisions": (f"{res.collisions} colliding cutter location(s) on the final path, "
+                          f"{p.infeasible.size} point(s) without a feasible posture (the CAM "
+                          f"posture kept there)"),
+        "no_rapid_into_material": findings_line(res.findings),
+        "correction_verified_nowhere_worse": rep["correction"]["reason"],
+        "round_trip_within_1um": (f"read back {rep['program']['round_trip_tip_mm']} mm from the "
+                                  f"corrected path"),
+        "simulation_covered_the_program": "; ".join(
+            f"{name}: {v['coverage']}" for name, v in (("planned", sim["planned"]),
+                                                       ("corrected", sim["corrected"]),
+                                                       ("CAM worst pass", sim["cam_worst_pass"]))
+            if not v["complete"]),
+        "no_chatter_in_simulation": (
+            f"{sim['corrected']['sustained_chatter_episodes']} sustained chatter episode(s) in "
+            f"the corrected program's run ({sim['corrected']['chatter_windows']} of "
+            f"{sim['corrected']['detector_windows']} windows), as the lowest planned margin "
+            f"{s['margin_min']} predicts" if (s["margin_min"] or 0) < 1 else
+            f"{sim['corrected']['sustained_chatter_episodes']} sustained chatter episode(s) in "
+            f"the corrected program's run although every planned margin is above 1"),
+        "surface_error_reduced_to_25pct": (
+            f"simulated RMS {sim['planned']['surface_rms_um']} -> "
+            f"{sim['corrected']['surface_rms_um']} um (ratio {sim['surface_rms_ratio']})"
+            + (": the chatter marks, which the correction does not remove, dominate"
+               if sim["corrected"]["sustained_chatter_episodes"] else "")),
+    }
+    return {k: why[k] for k, v in checks.items() if not v}
 
 
 def _r(x: float, nd: int = 3) -> float | None:
@@ -85,7 +130,7 @@ def job_report(res: JobResult, errors: tuple | None = None) -> dict[str, Any]:
     comp = res.compensation
     (pb, eb), (pa, ea) = errors if errors is not None else _errors(res)
     scn = res.scenario
-    return {
+    rep = {
         "scenario": scn.name,
         "scenario_file": str(scn.path),
         "programs": {"final": res.final_path.name, "planned": res.planned_path.name},
@@ -145,6 +190,8 @@ def job_report(res: JobResult, errors: tuple | None = None) -> dict[str, Any]:
                                 "E_um": [_r(x) for x in res.verify_final.surface_um]},
         },
     }
+    rep["checks_why"] = _why_not(res, rep)
+    return rep
 
 
 def _cam_rpm(plan) -> float:
@@ -189,6 +236,7 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
     sim = rep["simulation"]
     checks = rep["checks"]
     good = all(checks.values())
+    why = rep.get("checks_why") or _why_not(res, rep)
     failed = [_CHECK_TEXT[k] for k, v in checks.items() if not v]
     verdict = ("All checks hold: the program is ready to cut." if good else
                "Not every check holds: " + "; ".join(failed) + ".")
@@ -205,8 +253,9 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
     max_hz = min(SPECTRUM_MAX_HZ,
                  float(vp.spectrum_hz[-1]) if vp.spectrum_hz.size else SPECTRUM_MAX_HZ)
     teeth = res.scenario.base.tool.flutes
-    check_rows = (("check", "holds"),) + tuple((_CHECK_TEXT[k], "yes" if v else "NO")
-                                                for k, v in checks.items())
+    check_rows = (("check", "holds", "why not"),) + tuple(
+        (_CHECK_TEXT[k], "yes" if v else "NO", "" if v else why.get(k, ""))
+        for k, v in checks.items())
     sim_rows = (("simulated run", "cutter locations", "surface RMS [um]", "largest |E| [um]",
                  "chatter marks max [um]", "chatter windows",
                  "chatter episodes: sustained, transient"),) + tuple(

@@ -44,6 +44,15 @@ def test_failed_checks_mark_the_programs_not_for_cutting(jobs):
     rep = json.loads((one / "report.json").read_text())
     failed = sorted(k for k, v in rep["checks"].items() if not v)
     assert failed == ["no_chatter_in_simulation", "surface_error_reduced_to_25pct"]
+    # one line each, why: the figures the report holds
+    why = rep["checks_why"]
+    assert sorted(why) == failed and all(w and "\n" not in w for w in why.values())
+    sim = rep["simulation"]
+    assert why["no_chatter_in_simulation"].startswith(
+        f"{sim['corrected']['sustained_chatter_episodes']} sustained chatter episode(s)")
+    assert f"(ratio {sim['surface_rms_ratio']})" in why["surface_error_reduced_to_25pct"]
+    page = html.unescape((one / "report.html").read_text())
+    assert all(w in page for w in why.values())
     for name in (FINAL, PLANNED):
         first = (one / name).read_text().splitlines()[:2]
         assert any(ln.startswith("(NOT FOR CUTTING: the job's checks failed: ") and
