@@ -487,7 +487,7 @@ class GeometryModel:
             return PointGeometry(status="no-cut", **base)
         cutting0, weight0, shift0, cl_rev = eng
         base.update(cut_length_mm=float(cut_length), cutting0=cutting0,
-                    weight0=weight0.astype(np.float32), shift0=shift0.astype(np.float32),
+                    weight0=weight0, shift0=shift0,
                     cl_per_rev=cl_rev)
         fin = bt.finished_surface(self.stock, interval, tip, frame, t1, t2)
         notes = []
@@ -516,8 +516,7 @@ class GeometryModel:
             deeper = self._engagement(tip, frame, interval, removed, f_tooth, z_top + delta,
                                       stock_shift=delta * (frame @ gen.normal_world))
             if deeper is not None:
-                sens = (delta, deeper[0], deeper[1].astype(np.float32),
-                        deeper[2].astype(np.float32))
+                sens = (delta, deeper[0], deeper[1], deeper[2])
         base["sensitivity"] = sens
         return PointGeometry(status=status, gen=gen, view=used,
                              cutting_pixels=fin.cutting_pixels, finished_pixels=gen.pixels,
@@ -573,13 +572,16 @@ class GeometryModel:
                                               local if stock_shift is None else local - shift_vec)
             idx, local = idx[cand], local[cand]
             removed = removed_by_t1(("grid", factor), idx, tip + local @ frame)
-            cutting0 = np.zeros(n * m, dtype=bool)
-            cutting0[idx[~removed]] = True
-            cutting0 = cutting0.reshape(n, m)
-            if not cutting0.any():
+            cut_idx = idx[~removed]
+            if cut_idx.size == 0:
                 return None
-            engaged = cutting0.any(axis=1)
-            span = int(engaged.sum())  # flute 0 passes the engagement once a revolution
+            cutting0 = np.zeros(n * m, dtype=bool)
+            cutting0[cut_idx] = True
+            cutting0 = cutting0.reshape(n, m)
+            # the engaged rotation steps, from the cutting samples' rows (not the full grid)
+            engaged = np.zeros(n, dtype=bool)
+            engaged[cut_idx // m] = True
+            span = int(np.count_nonzero(engaged))  # flute 0 passes the engagement once a rev
             if span >= K.ENGAGEMENT_MIN_STEPS or factor >= K.ENGAGEMENT_MAX_REFINE:
                 break
             q = 1
@@ -590,20 +592,28 @@ class GeometryModel:
             fine = np.arange(n * q)
             window = engaged[np.round(fine / q).astype(int) % n]
             factor *= q
-        weight0, shift0 = self._step_weights(grid, cutting0, interval, tip, frame,
+        # the rows that may hold a non-zero weight: the engaged steps and one either side
+        # (in ascending order, so that what is read from them keeps the grid's order)
+        near = np.flatnonzero(engaged | np.roll(engaged, 1) | np.roll(engaged, -1))
+        weight0, shift0 = self._step_weights(grid, cutting0, near, interval, tip, frame,
                                              removed_by_t1, factor, shift_vec)
         feed_step = (frame @ (f_tooth * tool.flutes)) / n
-        i, j = np.nonzero(weight0)
+        ii, j = np.nonzero(weight0[near])
+        if ii.size == 0:
+            return None  # only slivers thinner than the sub-samples: nothing measurable
+        i = near[ii]
         step_len = np.linalg.norm(grid.rotation_step[i, j] + feed_step, axis=-1)
         cl_rev = np.bincount(j, weights=weight0[i, j] * step_len, minlength=m)
-        if not (weight0 > 0).any():
-            return None  # only slivers thinner than the sub-samples: nothing measurable
         return weight0 > 0, weight0, shift0, cl_rev
 
-    def _step_weights(self, grid, cutting0, interval, tip, frame, removed_by_t1, factor,
+    def _step_weights(self, grid, cutting0, rows, interval, tip, frame, removed_by_t1, factor,
                       stock_shift):
         """Share of each sample's cell (rotation step x micro edge) that cuts, (n, m),
-        and the rotation offset of that share's centroid [rad], (n, m).
+        and the rotation offset of that share's centroid [rad], (n, m); both float32
+        (the share is a multiple of 1/32: exact).
+
+        ``rows`` (ascending): the rotation steps that may be on the engagement's
+        boundary (those that cut and one either side); the others are 0.
 
         1 or 0 inside or outside the engagement. On its boundary (samples
         with a neighbour in the other state, in rotation or along the edge)
@@ -617,17 +627,20 @@ class GeometryModel:
         bt = self.bottom
         c0 = cutting0
         n, m = c0.shape
-        pad = np.pad(c0, ((0, 0), (1, 1)), mode="edge")
-        diff = np.zeros_like(c0)
-        for di in (-1, 0, 1):
-            rolled = np.roll(pad, di, axis=0)
+        weight = c0.astype(np.float32)
+        shift = np.zeros((n, m), dtype=np.float32)
+        # samples with a neighbour in the other state (rotation cyclic, the edge's ends
+        # their own neighbours), on ``rows`` only: elsewhere all is 0
+        sub = c0[rows]
+        diff = np.zeros(sub.shape, dtype=bool)
+        for nb in (c0[(rows - 1) % n], sub, c0[(rows + 1) % n]):
+            pad = np.concatenate([nb[:, :1], nb, nb[:, -1:]], axis=1)
             for dj in (-1, 0, 1):
-                diff |= rolled[:, 1 + dj:1 + dj + m] != c0
-        weight = c0.astype(float)
-        shift = np.zeros((n, m))
-        if not diff.any():
+                diff |= pad[:, 1 + dj:1 + dj + m] != sub
+        ii, j = np.nonzero(diff)
+        if ii.size == 0:
             return weight, shift
-        i, j = np.nonzero(diff)
+        i = rows[ii]
         st, se = K.ENGAGEMENT_SUBSTEPS, K.ENGAGEMENT_SUBEDGES
         step = 2 * math.pi / n
         du = (np.arange(st) + 0.5) / st - 0.5
