@@ -596,7 +596,8 @@ class GeometryModel:
         # (in ascending order, so that what is read from them keeps the grid's order)
         near = np.flatnonzero(engaged | np.roll(engaged, 1) | np.roll(engaged, -1))
         weight0, shift0 = self._step_weights(grid, cutting0, near, interval, tip, frame,
-                                             removed_by_t1, factor, shift_vec)
+                                             removed_by_t1, factor,
+                                             None if stock_shift is None else shift_vec)
         feed_step = (frame @ (f_tooth * tool.flutes)) / n
         ii, j = np.nonzero(weight0[near])
         if ii.size == 0:
@@ -647,12 +648,16 @@ class GeometryModel:
         # sub-sample angles and profile positions, (cells, st, se)
         ang = grid.theta[i][:, None, None] + du[None, :, None] * step
         sub_rho, sub_z, sub_lag = self._sub_edges
-        shape = ang.shape[:1] + (st, se)
-        rho = np.broadcast_to(sub_rho[j][:, None, :], shape)
-        z = np.broadcast_to(sub_z[j][:, None, :], shape)
+        rho = sub_rho[j][:, None, :]
         phi = ang - sub_lag[j][:, None, :]
-        local = np.stack([rho * np.sin(phi), rho * np.cos(phi), z], axis=-1).reshape(-1, 3)
-        inside = bt.in_stock_local(self.stock, interval, tip, frame, local - stock_shift)
+        # the (cells, st, se, 3) positions written in place (no stacked copies)
+        local = np.empty(phi.shape + (3,))
+        np.multiply(rho, np.sin(phi), out=local[..., 0])
+        np.multiply(rho, np.cos(phi), out=local[..., 1])
+        local[..., 2] = sub_z[j][:, None, :]
+        local = local.reshape(-1, 3)
+        inside = bt.in_stock_local(self.stock, interval, tip, frame,
+                                   local if stock_shift is None else local - stock_shift)
         # sub-sample keys: the cell, then the sub-sample within it
         keys = ((i * m + j)[:, None] * (st * se) + np.arange(st * se)[None, :]).ravel()
         removed = np.zeros(inside.size, dtype=bool)
