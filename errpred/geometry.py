@@ -22,7 +22,7 @@ from nc.path import CutterLocations
 
 from . import constants as K
 from ._kernels import inside_any_sweep_clustered
-from .bottomview import BottomTemplate, stock_view
+from .bottomview import BottomTemplate, StockView, stock_view
 from .engagement import revolution_angles
 from .frames import tool_frame
 from .probe import StockProbe
@@ -225,6 +225,7 @@ class GeometryModel:
         self.theta = revolution_angles(resolution.angle_step_rad, tool.flutes)
         self.bottom = BottomTemplate(tool, self.edges, self.theta, resolution.pixel_mm)
         self._grids = {1: self.bottom.grid}
+        self._last_interval = self._last_near = None
         # the sub-edges of the step weights: profile radius, height and helix lag at
         # ENGAGEMENT_SUBEDGES points along each micro edge, (m, se) each
         se = K.ENGAGEMENT_SUBEDGES
@@ -416,12 +417,7 @@ class GeometryModel:
         tool = self.tool
         tip, u, seg, s = self._at(L)
         frame = tool_frame(u, seg, tool.rotation_sign)
-        bt = self.bottom
-        interval = None
-        if not getattr(self.stock, "is_box", False):
-            view = View.along_axis(tip, frame, bt.window_mm, bt.pixel_mm, bt.depth_offset_mm)
-            interval = stock_view(self.stock, view,
-                                  (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm))
+        interval = self._bottom_interval(tip, frame)
         z_top = self._stock_top(tip, frame, interval)
         if z_top < -tool.radius_mm:
             return 0
@@ -471,11 +467,7 @@ class GeometryModel:
         f_tooth = fz * feed_dir
         base["feed_per_tooth_world"] = f_tooth
         # the stock's material in the bottom view
-        interval = None
-        if not getattr(self.stock, "is_box", False):
-            view = View.along_axis(tip, frame, bt.window_mm, bt.pixel_mm, bt.depth_offset_mm)
-            drange = (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm)
-            interval = stock_view(self.stock, view, drange)
+        interval = self._bottom_interval(tip, frame)
         z_top = self._stock_top(tip, frame, interval)
         if z_top < -tool.radius_mm:
             return PointGeometry(status="no-cut", **base)
@@ -699,11 +691,46 @@ class GeometryModel:
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state["_zmap"] = None  # per process, rebuilt where it is used
+        state["_last_interval"] = state["_last_near"] = None
         return state
+
+    def _bottom_interval(self, tip, frame) -> StockView | None:
+        """The stock's interval in the bottom view at a tool position (None for a box).
+
+        The last answer is kept: the pre-check's test at a stretch's middle and the
+        prediction point there see the same position (same inputs, same answer).
+        """
+        if getattr(self.stock, "is_box", False):
+            return None
+        key = (id(self.stock), tip.tobytes(), frame.tobytes())
+        last = self._last_interval
+        if last is not None and last[0] == key:
+            return last[1]
+        bt, tool = self.bottom, self.tool
+        view = View.along_axis(tip, frame, bt.window_mm, bt.pixel_mm, bt.depth_offset_mm)
+        interval = stock_view(self.stock, view,
+                              (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm))
+        for a in (interval.bottom, interval.top, interval.smooth_bottom, interval.smooth_top):
+            a.flags.writeable = False
+        self._last_interval = (key, interval)
+        return interval
 
     def _near_sweeps(self, tip, u, L, fz, z_top=math.inf):
         """T1 and T2 near the tool's part below the stock top, nearest first, and the
-        sweep each part of T1 comes from."""
+        sweep each part of T1 comes from (arrays read-only: the last answer is kept, for
+        the prediction point at the pre-check's last position)."""
+        key = (np.asarray(tip, float).tobytes(), np.asarray(u, float).tobytes(), float(L),
+               float(fz), float(z_top))
+        last = self._last_near
+        if last is not None and last[0] == key:
+            return last[1]
+        out = self._near_sweeps_new(tip, u, L, fz, z_top)
+        for part in (*out[0], *out[1], out[2]):
+            part.flags.writeable = False
+        self._last_near = (key, out)
+        return out
+
+    def _near_sweeps_new(self, tip, u, L, fz, z_top):
         tool = self.tool
         R = tool.radius_mm
         height = min(tool.flute_length_mm + tool.corner_radius_mm,
