@@ -201,9 +201,10 @@ class BottomTemplate:
         for sl_a, sl_b in (((slice(1, None), slice(None)), (slice(None, -1), slice(None))),
                            ((slice(None), slice(1, None)), (slice(None), slice(None, -1)))):
             diff = np.abs(grid[sl_a] - grid[sl_b]) / p
-            for sl, other in ((sl_a, sl_b), (sl_b, sl_a)):
-                nan = np.isnan(diff)
-                slope[sl] = np.maximum(slope[sl], np.where(nan, 0.0, diff))
+            nan = np.isnan(diff)
+            diff[nan] = 0.0
+            for sl in (sl_a, sl_b):
+                np.maximum(slope[sl], diff, out=slope[sl])
                 unknown[sl] |= nan
         unknown[0, :] = unknown[-1, :] = unknown[:, 0] = unknown[:, -1] = True
         rigorous = self.reach.reshape(n, n)

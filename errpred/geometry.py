@@ -22,7 +22,7 @@ from nc.path import CutterLocations
 
 from . import constants as K
 from ._kernels import inside_any_sweep_clustered
-from .bottomview import BottomTemplate, stock_view
+from .bottomview import BottomTemplate, StockView, stock_view
 from .engagement import revolution_angles
 from .frames import tool_frame
 from .probe import StockProbe
@@ -225,6 +225,7 @@ class GeometryModel:
         self.theta = revolution_angles(resolution.angle_step_rad, tool.flutes)
         self.bottom = BottomTemplate(tool, self.edges, self.theta, resolution.pixel_mm)
         self._grids = {1: self.bottom.grid}
+        self._last_interval = self._last_near = None
         # the sub-edges of the step weights: profile radius, height and helix lag at
         # ENGAGEMENT_SUBEDGES points along each micro edge, (m, se) each
         se = K.ENGAGEMENT_SUBEDGES
@@ -416,12 +417,7 @@ class GeometryModel:
         tool = self.tool
         tip, u, seg, s = self._at(L)
         frame = tool_frame(u, seg, tool.rotation_sign)
-        bt = self.bottom
-        interval = None
-        if not getattr(self.stock, "is_box", False):
-            view = View.along_axis(tip, frame, bt.window_mm, bt.pixel_mm, bt.depth_offset_mm)
-            interval = stock_view(self.stock, view,
-                                  (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm))
+        interval = self._bottom_interval(tip, frame)
         z_top = self._stock_top(tip, frame, interval)
         if z_top < -tool.radius_mm:
             return 0
@@ -471,11 +467,7 @@ class GeometryModel:
         f_tooth = fz * feed_dir
         base["feed_per_tooth_world"] = f_tooth
         # the stock's material in the bottom view
-        interval = None
-        if not getattr(self.stock, "is_box", False):
-            view = View.along_axis(tip, frame, bt.window_mm, bt.pixel_mm, bt.depth_offset_mm)
-            drange = (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm)
-            interval = stock_view(self.stock, view, drange)
+        interval = self._bottom_interval(tip, frame)
         z_top = self._stock_top(tip, frame, interval)
         if z_top < -tool.radius_mm:
             return PointGeometry(status="no-cut", **base)
@@ -487,7 +479,7 @@ class GeometryModel:
             return PointGeometry(status="no-cut", **base)
         cutting0, weight0, shift0, cl_rev = eng
         base.update(cut_length_mm=float(cut_length), cutting0=cutting0,
-                    weight0=weight0.astype(np.float32), shift0=shift0.astype(np.float32),
+                    weight0=weight0, shift0=shift0,
                     cl_per_rev=cl_rev)
         fin = bt.finished_surface(self.stock, interval, tip, frame, t1, t2)
         notes = []
@@ -516,8 +508,7 @@ class GeometryModel:
             deeper = self._engagement(tip, frame, interval, removed, f_tooth, z_top + delta,
                                       stock_shift=delta * (frame @ gen.normal_world))
             if deeper is not None:
-                sens = (delta, deeper[0], deeper[1].astype(np.float32),
-                        deeper[2].astype(np.float32))
+                sens = (delta, deeper[0], deeper[1], deeper[2])
         base["sensitivity"] = sens
         return PointGeometry(status=status, gen=gen, view=used,
                              cutting_pixels=fin.cutting_pixels, finished_pixels=gen.pixels,
@@ -573,13 +564,16 @@ class GeometryModel:
                                               local if stock_shift is None else local - shift_vec)
             idx, local = idx[cand], local[cand]
             removed = removed_by_t1(("grid", factor), idx, tip + local @ frame)
-            cutting0 = np.zeros(n * m, dtype=bool)
-            cutting0[idx[~removed]] = True
-            cutting0 = cutting0.reshape(n, m)
-            if not cutting0.any():
+            cut_idx = idx[~removed]
+            if cut_idx.size == 0:
                 return None
-            engaged = cutting0.any(axis=1)
-            span = int(engaged.sum())  # flute 0 passes the engagement once a revolution
+            cutting0 = np.zeros(n * m, dtype=bool)
+            cutting0[cut_idx] = True
+            cutting0 = cutting0.reshape(n, m)
+            # the engaged rotation steps, from the cutting samples' rows (not the full grid)
+            engaged = np.zeros(n, dtype=bool)
+            engaged[cut_idx // m] = True
+            span = int(np.count_nonzero(engaged))  # flute 0 passes the engagement once a rev
             if span >= K.ENGAGEMENT_MIN_STEPS or factor >= K.ENGAGEMENT_MAX_REFINE:
                 break
             q = 1
@@ -590,20 +584,29 @@ class GeometryModel:
             fine = np.arange(n * q)
             window = engaged[np.round(fine / q).astype(int) % n]
             factor *= q
-        weight0, shift0 = self._step_weights(grid, cutting0, interval, tip, frame,
-                                             removed_by_t1, factor, shift_vec)
+        # the rows that may hold a non-zero weight: the engaged steps and one either side
+        # (in ascending order, so that what is read from them keeps the grid's order)
+        near = np.flatnonzero(engaged | np.roll(engaged, 1) | np.roll(engaged, -1))
+        weight0, shift0 = self._step_weights(grid, cutting0, near, interval, tip, frame,
+                                             removed_by_t1, factor,
+                                             None if stock_shift is None else shift_vec)
         feed_step = (frame @ (f_tooth * tool.flutes)) / n
-        i, j = np.nonzero(weight0)
+        ii, j = np.nonzero(weight0[near])
+        if ii.size == 0:
+            return None  # only slivers thinner than the sub-samples: nothing measurable
+        i = near[ii]
         step_len = np.linalg.norm(grid.rotation_step[i, j] + feed_step, axis=-1)
         cl_rev = np.bincount(j, weights=weight0[i, j] * step_len, minlength=m)
-        if not (weight0 > 0).any():
-            return None  # only slivers thinner than the sub-samples: nothing measurable
         return weight0 > 0, weight0, shift0, cl_rev
 
-    def _step_weights(self, grid, cutting0, interval, tip, frame, removed_by_t1, factor,
+    def _step_weights(self, grid, cutting0, rows, interval, tip, frame, removed_by_t1, factor,
                       stock_shift):
         """Share of each sample's cell (rotation step x micro edge) that cuts, (n, m),
-        and the rotation offset of that share's centroid [rad], (n, m).
+        and the rotation offset of that share's centroid [rad], (n, m); both float32
+        (the share is a multiple of 1/32: exact).
+
+        ``rows`` (ascending): the rotation steps that may be on the engagement's
+        boundary (those that cut and one either side); the others are 0.
 
         1 or 0 inside or outside the engagement. On its boundary (samples
         with a neighbour in the other state, in rotation or along the edge)
@@ -617,29 +620,36 @@ class GeometryModel:
         bt = self.bottom
         c0 = cutting0
         n, m = c0.shape
-        pad = np.pad(c0, ((0, 0), (1, 1)), mode="edge")
-        diff = np.zeros_like(c0)
-        for di in (-1, 0, 1):
-            rolled = np.roll(pad, di, axis=0)
+        weight = c0.astype(np.float32)
+        shift = np.zeros((n, m), dtype=np.float32)
+        # samples with a neighbour in the other state (rotation cyclic, the edge's ends
+        # their own neighbours), on ``rows`` only: elsewhere all is 0
+        sub = c0[rows]
+        diff = np.zeros(sub.shape, dtype=bool)
+        for nb in (c0[(rows - 1) % n], sub, c0[(rows + 1) % n]):
+            pad = np.concatenate([nb[:, :1], nb, nb[:, -1:]], axis=1)
             for dj in (-1, 0, 1):
-                diff |= rolled[:, 1 + dj:1 + dj + m] != c0
-        weight = c0.astype(float)
-        shift = np.zeros((n, m))
-        if not diff.any():
+                diff |= pad[:, 1 + dj:1 + dj + m] != sub
+        ii, j = np.nonzero(diff)
+        if ii.size == 0:
             return weight, shift
-        i, j = np.nonzero(diff)
+        i = rows[ii]
         st, se = K.ENGAGEMENT_SUBSTEPS, K.ENGAGEMENT_SUBEDGES
         step = 2 * math.pi / n
         du = (np.arange(st) + 0.5) / st - 0.5
         # sub-sample angles and profile positions, (cells, st, se)
         ang = grid.theta[i][:, None, None] + du[None, :, None] * step
         sub_rho, sub_z, sub_lag = self._sub_edges
-        shape = ang.shape[:1] + (st, se)
-        rho = np.broadcast_to(sub_rho[j][:, None, :], shape)
-        z = np.broadcast_to(sub_z[j][:, None, :], shape)
+        rho = sub_rho[j][:, None, :]
         phi = ang - sub_lag[j][:, None, :]
-        local = np.stack([rho * np.sin(phi), rho * np.cos(phi), z], axis=-1).reshape(-1, 3)
-        inside = bt.in_stock_local(self.stock, interval, tip, frame, local - stock_shift)
+        # the (cells, st, se, 3) positions written in place (no stacked copies)
+        local = np.empty(phi.shape + (3,))
+        np.multiply(rho, np.sin(phi), out=local[..., 0])
+        np.multiply(rho, np.cos(phi), out=local[..., 1])
+        local[..., 2] = sub_z[j][:, None, :]
+        local = local.reshape(-1, 3)
+        inside = bt.in_stock_local(self.stock, interval, tip, frame,
+                                   local if stock_shift is None else local - stock_shift)
         # sub-sample keys: the cell, then the sub-sample within it
         keys = ((i * m + j)[:, None] * (st * se) + np.arange(st * se)[None, :]).ravel()
         removed = np.zeros(inside.size, dtype=bool)
@@ -681,11 +691,46 @@ class GeometryModel:
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state["_zmap"] = None  # per process, rebuilt where it is used
+        state["_last_interval"] = state["_last_near"] = None
         return state
+
+    def _bottom_interval(self, tip, frame) -> StockView | None:
+        """The stock's interval in the bottom view at a tool position (None for a box).
+
+        The last answer is kept: the pre-check's test at a stretch's middle and the
+        prediction point there see the same position (same inputs, same answer).
+        """
+        if getattr(self.stock, "is_box", False):
+            return None
+        key = (id(self.stock), tip.tobytes(), frame.tobytes())
+        last = self._last_interval
+        if last is not None and last[0] == key:
+            return last[1]
+        bt, tool = self.bottom, self.tool
+        view = View.along_axis(tip, frame, bt.window_mm, bt.pixel_mm, bt.depth_offset_mm)
+        interval = stock_view(self.stock, view,
+                              (0.0, bt.depth_offset_mm + tool.flute_length_mm + tool.radius_mm))
+        for a in (interval.bottom, interval.top, interval.smooth_bottom, interval.smooth_top):
+            a.flags.writeable = False
+        self._last_interval = (key, interval)
+        return interval
 
     def _near_sweeps(self, tip, u, L, fz, z_top=math.inf):
         """T1 and T2 near the tool's part below the stock top, nearest first, and the
-        sweep each part of T1 comes from."""
+        sweep each part of T1 comes from (arrays read-only: the last answer is kept, for
+        the prediction point at the pre-check's last position)."""
+        key = (np.asarray(tip, float).tobytes(), np.asarray(u, float).tobytes(), float(L),
+               float(fz), float(z_top))
+        last = self._last_near
+        if last is not None and last[0] == key:
+            return last[1]
+        out = self._near_sweeps_new(tip, u, L, fz, z_top)
+        for part in (*out[0], *out[1], out[2]):
+            part.flags.writeable = False
+        self._last_near = (key, out)
+        return out
+
+    def _near_sweeps_new(self, tip, u, L, fz, z_top):
         tool = self.tool
         R = tool.radius_mm
         height = min(tool.flute_length_mm + tool.corner_radius_mm,

@@ -102,7 +102,9 @@ class View:
         object.__setattr__(self, "origin", origin)
         object.__setattr__(self, "basis", basis)
         object.__setattr__(self, "pixel_mm", p)
-        hand = float(np.dot(np.cross(basis[0], basis[1]), basis[2]))
+        (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = basis.tolist()
+        # det(basis) (+-1 within 1e-8: the rows are orthonormal), in scalars
+        hand = (a1 * b2 - a2 * b1) * c0 + (a2 * b0 - a0 * b2) * c1 + (a0 * b1 - a1 * b0) * c2
         object.__setattr__(self, "_handedness", 1 if hand > 0 else -1)
 
     # --- axes -------------------------------------------------------------
