@@ -328,7 +328,8 @@ def _necessary_arcs(rho, z, sk, ck, geo, c0, chip_eps, iv, ik, tmp, tk):
     k1 = 0 if l1 >= _TWO_PI else 1
     ik[0, 0], ik[0, 1] = k1, k1
     s2, l2 = _arc(a2, b2, c2, 0.0)
-    n = _clip(1, iv, ik, s2, l2, 2, tmp, tk)
+    # typed, not literal, arguments: a literal compiles a version of _clip of its own
+    n = _clip(np.int64(1), iv, ik, s2, l2, np.int64(2), tmp, tk)
     if n > 0 and geo[_PREV] != 0.0 and c0 == 0.0 and ck > 1e-9:
         side, half = geo[_SIDE], 0.5 * geo[_PICK]
         cx = geo[_TIP] + geo[_CPREV_R] * geo[_F + 6]
@@ -338,7 +339,7 @@ def _necessary_arcs(rho, z, sk, ck, geo, c0, chip_eps, iv, ik, tmp, tk):
         xb = geo[_F] * geo[_LB] + geo[_F + 1] * geo[_LB + 1] + geo[_F + 2] * geo[_LB + 2]
         yb = geo[_F + 3] * geo[_LB] + geo[_F + 4] * geo[_LB + 1] + geo[_F + 5] * geo[_LB + 2]
         s3, l3 = _arc(-side * rho * xb, -side * rho * yb, half - side * ob, 0.0)
-        n = _clip(n, iv, ik, s3, l3, 5, tmp, tk)
+        n = _clip(n, iv, ik, s3, l3, np.int64(5), tmp, tk)
     return n
 
 

@@ -274,7 +274,7 @@ def gain_fixed(geo, tab, flank_start, tp, set_par, kc, n_steps, H, stats, buf, k
     H[:] = 0.0
     stats[:] = 0.0
     c0, r, top, flutes = tp[1], tp[2], tp[3], int(tp[6])
-    n_union = 0
+    n_union = np.int64(0)           # typed, not literal (see gain_adaptive)
     for j in range(tab.shape[1]):
         sk, ck = math.sin(tab[2, j]), math.cos(tab[2, j])
         cnt = _circle_intervals(tab[0, j], tab[1, j], sk, ck, geo, c0, r, top, set_par,
@@ -330,7 +330,11 @@ def gain_adaptive(geo, tp, set_par, kc, n_steps, n_scan, n_bisect, px, pw, H, st
     H[:] = 0.0
     stats[:] = 0.0
     flutes = int(tp[6])
-    n_union = 0
+    # typed, not literal, arguments for the callees: a literal 0, False or True in a
+    # call compiles a version of the callee of its own (``_node``: six, ``_finish``,
+    # ``_accumulate``: four, each compiled from scratch on a fresh cache)
+    n_union = np.int64(0)
+    no, yes = np.bool_(False), np.bool_(True)
     s_lo, s_hi = profile_band(geo, tp, set_par, buf[MAX_INTERVALS_PER_EDGE:],
                               kinds[MAX_INTERVALS_PER_EDGE:])
     if s_hi > s_lo:
@@ -342,7 +346,7 @@ def gain_adaptive(geo, tp, set_par, kc, n_steps, n_scan, n_bisect, px, pw, H, st
             sig = 0
             if i < n_scan:
                 sig, n_union = _node(x, 0.0, geo, tp, set_par, kc, n_steps, H, stats, buf,
-                                     kinds, union, n_union, False)
+                                     kinds, union, n_union, no)
             left, sig_left = x_prev, sig_prev
             for _t in range(MAX_CHANGES_PER_CELL):
                 if sig_left == sig:
@@ -352,7 +356,7 @@ def gain_adaptive(geo, tp, set_par, kc, n_steps, n_scan, n_bisect, px, pw, H, st
                 for _ in range(n_bisect):
                     mid = 0.5 * (a + b)
                     sm, n_union = _node(mid, 0.0, geo, tp, set_par, kc, n_steps, H, stats, buf,
-                                        kinds, union, n_union, False)
+                                        kinds, union, n_union, no)
                     if sm == sig_left:
                         a = mid
                     else:
@@ -362,7 +366,7 @@ def gain_adaptive(geo, tp, set_par, kc, n_steps, n_scan, n_bisect, px, pw, H, st
                     for q in range(px.shape[0]):
                         _s, n_union = _node(p0 + px[q] * (bp - p0), pw[q] * (bp - p0), geo, tp,
                                             set_par, kc, n_steps, H, stats, buf, kinds, union,
-                                            n_union, True)
+                                            n_union, yes)
                 p0, psig = bp, sig_b
                 left, sig_left = b, sig_b
             x_prev, sig_prev = x, sig
@@ -458,6 +462,7 @@ def _batch_range(start, stop, U, Nn, Fd, cuts, tp, set_par, kc, tab, flank_start
     kinds = np.empty((BUF_ROWS, 2), dtype=np.int64)
     union = np.empty((union_rows(tab.shape[1], n_scan, px.shape[0]), 2))
     frame = np.empty((3, 3))
+    one = np.int64(1)       # the steps, typed as process_gain's (one compiled version)
     for i in range(start, stop):
         P[i] = 0.0
         stats[i] = 0.0
@@ -465,10 +470,10 @@ def _batch_range(start, stop, U, Nn, Fd, cuts, tp, set_par, kc, tab, flank_start
                                 cuts[i, 4], cuts[i, 5], tp[0], tp[1], tp[2], tp[3], geo):
             continue
         if tab.shape[1] == 0:
-            gain_adaptive(geo, tp, set_par, kc, 1, n_scan, n_bisect, px, pw, H, st, buf,
+            gain_adaptive(geo, tp, set_par, kc, one, n_scan, n_bisect, px, pw, H, st, buf,
                           kinds, union)
         else:
-            gain_fixed(geo, tab, flank_start, tp, set_par, kc, 1, H, st, buf, kinds, union)
+            gain_fixed(geo, tab, flank_start, tp, set_par, kc, one, H, st, buf, kinds, union)
         for a in range(9):
             frame[a // 3, a % 3] = geo[_F + a]
         _to_world(H[0], frame, P[i])

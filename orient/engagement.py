@@ -230,7 +230,8 @@ def geometry_vector(tool: Tool, posture_axis: Any, normal: Any, feed_dir: Any,
     the same rounding in both paths); validate them with :func:`place` first.
     """
     geo = np.empty(KN.GEO_SIZE)
-    ok = KN.posture_geometry(np.asarray(posture_axis, dtype=float),
+    # a copy: a read-only axis (a frozen array) compiled a version of the kernel of its own
+    ok = KN.posture_geometry(np.array(posture_axis, dtype=float),
                              np.asarray(normal, dtype=float), np.asarray(feed_dir, dtype=float),
                              cut.depth_mm, cut.pick_mm,
                              float(cut.previous_side), cut.curvature_f_1_mm,

@@ -22,7 +22,7 @@ import numpy as np
 from .blas import limited_blas
 from .dynamics import ModalSystem
 from .scenario import WorkpieceSpec
-from .constants import WALL_LEVELS, WALL_POINT_TOL_MM
+from .constants import WALL_LEVEL_THREADS, WALL_LEVELS, WALL_POINT_TOL_MM
 
 __all__ = ["WALL_LEVELS", "WorkpieceModel"]
 
@@ -69,10 +69,11 @@ class WorkpieceModel:
                   if w["stock_thickness_mm"] > w["thickness_mm"] and cut_z < w["height_mm"]
                   else wall for cut_z in z]
         # the levels are independent and their time is in SuperLU and ARPACK, which
-        # release the GIL: threads solve them side by side (under one BLAS limit, set
-        # here for all of them: orient.blas)
-        with limited_blas(), \
-                ThreadPoolExecutor(max_workers=min(len(shapes), os.cpu_count() or 1)) as pool:
+        # release the GIL: WALL_LEVEL_THREADS threads could solve them side by side (under
+        # one BLAS limit, set here for all of them: orient.blas); one keeps a single
+        # factorization in memory at a time
+        threads = max(1, min(len(shapes), WALL_LEVEL_THREADS, os.cpu_count() or 1))
+        with limited_blas(), ThreadPoolExecutor(max_workers=threads) as pool:
             self.levels = list(pool.map(
                 lambda shape: wall_modes(shape, n_modes=w["modes"], elements=w["element_mm"]),
                 shapes))

@@ -44,12 +44,14 @@ from nc.command import Refused
 from nc.gcode import parse_program
 from nc.path import CutterLocations, cutter_locations
 from nc.writer import PostOptions, PostResult, post, round_trip_error
+from orient.contacts import ball_contacts
 from orient.dynamics import ModalSystem
 from orient.plan import PlanResult, plan
 from orient.pointwise import point_lobes, point_setup
 from orient.report import infeasible_summary
 from orient.scenario import PlanScenario
 from orient.stability import zoa_margin_batch
+from orient.workpiece import WorkpieceModel
 
 from .constants import (
     JOB_CORRECTION_PASSES,
@@ -178,9 +180,17 @@ def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
             prog = base.read_program()
             build_predictor(base, prog).run(range(min(len(prog), JOB_WARM_BLOCKS)))
         elif part == "simulate":
-            setup = point_setup(scn)
+            # one workpiece model at the first contact for both (its finite elements:
+            # each call built its own, the simulation's over the stretch's levels, and
+            # the task peaked at 1.17 GB; the kernels' types do not depend on it)
+            cam = cutter_locations(base.read_program(), scn.machine())
+            contacts = ball_contacts(cam, base.tool.radius_mm, base.stock.load_design())
+            first = int(np.flatnonzero(contacts.touching)[0])
+            wp = WorkpieceModel(scn.workpiece, contacts.point[first][None])
+            setup = point_setup(scn, first, workpiece=wp)
             point_lobes(scn, setup, ("zoa", "sdm"), setup.spindle_rpm * np.array([0.9, 1.1]))
-            verify_program(scn, points=(setup.index, setup.index + JOB_WARM_POINTS))
+            verify_program(scn, points=(setup.index, setup.index + JOB_WARM_POINTS),
+                           workpiece=wp)
         else:
             raise ValueError(f"parts: unknown part {part!r}")
 

@@ -522,7 +522,8 @@ def margin_speeds(p, d, omega, gw, taus, mk, mm, mc, mr, group):
     lam = np.empty((omega.shape[0], ng), dtype=np.complex128)
     out = np.empty(taus.shape[0])
     for i in range(taus.shape[0]):
-        out[i] = margin_one(q, omega, gw, taus[i], mk, mm, mc, mr, group, lam)[0]
+        # rmin given (0.0): omitted, it compiled a version of margin_one of its own
+        out[i] = margin_one(q, omega, gw, taus[i], mk, mm, mc, mr, group, lam, 0.0)[0]
     return out
 
 

@@ -287,7 +287,7 @@ def zoa_margin_detail(P: Any, system: ModalSystem, spindle_rpm: float, teeth: in
     d = system.direction[first]
     q = np.ascontiguousarray(d @ p @ d.T)
     lam = np.empty((w.size, first.size), dtype=complex)
-    s, wc = _k.margin_one(q, w, gw, tau, mk, mm, mc, mr, group, lam)
+    s, wc = _k.margin_one(q, w, gw, tau, mk, mm, mc, mr, group, lam, 0.0)  # rmin: one version
     return ZoaMargin(float(s), float(wc))
 
 
