@@ -179,6 +179,15 @@ def sweep_distance(x, y, z, p0, d, w, c, r, top):
 
 
 @njit(cache=True, inline="always")
+def _strip_bound(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top):
+    """The distance from (x, y, z) to the swept axis strip minus ``c`` [mm]: a lower
+    bound of the distance to the swept core (the core lies within ``c`` of its axis
+    segment), exact for ball end mills (``c = 0``); 1-Lipschitz in the point."""
+    return _dist_half_strip(x - (px + r * wx), y - (py + r * wy), z - (pz + r * wz), dx, dy,
+                            dz, wx, wy, wz, top - r) - c
+
+
+@njit(cache=True, inline="always")
 def _split_bound(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top):
     """``(bound, exact)``: a lower bound of the distance from (x, y, z) to the swept
     core of a tool with ``c > 0``, and whether it is the distance itself.
@@ -226,9 +235,8 @@ def sweep_lower_bound(x, y, z, p0, d, w, c, r, top):
     radial and axial parts' separate minima (:func:`_split_bound`): the larger
     of the two.
     """
-    lb = _dist_half_strip(x - (p0[0] + r * w[0]), y - (p0[1] + r * w[1]),
-                          z - (p0[2] + r * w[2]), d[0], d[1], d[2], w[0], w[1], w[2],
-                          top - r) - c
+    lb = _strip_bound(x, y, z, p0[0], p0[1], p0[2], d[0], d[1], d[2], w[0], w[1], w[2], c,
+                      r, top)
     if c != 0.0:
         lb2 = _split_bound(x, y, z, p0[0], p0[1], p0[2], d[0], d[1], d[2], w[0], w[1], w[2],
                            c, r, top)[0]
@@ -260,12 +268,17 @@ def sweep_within(x, y, z, p0, d, w, c, r, top, lim):
     if _core_dist(x - d[0], y - d[1], z - d[2], p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r,
                   top) <= lim:
         return True
-    if sweep_lower_bound(x, y, z, p0, d, w, c, r, top) > lim:
+    # :func:`sweep_lower_bound` above ``lim`` (the larger of its two bounds), its
+    # split bound computed once and kept for the square-move answer
+    if _strip_bound(x, y, z, p0[0], p0[1], p0[2], d[0], d[1], d[2], w[0], w[1], w[2], c, r,
+                    top) > lim:
         return False
     bound, exact = _split_bound(x, y, z, p0[0], p0[1], p0[2], d[0], d[1], d[2], w[0], w[1],
                                 w[2], c, r, top)
+    if bound > lim:
+        return False
     if exact:
-        return bound <= lim  # a move square to the axis: the bound is the distance
+        return True  # a move square to the axis: the bound, within lim, is the distance
     return _golden(x, y, z, p0, d, w, c, r, top, lim) <= lim
 
 
@@ -346,11 +359,8 @@ def _reach_bound(j, cx, cy, cz, p0, d, w, c, r, top, lim):
     the swept axis strip's minus ``c`` (exact for ball end mills), for ``c > 0`` the
     larger of that and :func:`_split_bound`, computed only where the first is within
     ``lim``. 1-Lipschitz in the point (both are)."""
-    ax = cx - (p0[j, 0] + r * w[j, 0])
-    ay = cy - (p0[j, 1] + r * w[j, 1])
-    az = cz - (p0[j, 2] + r * w[j, 2])
-    lb = _dist_half_strip(ax, ay, az, d[j, 0], d[j, 1], d[j, 2], w[j, 0], w[j, 1], w[j, 2],
-                          top - r) - c
+    lb = _strip_bound(cx, cy, cz, p0[j, 0], p0[j, 1], p0[j, 2], d[j, 0], d[j, 1], d[j, 2],
+                      w[j, 0], w[j, 1], w[j, 2], c, r, top)
     if lb > lim or c == 0.0:
         return lb
     lb2 = _split_bound(cx, cy, cz, p0[j, 0], p0[j, 1], p0[j, 2], d[j, 0], d[j, 1], d[j, 2],
