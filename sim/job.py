@@ -187,7 +187,7 @@ def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
             contacts = ball_contacts(cam, base.tool.radius_mm, base.stock.load_design())
             first = int(np.flatnonzero(contacts.touching)[0])
             wp = WorkpieceModel(scn.workpiece, contacts.point[first][None])
-            setup = point_setup(scn, first, workpiece=wp)
+            setup = point_setup(scn, first, workpiece=wp, contacts=contacts)
             point_lobes(scn, setup, ("zoa", "sdm"), setup.spindle_rpm * np.array([0.9, 1.1]))
             verify_program(scn, points=(setup.index, setup.index + JOB_WARM_POINTS),
                            workpiece=wp)
