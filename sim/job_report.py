@@ -236,7 +236,7 @@ def job_page(res: JobResult, rep: dict[str, Any], errors: tuple | None = None) -
     sim = rep["simulation"]
     checks = rep["checks"]
     good = all(checks.values())
-    why = rep.get("checks_why") or _why_not(res, rep)
+    why = rep["checks_why"]
     failed = [_CHECK_TEXT[k] for k, v in checks.items() if not v]
     verdict = ("All checks hold: the program is ready to cut." if good else
                "Not every check holds: " + "; ".join(failed) + ".")
