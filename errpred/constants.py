@@ -52,6 +52,15 @@ CLUSTER_CELL_MM = 0.2
 #: every bin against every sweep: a finishing raster has ~2,000 sweeps within
 #: a tool's reach) [-].
 CLUSTER_COARSE = 8
+#: Coarse cubes are grouped into super cubes of this many a side, a level
+#: between all the sweeps and a coarse cube's: without it each coarse cube
+#: tested every sweep near the points (the wall-radius slice: ~2,100 sweeps,
+#: ~30 coarse cubes a call, most of a membership call's time) [-].
+CLUSTER_SUPER = 4
+#: A bin's points go first against this many sweeps that held points of the
+#: bins before (latest first); only a bin with a point none of them holds gets
+#: its short list and the exact tests against it [-].
+CLUSTER_RECENT = 8
 #: Before binning, points are tested against one sweep likely to hold many of
 #: them (in finishing, the move just behind the tool): the first of the first
 #: HOT_SEED_SWEEPS sweeps (nearest first) to hold one of the first
@@ -117,6 +126,15 @@ PLUNGE_ANGLE_RAD = math.radians(45.0)
 #: that the tool's swept band crosses over more than a quarter of its diameter is
 #: met at a station) [-].
 PRECHECK_STEP_PER_DIAMETER = 0.25
+#: A block's tool positions share one look-up of the sweeps near them (a box
+#: holding every position's, each position then keeps those overlapping its own
+#: box: the same sweeps) where the block's cutter locations span at most this
+#: many tool diameters; a longer block's box would hold too many [-].
+SHARED_LOOKUP_SPAN_PER_DIAMETER = 4.0
+#: Padding of that box beyond the positions' boxes [mm]: far above the rounding
+#: of a tool position between cutter locations (~1e-15 mm), so that every
+#: position on a block with a constant axis lies inside it.
+SHARED_LOOKUP_PAD_MM = 1.0e-6
 #: ... and where a block's cutting stretch begins or ends, between a station that cuts
 #: and one that does not, is found by this many halvings (to 1/8 of the step: the
 #: stretch's length, which sets the wear it adds, within 0.6 mm for a D20 tool) [-].

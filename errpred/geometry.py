@@ -28,7 +28,7 @@ from .frames import tool_frame
 from .probe import StockProbe
 from .raster.camera import View
 from .surface import GenerationPoint, envelope_hits, generation_point, regions, strip_samples
-from .sweeps import Sweeps, build_sweeps
+from .sweeps import BlockLookup, Sweeps, build_sweeps
 from .tool import MicroEdges, Tool
 from .t1memo import RemovedMemo as _RemovedMemo
 from .zmap import SweepMap, sweep_map
@@ -226,6 +226,8 @@ class GeometryModel:
         self.bottom = BottomTemplate(tool, self.edges, self.theta, resolution.pixel_mm)
         self._grids = {1: self.bottom.grid}
         self._last_interval = self._last_near = None
+        #: the block :meth:`geometry` works on (CL range) and its shared sweep look-up
+        self._block_span = self._block_near = None
         # the sub-edges of the step weights: profile radius, height and helix lag at
         # ENGAGEMENT_SUBEDGES points along each micro edge, (m, se) each
         se = K.ENGAGEMENT_SUBEDGES
@@ -300,6 +302,7 @@ class GeometryModel:
         if rng is None:
             return []
         i0, i1 = rng
+        self._block_span, self._block_near = (i0, i1), None
         cl = self.cl
         start = self.path[i0 - 1] if i0 > 0 else 0.0
         end = self.path[i1]
@@ -692,6 +695,7 @@ class GeometryModel:
         state = dict(self.__dict__)
         state["_zmap"] = None  # per process, rebuilt where it is used
         state["_last_interval"] = state["_last_near"] = None
+        state["_block_span"] = state["_block_near"] = None
         return state
 
     def _bottom_interval(self, tip, frame) -> StockView | None:
@@ -743,7 +747,23 @@ class GeometryModel:
         # (the tool below ``height``, and the finished-surface margins beyond it)
         ball = math.hypot(R + 2 * self.res.pixel_mm, 0.5 * height)
         return self.sweeps.near(lo, hi, mid_axis, ball + self._margin_reach, tip + R * u,
-                                L - fz, L + fz)
+                                L - fz, L + fz, within=self._shared_lookup(lo, hi))
+
+    def _shared_lookup(self, lo, hi) -> np.ndarray | None:
+        """The block's shared sweep look-up (:class:`~errpred.sweeps.BlockLookup`,
+        made on first use) for the box ``[lo, hi]``, or None."""
+        span = self._block_span
+        if span is None:
+            return None
+        if self._block_near is None:
+            i0, i1 = span
+            k = max(i0 - 1, 0)
+            tool = self.tool
+            self._block_near = BlockLookup(
+                self.sweeps, self.cl.tip[k:i1 + 1], self.cl.axis[k:i1 + 1], tool.radius_mm,
+                tool.flute_length_mm + tool.corner_radius_mm, 2 * self.res.pixel_mm,
+                K.SHARED_LOOKUP_SPAN_PER_DIAMETER * tool.diameter_mm)
+        return self._block_near.ids_for(lo, hi)
 
     def _side_view(self, tip, frame, fin, cutting0, t1, t2) -> GenerationPoint | None:
         """Finished surface seen from the side where the cutting region lies."""

@@ -31,7 +31,7 @@ from .tool import Tool
 #: ``inside_any_sweep`` and ``sweep_distance`` (numba, usable inside other
 #: numba kernels) are the swept tool solid's membership and distance, public
 #: here for the packages above errpred.
-__all__ = ["Sweeps", "build_sweeps", "inside_any_sweep", "sweep_distance"]
+__all__ = ["BlockLookup", "Sweeps", "build_sweeps", "inside_any_sweep", "sweep_distance"]
 
 
 def _cylinder_bounds(p: np.ndarray, w: np.ndarray, height: float, radius: float):
@@ -134,11 +134,26 @@ def _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start, path_end, path_
 
 
 @njit(cache=True)
+def _overlapping(within, lo_all, hi_all, lo, hi):
+    """Those of sweeps ``within`` (in their order) whose bounds overlap the box [lo, hi]."""
+    keep = np.empty(within.shape[0], dtype=np.bool_)
+    for t in range(within.shape[0]):
+        j = within[t]
+        keep[t] = (lo_all[j, 0] <= hi[0] and lo_all[j, 1] <= hi[1] and lo_all[j, 2] <= hi[2]
+                   and hi_all[j, 0] >= lo[0] and hi_all[j, 1] >= lo[1]
+                   and hi_all[j, 2] >= lo[2])
+    return within[keep]
+
+
+@njit(cache=True)
 def _near(cell_start, cell_items, shape, origin, cell, p0_all, d_all, w_all, lo_all, hi_all,
           path_start, path_end, c, r, top, lo, hi, centre, reach, order_from, t1_end,
-          t2_start):
+          t2_start, within, use_within):
     """:meth:`Sweeps.near` in one call."""
-    ids = _query(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi)
+    if use_within:
+        ids = _overlapping(within, lo_all, hi_all, lo, hi)
+    else:
+        ids = _query(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi)
     keep = sweeps_within(ids, centre[0], centre[1], centre[2], reach, p0_all, d_all, w_all,
                          lo_all, hi_all, c, r, top)
     ids = ids[keep]
@@ -158,6 +173,9 @@ def _near(cell_start, cell_items, shape, origin, cell, p0_all, d_all, w_all, lo_
     q0, e, v, lo2, hi2, _ = _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start,
                                   path_end, t2_start, np.inf, radius, height)
     return (p0, d, w, lo1, hi1), (q0, e, v, lo2, hi2), ids1
+
+
+_NO_IDS = np.zeros(0, dtype=np.int64)
 
 
 @dataclass(frozen=True, eq=False)
@@ -222,7 +240,7 @@ class Sweeps:
                       np.asarray(hi, float))
 
     def near(self, lo, hi, centre, reach: float, order_from, t1_end: float,
-             t2_start: float):
+             t2_start: float, within: np.ndarray | None = None):
         """T1 and T2 near a prediction point, in one call.
 
         The sweeps whose bounds overlap the box ``[lo, hi]`` and that may come
@@ -236,6 +254,10 @@ class Sweeps:
         reach : float [mm]
         t1_end, t2_start : float [mm]
             Path lengths.
+        within : ndarray of int, optional
+            Sorted sweep ids that hold every sweep whose bounds overlap the box
+            (:meth:`query` of a box holding it: one look-up shared by the
+            positions of a block); the grid is not read. Same answer.
 
         Returns
         -------
@@ -251,7 +273,8 @@ class Sweeps:
                      self.path_start, self.path_end, self.core_radius_mm,
                      self.corner_radius_mm, self.top_mm, np.asarray(lo, float),
                      np.asarray(hi, float), np.asarray(centre, float), float(reach),
-                     np.asarray(order_from, float), float(t1_end), float(t2_start))
+                     np.asarray(order_from, float), float(t1_end), float(t2_start),
+                     _NO_IDS if within is None else within, within is not None)
 
     def clipped(self, ids: np.ndarray, path_lo: float, path_hi: float):
         """The parts of sweeps ``ids`` between two path lengths.
@@ -272,6 +295,61 @@ class Sweeps:
         h = self.top_mm + self.corner_radius_mm
         return _clip(np.asarray(ids, dtype=np.int64), self.p0, self.d, self.w, self.lo, self.hi,
                      self.path_start, self.path_end, float(path_lo), float(path_hi), R, h)[:5]
+
+
+class BlockLookup:
+    """One grid look-up shared by the tool positions of a block.
+
+    A box holding the look-up box of every tool position between the given
+    cutter locations (at each, the tool from its tip to ``height`` along its
+    axis, ``radius`` plus ``margin`` around it, padded by
+    ``SHARED_LOOKUP_PAD_MM``), and the sweeps whose bounds overlap it
+    (:meth:`Sweeps.query`, made on first use): :meth:`ids_for` a position's box
+    inside it gives :meth:`Sweeps.near` those instead of another grid look-up
+    (the same sweeps, in the same order). A position outside the box (the axis
+    turning between cutter locations) gets None: its own look-up; so does the
+    first position asking (the look-up is shared from the second on).
+
+    Parameters
+    ----------
+    sweeps : Sweeps
+    tips, axes : ndarray, shape (k, 3)
+        The block's cutter locations (and the one before it) [mm], unit axes.
+    radius, height, margin : float [mm]
+        The tool's radius, the largest height a position's box takes, and the
+        margin around the tool.
+    max_span : float [mm]
+        No shared look-up where the cutter locations span more (its box would
+        hold too many sweeps).
+    """
+
+    def __init__(self, sweeps: Sweeps, tips: np.ndarray, axes: np.ndarray, radius: float,
+                 height: float, margin: float, max_span: float) -> None:
+        self._sweeps = sweeps
+        self._ids = None
+        self._asked = False
+        self.lo = self.hi = None
+        if tips.shape[0] and float(np.linalg.norm(tips.max(axis=0) - tips.min(axis=0))) \
+                <= max_span:
+            top = tips + height * axes
+            ext = radius * np.sqrt(np.clip(1 - axes * axes, 0, None)) + margin \
+                + K.SHARED_LOOKUP_PAD_MM
+            self.lo = (np.minimum(tips, top) - ext).min(axis=0)
+            self.hi = (np.maximum(tips, top) + ext).max(axis=0)
+
+    def ids_for(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray | None:
+        """Sorted sweep ids holding every sweep whose bounds overlap ``[lo, hi]`` [mm],
+        or None where that box is not inside the shared one."""
+        if self.lo is None or not (np.all(lo >= self.lo) and np.all(hi <= self.hi)):
+            return None
+        if self._ids is None:
+            if not self._asked:
+                # the first position looks up its own (a block with one position, the
+                # most common on a finishing raster, gains nothing from the larger box)
+                self._asked = True
+                return None
+            self._ids = self._sweeps.query(self.lo, self.hi)
+        return self._ids
 
 
 def build_sweeps(cl: CutterLocations, tool: Tool, *,

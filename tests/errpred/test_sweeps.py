@@ -294,8 +294,9 @@ def _dist_strip_bound(q, p0, d, w, c, r, top):
 
 
 def test_shortlists_are_each_bin_tested_alone():
-    """The per-bin short lists (with the Lipschitz shortcuts between levels) are, in
-    order, the sweeps that pass the reach test against the bin's own sphere."""
+    """The per-bin short lists (with the Lipschitz shortcuts between the levels: all
+    points, super cube, coarse cube, bin) are, in order, the sweeps that pass the
+    reach test against the bin's own sphere."""
     from errpred._kernels import _bins, _may_reach, _shortlists, _sphere
     rng = np.random.default_rng(12)
     n = 300
@@ -310,10 +311,12 @@ def test_shortlists_are_each_bin_tested_alone():
         top = 8.0
         lo = np.minimum(p0, p0 + d) - (c + r) - top
         hi = np.maximum(p0, p0 + d) + (c + r) + top
-        for reach in (1e-6, 0.3):
-            idx, order, keys, m = _bins(pts, np.ones(len(pts), dtype=np.bool_), 0.4)
+        # 0.4 mm bins: one super cube; 0.1 mm: several, and several coarse cubes in each
+        for reach, cell in ((1e-6, 0.4), (0.3, 0.4), (1e-6, 0.1)):
+            idx, order, keys, m = _bins(pts, np.ones(len(pts), dtype=np.bool_), cell)
             starts, offsets, lists, nb = _shortlists(pts, idx, order, keys, m, p0, d, w, lo,
-                                                     hi, c, r, top, reach)
+                                                     hi, c, r, top, reach,
+                                                     np.zeros(0, dtype=np.bool_), False)
             sizes = []
             for b in range(nb):
                 cx, cy, cz, rad = _sphere(pts, idx, order, starts[b], starts[b + 1])
@@ -322,3 +325,97 @@ def test_shortlists_are_each_bin_tested_alone():
                 assert lists[offsets[b]:offsets[b + 1]].tolist() == ref
                 sizes.append(len(ref))
             assert 0 < np.mean(sizes) < n
+
+
+@pytest.mark.parametrize("tilted", [False, True])
+def test_clustered_membership_over_many_cubes_equals_the_full_list(tilted):
+    """Points spread over many super and coarse cubes (bins of 0.1 mm), most of them
+    inside earlier passes: each bin's points go first against the sweeps that held
+    the bins' before, the rest against their short list; the answers are those of
+    every point tested against every sweep (:func:`inside_any_sweep`)."""
+    rng = np.random.default_rng(31)
+    # a raster of passes 0.8 mm apart at slowly falling depths, in pieces
+    rows = []
+    for k in range(25):
+        y = -10 + 0.8 * k
+        xs = np.linspace(-10, 10, 9)
+        for a, b in zip(xs[:-1], xs[1:]):
+            rows.append(([a, y, -0.05 * k], [b - a, 0.0, rng.uniform(-0.05, 0.05)]))
+    p0 = np.array([r[0] for r in rows])
+    d = np.array([r[1] for r in rows])
+    n = p0.shape[0]
+    w = np.tile([0.0, 0.0, 1.0], (n, 1))
+    if tilted:
+        w = w + rng.normal(0, 0.15, (n, 3))
+        w /= np.linalg.norm(w, axis=1, keepdims=True)
+    pts = rng.uniform([-9, -14, -1.5], [9, 14, 2.0], (6000, 3))  # some beyond the passes
+    cand = rng.uniform(size=pts.shape[0]) < 0.9
+    for c, r in ((0.0, 3.0), (2.0, 1.0), (3.0, 0.0)):
+        top = 10.0
+        lo = np.minimum(p0, p0 + d) - (c + r) - top
+        hi = np.maximum(p0, p0 + d) + (c + r) + top
+        full = inside_any_sweep(pts, cand, p0, d, w, lo, hi, c, r, top, 1e-6)
+        assert 0.2 < full[cand].mean() < 0.95  # both answers, many of each
+        for cell in (0.1, 0.2, 0.5):
+            got = inside_any_sweep_clustered(pts, cand, p0, d, w, lo, hi, c, r, top, 1e-6, cell)
+            assert np.array_equal(got, full)
+
+
+@pytest.mark.parametrize("tilting", [False, True])
+def test_block_lookup_gives_near_the_same_sweeps(tilting):
+    """Positions along a run of cutter locations: :meth:`Sweeps.near` from the block's
+    shared look-up (:class:`BlockLookup`) returns the same arrays as with its own grid
+    look-up; with a constant axis every position is inside the shared box, a position
+    outside it (the axis turning a lot) gets None (its own look-up)."""
+    from errpred.sweeps import BlockLookup
+    rng = np.random.default_rng(5)
+    n = 2500
+    pts = np.cumsum(rng.normal(0, 0.5, (n, 3)), axis=0)
+    pts[:, 2] *= 0.2
+    axis = np.tile([0.0, 0.0, 1.0], (n, 1))
+    if tilting:
+        axis = axis + rng.normal(0, 0.2, (n, 3))
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    cl = CutterLocations.from_arrays(pts, axis, 1000.0, 8000.0)
+    tool = Tool("radius", 6, 1.0)
+    sw = build_sweeps(cl, tool)
+    R, height, margin = tool.radius_mm, tool.flute_length_mm + tool.corner_radius_mm, 0.1
+    path = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]
+    used = inside = 0
+    for k in rng.integers(200, n - 10, 30):
+        i0, i1 = int(k), int(k) + 3
+        shared = BlockLookup(sw, pts[i0 - 1:i1 + 1], axis[i0 - 1:i1 + 1], R, height, margin,
+                             1e9)
+        assert shared.ids_for(pts[i0] - 0.1, pts[i0] + 0.1) is None  # the first: its own
+        for s in range(i0, i1 + 1):
+            for t in (0.0, 0.3, 0.5, 1.0):
+                tip = pts[s - 1] + t * (pts[s] - pts[s - 1])
+                u = (1 - t) * axis[s - 1] + t * axis[s]
+                u /= np.linalg.norm(u)
+                h = rng.uniform(0.3, 1.0) * height
+                top = tip + h * u
+                ext = R * np.sqrt(np.clip(1 - u * u, 0, None)) + margin
+                lo, hi = np.minimum(tip, top) - ext, np.maximum(tip, top) + ext
+                ids = shared.ids_for(lo, hi)
+                used += 1
+                if ids is None:
+                    continue
+                inside += 1
+                L = path[s - 1] + t * (path[s] - path[s - 1])
+                args = (lo, hi, tip + 0.5 * h * u, R + 1.0, tip + R * u, L - 0.01, L + 0.01)
+                a, b = sw.near(*args), sw.near(*args, within=ids)
+                for x, y in zip((*a[0], *a[1], a[2]), (*b[0], *b[1], b[2])):
+                    assert np.array_equal(x, y)
+    assert inside == used if not tilting else 0 < inside <= used
+    # an axis turning by 74 deg between two cutter locations: the tool's top halfway
+    # (the axis vertical there) rises above the box of both ends: its own look-up
+    a2 = np.array([[0.6, 0.0, 0.8], [-0.6, 0.0, 0.8]])
+    t2 = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    turn = BlockLookup(sw, t2, a2, R, height, margin, 1e9)
+    tip, top = np.array([0.5, 0.0, 0.0]), np.array([0.5, 0.0, height])
+    inner = (t2[0] - 0.01, t2[0] + 0.01)
+    assert turn.ids_for(*inner) is None and turn.ids_for(*inner) is not None
+    assert turn.ids_for(np.minimum(tip, top) - R - margin, np.maximum(tip, top) + margin) is None
+    # a block spanning more than the limit has no shared look-up
+    far = BlockLookup(sw, pts[100:400], axis[100:400], R, height, margin, 1.0)
+    assert far.ids_for(pts[200] - 1, pts[200] + 1) is None
