@@ -7,6 +7,9 @@ against the stock and T1. The membership tests are the sweep and stock kernels'
 (``errpred/_kernels.py``); these kernels do the per-cell work around them in one
 call each, where numpy made a dozen temporaries a point:
 
+* :func:`grid_candidates`: the samples of a grid's rows the stock's interval in
+  the bottom view holds or cannot decide (in place of a gather, a shift, the
+  interval test and two compactions over the whole grid);
 * :func:`boundary_cells`: which cells are on the boundary;
 * :func:`sub_samples`: their sub-samples' tool-frame positions (and the same
   minus the stock's shift, for the sensitivity pass);
@@ -26,8 +29,70 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["boundary_cells", "sub_samples", "cell_weights", "boundary_cells_numpy",
-           "sub_samples_numpy", "cell_weights_numpy"]
+from ._kernels import _bilinear, interval_membership
+
+__all__ = ["grid_candidates", "boundary_cells", "sub_samples", "cell_weights",
+           "grid_candidates_numpy", "boundary_cells_numpy", "sub_samples_numpy",
+           "cell_weights_numpy"]
+
+
+@njit(cache=True, nogil=True)
+def grid_candidates(samples, rows, cols, m, shift, top, bottom, smooth_top, smooth_bottom,
+                    pixel, depth_offset, eps):
+    """The samples ``rows x cols`` of a grid (``samples`` (n * m, 3) [mm], tool frame,
+    row ``i * m + j``) that the stock's interval in the bottom view holds or cannot
+    decide, the stock displaced by ``shift`` (3,) [mm].
+
+    The test is :func:`errpred._kernels.interval_membership`'s on ``sample - shift``.
+    Returns, in grid order, the samples' indices (k,), positions (k, 3) [mm], the
+    positions minus ``shift`` (k, 3) [mm], and whether the interval could not decide
+    (k,) bool (those are for the mesh).
+    """
+    total = rows.shape[0] * cols.shape[0]
+    idx = np.empty(total, dtype=np.int64)
+    local = np.empty((total, 3))
+    moved = np.empty((total, 3))
+    unsure = np.empty(total, dtype=np.bool_)
+    n = top.shape[0]
+    half = 0.5 * n * pixel
+    k = 0
+    for a in range(rows.shape[0]):
+        base = rows[a] * m
+        for b in range(cols.shape[0]):
+            q = base + cols[b]
+            x, y, z = samples[q, 0], samples[q, 1], samples[q, 2]
+            mx, my, mz = x - shift[0], y - shift[1], z - shift[2]
+            # interval_membership, one point
+            fx = (mx + half) / pixel - 0.5
+            fy = (my + half) / pixel - 0.5
+            j0 = min(max(int(math.floor(fx)), 0), n - 2)
+            i0 = min(max(int(math.floor(fy)), 0), n - 2)
+            tx = min(max(fx - j0, 0.0), 1.0)
+            ty = min(max(fy - i0, 0.0), 1.0)
+            depth = mz + depth_offset
+            t = _bilinear(top, i0, j0, tx, ty)
+            bo = _bilinear(bottom, i0, j0, tx, ty)
+            inside = (bo - eps <= depth) and (depth <= t + eps)
+            uns = not (smooth_top[i0, j0] and smooth_bottom[i0, j0])
+            if inside or uns:
+                idx[k] = q
+                local[k, 0], local[k, 1], local[k, 2] = x, y, z
+                moved[k, 0], moved[k, 1], moved[k, 2] = mx, my, mz
+                unsure[k] = uns
+                k += 1
+    return idx[:k], local[:k], moved[:k], unsure[:k]
+
+
+def grid_candidates_numpy(samples, rows, cols, m, shift, top, bottom, smooth_top,
+                          smooth_bottom, pixel, depth_offset, eps):
+    """Twin of :func:`grid_candidates` (the gather, shift and test it replaced)."""
+    idx = (rows[:, None] * m + cols[None, :]).ravel()
+    local = samples[idx]
+    moved = local - shift
+    inside, unsure = interval_membership(np.ascontiguousarray(moved), top, bottom, smooth_top,
+                                         smooth_bottom, pixel, depth_offset, eps)
+    keep = inside | unsure
+    return idx[keep], local[keep], moved[keep], unsure[keep]
 
 
 @njit(cache=True, nogil=True)

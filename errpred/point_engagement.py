@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from . import constants as K
-from ._engage_kernels import boundary_cells, cell_weights, sub_samples
+from ._engage_kernels import boundary_cells, cell_weights, grid_candidates, sub_samples
 from .bottomview import BottomTemplate, SampleGrid, StockView
 from .tool import MicroEdges, Tool
 
@@ -101,7 +101,7 @@ class PointEngagement:
             Tool frame: displaces the stock, as if the tool cut that much deeper
             (for the correction's sensitivity).
         """
-        tool, stock, bottom = self.tool, self.stock, self.bottom
+        tool = self.tool
         shift_vec = np.zeros(3) if stock_shift is None else np.asarray(stock_shift, float)
         # micro edges above the highest stock under the tool cannot cut
         edge_ok = np.flatnonzero(self.edges.z <= z_top + self.pixel_mm)
@@ -110,11 +110,7 @@ class PointEngagement:
             grid = self.grid(factor)
             n, m = grid.shape
             rows = np.arange(n) if window is None else np.flatnonzero(window)
-            idx = (rows[:, None] * m + edge_ok[None, :]).ravel()
-            local = grid.samples[idx]
-            cand = bottom.in_stock_local(stock, interval, tip, frame,
-                                         local if stock_shift is None else local - shift_vec)
-            idx, local = idx[cand], local[cand]
+            idx, local = self._in_stock(grid, rows, edge_ok, interval, tip, frame, shift_vec)
             removed = removed_by_t1(("grid", factor), idx, tip + local @ frame)
             cut_idx = idx[~removed]
             if cut_idx.size == 0:
@@ -149,6 +145,28 @@ class PointEngagement:
         step_len = np.linalg.norm(grid.rotation_step[i, j] + feed_step, axis=-1)
         cl_rev = np.bincount(j, weights=weight0[i, j] * step_len, minlength=m)
         return weight0 > 0, weight0, shift0, cl_rev
+
+    def _in_stock(self, grid: SampleGrid, rows: np.ndarray, cols: np.ndarray,
+                  interval: StockView | None, tip: np.ndarray, frame: np.ndarray,
+                  shift: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The samples ``rows x cols`` of ``grid`` in the stock displaced by ``shift``
+        (tool frame [mm]): their indices and tool-frame positions, in grid order."""
+        m = grid.shape[1]
+        if interval is None:  # a box: analytic (BottomTemplate.in_stock_local)
+            idx = (rows[:, None] * m + cols[None, :]).ravel()
+            local = grid.samples[idx]
+            cand = self.bottom.in_stock_local(self.stock, None, tip, frame, local - shift)
+            return idx[cand], local[cand]
+        idx, local, moved, unsure = grid_candidates(
+            grid.samples, rows, cols, m, shift, interval.top, interval.bottom,
+            interval.smooth_top, interval.smooth_bottom, self.bottom.pixel_mm,
+            self.bottom.depth_offset_mm, K.MEMBERSHIP_EPS_MM)
+        if unsure.any():
+            # steep cells and silhouettes: the mesh decides (as in_stock_local)
+            keep = np.ones(idx.size, dtype=bool)
+            keep[unsure] = self.stock.contains(tip + moved[unsure] @ frame)
+            idx, local = idx[keep], local[keep]
+        return idx, local
 
     def step_weights(self, grid: SampleGrid, cutting0: np.ndarray, rows: np.ndarray,
                      interval: StockView | None, tip: np.ndarray, frame: np.ndarray,

@@ -12,6 +12,8 @@ from errpred._engage_kernels import (
     boundary_cells_numpy,
     cell_weights,
     cell_weights_numpy,
+    grid_candidates,
+    grid_candidates_numpy,
     sub_samples,
     sub_samples_numpy,
 )
@@ -92,3 +94,33 @@ def test_cell_weights_as_numpy(seed):
         # shares are multiples of 1/32 and the centroid lies inside the step
         assert np.all(wk[i, j] * (st * se) == np.round(wk[i, j] * (st * se)))
         assert np.all(np.abs(sk) <= 0.5 * step)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_grid_candidates_as_numpy(seed):
+    """The fused gather, shift and interval test against the steps it replaced (the
+    interval test is errpred._kernels.interval_membership), on a seeded wavy stock."""
+    from errpred._kernels import cells_smooth
+
+    rng = np.random.default_rng(300 + seed)
+    n_px, pixel, depth_offset = 40, 0.25, 5.0
+    c = (np.arange(n_px) + 0.5) * pixel - 0.5 * n_px * pixel
+    X, Y = np.meshgrid(c, c)
+    bottom = 4.0 + 0.8 * np.sin(X * rng.uniform(0.5, 3)) * np.cos(Y) + rng.normal(0, 0.02, X.shape)
+    top = bottom + rng.uniform(0.5, 3.0)
+    bottom[rng.random(X.shape) < 0.05] = np.inf  # holes: no material there
+    top[~np.isfinite(bottom)] = np.inf
+    sm_t, sm_b = cells_smooth(top, 0.1), cells_smooth(bottom, 0.1)
+    n, m = 90, 50
+    samples = np.column_stack([rng.uniform(-4.9, 4.9, n * m), rng.uniform(-4.9, 4.9, n * m),
+                               rng.uniform(-2.0, 3.0, n * m)])
+    rows = np.sort(rng.choice(n, int(rng.integers(1, n)), replace=False)).astype(np.int64)
+    cols = np.flatnonzero(rng.random(m) < 0.8).astype(np.int64)
+    for shift in (np.zeros(3), rng.normal(0, 0.05, 3)):
+        args = (samples, rows, cols, m, shift, top, bottom, sm_t, sm_b, pixel, depth_offset,
+                1e-6)
+        got, want = grid_candidates(*args), grid_candidates_numpy(*args)
+        for g, w in zip(got, want, strict=True):
+            assert g.dtype == w.dtype and np.array_equal(g, w)
+        idx, _, _, unsure = got
+        assert 0 < idx.size < rows.size * cols.size and unsure.any() and not unsure.all()
