@@ -3,7 +3,8 @@
 Per block (``docs/method.md`` §3): place the prediction point, set up the
 tool frame and the bottom view, find the sweeps near the tool (T1 before,
 T2 after, one feed per tooth either side of the point), find which micro
-edges cut during one revolution, and the finished surface with its
+edges cut during one revolution (:mod:`errpred.point_engagement`), and the
+finished surface with its
 generation point (correcting the view when the finished region is below a
 pixel or the contact angle is steep). Nothing here depends on earlier
 predictions, so blocks can be processed in any order and on any worker;
