@@ -36,6 +36,12 @@ __all__ = ["grid_candidates", "boundary_cells", "sub_samples", "cell_weights",
            "cell_weights_numpy"]
 
 
+#: How far outside its four corners' range a bilinear interpolation may not reach
+#: [mm]: far above the rounding of the sum (~1e-14 mm at these depths), far below
+#: any surface feature.
+_CELL_MARGIN_MM = 1e-9
+
+
 @njit(cache=True, nogil=True)
 def grid_candidates(samples, rows, cols, m, shift, top, bottom, smooth_top, smooth_bottom,
                     pixel, depth_offset, eps):
@@ -43,7 +49,9 @@ def grid_candidates(samples, rows, cols, m, shift, top, bottom, smooth_top, smoo
     row ``i * m + j``) that the stock's interval in the bottom view holds or cannot
     decide, the stock displaced by ``shift`` (3,) [mm].
 
-    The test is :func:`errpred._kernels.interval_membership`'s on ``sample - shift``.
+    The test is :func:`errpred._kernels.interval_membership`'s on ``sample - shift``
+    (in cells where both surfaces interpolate, points clear of the corners' depth
+    range are outside without interpolating: the same answer, sooner).
     Returns, in grid order, the samples' indices (k,), positions (k, 3) [mm], the
     positions minus ``shift`` (k, 3) [mm], and whether the interval could not decide
     (k,) bool (those are for the mesh).
@@ -55,6 +63,25 @@ def grid_candidates(samples, rows, cols, m, shift, top, bottom, smooth_top, smoo
     unsure = np.empty(total, dtype=np.bool_)
     n = top.shape[0]
     half = 0.5 * n * pixel
+    # per cell of four pixel centres where both surfaces interpolate and are finite: the
+    # depths no interpolated interval can reach (the corners' range, widened by
+    # ``_CELL_MARGIN_MM`` beyond any rounding of the bilinear sum); a point outside it
+    # is outside the interval without interpolating
+    lo = np.full((n - 1, n - 1), -np.inf)
+    hi = np.full((n - 1, n - 1), np.inf)
+    for i0 in range(n - 1):
+        for j0 in range(n - 1):
+            if not (smooth_top[i0, j0] and smooth_bottom[i0, j0]):
+                continue
+            b0, b1 = bottom[i0, j0], bottom[i0, j0 + 1]
+            b2, b3 = bottom[i0 + 1, j0], bottom[i0 + 1, j0 + 1]
+            t0, t1 = top[i0, j0], top[i0, j0 + 1]
+            t2, t3 = top[i0 + 1, j0], top[i0 + 1, j0 + 1]
+            if (math.isfinite(b0) and math.isfinite(b1) and math.isfinite(b2)
+                    and math.isfinite(b3) and math.isfinite(t0) and math.isfinite(t1)
+                    and math.isfinite(t2) and math.isfinite(t3)):
+                lo[i0, j0] = min(min(b0, b1), min(b2, b3)) - eps - _CELL_MARGIN_MM
+                hi[i0, j0] = max(max(t0, t1), max(t2, t3)) + eps + _CELL_MARGIN_MM
     k = 0
     for a in range(rows.shape[0]):
         base = rows[a] * m
@@ -67,9 +94,11 @@ def grid_candidates(samples, rows, cols, m, shift, top, bottom, smooth_top, smoo
             fy = (my + half) / pixel - 0.5
             j0 = min(max(int(math.floor(fx)), 0), n - 2)
             i0 = min(max(int(math.floor(fy)), 0), n - 2)
+            depth = mz + depth_offset
+            if depth < lo[i0, j0] or depth > hi[i0, j0]:
+                continue
             tx = min(max(fx - j0, 0.0), 1.0)
             ty = min(max(fy - i0, 0.0), 1.0)
-            depth = mz + depth_offset
             t = _bilinear(top, i0, j0, tx, ty)
             bo = _bilinear(bottom, i0, j0, tx, ty)
             inside = (bo - eps <= depth) and (depth <= t + eps)
