@@ -50,7 +50,7 @@ from numba import njit
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from errpred import bottomview, geometry, t1memo  # noqa: E402
+from errpred import bottomview, geometry, point_engagement, t1memo  # noqa: E402
 from errpred import constants as K  # noqa: E402
 from errpred._kernels import sweep_within  # noqa: E402
 from errpred.physics import WearState, evaluate  # noqa: E402
@@ -97,8 +97,8 @@ class _Probe:
     STEPS = {
         "pre-check": (geometry.GeometryModel, "_material_at"),
         "sweep lookup": (geometry.GeometryModel, "_near_sweeps"),
-        "engagement": (geometry.GeometryModel, "_engagement"),
-        "step weights": (geometry.GeometryModel, "_step_weights"),
+        "engagement": (point_engagement.PointEngagement, "engagement"),
+        "step weights": (point_engagement.PointEngagement, "step_weights"),
         "finished surface": (bottomview.BottomTemplate, "finished_surface"),
         "side view": (geometry.GeometryModel, "_side_view"),
     }
@@ -133,7 +133,7 @@ class _Probe:
                 out = f(*a, **kw)
             finally:
                 seconds[label] += time.perf_counter() - t0
-            if name == "_engagement" and probe._sweep_stats and "stock_shift" not in kw:
+            if name == "engagement" and probe._sweep_stats and "stock_shift" not in kw:
                 probe._count(a[0], a[4])
             return out
 

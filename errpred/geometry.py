@@ -3,7 +3,8 @@
 Per block (``docs/method.md`` §3): place the prediction point, set up the
 tool frame and the bottom view, find the sweeps near the tool (T1 before,
 T2 after, one feed per tooth either side of the point), find which micro
-edges cut during one revolution, and the finished surface with its
+edges cut during one revolution (:mod:`errpred.point_engagement`), and the
+finished surface with its
 generation point (correcting the view when the finished region is below a
 pixel or the contact angle is steep). Nothing here depends on earlier
 predictions, so blocks can be processed in any order and on any worker;
@@ -25,6 +26,7 @@ from ._kernels import inside_any_sweep_clustered
 from .bottomview import BottomTemplate, StockView, stock_view
 from .engagement import revolution_angles
 from .frames import tool_frame
+from .point_engagement import PointEngagement
 from .probe import StockProbe
 from .raster.camera import View
 from .surface import GenerationPoint, envelope_hits, generation_point, regions, strip_samples
@@ -224,17 +226,12 @@ class GeometryModel:
         self.edges: MicroEdges = tool.micro_edges(resolution.micro_edges)
         self.theta = revolution_angles(resolution.angle_step_rad, tool.flutes)
         self.bottom = BottomTemplate(tool, self.edges, self.theta, resolution.pixel_mm)
-        self._grids = {1: self.bottom.grid}
+        #: flute 0's engagement at a point (sample grids, step weights)
+        self.engager = PointEngagement(tool, self.edges, self.theta, self.bottom, stock,
+                                       resolution.pixel_mm)
         self._last_interval = self._last_near = None
         #: the block :meth:`geometry` works on (CL range) and its shared sweep look-up
         self._block_span = self._block_near = None
-        # the sub-edges of the step weights: profile radius, height and helix lag at
-        # ENGAGEMENT_SUBEDGES points along each micro edge, (m, se) each
-        se = K.ENGAGEMENT_SUBEDGES
-        dv = (np.arange(se) + 0.5) / se - 0.5
-        sarc = self.edges.s[:, None] + dv[None, :] * self.edges.db[:, None]
-        sub_rho, sub_z, _ = tool.profile_at(sarc)
-        self._sub_edges = (sub_rho, sub_z, tool.helix_lag(sub_z))
         # how far outside the sweeps the finished-surface search measures margins [mm]
         self._margin_reach = float(self.bottom.reach.max()) + K.MEMBERSHIP_EPS_MM
         seg = np.zeros(len(cl))
@@ -430,7 +427,7 @@ class GeometryModel:
             feed, spindle = float(self.cl.feed_mm_min[s]), float(self.cl.spindle_rpm[s])
             behind = feed / (spindle * tool.flutes) if spindle > 0 and feed > 0 else 0.0
         t1, _, _ = self._near_sweeps(tip, u, L, behind, z_top)
-        grid = self._grid(1)
+        grid = self.engager.grid(1)
         n, m = grid.shape
         rows = np.arange(0, n, K.PRECHECK_ROTATION_STRIDE)
         edge_ok = self.edges.z <= z_top + self.res.pixel_mm
@@ -477,7 +474,7 @@ class GeometryModel:
         t1, t2, t1_ids = self._near_sweeps(tip, u, L, fz, z_top)
         # engagement of flute 0 over one revolution
         removed = _RemovedMemo(self.tool, t1, self._sweep_map(), L - fz, t1_ids)
-        eng = self._engagement(tip, frame, interval, removed, f_tooth, z_top)
+        eng = self.engager.engagement(tip, frame, interval, removed, f_tooth, z_top)
         if eng is None:
             return PointGeometry(status="no-cut", **base)
         cutting0, weight0, shift0, cl_rev = eng
@@ -508,23 +505,15 @@ class GeometryModel:
             # the same cut with the stock a little thicker along the normal:
             # how the error grows when the correction moves the tool deeper
             delta = K.SENSITIVITY_STEP_MM
-            deeper = self._engagement(tip, frame, interval, removed, f_tooth, z_top + delta,
-                                      stock_shift=delta * (frame @ gen.normal_world))
+            deeper = self.engager.engagement(tip, frame, interval, removed, f_tooth,
+                                             z_top + delta,
+                                             stock_shift=delta * (frame @ gen.normal_world))
             if deeper is not None:
                 sens = (delta, deeper[0], deeper[1], deeper[2])
         base["sensitivity"] = sens
         return PointGeometry(status=status, gen=gen, view=used,
                              cutting_pixels=fin.cutting_pixels, finished_pixels=gen.pixels,
                              notes=tuple(notes), **base)
-
-    def _grid(self, factor: int):
-        """Sample grid with the rotation step divided by ``factor`` (cached)."""
-        grid = self._grids.get(factor)
-        if grid is None:
-            n = self.theta.shape[0] * factor
-            grid = self._grids[factor] = self.bottom.sample_grid(
-                np.arange(n) * (2 * math.pi / n))
-        return grid
 
     def _stock_top(self, tip, frame, interval) -> float:
         """Height above the tip of the highest stock under the tool [mm]."""
@@ -537,133 +526,6 @@ class GeometryModel:
         if np.isposinf(interval.top).any() and not np.isinf(interval.bottom).all():
             return math.inf  # material without a top in view: everything counts
         return (float(fin.max()) - self.bottom.depth_offset_mm) if fin.size else -math.inf
-
-    def _engagement(self, tip, frame, interval, removed_by_t1, f_tooth, z_top,
-                    stock_shift=None):
-        """Flute 0's engagement: (cutting, weight, shift, cutting distance per rev).
-
-        At the resolution's rotation step first; where a tooth's engagement
-        spans fewer than ``ENGAGEMENT_MIN_STEPS`` steps (a short pulse of
-        force, light finishing cuts), again with the step divided until it
-        does (at most ``ENGAGEMENT_MAX_REFINE`` times), inside the engaged
-        window only: the force pulse must be resolved for its dynamic
-        response. ``stock_shift`` (tool frame, [mm]) displaces the stock, as if
-        the tool cut that much deeper (for the correction's sensitivity).
-        ``removed_by_t1`` (:class:`~errpred.t1memo.RemovedMemo`) answers whether a sample is
-        inside T1, remembering it for a second call at the same point.
-        """
-        tool = self.tool
-        shift_vec = np.zeros(3) if stock_shift is None else np.asarray(stock_shift, float)
-        # micro edges above the highest stock under the tool cannot cut
-        edge_ok = np.flatnonzero(self.edges.z <= z_top + self.res.pixel_mm)
-        factor, window = 1, None
-        while True:
-            grid = self._grid(factor)
-            n, m = grid.shape
-            rows = np.arange(n) if window is None else np.flatnonzero(window)
-            idx = (rows[:, None] * m + edge_ok[None, :]).ravel()
-            local = grid.samples[idx]
-            cand = self.bottom.in_stock_local(self.stock, interval, tip, frame,
-                                              local if stock_shift is None else local - shift_vec)
-            idx, local = idx[cand], local[cand]
-            removed = removed_by_t1(("grid", factor), idx, tip + local @ frame)
-            cut_idx = idx[~removed]
-            if cut_idx.size == 0:
-                return None
-            cutting0 = np.zeros(n * m, dtype=bool)
-            cutting0[cut_idx] = True
-            cutting0 = cutting0.reshape(n, m)
-            # the engaged rotation steps, from the cutting samples' rows (not the full grid)
-            engaged = np.zeros(n, dtype=bool)
-            engaged[cut_idx // m] = True
-            span = int(np.count_nonzero(engaged))  # flute 0 passes the engagement once a rev
-            if span >= K.ENGAGEMENT_MIN_STEPS or factor >= K.ENGAGEMENT_MAX_REFINE:
-                break
-            q = 1
-            while span * q < K.ENGAGEMENT_MIN_STEPS and factor * q < K.ENGAGEMENT_MAX_REFINE:
-                q *= 2
-            # the fine window: the engaged steps and one either side
-            engaged = engaged | np.roll(engaged, 1) | np.roll(engaged, -1)
-            fine = np.arange(n * q)
-            window = engaged[np.round(fine / q).astype(int) % n]
-            factor *= q
-        # the rows that may hold a non-zero weight: the engaged steps and one either side
-        # (in ascending order, so that what is read from them keeps the grid's order)
-        near = np.flatnonzero(engaged | np.roll(engaged, 1) | np.roll(engaged, -1))
-        weight0, shift0 = self._step_weights(grid, cutting0, near, interval, tip, frame,
-                                             removed_by_t1, factor,
-                                             None if stock_shift is None else shift_vec)
-        feed_step = (frame @ (f_tooth * tool.flutes)) / n
-        ii, j = np.nonzero(weight0[near])
-        if ii.size == 0:
-            return None  # only slivers thinner than the sub-samples: nothing measurable
-        i = near[ii]
-        step_len = np.linalg.norm(grid.rotation_step[i, j] + feed_step, axis=-1)
-        cl_rev = np.bincount(j, weights=weight0[i, j] * step_len, minlength=m)
-        return weight0 > 0, weight0, shift0, cl_rev
-
-    def _step_weights(self, grid, cutting0, rows, interval, tip, frame, removed_by_t1, factor,
-                      stock_shift):
-        """Share of each sample's cell (rotation step x micro edge) that cuts, (n, m),
-        and the rotation offset of that share's centroid [rad], (n, m); both float32
-        (the share is a multiple of 1/32: exact).
-
-        ``rows`` (ascending): the rotation steps that may be on the engagement's
-        boundary (those that cut and one either side); the others are 0.
-
-        1 or 0 inside or outside the engagement. On its boundary (samples
-        with a neighbour in the other state, in rotation or along the edge)
-        each cell is sub-sampled ``ENGAGEMENT_SUBSTEPS`` times in rotation and
-        ``ENGAGEMENT_SUBEDGES`` times along the edge and tested exactly like
-        the samples (stock, then T1). The share and the centroid resolve the
-        boundary within a cell, so the force does not move in whole steps
-        when the boundary moves: the reason the prediction converges with
-        resolution.
-        """
-        bt = self.bottom
-        c0 = cutting0
-        n, m = c0.shape
-        weight = c0.astype(np.float32)
-        shift = np.zeros((n, m), dtype=np.float32)
-        # samples with a neighbour in the other state (rotation cyclic, the edge's ends
-        # their own neighbours), on ``rows`` only: elsewhere all is 0
-        sub = c0[rows]
-        diff = np.zeros(sub.shape, dtype=bool)
-        for nb in (c0[(rows - 1) % n], sub, c0[(rows + 1) % n]):
-            pad = np.concatenate([nb[:, :1], nb, nb[:, -1:]], axis=1)
-            for dj in (-1, 0, 1):
-                diff |= pad[:, 1 + dj:1 + dj + m] != sub
-        ii, j = np.nonzero(diff)
-        if ii.size == 0:
-            return weight, shift
-        i = rows[ii]
-        st, se = K.ENGAGEMENT_SUBSTEPS, K.ENGAGEMENT_SUBEDGES
-        step = 2 * math.pi / n
-        du = (np.arange(st) + 0.5) / st - 0.5
-        # sub-sample angles and profile positions, (cells, st, se)
-        ang = grid.theta[i][:, None, None] + du[None, :, None] * step
-        sub_rho, sub_z, sub_lag = self._sub_edges
-        rho = sub_rho[j][:, None, :]
-        phi = ang - sub_lag[j][:, None, :]
-        # the (cells, st, se, 3) positions written in place (no stacked copies)
-        local = np.empty(phi.shape + (3,))
-        np.multiply(rho, np.sin(phi), out=local[..., 0])
-        np.multiply(rho, np.cos(phi), out=local[..., 1])
-        local[..., 2] = sub_z[j][:, None, :]
-        local = local.reshape(-1, 3)
-        inside = bt.in_stock_local(self.stock, interval, tip, frame,
-                                   local if stock_shift is None else local - stock_shift)
-        # sub-sample keys: the cell, then the sub-sample within it
-        keys = ((i * m + j)[:, None] * (st * se) + np.arange(st * se)[None, :]).ravel()
-        removed = np.zeros(inside.size, dtype=bool)
-        removed[inside] = removed_by_t1(("sub", factor), keys[inside],
-                                        tip + local[inside] @ frame)
-        cut = (inside & ~removed).reshape(i.size, st, se)
-        count = cut.sum(axis=(1, 2))
-        weight[i, j] = count / (st * se)
-        ushare = (cut * du[None, :, None]).sum(axis=(1, 2))
-        shift[i, j] = np.where(count > 0, ushare / np.maximum(count, 1) * step, 0.0)
-        return weight, shift
 
     def _sweep_map(self) -> SweepMap | None:
         """This process's height map of the sweeps (made on first use), or None where

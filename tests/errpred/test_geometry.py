@@ -253,3 +253,31 @@ def test_two_worker_processes_predict_as_one():
         if a.result is not None:
             assert a.result.gain == b.result.gain
     np.testing.assert_array_equal(one.wear_mm, two.wear_mm)
+
+
+def test_compiled_engagement_gives_the_numpy_twins_points(monkeypatch):
+    """Stage 1 with the engagement's numba kernels and with their numpy twins (the code
+    they replaced) gives the same points, to the byte of their pickles: a box stock (side
+    cuts) and a mesh stock (a ball raster on an inclined plane), sensitivity pass on."""
+    import pickle
+
+    from errpred import _engage_kernels as EK
+    from errpred import point_engagement as PE
+
+    prog = parse_program(plane_raster(30.0, R, passes=4))
+    blocks = [b for b in range(len(prog)) if 45 <= prog.line[b] <= 52]
+
+    def points():
+        out = [side_cut(mode, 2.0)[2] for mode in ("up", "slot")]
+        model = GeometryModel(Tool("ball", D, flute_length_mm=15), plane_stock(30.0, 0.2),
+                              cutter_locations(prog), Resolution(pixel_mm=D / 64))
+        out += [g for b in blocks for g in model.geometry(b)]
+        return [pickle.dumps(g, protocol=4) for g in out]
+
+    compiled = points()
+    for name in ("grid_candidates", "boundary_cells", "sub_samples", "cell_weights"):
+        monkeypatch.setattr(PE, name, getattr(EK, name + "_numpy"))
+    twins = points()
+    assert len(compiled) == len(twins) >= 8
+    assert sum(b"predicted" in p for p in compiled) >= 4  # points that cut and were predicted
+    assert compiled == twins
