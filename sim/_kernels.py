@@ -18,7 +18,7 @@ __all__ = ["accel_filter", "integrate"]
 _TINY = SUBNORMAL_FLUSH
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _flushed(x):
     """``x``, or 0 where it is subnormal (NaN kept)."""
     if -_TINY < x < _TINY:
@@ -26,7 +26,7 @@ def _flushed(x):
     return x
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _chips(i, ptr, pos, edge, h0, nrm, q, surface, out):
     """Chips [mm] of a table's entries at rotation sample ``i`` into ``out``; their count."""
     k = 0
@@ -40,7 +40,7 @@ def _chips(i, ptr, pos, edge, h0, nrm, q, surface, out):
     return k
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _forces(i, ptr, f0, f1, h, s, w, linear, rub, F):
     """Adds a table's force at sample ``i`` times ``s w`` to ``F``; returns (chip sum
     weighted by ``w``, weight of the edges in contact, entries whose chip fell to 0).
@@ -63,7 +63,7 @@ def _forces(i, ptr, f0, f1, h, s, w, linear, rub, F):
     return hsum, wsum, lost
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _leave(i, ptr, pos, edge, h0, nrm, h, q, linear, surface, o_ptr, o_pos, o_edge, skip):
     """Writes what a table's edges leave on the surface at sample ``i``; with ``skip``,
     not where the other table (``o_*``) engages at this sample (it writes those)."""
