@@ -17,7 +17,7 @@ cutter location, the averaged spectrum, the detector's figures) to compare two
 versions of the code (``--compare FILE.npz``: the largest differences).
 
 Usage: python benchmarks/bench_verify.py --job DIR [--scenario S] [--repeats N]
-[--runs planned,corrected,cam] [--save F.npz] [--compare F.npz]
+[--runs planned,corrected,cam] [--stretch FIRST,LAST] [--save F.npz] [--compare F.npz]
 """
 
 from __future__ import annotations
@@ -62,6 +62,8 @@ def main(argv=None) -> int:
     ap.add_argument("--scenario", default=str(BUNDLED))
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--runs", default="planned,corrected,cam")
+    ap.add_argument("--stretch", help="FIRST,LAST: run only these cutter locations of the "
+                    "planned and corrected programs (a shorter measurement)")
     ap.add_argument("--save", type=Path)
     ap.add_argument("--compare", type=Path)
     args = ap.parse_args(argv)
@@ -69,8 +71,9 @@ def main(argv=None) -> int:
     report = json.loads((args.job / "report.json").read_text())
     name = report["scenario"] if isinstance(report.get("scenario"), str) else scn.name
     cam = tuple(report["simulation"]["cam_worst_pass"]["cutter_locations_run"])
-    runs = {"planned": (scenario_with_program(scn, _program(args.job, f"{name}-planned")), None),
-            "corrected": (scenario_with_program(scn, _program(args.job, name)), None),
+    part = tuple(int(x) for x in args.stretch.split(",")) if args.stretch else None
+    runs = {"planned": (scenario_with_program(scn, _program(args.job, f"{name}-planned")), part),
+            "corrected": (scenario_with_program(scn, _program(args.job, name)), part),
             "cam": (scn, cam)}
     picked = [r.strip() for r in args.runs.split(",") if r.strip()]
     print(f"load average at start {', '.join(f'{x:.2f}' for x in os.getloadavg())}; "
