@@ -9,8 +9,9 @@ this process on one core, from a job's output folder (``--job DIR``: its
 time (min and median over ``--repeats``), the simulated time and the run's
 figures, and the process's CPU time (less sensitive to other processes on a
 loaded machine than the wall time). The kernels are compiled (or loaded from
-numba's cache) by a short run first, outside the timing; the workpiece model of each program is built once,
-outside the timing too (the job hands the planner's to the runs).
+numba's cache) by a short run first, outside the timing; the workpiece model of
+each program is built once, outside the timing too (the job hands the planner's
+to the runs).
 
 ``--save FILE.npz`` keeps each run's answers (surface error and chatter marks per
 cutter location, the averaged spectrum, the detector's figures) to compare two
