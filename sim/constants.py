@@ -27,6 +27,16 @@ MICRO_EDGES_ENVELOPE = 60
 #: force on and off with sub-micrometre vibration: a relay that keeps a linearly stable
 #: cut in a limit cycle, an artefact of the micro edges' discretization.
 EDGE_RUB_MM = 0.005
+#: The time-domain kernels (sim/_kernels.py) set a state variable (a mode's
+#: displacement or velocity, an accelerometer filter's delay) whose magnitude falls
+#: below this to zero: the smallest normal float64 [m, m/s or m/s^2]. A mode that rings
+#: down over a long air move reaches subnormal numbers, and rounding then keeps it
+#: there (a limit cycle of a few ulps that never decays to zero); every operation on a
+#: subnormal costs the processor about 20 times a normal one (the kernel's step:
+#: 0.3 us -> 7.2 us), and the accelerometers' filters fed with them as much. Nothing
+#: the simulation reports can see a difference below 2.2e-308 (a displacement in m,
+#: against micrometres and sensor noise of 0.5 m/s^2).
+SUBNORMAL_FLUSH = 2.2250738585072014e-308
 #: Chip-to-chip scatter of the cutting force: the chip widths of each tooth pass are
 #: multiplied by 1 + this times a standard normal draw (the work material's hardness and
 #: the edges' micro-geometry are never uniform) [-]. It seeds a regenerative instability

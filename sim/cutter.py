@@ -23,7 +23,7 @@ from nc.checks import real_number
 from orient.dynamics import ModalSystem
 
 from .cutting import CuttingModel, MillingRun, _integrate, _step_map, empty_table
-from .forced import engaged_cells, forced_response, mid_step_displacement
+from .forced import forced_response, mid_step_displacement
 from .generation import tooth_surface
 
 __all__ = ["Cut", "Cutter"]
@@ -127,18 +127,20 @@ class Cutter:
         q_new = mid_step_displacement(new.model, x)
         on_new = self._engaged(new)
         if old is not None:                  # both engage it: the vibration's imprint stays
-            both = on_new & self._engaged(old)
-            rows, cols = both.nonzero()      # once: a mask as an index is found again
+            both = np.intersect1d(on_new, self._engaged(old), assume_unique=True)
+            rows, cols = np.divmod(both, self.n_edges)
             self.surface[rows, cols] += (q_new - q_old)[rows]
-            on_new &= ~both
-        rows, cols = on_new.nonzero()        # only the new cut engages it
+            on_new = np.setdiff1d(on_new, both, assume_unique=True)
+        rows, cols = np.divmod(on_new, self.n_edges)     # only the new cut engages it
         self.surface[rows, cols] = q_new[rows]
 
     def _engaged(self, cut: Cut) -> np.ndarray:
-        out = np.zeros((self.steps_per_rev, self.n_edges), bool)
-        for m, _w in cut.parts():
-            out |= engaged_cells(m, self.n_edges)
-        return out
+        """The places of the surface memory the cut engages, as flat indices
+        ``position * n_edges + edge`` of ``surface``'s first two axes, ascending (the
+        order of :func:`sim.forced.engaged_cells`' mask's ``nonzero``; from the tables'
+        few thousand entries instead of a mask of every place)."""
+        cells = [m.table[1] * self.n_edges + m.table[2] for m, _w in cut.parts()]
+        return np.unique(np.concatenate(cells)) if cells else np.zeros(0, np.int64)
 
     def _forced(self, cut: Cut) -> np.ndarray:
         """The forced response of ``cut``: the weighted sum of its models' (the same

@@ -42,6 +42,7 @@ highest mode at least, and at least ``MIN_STEPS_PER_REV`` per revolution.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -299,6 +300,14 @@ def empty_table(steps_per_rev: int) -> tuple:
             np.zeros((0, 3)))
 
 
+@functools.lru_cache(maxsize=4)
+def _empty_table(steps_per_rev: int) -> tuple:
+    """:func:`empty_table`, made once per ``steps_per_rev`` (the kernel only reads it; a
+    run's ticks each made a new one). Not marked read-only: numba would compile the
+    kernel a second time for read-only arrays."""
+    return empty_table(steps_per_rev)
+
+
 def _integrate(model: CuttingModel, step: int, scale: np.ndarray, linear: bool,
                surface: np.ndarray, state: np.ndarray, force: np.ndarray, disp: np.ndarray,
                acc: np.ndarray, chip: np.ndarray, lost: np.ndarray,
@@ -310,7 +319,7 @@ def _integrate(model: CuttingModel, step: int, scale: np.ndarray, linear: bool,
     phi_d, gam_d = model.step_map
     spr = model.steps_per_rev
     if previous is None:
-        previous, blend = empty_table(spr), np.zeros(scale.size)
+        previous, blend = _empty_table(spr), np.zeros(scale.size)
     _k.integrate(step % spr, scale.size, spr, *model.table, *previous, blend,
                  phi_d, gam_d, np.ascontiguousarray(sysm.direction), scale, sysm.k_N_m,
                  sysm.c_Ns_m, sysm.m_kg, sysm.velocity_s, np.asarray(sysm.source == "tool"),

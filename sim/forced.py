@@ -42,10 +42,12 @@ def forced_response(model: CuttingModel, scale: float = 1.0) -> np.ndarray:
     lam, vec = np.linalg.eig(phi)                            # (nm, 2), (nm, 2, 2)
     z = np.linalg.solve(vec, gam[..., None].astype(complex))[..., 0]
     tail = np.empty((spr + 1, nm, 2), complex)
+    uc = np.zeros((nm, spr + 1), complex)                    # each mode's u, then a 0
+    uc[:, :spr] = u.T
+    b = np.array([0.0, 1.0])
     for m in range(nm):
         for i in range(2):
-            tail[:, m, i] = scipy.signal.lfilter([0.0, 1.0], [1.0, -lam[m, i]],
-                                                 np.r_[u[:, m], 0.0].astype(complex))
+            tail[:, m, i] = scipy.signal.lfilter(b, np.array([1.0, -lam[m, i]]), uc[m])
     w0 = z * tail[spr] / (1.0 - lam ** spr)
     w = np.cumprod(np.concatenate([np.ones((1, nm, 2), complex),
                                    np.broadcast_to(lam, (spr - 1, nm, 2))]), axis=0)

@@ -335,7 +335,9 @@ class SimulatedNC:
             i = self.point_index()
             w = self._weight(i, s1)
             return [(i, n, w, w)]
-        inner = self.arc[(self.arc > s0) & (self.arc < s1)]
+        # the cutter locations strictly between (arc is non-decreasing: a slice)
+        inner = self.arc[np.searchsorted(self.arc, s0, side="right"):
+                         np.searchsorted(self.arc, s1, side="left")]
         marks = np.concatenate([[s0], inner, [s1]])
         steps = np.round(n * (marks - s0) / (s1 - s0)).astype(int)
         out = []

@@ -31,6 +31,7 @@ from scipy import signal
 from nc.checks import real_number
 from orient.detect import DetectorSettings
 
+from . import _kernels as _k
 from .constants import (
     DETECTOR_HARMONIC_BASE,
     DETECTOR_HOP_SAMPLES,
@@ -130,7 +131,7 @@ def _sections(sensors: Accelerometers) -> list[tuple[float, float]]:
     """The analog chain as unit-gain second-order low-pass sections ``(w [rad/s], zeta)``
     (a first-order one as ``(w, inf)``): the Butterworth's pole pairs and the resonance."""
     fc = 2 * math.pi * sensors.antialias_fraction * sensors.sample_rate_hz
-    _z, poles, _k = signal.butter(sensors.antialias_order, fc, analog=True, output="zpk")
+    _z, poles, _gain = signal.butter(sensors.antialias_order, fc, analog=True, output="zpk")
     out = [(sensors.resonance_hz * 2 * math.pi, sensors.resonance_damping)]
     for p in poles:
         if p.imag > 1e-9 * abs(p):
@@ -242,7 +243,8 @@ class AccelerometerStream:
                  seed: int = 0) -> None:
         self.sensors = sensors
         self.dt_s = real_number("dt_s", dt_s, ">0")
-        self.rotation = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
+        self.rotation = np.ascontiguousarray(np.eye(3) if rotation is None else rotation,
+                                             dtype=float)
         # the sections as one second-order cascade: one filter call per chunk
         self._sos = np.array([np.r_[np.pad(b, (0, 3 - len(b))) / a[0],
                                     np.pad(a, (0, 3 - len(a))) / a[0]]
@@ -258,10 +260,12 @@ class AccelerometerStream:
     def _filtered(self, t: np.ndarray, acc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The instants and the two filtered signals of new simulation samples ``t``
         [s], ``acc`` (k, 3) [m/s^2], the last sample of the previous call before them
-        (the interpolation's left end); advances the filters' state."""
-        x = self.sensors.location_factor * (acc @ self.rotation.T)[:, :2]
-        if len(self._sos) and x.shape[0]:
-            x, self._zi = signal.sosfilt(self._sos, x, axis=0, zi=self._zi)
+        (the interpolation's left end); advances the filters' state (one kernel pass,
+        :func:`sim._kernels.accel_filter`: location factor, frame and the cascade)."""
+        acc = np.ascontiguousarray(acc, dtype=float)
+        x = np.empty((acc.shape[0], 2))
+        _k.accel_filter(acc, self.rotation, float(self.sensors.location_factor), self._sos,
+                        self._zi, x)
         if self._t_last is not None:
             t = np.concatenate([[self._t_last], t])
             x = np.concatenate([self._y_last[None], x])

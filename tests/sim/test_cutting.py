@@ -456,3 +456,36 @@ def test_the_step_map_is_the_exact_discretization(zeta):
         ex = scipy.linalg.expm(big * dt)
         np.testing.assert_allclose(phi[j], ex[:2, :2], rtol=1e-9, atol=1e-12 * np.abs(ex[:2, :2]).max())
         np.testing.assert_allclose(gam[j], ex[:2, 2], rtol=1e-9, atol=1e-12 * np.abs(ex[:2, 2]).max())
+
+
+def test_cutter_switch_takes_the_places_the_cuts_engage():
+    """Cutter.switch's places of the surface memory (flat indices from the tables) are
+    those of :func:`sim.forced.engaged_cells`' masks, and the surface it leaves is the
+    one the masks give (bit for bit), for a change of cut and a blend."""
+    from sim.cutter import Cut, Cutter
+    from sim.forced import engaged_cells, forced_response, mid_step_displacement
+
+    a, _ = _ball_cut(30.0, 10.0)
+    b, _ = _ball_cut(30.0, 13.0, a.steps_per_rev)
+    spr, m = a.steps_per_rev, a.n_edges
+    c = Cutter(spr, m)
+    for cut in (Cut(a), Cut(b, a, 0.4), Cut(b)):
+        mask = np.zeros((spr, m), bool)
+        for mod, _w in cut.parts():
+            mask |= engaged_cells(mod, m)
+        assert np.array_equal(c._engaged(cut), np.flatnonzero(mask))
+    c.switch(a)
+    c.advance(a, 5 * spr + 7)
+    before, p = c.surface.copy(), c.step % spr
+    q_a = mid_step_displacement(a, forced_response(a))
+    q_b = mid_step_displacement(b, forced_response(b))
+    c.switch(b)
+    on_a, on_b = engaged_cells(a, m), engaged_cells(b, m)
+    both = on_a & on_b
+    ref = before.copy()
+    rows, cols = both.nonzero()
+    ref[rows, cols] += (q_b - q_a)[rows]
+    rows, cols = (on_b & ~both).nonzero()
+    ref[rows, cols] = q_b[rows]
+    assert both.any() and (on_b & ~both).any() and p > 0
+    np.testing.assert_array_equal(c.surface, ref)
