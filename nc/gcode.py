@@ -142,7 +142,8 @@ def parse_program(
     strict : bool
         Refuse what the reader once refused: codes that do nothing here
         (coolant, G64...) unless listed in ``allow``, and the frame and
-        reference codes (G10, G28, G30, G52, G53, G92) and G95.
+        reference codes (G10, G28, G30, G52, G53, G92), G95, and an M99 ending
+        the main program (read otherwise as its end: :mod:`nc.macro_b`).
     reference_points : mapping, optional
         ``{"G28": (x, y, z)}`` or ``(x, y, z, a, b, c)`` [mm, deg]: the machine's
         G28 and G30 points in machine coordinates. Where a program goes to a
@@ -182,13 +183,15 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
         self.source_lines: list[int] | None = None
         #: source lines whose expanded text is not the source line
         self.rewritten: set[int] = set()
+        #: line of the M99 that ended the main program (nc.macro_b), 0 if none
+        self.main_m99_line = 0
         if has_owords(text):  # LinuxCNC O-word control flow: run first (nc.owords)
             self.source, self.source_lines = expand_owords(lines, file)
             self.rewritten = {n for n in set(self.source_lines)
                               if "#" in lines[n - 1] or "[" in lines[n - 1]}
         elif needs_macro_b(text):  # Fanuc macro B, subprograms: run first (nc.macro_b)
-            self.source, self.source_lines, self.rewritten = expand_macro_b(
-                lines, file, block_delete)
+            self.source, self.source_lines, self.rewritten, self.main_m99_line = (
+                expand_macro_b(lines, file, block_delete, strict=strict))
         # '#' parameters and '[ ]' expressions without control flow: substituted first
         elif needs_expansion(text):
             self.source = expand_parameters(lines, file)
@@ -750,6 +753,7 @@ class _Interpreter(BlockReader, CycleBlocks, RotationBlocks):
             ignored=tuple((name, c, first) for name, (c, first) in
                           sorted(self.ignored.items(), key=lambda kv: (kv[1][1], kv[0]))),
             strict=self.strict,
+            main_m99_line=self.main_m99_line,
         )
 
     # -- pieces ------------------------------------------------------------
