@@ -376,8 +376,9 @@ class Program:
 
 
 class ProgramRows:
-    """The rows a conversational reader's state collects, and the :class:`Program` built
-    from them (the Heidenhain and Siemens readers' states both keep their output here).
+    """The rows a reader collects, and the :class:`Program` built from them (the
+    Heidenhain and Siemens readers' states keep their output here; the G-code
+    interpreter, :class:`nc.gcode_interp.Interpreter`, hands its columns over at the end).
 
     ``o_*`` are per-row lists (``o_end`` and ``o_tv`` flat, 6 and 3 per row), ``a_*``
     per-arc lists (``a_centre`` 3 and ``a_radius`` 2 per arc); ``modals`` the distinct

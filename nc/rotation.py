@@ -415,7 +415,7 @@ def rotation_block(code: int, vals: dict[str, float], pos: list[float], plane: i
 
 
 class RotationBlocks:
-    """The reader's part for these codes (a base of :class:`nc.gcode._Interpreter`,
+    """The reader's part for these codes (a base of :class:`nc.gcode_interp.Interpreter`,
     beside :class:`nc.blockreader.BlockReader`, whose ``_error`` it uses)."""
 
     def _rotation(self, lineno: int, toks: list, gs: list[str] | None, gcodes: dict,
