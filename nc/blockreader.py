@@ -1,6 +1,6 @@
 """The reader's per-block pieces: errors, code groups, words, comments.
 
-:class:`BlockReader` is the base of :class:`nc.gcode._Interpreter`; it holds
+:class:`BlockReader` is the base of :class:`nc.gcode_interp.Interpreter`; it holds
 what the reader does for one block away from its main loop (refusing
 unknown and clashing codes, taking the words of codes passed over, G10,
 comments, the sentence for a bad token), so that the loop stays one flat,

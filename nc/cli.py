@@ -95,6 +95,10 @@ def _print_summary(s, console=None) -> None:
         t.add_row("position not known", f"{s.unknown_blocks:,} blocks from line "
                   f"{s.unknown_first_line} (G28/G30 to a point not given: [G28] / [G30] "
                   "xyz_mm in --offsets); left out of the figures above")
+    if s.main_m99_line:
+        t.add_row("program end", f"M99 in the main program at line {s.main_m99_line}, read "
+                  "as its end (as Centroid's controls read it; a Fanuc control would run "
+                  "the program again from its start): the moves are one pass")
     if s.ignored:
         t.add_row("passed over", ", ".join(
             f"{code} x{count} (line {first})" for code, count, first in s.ignored))

@@ -332,8 +332,18 @@ def refuse_drilling(program: Program, purpose: str) -> None:
 
 
 class CycleBlocks:
-    """The reader's part for cycle blocks (a base of :class:`nc.gcode._Interpreter`,
+    """The reader's part for cycle blocks (a base of :class:`nc.gcode_interp.Interpreter`,
     beside :class:`nc.blockreader.BlockReader`, whose ``_error`` it uses)."""
+
+    @staticmethod
+    def _cycle_words(gcodes: dict[str, int], motion_mode: int | None) -> bool:
+        """Whether the block runs a canned cycle (whose words include L and Q), or is G68.x."""
+        key = gcodes.get("motion") if gcodes else None
+        if key is not None:
+            return key in CYCLE_CODES
+        if gcodes and "rotation" in gcodes:  # G68.2 Q: refused by nc.rotation, by name
+            return True
+        return motion_mode is not None and motion_mode > 3
 
     def _cycle(self, lineno: int, toks: list, gs: list[str] | None, fc: int | None,
                feed_mode: int, tcp: int, feed: float, code: int, vals: dict[str, float],

@@ -23,13 +23,24 @@ source file:line:col).
 - ``M98 P.. L..`` and ``M98 Pxxxxnnnn`` (count, program) call a program of
   the file; Haas' ``M97 P..`` calls the N number of the same program;
   ``M99`` returns after the call (``M99 Pn``: to the block Nn of the caller);
+  a plain ``M99`` in the main program (no call active) ends the run there,
+  recorded as :attr:`nc.program.Program.main_m99_line` and shown by the
+  summary: Centroid's controls end the job there (its M-series operator's
+  manual: M99 met in the main job file is read as the end of the job), which
+  is what CAM posts that end with it (FreeCAD's centroid post) mean, and
+  Milltronics lists M99 among its program end codes; Fanuc-type controls
+  start the program again instead (CNC Concepts' note on M99: rewind and
+  continue, for bar feeders and pallet changers), so the moves read are one
+  pass of it, never a loop. With
+  ``strict=True`` it is refused, and ``M99 Pn`` in the main program (a jump
+  to Nn) always is;
   ``G65 P.. L..`` calls a macro with the arguments of argument
   specification I (A->#1 ... Z->#26) in a new set of locals. Words in an
   M98/M97/M99 block other than P and L are executed before the call.
 
 Refused, each in one line naming it: G66/G66.1 modal macro calls, system
 variables (#1000 and up, except #3000 alarms and #3006 stops), a call to a
-program not in the file, M99 in the main program, GOTO to a missing N,
+program not in the file, M99 Pn in the main program, GOTO to a missing N,
 an unclosed WHILE and an END without its DO, a vacant condition, and a run
 of more than :data:`nc.constants.MACRO_B_MAX_EXECUTED_BLOCKS` blocks or
 :data:`nc.constants.MACRO_B_MAX_CALL_DEPTH` nested calls.
@@ -304,8 +315,8 @@ def _words(words: list, store: Variables) -> str:
 
 
 def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
-                   max_blocks: int | None = None
-                   ) -> tuple[list[str], list[int], set[int]]:
+                   max_blocks: int | None = None, strict: bool = False
+                   ) -> tuple[list[str], list[int], set[int], int]:
     """Run the macro program ``lines``: the blocks that reach the reader.
 
     Parameters
@@ -319,12 +330,17 @@ def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
     max_blocks : int, optional [blocks]
         Most blocks executed; :data:`nc.constants.MACRO_B_MAX_EXECUTED_BLOCKS`
         when None.
+    strict : bool
+        Refuse a plain M99 in the main program instead of reading it as the
+        program's end (see the module's docstring).
 
     Returns
     -------
-    (out, numbers, rewritten)
-        The produced lines, the 1-based source line of each, and the source
-        lines whose produced text is not the source line itself.
+    (out, numbers, rewritten, main_m99)
+        The produced lines, the 1-based source line of each, the source
+        lines whose produced text is not the source line itself, and the
+        1-based line of the M99 that ended the main program (0 when the
+        program ended otherwise).
 
     Raises
     ------
@@ -334,7 +350,7 @@ def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
     run = _Run(lines, file, block_delete)
     main = run.main
     if main is None:
-        return list(lines), list(range(1, len(lines) + 1)), set()
+        return list(lines), list(range(1, len(lines) + 1)), set(), 0
     limit = K.MACRO_B_MAX_EXECUTED_BLOCKS if max_blocks is None else max_blocks
     out = lines[:run.prelude]
     numbers = list(range(1, run.prelude + 1))
@@ -343,6 +359,7 @@ def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
     stack: list[tuple] = []
     prog, pc = main, main.start
     executed = 0
+    main_m99 = 0
     try:
         while True:
             if pc >= prog.end:
@@ -413,10 +430,17 @@ def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
             elif kind == "m99":
                 if st.words:
                     _emit(st, store, pc, out, numbers, rewritten)
-                if not stack:
-                    raise MacroError("M99 in the main program (it would run the program "
-                                     "again without end); expected M30 or M02, and M99 "
-                                     "only at the end of a subprogram", st.column)
+                if not stack:  # M99 in the main program: one pass, then the end
+                    if st.target is not None:
+                        raise MacroError("M99 P in the main program (a jump to a block N "
+                                         "that runs the program again); expected M30 or "
+                                         "M02, or a plain M99 at its end", st.column)
+                    if strict:
+                        raise MacroError("M99 in the main program (a Fanuc control runs "
+                                         "the program again from its start; strict reading "
+                                         "refuses it); expected M30 or M02", st.column)
+                    main_m99 = pc + 1
+                    break
                 back = None if st.target is None else _whole(_val(st.target, store), "M99's P",
                                                              st.column)
                 frame = stack[-1]
@@ -439,7 +463,7 @@ def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
                 prog, pc = _call(run, st, store, stack, prog, pc)
     except ExprError as exc:
         raise run.error(pc, str(exc), exc.offset) from None
-    return out, numbers, rewritten
+    return out, numbers, rewritten, main_m99
 
 
 def _emit(st: Statement, store: Variables, pc: int, out: list, numbers: list,

@@ -245,6 +245,11 @@ class Program:
         caller's ``allow``...): code, count, first line; in order of first line.
     strict : bool
         Whether the program was read strictly (see :func:`nc.parse_program`).
+    main_m99_line : int
+        Source line of the M99 that ended the main program, read as its end
+        as Centroid's controls read it (a Fanuc control would start the
+        program again: the moves are one pass; :mod:`nc.macro_b`); 0 when
+        the program ended otherwise.
     metadata : dict
         What a reader keeps beside the moves (the Heidenhain reader:
         ``dialect``, ``name``, ``units``, ``blk_form``); empty for G-code.
@@ -272,6 +277,7 @@ class Program:
     block_delete: bool = False
     ignored: tuple[tuple[str, int, int], ...] = ()
     strict: bool = False
+    main_m99_line: int = 0
     frames: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     reframed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     reframed_start: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
@@ -370,8 +376,9 @@ class Program:
 
 
 class ProgramRows:
-    """The rows a conversational reader's state collects, and the :class:`Program` built
-    from them (the Heidenhain and Siemens readers' states both keep their output here).
+    """The rows a reader collects, and the :class:`Program` built from them (the
+    Heidenhain and Siemens readers' states keep their output here; the G-code
+    interpreter, :class:`nc.gcode_interp.Interpreter`, hands its columns over at the end).
 
     ``o_*`` are per-row lists (``o_end`` and ``o_tv`` flat, 6 and 3 per row), ``a_*``
     per-arc lists (``a_centre`` 3 and ``a_radius`` 2 per arc); ``modals`` the distinct

@@ -44,7 +44,13 @@ arc centre) into the program frame of the work offset, which is what
   K, J, I), and a simulator's notes derived from it say the same; another
   implementation found earlier composes the Q order about the fixed axes,
   the reverse product. The two give different planes for the same words
-  whenever two of I J K are non-zero, so the reader does not guess.
+  whenever two of I J K are non-zero, so the reader does not guess. A
+  further search (Fanuc 30i/31i and 16i/18i manual pages, the tilted-plane
+  and roll-pitch-yaw wording in documentation, issue, page and code
+  corpora) found again no Fanuc text on it, only more disagreement: a
+  LinuxCNC-derived suite's test takes ``G68.2 P1 Q123 I30 J20`` as
+  ``Ry(20) Rx(30)`` (fixed axes) while its remap code composes
+  ``Rx Ry Rz`` (moving axes), and post generators write P1 without Q.
 * ``G53.1``: the tool is turned along the tilted plane's Z. The reader does
   not know the machine's angles, so it takes the turn as one about the tool
   tip (as under tool centre point control), and from there every row is a
@@ -409,7 +415,7 @@ def rotation_block(code: int, vals: dict[str, float], pos: list[float], plane: i
 
 
 class RotationBlocks:
-    """The reader's part for these codes (a base of :class:`nc.gcode._Interpreter`,
+    """The reader's part for these codes (a base of :class:`nc.gcode_interp.Interpreter`,
     beside :class:`nc.blockreader.BlockReader`, whose ``_error`` it uses)."""
 
     def _rotation(self, lineno: int, toks: list, gs: list[str] | None, gcodes: dict,

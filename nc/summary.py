@@ -46,6 +46,9 @@ class ProgramSummary:
     drilling_blocks: int = 0
     drilling_length_mm: float = 0.0
     drilling_time_min: float = 0.0
+    #: source line of the M99 that ended the main program (read as its end, as
+    #: Centroid's controls do; a Fanuc control would run it again), None if none
+    main_m99_line: int | None = None
 
     def as_dict(self) -> dict:
         """Plain types, ready for JSON."""
@@ -99,6 +102,7 @@ def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> Program
         ignored=program.ignored,
         unknown_blocks=int(np.sum(~known)),
         unknown_first_line=int(program.line[np.argmin(known)]) if not known.all() else None,
+        main_m99_line=program.main_m99_line or None,
     )
 
 

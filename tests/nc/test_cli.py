@@ -104,6 +104,19 @@ def test_allow_option(tmp_path, capsys):
     assert "passed over" in out and "G64 x1 (line 1)" in out and "M8 x2 (line 2)" in out
 
 
+def test_main_program_m99_is_shown_as_its_end(tmp_path, capsys):
+    path = tmp_path / "p.nc"
+    path.write_text("G21 G90\nG0 X1\nG1 X3 F100\nM99\n")
+    assert main(["parse", str(path), "--json"]) == 0
+    assert [b["line"] for b in json.loads(capsys.readouterr().out)] == [2, 3]
+    assert main(["parse", str(path)]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "program end" in out and "M99 in the main program at line 4" in out
+    assert main(["parse", str(path), "--strict"]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}:4:1:" in err and "M99 in the main program" in err
+
+
 def test_offsets_file(tmp_path, capsys):
     path = tmp_path / "p.nc"
     path.write_text("G21 G55\nG0 X1\nM30\n")

@@ -238,7 +238,7 @@ BAD = [
     ("crossed ranges", "O1\nWHILE [1 EQ 1] DO1\nWHILE [1 EQ 1] DO2\nEND1\nEND2\nM30\n", 4,
      "END1 without its DO1 (DO2 is open)"),
     ("loop number", "O1\nWHILE [1 EQ 1] DO4\nM30\n", 2, "loop number 1, 2 or 3"),
-    ("M99 outside a subprogram", "O1\nG0 X1\nM99\n", 3, "M99 in the main program"),
+    ("M99 P in the main program", "O1\nN5 G0 X1\nM99 P5\n", 3, "M99 P in the main program"),
     ("call to another file", "O1\nM98 P4321\nM30\n", 2, "no program O4321 in this file"),
     ("G65 to another file", "O1\nG65 P9010 A1\nM30\n", 2, "no program O9010 in this file"),
     ("G66 modal macro", "O1\nG66 P9 A1\nM30\n", 2, "G66: modal macro calls"),
@@ -272,6 +272,39 @@ def test_bad_input_is_one_line(what, src, line, fragment):
     assert fragment in str(err)
     assert str(err).startswith(f"bad.nc:{line}:") and "\n" not in str(err)
     assert err.line == line and err.column is not None and err.column >= 1
+
+
+# M99 in the main program (no call active) ends it (nc.macro_b's docstring: Centroid
+# reads it as the end of the job; a Fanuc control would start again: one pass is read)
+M99_MAIN = [
+    ("plain M99 ends the main program", "O1\nG0 X1\nM99\n", [(1, 0, 0)], [2], 3),
+    ("blocks after it are not run", "O1\nG0 X1\nM99\nG0 X5\nM30\n", [(1, 0, 0)], [2], 3),
+    ("its block's move runs first (Centroid's 'G1 X3 M99')",
+     "G0 X1\nG1 X3 F100 M99\nG0 X9\n", [(1, 0, 0), (3, 0, 0)], [1, 2], 2),
+    ("M99 in a subprogram still returns; the main program's M99 ends",
+     "O1\nM98 P2 L2\nG0 Z4\nM99\nO2\nG91 G0 X1\nG90\nM99\n",
+     [(1, 0, 0), (2, 0, 0), (2, 0, 4)], [6, 6, 3], 4),
+    ("after the assignments before the first O", "#1=2\nO1\nG0 X#1\nM99\n",
+     [(2, 0, 0)], [3], 4),
+]
+
+
+@pytest.mark.parametrize("what,src,moves,lines,m99", M99_MAIN, ids=[m[0] for m in M99_MAIN])
+def test_m99_in_the_main_program_ends_it(what, src, moves, lines, m99):
+    prog = parse_program(src, file="m.nc")
+    assert _moves(src) == (moves, lines)
+    assert prog.main_m99_line == m99
+
+
+def test_m99_main_is_refused_when_strict_and_recorded_otherwise():
+    src = "O1\nG0 X1\nM99\n"
+    with pytest.raises(NCParseError) as info:
+        parse_program(src, file="bad.nc", strict=True)
+    assert str(info.value).startswith("bad.nc:3:1: ") and "\n" not in str(info.value)
+    assert "M99 in the main program" in str(info.value) and "expected M30 or M02" in str(
+        info.value)
+    assert parse_program("O1\nG0 X1\nM30\n").main_m99_line == 0
+    assert parse_program("G0 X1\n").main_m99_line == 0
 
 
 def test_runtime_errors_point_at_the_statement():
@@ -337,7 +370,7 @@ CORPUS_REASONS = {
     "typo": "expected one macro statement per block",
     "divzero": "division by zero",
     "vacantgoto": "GOTO's N number is vacant",
-    "m99main": "M99 in the main program",
+    "zeroarc": "arc of zero radius",
     "system": "system variable #5405",
 }
 
