@@ -23,7 +23,7 @@ from nc.path import CutterLocations
 from .contacts import Contacts
 from .interference import InterferenceChecker
 from .smoothing import best_smooth_path
-from .constants import FALLBACK_SCORE
+from .constants import FALLBACK_SCORE, LINK_VERTICAL_TOL_MM
 
 __all__ = ["FALLBACK_SCORE"]
 
@@ -154,19 +154,23 @@ class _Inherited:
     * a point of a pass that does not touch the design (air moves, the plunge) takes
       the posture of its pass's nearest touching point, keeping its offset from the
       ball centre (along the axis: along the new axis) -- :data:`_IN_PASS`;
-    * a rapid of a link (the rapids between two passes) keeps the CAM's ball centre
-      and takes the posture of the pass it leaves (:data:`_RETRACT`: its last touching
-      point) up to and including the link's highest point, the posture of the pass it
-      enters (:data:`_APPROACH`: its first touching point) after it. So the tool leaves
-      a pass straight along the CAM's retract (up, on a 3-axis program) without turning,
-      the rotary axes turn in the move leaving the link's top (at the clearance height,
-      the ball no lower than there), and it descends along the CAM's approach in the new
-      pass's posture. (A pass that ended tilted and turned during its retract swung the
-      tool through the flank's stock on a head machine: the mold core's raster with the
-      pole floor.) The link's last point always takes the entered pass's posture: the
-      turn is in a rapid, never in the feed move that follows. A link before the first
-      pass approaches, one after the last pass retracts; a pass without a touching
-      point leaves its link points at the CAM posture.
+    * a rapid of a link (the rapids between two passes) takes the posture of the pass
+      it leaves (:data:`_RETRACT`: its last touching point) up to and including the
+      link's highest point, the posture of the pass it enters (:data:`_APPROACH`: its
+      first touching point) after it. Where its CAM ball centre is straight above the
+      pass's end (its last point, or its first; within ``LINK_VERTICAL_TOL_MM``: a
+      3-axis program's retract and approach), it keeps the CAM's ball centre, so the tool leaves the pass
+      straight up without turning (the ball sweeps what the CAM's did; the rest of the
+      tool, clear at the cut, rises above a 3-axis part), the rotary axes turn in the
+      move leaving the link's top (the ball no lower than there), and it descends
+      straight down in the new pass's posture. Elsewhere (a 5-axis program's link along
+      its tool axis) it keeps its offset as a point of a pass does. (A pass that ended
+      tilted and turned during its retract swung the tool through the flank's stock on
+      a head machine; retracting along the tilted axis dragged the ball through it: the
+      mold core's raster with the pole floor.) The link's last point always takes the
+      entered pass's posture: the turn is in a rapid, never in the feed move after it. A
+      link before the first pass approaches, one after the last pass retracts; a pass
+      without a touching point leaves its link points at the CAM posture.
 
     Attributes
     ----------
@@ -175,11 +179,12 @@ class _Inherited:
     row : ndarray of int, shape (m,)
         Row (index into the touching points) whose posture it takes.
     base : ndarray, shape (m, 3) [mm]
-        In a pass: the ball centre of that touching point plus the point's offset
-        from it normal to the CAM axis; on a link: the CAM's ball centre.
+        The ball centre of that touching point plus the point's offset from it normal
+        to the CAM axis; on a link straight above its pass's end: the CAM's ball
+        centre.
     along : ndarray, shape (m,) [mm]
-        The tip's offset from ``base`` along the new axis (in a pass: the offset along
-        the CAM axis; on a link: minus the ball radius).
+        The tip's offset from ``base`` along the new axis (the offset along the CAM
+        axis; on a link straight above: minus the ball radius).
     order, start : ndarray of int
         ``point[order[start[r]:start[r + 1]]]`` are the points of row ``r``.
     kind : ndarray of int, shape (m,), optional
@@ -200,11 +205,12 @@ class _Inherited:
 
 
 def _links(rapid: np.ndarray, touching: np.ndarray, centre_z: np.ndarray
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The link points that take a touching point's posture (:class:`_Inherited`):
-    points, the touching point whose posture each takes, and their kinds."""
+    points, the touching point whose posture each takes, their kinds, and the point of
+    that pass next to the link (its last point, or its first)."""
     n = len(rapid)
-    pts, nears, kinds = [], [], []
+    pts, nears, kinds, anchors = [], [], [], []
     edge = np.diff(np.r_[0, rapid.astype(np.int8), 0])
     starts, ends = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1) - 1
     tpos = np.flatnonzero(touching)
@@ -224,15 +230,17 @@ def _links(rapid: np.ndarray, touching: np.ndarray, centre_z: np.ndarray
             z = centre_z[link]
             top = a + int(np.flatnonzero(z >= z.max() - 1e-9)[0])
             top = min(top, b - 1)                         # the last point: the new posture
-        for sel, near, kind in ((link[link <= top], prev, _RETRACT),
-                                (link[link > top], nxt, _APPROACH)):
+        for sel, near, kind, anchor in ((link[link <= top], prev, _RETRACT, a - 1),
+                                        (link[link > top], nxt, _APPROACH, b + 1)):
             if near >= 0 and len(sel):
                 pts.append(sel)
                 nears.append(np.full(len(sel), near))
                 kinds.append(np.full(len(sel), kind))
+                anchors.append(np.full(len(sel), anchor))
     if not pts:
-        return (np.zeros(0, np.int64),) * 3
-    return np.concatenate(pts), np.concatenate(nears), np.concatenate(kinds)
+        return (np.zeros(0, np.int64),) * 4
+    return (np.concatenate(pts), np.concatenate(nears), np.concatenate(kinds),
+            np.concatenate(anchors))
 
 
 def _inherited(cam: CutterLocations, contacts: Contacts, idx: np.ndarray) -> _Inherited:
@@ -258,13 +266,23 @@ def _inherited(cam: CutterLocations, contacts: Contacts, idx: np.ndarray) -> _In
     rel = cam.tip[point] - centre_old
     along = np.sum(rel * cam.axis[near], axis=1)
     perp = rel - along[:, None] * cam.axis[near]
-    l_pt, l_near, l_kind = _links(rapid, touching, contacts.centre[:, 2])
-    # on a link: the CAM's ball centre, the tip a ball radius below it along the axis
+    l_pt, l_near, l_kind, l_anchor = _links(rapid, touching, contacts.centre[:, 2])
+    # on a link: straight above the pass's end (a 3-axis retract or approach), the
+    # CAM's ball centre, the tip a ball radius below it along the new axis; elsewhere
+    # (e.g. a 5-axis program's retract along its tool axis) as in a pass
+    c_near = contacts.centre[l_near]
+    l_rel = cam.tip[l_pt] - c_near
+    l_along = np.sum(l_rel * cam.axis[l_near], axis=1)
+    l_base = c_near + l_rel - l_along[:, None] * cam.axis[l_near]
+    up = contacts.centre[l_pt] - contacts.centre[l_anchor]
+    vertical = (np.hypot(up[:, 0], up[:, 1]) <= LINK_VERTICAL_TOL_MM) & (up[:, 2] > 0)
     radius = np.linalg.norm(contacts.centre[l_pt] - cam.tip[l_pt], axis=1)
+    l_base[vertical] = contacts.centre[l_pt][vertical]
+    l_along[vertical] = -radius[vertical]
     point = np.concatenate([point, l_pt])
     row = np.searchsorted(idx, np.concatenate([near, l_near]))
-    base = np.concatenate([centre_old + perp, contacts.centre[l_pt]])
-    along = np.concatenate([along, -radius])
+    base = np.concatenate([centre_old + perp, l_base])
+    along = np.concatenate([along, l_along])
     kind = np.concatenate([np.full(len(near), _IN_PASS), l_kind]).astype(np.int8)
     order = np.argsort(row, kind="stable")
     start = np.searchsorted(row[order], np.arange(len(idx) + 1))

@@ -96,6 +96,12 @@ MAX_RATE_DEG_PER_MM = 2.0
 #: (on raster.nc 5283-6500 a rapid into material, which the job refuses) until the
 #: planner's retracts keep the last cut's posture until clear.
 POLE_FLOOR_DEG = 0.0
+#: A rapid of a link between passes whose CAM ball centre is within this of straight
+#: above the end of the pass it takes its posture from keeps the CAM's ball centre
+#: (orient.choice._Inherited: a 3-axis program's retract and approach, straight up and
+#: down) [mm]: the program's modal X Y are repeated to the digit, so any tolerance
+#: above rounding (1e-6 mm) and far below a pick feed (0.35 mm on the mold core) will do.
+LINK_VERTICAL_TOL_MM = 1.0e-6
 #: Margin above which postures count as equally good; the planner then
 #: prefers the posture nearest the CAM's [-].
 MARGIN_TARGET = 1.5

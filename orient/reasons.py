@@ -45,10 +45,10 @@ def _reasons(cam: CutterLocations, idx: np.ndarray, inh: _Inherited, choice: np.
                  f"posture")
         elif kind_of[i] == _RETRACT:
             txt = (f"rapid move (retract): posture of the last cutting point of the pass "
-                   f"it leaves ({idx[r]}), the CAM's ball centre")
+                   f"it leaves ({idx[r]})")
         elif kind_of[i] == _APPROACH:
             txt = (f"rapid move (approach): posture of the first cutting point of the pass "
-                   f"it enters ({idx[r]}), the CAM's ball centre")
+                   f"it enters ({idx[r]})")
         else:
             txt = ("rapid move" if cam.rapid[i] else "not touching the design") + \
                 f": posture of the nearest cutting point of the pass ({idx[r]})"

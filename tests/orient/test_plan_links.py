@@ -105,3 +105,26 @@ def test_no_rapid_written_turns_the_rotary_axes_below_the_clearance_height():
     assert len(moves) >= 1                     # the turn is written, as a rapid
     assert centre_low[moves].min() >= TOP - 1e-3
     assert centre_low[moves - 1].min() >= TOP - 1e-3
+
+
+def test_a_link_not_straight_above_its_pass_keeps_its_offset_along_the_axis():
+    """A 5-axis program's approach along its (tilted) tool axis: the rapid into the pass
+    stays that far out along the planned axis (as a pass's air points do), not at the
+    CAM's ball centre beside a tilted tool."""
+    a = _axis(30.0, 90.0)
+    xs = np.arange(0.0, 5.01, 1.0)
+    p1 = np.c_[xs, np.zeros_like(xs), np.zeros_like(xs)]
+    p2 = p1 + [0.0, 0.35, 0.0]
+    tips = np.vstack([p1, p2[0] + 12.0 * a, p2])
+    rapid = np.zeros(len(tips), bool)
+    rapid[len(p1)] = True
+    cam = CutterLocations.from_arrays(tips, a, np.where(rapid, np.nan, 1600.0), 10000.0,
+                                      rapid=rapid)
+    idx = np.flatnonzero(~rapid)
+    con = _contacts(cam, idx)
+    u = np.tile(_axis(45.0, 80.0), (len(idx), 1))
+    tip, axis = _place_all(cam, con, idx, u, R)
+    p, q = len(p1), len(p1) + 1
+    assert _inherited(cam, con, idx).kind.tolist().count(_APPROACH) == 1
+    np.testing.assert_allclose(axis[p], u[0], atol=1e-12)
+    np.testing.assert_allclose(tip[p], con.centre[q] + (12.0 - R) * u[0], atol=1e-9)
