@@ -91,10 +91,12 @@ MAX_RATE_DEG_PER_MM = 2.0
 #: the axis leaves, so a path through the pole turns the table while the tip stands (a
 #: dwell mark; on a slice of the mold core's raster C turned 30 deg at one point). A
 #: floor of 5 deg ([orient] pole_floor_deg) removes that, but it is not the default:
-#: with the CAM's vertical posture refused, passes end tilted, and the retract (a G0 to
-#: the CAM's vertical clearance point) turns B while the ball is still at the surface
-#: (on raster.nc 5283-6500 a rapid into material, which the job refuses) until the
-#: planner's retracts keep the last cut's posture until clear.
+#: with the CAM's vertical posture refused, passes end tilted, and the retract (then a
+#: G0 to the CAM's vertical clearance point) turned B while the ball was still at the
+#: surface (on raster.nc 5283-6500 a rapid into material, which the job refuses). The
+#: links now keep the last cut's posture up to the clearance height (orient.choice);
+#: with them raster.nc 5283-5586 ran with every check on rapids, collisions and coverage
+#: holding, but 5283-6500 has not yet run end to end with them (README, the mold core).
 POLE_FLOOR_DEG = 0.0
 #: A rapid of a link between passes whose CAM ball centre is within this of straight
 #: above the end of the pass it takes its posture from keeps the CAM's ball centre
