@@ -96,8 +96,9 @@ MAX_RATE_DEG_PER_MM = 2.0
 #: surface (on raster.nc 5283-6500 a rapid into material, which the job refuses). The
 #: links now keep the last cut's posture up to the clearance height (orient.choice);
 #: with them raster.nc 5283-5586 ran with every check on rapids, collisions and coverage
-#: holding, but 5283-6500 still has one rapid into material (written line 3921; README,
-#: the mold core), so the floor stays off.
+#: holding, but 5283-6500 still has one rapid into material (the retract after raster.nc
+#: line 6281, whatever its direction: the tool at that pass's last planned posture meets
+#: the stock; README, the mold core), so the floor stays off.
 POLE_FLOOR_DEG = 0.0
 #: A rapid of a link between passes whose CAM ball centre is within this of straight
 #: above the end of the pass it takes its posture from keeps the CAM's ball centre
