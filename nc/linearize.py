@@ -53,7 +53,8 @@ class Linearized:
 def linearize(machine: Machine, tip: ArrayLike, axis: ArrayLike, joints: ArrayLike, *,
               tol_mm: float = K.LINEARIZE_TOL_MM, max_depth: int = K.LINEARIZE_MAX_DEPTH,
               singular_cone_rad: float = K.SINGULAR_CONE_RAD,
-              max_points: int | None = None) -> Linearized:
+              max_points: int | None = None,
+              joint_segments: ArrayLike | None = None) -> Linearized:
     """Insert points where linear joint motion takes the tip off the programmed line.
 
     Between consecutive points the control moves all five joints linearly.
@@ -89,6 +90,14 @@ def linearize(machine: Machine, tip: ArrayLike, axis: ArrayLike, joints: ArrayLi
         grazes the singularity with a noisy tool axis, so that the rotary
         axis swings between neighbours; a larger ``singular_cone_rad`` is the
         cure, not millions of points.
+    joint_segments : ndarray of bool, shape (n - 1,), optional
+        Segments (from point k to k + 1) whose inserted points take the rotary axes
+        halfway between their neighbours' (the machine's own interpolation) instead of
+        the axis by slerp: the tip still on the line. For rapid moves that turn the
+        tool: a slerp passing near the free axis's pole swings the free axis through up
+        to 180 deg within a sliver of the move, which no bisection depth straightens
+        (the mold core's links turning from one flank's tilt to the other's), while
+        interpolated angles turn it evenly over the whole move.
 
     Returns
     -------
@@ -115,6 +124,10 @@ def linearize(machine: Machine, tip: ArrayLike, axis: ArrayLike, joints: ArrayLi
     src = np.arange(n, dtype=float)
     if n < 2:
         return Linearized(w, u, j, src, 0.0)
+    jseg = (np.zeros(n - 1, bool) if joint_segments is None
+            else np.asarray(joint_segments, bool).reshape(-1))
+    if len(jseg) != n - 1:
+        raise ValueError(f"joint_segments: expected {n - 1} entries, got {len(jseg)}")
     pts = _split_flips(machine, w, u, j, src, singular_cone_rad)
     pts = (*pts, np.arange(len(pts[0]), dtype=float))  # + sort key
     a = tuple(x[:-1] for x in pts)
@@ -140,7 +153,8 @@ def linearize(machine: Machine, tip: ArrayLike, axis: ArrayLike, joints: ArrayLi
                 "singular_cone_rad or smooth the tool axes", index=first)
         a = tuple(x[bad] for x in a)
         b = tuple(x[bad] for x in b)
-        mid = _midpoint(machine, a, b, singular_cone_rad)
+        mid = _midpoint(machine, a, b, singular_cone_rad,
+                        jseg[np.clip(np.floor(a[3]).astype(int), 0, n - 2)])
         added.append(mid)
         a, b = (tuple(np.concatenate([x, y]) for x, y in zip(a, mid)),
                 tuple(np.concatenate([x, y]) for x, y in zip(mid, b)))
@@ -207,9 +221,23 @@ def _deviation(machine: Machine, wa: NDArray, wb: NDArray, ja: NDArray, jb: NDAr
 
 
 def _midpoint(machine: Machine, a: Sequence[NDArray], b: Sequence[NDArray],
-              cone: float) -> tuple[NDArray, ...]:
-    """Point halfway along each segment: tip, axis (slerp), joints, source, sort key."""
+              cone: float, joint: NDArray | None = None) -> tuple[NDArray, ...]:
+    """Point halfway along each segment: tip, axis (slerp; where ``joint``, the rotary
+    axes halfway instead), joints, source, sort key."""
     tip = 0.5 * (a[0] + b[0])
+    if joint is not None and joint.any():
+        out = _midpoint(machine, tuple(x[~joint] for x in a), tuple(x[~joint] for x in b),
+                        cone) if (~joint).any() else None
+        rot = 0.5 * (a[2][joint, 3:] + b[2][joint, 3:])
+        jm = np.column_stack([machine._xyz(tip[joint], rot[:, 0], rot[:, 1]), rot])
+        ax = machine._forward(jm)[1]
+        res = [np.zeros((len(tip), 3)), np.zeros((len(tip), 3)), np.zeros((len(tip), 5)),
+               0.5 * (a[3] + b[3]), 0.5 * (a[4] + b[4])]
+        res[0] = tip
+        res[1][joint], res[2][joint] = ax, jm
+        if out is not None:
+            res[1][~joint], res[2][~joint] = out[1], out[2]
+        return tuple(res)
     s = a[1] + b[1]  # slerp at 1/2 = normalized sum
     ns = np.linalg.norm(s, axis=1)
     if (ns < K.UNIT_VECTOR_TOL).any():

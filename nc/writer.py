@@ -256,8 +256,12 @@ def post(cl: CutterLocations, machine: Machine, options: PostOptions = PostOptio
     joints = sol.joints
     source = np.arange(len(cl), dtype=float)
     if o.dialect == "linuxcnc":
+        # rapids turn the tool by the machine's own interpolation of the angles (a link's
+        # turn at the clearance height may pass near the pole, where a slerp cannot be
+        # linearized); feed moves by slerp
         lin = linearize(machine, tip, axis, joints, tol_mm=o.linearize_tol_mm,
-                        singular_cone_rad=o.singular_cone_rad)
+                        singular_cone_rad=o.singular_cone_rad,
+                        joint_segments=np.asarray(cl.rapid, bool)[1:])
         if lin.max_deviation_mm > o.linearize_tol_mm:
             seg = np.diff(lin.source)
             raise KinematicsError(

@@ -23,7 +23,7 @@ from nc.path import CutterLocations
 from .contacts import Contacts
 from .interference import InterferenceChecker
 from .smoothing import best_smooth_path
-from .constants import FALLBACK_SCORE
+from .constants import FALLBACK_SCORE, LINK_VERTICAL_TOL_MM
 
 __all__ = ["FALLBACK_SCORE"]
 
@@ -143,11 +143,34 @@ def _choose_collision_free(checker: InterferenceChecker, tips: np.ndarray, axes:
     return choice, stats
 
 
+#: kinds of points that take a touching point's posture (:attr:`_Inherited.kind`)
+_IN_PASS, _RETRACT, _APPROACH = 0, 1, 2
+
+
 @dataclass(frozen=True, eq=False)
 class _Inherited:
-    """The points that take the posture of a touching point: every point of a pass
-    (rapids start passes) that does not touch the design, from its nearest touching
-    point of the pass, keeping its offset from the ball centre along the axis.
+    """The points that take the posture of a touching point.
+
+    * a point of a pass that does not touch the design (air moves, the plunge) takes
+      the posture of its pass's nearest touching point, keeping its offset from the
+      ball centre (along the axis: along the new axis) -- :data:`_IN_PASS`;
+    * a rapid of a link (the rapids between two passes) takes the posture of the pass
+      it leaves (:data:`_RETRACT`: its last touching point) up to and including the
+      link's highest point, the posture of the pass it enters (:data:`_APPROACH`: its
+      first touching point) after it. Where its CAM ball centre is straight above the
+      pass's end (its last point, or its first; within ``LINK_VERTICAL_TOL_MM``: a
+      3-axis program's retract and approach), it keeps the CAM's ball centre, so the tool leaves the pass
+      straight up without turning (the ball sweeps what the CAM's did; the rest of the
+      tool, clear at the cut, rises above a 3-axis part), the rotary axes turn in the
+      move leaving the link's top (the ball no lower than there), and it descends
+      straight down in the new pass's posture. Elsewhere (a 5-axis program's link along
+      its tool axis) it keeps its offset as a point of a pass does. (A pass that ended
+      tilted and turned during its retract swung the tool through the flank's stock on
+      a head machine; retracting along the tilted axis dragged the ball through it: the
+      mold core's raster with the pole floor.) The link's last point always takes the
+      entered pass's posture: the turn is in a rapid, never in the feed move after it. A
+      link before the first pass approaches, one after the last pass retracts; a pass
+      without a touching point leaves its link points at the CAM posture.
 
     Attributes
     ----------
@@ -156,12 +179,16 @@ class _Inherited:
     row : ndarray of int, shape (m,)
         Row (index into the touching points) whose posture it takes.
     base : ndarray, shape (m, 3) [mm]
-        Ball centre of that touching point plus the point's offset from it normal
-        to the CAM axis.
+        The ball centre of that touching point plus the point's offset from it normal
+        to the CAM axis; on a link straight above its pass's end: the CAM's ball
+        centre.
     along : ndarray, shape (m,) [mm]
-        The offset along the CAM axis (kept along the new axis).
+        The tip's offset from ``base`` along the new axis (the offset along the CAM
+        axis; on a link straight above: minus the ball radius).
     order, start : ndarray of int
         ``point[order[start[r]:start[r + 1]]]`` are the points of row ``r``.
+    kind : ndarray of int, shape (m,), optional
+        :data:`_IN_PASS`, :data:`_RETRACT` or :data:`_APPROACH` (None: all in a pass).
     """
 
     point: np.ndarray
@@ -170,22 +197,63 @@ class _Inherited:
     along: np.ndarray
     order: np.ndarray
     start: np.ndarray
+    kind: np.ndarray | None = None
 
     def tips(self, k: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Tips [mm] of inherited points ``k`` (indices into ``point``) at axes ``u``."""
         return self.base[k] + self.along[k][:, None] * u
 
 
+def _links(rapid: np.ndarray, touching: np.ndarray, centre_z: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The link points that take a touching point's posture (:class:`_Inherited`):
+    points, the touching point whose posture each takes, their kinds, and the point of
+    that pass next to the link (its last point, or its first)."""
+    n = len(rapid)
+    pts, nears, kinds, anchors = [], [], [], []
+    edge = np.diff(np.r_[0, rapid.astype(np.int8), 0])
+    starts, ends = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1) - 1
+    tpos = np.flatnonzero(touching)
+    for k, (a, b) in enumerate(zip(starts, ends)):
+        lo = ends[k - 1] + 1 if k else 0                 # the pass it leaves: [lo, a)
+        hi = starts[k + 1] if k + 1 < len(starts) else n  # the pass it enters: (b, hi)
+        i = np.searchsorted(tpos, a)
+        prev = int(tpos[i - 1]) if i and tpos[i - 1] >= lo else -1
+        j = np.searchsorted(tpos, b + 1)
+        nxt = int(tpos[j]) if j < len(tpos) and tpos[j] < hi else -1
+        link = np.arange(a, b + 1)
+        if hi == b + 1:
+            top = b                                       # after the last pass: all retract
+        elif lo == a:
+            top = a - 1                                   # before the first pass: all approach
+        else:
+            z = centre_z[link]
+            top = a + int(np.flatnonzero(z >= z.max() - 1e-9)[0])
+            top = min(top, b - 1)                         # the last point: the new posture
+        for sel, near, kind, anchor in ((link[link <= top], prev, _RETRACT, a - 1),
+                                        (link[link > top], nxt, _APPROACH, b + 1)):
+            if near >= 0 and len(sel):
+                pts.append(sel)
+                nears.append(np.full(len(sel), near))
+                kinds.append(np.full(len(sel), kind))
+                anchors.append(np.full(len(sel), anchor))
+    if not pts:
+        return (np.zeros(0, np.int64),) * 4
+    return (np.concatenate(pts), np.concatenate(nears), np.concatenate(kinds),
+            np.concatenate(anchors))
+
+
 def _inherited(cam: CutterLocations, contacts: Contacts, idx: np.ndarray) -> _Inherited:
     """:class:`_Inherited` of the path (``idx``: the touching points, ascending)."""
     n = len(cam)
-    run = np.cumsum(cam.rapid)          # a rapid starts a new run (it leads into a pass)
+    rapid = np.asarray(cam.rapid, bool)
     pos = np.arange(n)
     touching = np.zeros(n, bool)
     touching[idx] = True
+    run = np.cumsum(rapid)              # a pass: from a rapid to the next
     pts, nears = [], []
-    for r in np.unique(run):
-        members = np.flatnonzero(run == r)
+    for r in np.unique(run[~rapid]):
+        members = np.flatnonzero((run == r) & ~rapid)
         t_in = members[touching[members]]
         if len(t_in) == 0:
             continue
@@ -194,14 +262,31 @@ def _inherited(cam: CutterLocations, contacts: Contacts, idx: np.ndarray) -> _In
         nears.append(t_in[np.argmin(np.abs(pos[others][:, None] - t_in[None, :]), axis=1)])
     point = np.concatenate(pts) if pts else np.zeros(0, np.int64)
     near = np.concatenate(nears) if nears else np.zeros(0, np.int64)
-    row = np.searchsorted(idx, near)
     centre_old = contacts.centre[near]
     rel = cam.tip[point] - centre_old
     along = np.sum(rel * cam.axis[near], axis=1)
     perp = rel - along[:, None] * cam.axis[near]
+    l_pt, l_near, l_kind, l_anchor = _links(rapid, touching, contacts.centre[:, 2])
+    # on a link: straight above the pass's end (a 3-axis retract or approach), the
+    # CAM's ball centre, the tip a ball radius below it along the new axis; elsewhere
+    # (e.g. a 5-axis program's retract along its tool axis) as in a pass
+    c_near = contacts.centre[l_near]
+    l_rel = cam.tip[l_pt] - c_near
+    l_along = np.sum(l_rel * cam.axis[l_near], axis=1)
+    l_base = c_near + l_rel - l_along[:, None] * cam.axis[l_near]
+    up = contacts.centre[l_pt] - contacts.centre[l_anchor]
+    vertical = (np.hypot(up[:, 0], up[:, 1]) <= LINK_VERTICAL_TOL_MM) & (up[:, 2] > 0)
+    radius = np.linalg.norm(contacts.centre[l_pt] - cam.tip[l_pt], axis=1)
+    l_base[vertical] = contacts.centre[l_pt][vertical]
+    l_along[vertical] = -radius[vertical]
+    point = np.concatenate([point, l_pt])
+    row = np.searchsorted(idx, np.concatenate([near, l_near]))
+    base = np.concatenate([centre_old + perp, l_base])
+    along = np.concatenate([along, l_along])
+    kind = np.concatenate([np.full(len(near), _IN_PASS), l_kind]).astype(np.int8)
     order = np.argsort(row, kind="stable")
     start = np.searchsorted(row[order], np.arange(len(idx) + 1))
-    return _Inherited(point, row, centre_old + perp, along, order, start)
+    return _Inherited(point, row, base.reshape(-1, 3), along, order, start, kind)
 
 
 def _check_candidates(checker: InterferenceChecker, tips: np.ndarray, axes: np.ndarray,

@@ -91,11 +91,21 @@ MAX_RATE_DEG_PER_MM = 2.0
 #: the axis leaves, so a path through the pole turns the table while the tip stands (a
 #: dwell mark; on a slice of the mold core's raster C turned 30 deg at one point). A
 #: floor of 5 deg ([orient] pole_floor_deg) removes that, but it is not the default:
-#: with the CAM's vertical posture refused, passes end tilted, and the retract (a G0 to
-#: the CAM's vertical clearance point) turns B while the ball is still at the surface
-#: (on raster.nc 5283-6500 a rapid into material, which the job refuses) until the
-#: planner's retracts keep the last cut's posture until clear.
+#: with the CAM's vertical posture refused, passes end tilted, and the retract (then a
+#: G0 to the CAM's vertical clearance point) turned B while the ball was still at the
+#: surface (on raster.nc 5283-6500 a rapid into material, which the job refuses). The
+#: links now keep the last cut's posture up to the clearance height (orient.choice);
+#: with them raster.nc 5283-5586 ran with every check on rapids, collisions and coverage
+#: holding, but 5283-6500 still has one rapid into material (the retract after raster.nc
+#: line 6281, whatever its direction: the tool at that pass's last planned posture meets
+#: the stock; README, the mold core), so the floor stays off.
 POLE_FLOOR_DEG = 0.0
+#: A rapid of a link between passes whose CAM ball centre is within this of straight
+#: above the end of the pass it takes its posture from keeps the CAM's ball centre
+#: (orient.choice._Inherited: a 3-axis program's retract and approach, straight up and
+#: down) [mm]: the program's modal X Y are repeated to the digit, so any tolerance
+#: above rounding (1e-6 mm) and far below a pick feed (0.35 mm on the mold core) will do.
+LINK_VERTICAL_TOL_MM = 1.0e-6
 #: Margin above which postures count as equally good; the planner then
 #: prefers the posture nearest the CAM's [-].
 MARGIN_TARGET = 1.5

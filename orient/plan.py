@@ -34,10 +34,13 @@ With ``[orient.spindle]`` the spindle speed is first chosen from the lobes
 (zero-order, at a sample of the cutter locations, each at its best posture)
 and the feed scaled to keep the feed per tooth.
 
-Points where the ball does not touch the design (air moves, approach and
-retract inside a pass) take the posture of the nearest touching point of their
-pass; rapid moves break the smoothness limit (the rotary axes move during the
-rapid).
+Points where the ball does not touch the design (air moves, the plunge) take the
+posture of the nearest touching point of their pass. The rapids between two passes
+keep the CAM's ball centre: up to the link's highest point with the posture of the
+pass they leave (a 3-axis program's retract goes straight up without turning), after
+it with the posture of the pass they enter (descending straight down in it), so the
+rotary axes turn at the clearance height (:class:`orient.choice._Inherited`). Rapids
+break the smoothness limit.
 
 **Infeasible points.** The planned path is checked once more as a whole (every
 feed point and every point the planner moved). Where no feasible posture
@@ -51,7 +54,6 @@ CAM posture. :func:`plan` raises nothing for it: callers must look
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -76,6 +78,7 @@ from .choice import (
     _Inherited,
     _inherited,
 )
+from .reasons import _reasons
 from .stability import recommended_samples, sdm_margin, zoa_margin_batch
 from .workpiece import WorkpieceModel
 
@@ -598,73 +601,6 @@ def _place_all(cam: CutterLocations, contacts: Contacts, idx: np.ndarray, u_new:
     tip[inh.point] = inh.tips(k, u_new[inh.row])
     axis[inh.point] = u_new[inh.row]
     return tip, axis
-
-
-def _reasons(cam: CutterLocations, idx: np.ndarray, inh: _Inherited, choice: np.ndarray,
-             S1: int, none: np.ndarray, cause: np.ndarray, final_cause: np.ndarray,
-             labels: list[str], margin: np.ndarray, sense: np.ndarray, lead: np.ndarray,
-             tilt: np.ndarray, cam_lead: np.ndarray, cam_tilt: np.ndarray, target: float,
-             cam_margin: np.ndarray, cam_rpm: float | None) -> list[str]:
-    """Why each point has its posture (one line each, true to the checks made).
-
-    ``cause`` (t, S1): rejection codes of the candidates (``labels``);
-    ``final_cause`` (n,): code of the planned posture in the final check of the path
-    (0 free or not checked). The reasons of infeasible points (touching points without
-    a feasible candidate, points whose planned posture collides) start with
-    ``"infeasible: "``. ``margin`` is at the planned speed; ``cam_margin`` (t,) the CAM
-    posture's at the program's speed ``cam_rpm`` [rev/min] (None: the same speed).
-    """
-    n = len(cam)
-    row_of = np.full(n, -1)
-    row_of[inh.point] = inh.row
-    out = []
-    for i in range(n):
-        r = row_of[i]
-        if r < 0:
-            txt = ("rapid move" if cam.rapid[i] else "not touching the design") + \
-                ": CAM posture (no cutting point in the pass)"
-        elif none[r]:
-            txt = ("rapid move" if cam.rapid[i] else "not touching the design") + \
-                (f": CAM posture, as at point {idx[r]} of the pass, which has no feasible "
-                 f"posture")
-        else:
-            txt = ("rapid move" if cam.rapid[i] else "not touching the design") + \
-                f": posture of the nearest cutting point of the pass ({idx[r]})"
-        out.append(txt)
-    for r, i in enumerate(idx):
-        j = choice[r]
-        m, mc = margin[r, j], cam_margin[r]
-        where = (f"lead {math.degrees(lead[i]):+.1f} tilt {math.degrees(tilt[i]):+.1f} deg, "
-                 f"{'up' if sense[r, j] > 0 else 'down'}-cut {sense[r, j]:+.2f}")
-        cam_txt = (f"CAM posture (lead {math.degrees(cam_lead[i]):+.1f} tilt "
-                   f"{math.degrees(cam_tilt[i]):+.1f}) margin {mc:.2f}"
-                   + ("" if cam_rpm is None else f" at {cam_rpm:g} rev/min")
-                   + ("" if cause[r, -1] == _FEASIBLE else
-                      f", infeasible: {labels[cause[r, -1]]}"))
-        if none[r]:
-            codes, counts = np.unique(cause[r], return_counts=True)
-            why = ", ".join(f"{c} {labels[k]}" for k, c in
-                            sorted(zip(codes, counts), key=lambda kc: -kc[1]))
-            cam_state = ("" if final_cause[i] == 0 else
-                         f", which collides ({labels[final_cause[i]]})")
-            out[i] = (f"no feasible posture: all {S1} candidates rejected ({why}); CAM "
-                      f"posture kept{cam_state}, margin {m:.2f}")
-        elif j == S1 - 1:
-            out[i] = f"CAM posture kept: margin {m:.2f} ({where})"
-        elif m >= target:
-            out[i] = f"margin {m:.2f} >= target {target:g} at {where}; {cam_txt}"
-        else:
-            out[i] = (f"margin {m:.2f} below target {target:g}, the best of a smooth path, "
-                      f"at {where}; {cam_txt}")
-    for i in np.flatnonzero(final_cause):
-        if not out[i].startswith("no feasible posture"):
-            out[i] = f"planned posture collides ({labels[final_cause[i]]}); {out[i]}"
-    for i in np.flatnonzero(final_cause != 0):
-        out[i] = "infeasible: " + out[i]
-    for i in idx[none]:
-        if not out[i].startswith("infeasible: "):
-            out[i] = "infeasible: " + out[i]
-    return out
 
 
 def _sdm_checks(scn, tool_sys, wp, contacts, idx, u_new, cuts, rpm, zoa, runs

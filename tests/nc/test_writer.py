@@ -254,3 +254,41 @@ def test_round_trip_skips_the_rapid_points_before_the_first_cut():
     back = cutter_locations(parse_program(res.text, file="<round trip>"), m)
     e_tip, e_axis = round_trip_error(res, back)
     assert e_tip < 1e-3 and e_axis < 1e-6
+
+
+def test_a_rapid_turning_past_the_pole_is_written_on_the_line():
+    """A link's turn at the clearance height from one flank's tilt to the other's (B 45 to
+    -40 deg on a head-table machine) whose axis passes 0.3 deg from the C axis: by slerp
+    no bisection depth keeps the tip on the line (C swings through 180 deg in a sliver);
+    the writer turns a rapid by the machine's own interpolation of the angles, and the
+    program read back keeps the tip within the tolerance of the line everywhere."""
+    from nc.kinematics import linearize, solve_path
+
+    m = get_machine("xyzbc-head-table")
+    tol = 0.002
+
+    def ax(b, c):
+        b, c = math.radians(b), math.radians(c)
+        return [math.sin(b) * math.cos(c), math.sin(b) * math.sin(c), math.cos(b)]
+
+    tips = np.array([[60.0, 25.0, 0.0], [60.0, 25.0, 25.0], [-5.0, 25.5, 25.0],
+                     [-5.0, 25.5, 0.0]])
+    axes = np.array([ax(45.0, 0.3), ax(45.0, 0.3), ax(-40.0, -0.3), ax(-40.0, -0.3)])
+    rapid = np.array([False, True, True, True])
+    cl = CutterLocations.from_arrays(tips, axes, np.where(rapid, np.nan, 1000.0), 8000.0,
+                                     rapid=rapid)
+    sol = solve_path(m, tips, axes)
+    assert linearize(m, tips, axes, sol.joints).max_deviation_mm > 10.0     # slerp: no
+    res = post(cl, m, PostOptions(linearize_tol_mm=tol))
+    prog = read_program_text(res.text)
+    j = np.column_stack([prog.end[:, :3], prog.end[:, [4, 5]]])[1:-1]
+    tip, _ = m.forward(j)
+    at = (np.abs(tip[:, 2] - 25.0) < 1e-3)                    # the move at the top
+    k = np.flatnonzero(at[:-1] & at[1:])
+    assert len(k) >= 2                                         # points were inserted
+    for f in np.linspace(0.05, 0.95, 19):
+        p, _ = m.forward(j[k] + f * (j[k + 1] - j[k]))
+        a, b = tip[k], tip[k + 1]
+        d = b - a
+        t = np.clip(np.sum((p - a) * d, 1) / np.maximum(np.sum(d * d, 1), 1e-30), 0, 1)
+        assert np.linalg.norm(p - (a + t[:, None] * d), axis=1).max() <= tol + 2e-4
