@@ -10,7 +10,8 @@ force, no chip term (``F1 = 0``), their static chip the thickness the tooth
 before left (second order, ``fz^2 / 2R`` at most). The surface is generated
 among them, so their edge force is in the deflection the surface keeps:
 without them the simulated surface of the bundled thin wall kept 1-2 um less
-than errpred's prediction on every tilted pass. The dynamics orient's :class:`~orient.dynamics.ModalSystem`
+than errpred's prediction on every tilted pass. The dynamics orient's
+:class:`~orient.dynamics.ModalSystem`
 (tool modes turned with the axis, workpiece modes along their directions;
 ``q`` is the relative displacement, tool minus workpiece, in the workpiece
 frame [m]).
