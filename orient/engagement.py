@@ -39,7 +39,9 @@ along ``b`` with the same axis (on a curved surface its true position also
 drops by ``k pick^2 / 2`` and turns, which is ignored); the current pass's
 earlier motion only enters through ``h > 0`` (errpred's exact sweeps also
 keep a sliver ``-fz/2 < (p - c).f <= 0`` of a ball where material is left
-but ``h`` is clamped to 0: :func:`from_errpred` drops it by default). For a
+but ``h`` is clamped to 0: :func:`from_errpred` drops it by default;
+:func:`engagement` keeps it with ``trailing=True``, as the simulated machine
+does: its edges rub there, and that is where the surface is generated). For a
 flat or radius end mill the contact point jumps from the tip to the rim as
 soon as ``u`` leaves ``n`` (the bottom face touches the surface only when
 they are parallel).
@@ -309,8 +311,31 @@ def _in_material(tool: Tool, pl: Placement, cut: LocalCut, x: np.ndarray, y: np.
     return inside
 
 
+def _trailing(tool: Tool, pl: Placement, cut: LocalCut, candidates: np.ndarray, x: np.ndarray,
+              y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Of the ``candidates`` (edge points in the material whose chip is 0, bool of the
+    broadcast shape of the tool-frame coordinates ``x, y, z`` [mm]), those outside the
+    current pass's sweep up to one feed per tooth back: material the tooth before left."""
+    out = np.zeros(candidates.shape, bool)
+    if not candidates.any():
+        return out
+    where = np.nonzero(candidates)
+    xyz = np.broadcast_arrays(x, y, z)
+    pts = pl.tip + np.stack([a[where] for a in xyz], axis=-1) @ pl.frame
+    half = _pass_half_length(tool, cut.pick_mm)
+    p0 = (pl.tip - half * pl.f)[None, :]
+    d = ((half - cut.fz_mm) * pl.f)[None, :]
+    big = np.full((1, 3), 1e300)
+    removed = inside_any_sweep(np.ascontiguousarray(pts), np.ones(len(pts), bool), p0, d,
+                               pl.axis[None, :].copy(), -big, big, tool.core_radius_mm,
+                               tool.corner_radius_mm, tool.flute_length_mm, MEMBERSHIP_EPS_MM)
+    out[where] = ~removed
+    return out
+
+
 def engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: Any, feed_dir: Any,
-               cut: LocalCut, n_angles: int = GAIN_ANGLES_PER_REV) -> SampledEngagement:
+               cut: LocalCut, n_angles: int = GAIN_ANGLES_PER_REV, *,
+               trailing: bool = False) -> SampledEngagement:
     """Which micro edges cut, sampled over one revolution (module docstring).
 
     Parameters
@@ -324,11 +349,20 @@ def engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: Any, fe
     n_angles : int
         Rotation samples per revolution (rounded up to a multiple of the
         flutes, and even: ``errpred.engagement.revolution_angles``).
+    trailing : bool
+        Also the micro edges in the material whose chip ``h`` is 0 but which lie
+        outside the envelope one tooth earlier (the current pass swept up to one
+        feed per tooth back): the trailing sliver ``-fz/2 < (p - c).f <= 0`` of a
+        ball, the material the first-order chip misses and errpred's rasterizer
+        keeps (:func:`from_errpred`). Their edges rub (the edge force, no chip);
+        the finished surface is generated among them. Off for the planner: they
+        add nothing to the process gain.
 
     Returns
     -------
     SampledEngagement
-        ``phi``, ``cutting``, ``h`` of shape (n_ang, n_fl, m).
+        ``phi``, ``cutting``, ``h`` of shape (n_ang, n_fl, m); with ``trailing``
+        the trailing edges are those cutting with ``h == 0``.
     """
     if not isinstance(cut, LocalCut):
         raise ValueError(f"cut: expected a LocalCut, got {type(cut).__name__}")
@@ -345,6 +379,9 @@ def engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: Any, fe
     f_tool = pl.frame @ (cut.fz_mm * pl.f)
     h0 = chip_thickness(edges, phi0, f_tool, sin_cos=(sin0, cos0))
     cutting0 = material & (h0 > CHIP_EPS * cut.fz_mm)
+    if trailing:
+        cutting0 |= _trailing(tool, pl, cut, material & (h0 <= 0.0), edges.rho * sin0,
+                              edges.rho * cos0, edges.z[None, :])
     phi, cutting = expand_flutes(theta, cutting0, edges, tool.flutes)
     # flute k at step i is flute 0 at step i + k n / N (expand_flutes): same chip
     h = expand_flutes(theta, h0, edges, tool.flutes)[1]

@@ -221,6 +221,35 @@ def test_fast_mask_agrees_with_errpred_rasterizer(axis):
         assert abs(lead) > 0.1 and abs(tilt) > 0.1          # a real 5-axis posture
 
 
+@pytest.mark.parametrize("axis", [None, (math.sin(math.radians(15)), -math.sin(math.radians(10)),
+                                         1.0)])
+def test_trailing_edges_are_errpreds_sliver(axis):
+    """errpred's rasterizer keeps the material behind the first-order chip's zero (a ball's
+    sliver -fz/2 < (p - c).f <= 0, chip clamped to 0); ``trailing=True`` adds exactly
+    those edges: every one is in errpred's sliver, and where errpred is sure the two
+    engagements agree cell by cell (without them they do not: the simulated machine had
+    no edge force where the surface is generated)."""
+    if axis is not None:
+        axis = np.asarray(axis) / np.linalg.norm(axis)
+    tool, model, g = _raster_case(axis)
+    f = g.feed_per_tooth_world / np.linalg.norm(g.feed_per_tooth_world)
+    b = np.cross(Z, f)
+    side = int(np.sign(np.array([0.0, -0.6, 0.0]) @ b))
+    cut = LocalCut(0.3, 0.6, side, float(np.linalg.norm(g.feed_per_tooth_world)))
+    n = g.cutting0.shape[0]
+    theirs = from_errpred(g, tool, model.edges, Z, positive_chip_only=False)
+    plain = engagement(tool, model.edges, g.axis, Z, f, cut, n_angles=n)
+    mine = engagement(tool, model.edges, g.axis, Z, f, cut, n_angles=n, trailing=True)
+    assert np.all(mine.cutting >= plain.cutting)
+    extra = mine.cutting[:, 0] & ~plain.cutting[:, 0]
+    assert extra.sum() >= 10 and np.all(mine.h[:, 0][extra] == 0.0)
+    sliver = theirs.cutting[:, 0] & (theirs.h[:, 0] <= 0.0)
+    assert np.all(sliver[extra])
+    sure = (theirs.weight[:, 0] == 1) | ~theirs.cutting[:, 0]
+    assert np.array_equal(mine.cutting[:, 0][sure], theirs.cutting[:, 0][sure])
+    assert not np.array_equal(plain.cutting[:, 0][sure], theirs.cutting[:, 0][sure])
+
+
 def test_adapter_keeps_only_positive_chips_and_expands_flutes():
     tool, model, g = _raster_case(None)
     raw = from_errpred(g, tool, model.edges, Z, positive_chip_only=False)

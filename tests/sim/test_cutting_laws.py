@@ -32,13 +32,18 @@ def _system():
 def test_kienzle_table_is_the_tangent_at_the_static_chip():
     model = prepare_cut(FLAT, KZ, Z, Z, X, CUT, _system(), 9000.0, edges=EDGES)
     ptr, pos, j, h0, nrm, f0, f1 = model.table
-    eng = engagement(FLAT, EDGES, Z, Z, X, CUT, n_angles=model.steps_per_rev)
+    # the table's engagement keeps the trailing edges (first-order chip 0): they rub with
+    # the law's zero-chip force and no chip term (their static chip is the second-order
+    # thickness the tooth before left, not the law's argument)
+    eng = engagement(FLAT, EDGES, Z, Z, X, CUT, n_angles=model.steps_per_rev, trailing=True)
     i, f, jj = np.nonzero(eng.cutting)
     np.testing.assert_array_equal(jj, j)
+    h = eng.h[i, f, j]
+    assert np.all(f1[h == 0.0] == 0.0) and np.array_equal(h0[h > 0.0], h[h > 0.0])
     kappa, db = EDGES.kappa[j], EDGES.db[j]
-    F = to_tool_frame(*(x * db for x in laws.force(KZ, h0, kappa, 0.0)), eng.phi[i, f, j],
+    F = to_tool_frame(*(x * db for x in laws.force(KZ, h, kappa, 0.0)), eng.phi[i, f, j],
                       kappa) @ eng.frame
-    np.testing.assert_allclose(f0 + h0[:, None] * f1, F, atol=1e-12 * np.abs(F).max())
+    np.testing.assert_allclose(f0 + h[:, None] * f1, F, atol=1e-12 * np.abs(F).max())
     # the slope: a finite difference of the law about h0 (h0 above the chip floor)
     d = 1e-6
     ok = h0 > 0.01
