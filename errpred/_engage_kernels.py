@@ -29,7 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._kernels import _bilinear, interval_membership
+from ._interval_kernels import _bilinear, interval_membership
 
 __all__ = ["grid_candidates", "boundary_cells", "sub_samples", "cell_weights",
            "grid_candidates_numpy", "boundary_cells_numpy", "sub_samples_numpy",
@@ -49,7 +49,7 @@ def grid_candidates(samples, rows, cols, m, shift, top, bottom, smooth_top, smoo
     row ``i * m + j``) that the stock's interval in the bottom view holds or cannot
     decide, the stock displaced by ``shift`` (3,) [mm].
 
-    The test is :func:`errpred._kernels.interval_membership`'s on ``sample - shift``
+    The test is :func:`errpred._interval_kernels.interval_membership`'s on ``sample - shift``
     (in cells where both surfaces interpolate, points clear of the corners' depth
     range are outside without interpolating: the same answer, sooner).
     Returns, in grid order, the samples' indices (k,), positions (k, 3) [mm], the

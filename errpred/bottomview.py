@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import constants as K
-from ._kernels import (cells_smooth, inside_any_sweep_clustered, interval_membership,
-                       sweep_margin_clustered)
+from ._cluster_kernels import inside_any_sweep_clustered, sweep_margin_clustered
+from ._interval_kernels import cells_smooth, interval_membership
 from .tool import MicroEdges, Tool
 
 __all__ = ["BottomTemplate", "Finished", "SampleGrid", "StockView", "stock_view"]

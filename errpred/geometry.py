@@ -22,7 +22,7 @@ import numpy as np
 from nc.path import CutterLocations
 
 from . import constants as K
-from ._kernels import inside_any_sweep_clustered
+from ._cluster_kernels import inside_any_sweep_clustered
 from .bottomview import BottomTemplate, StockView, stock_view
 from .engagement import revolution_angles
 from .frames import tool_frame

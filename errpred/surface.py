@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._kernels import inside_any_sweep_clustered
+from ._cluster_kernels import inside_any_sweep_clustered
 from .constants import CLUSTER_CELL_MM, MEMBERSHIP_EPS_MM
 from .tool import Tool
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from . import constants as K
-from ._kernels import inside_any_sweep_clustered
+from ._cluster_kernels import inside_any_sweep_clustered
 from .tool import Tool
 from .zmap import SweepMap
 
@@ -20,7 +20,7 @@ class RemovedMemo:
 
     The engagement and its sensitivity pass (the stock a little thicker) test
     the same samples against the same sweeps; only the stock moves. Each
-    sample is tested once (:func:`~errpred._kernels.inside_any_sweep_clustered`,
+    sample is tested once (:func:`~errpred._cluster_kernels.inside_any_sweep_clustered`,
     exact per point, so the answer does not depend on what else is asked with it).
     Where a height map of the sweeps applies (:class:`~errpred.zmap.SweepMap`),
     it answers first: a sample it finds inside an earlier sweep is inside T1; one

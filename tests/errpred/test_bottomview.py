@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from errpred._kernels import interval_membership
+from errpred._interval_kernels import interval_membership
 
 
 def _numpy_twin(xyz, top, bottom, smooth_top, smooth_bottom, p, depth_offset, e):
@@ -67,7 +67,7 @@ def _cells_smooth_twin(a, limit):
 
 
 def test_cells_smooth_equals_its_numpy_twin():
-    from errpred._kernels import cells_smooth
+    from errpred._interval_kernels import cells_smooth
 
     rng = np.random.default_rng(6)
     for _ in range(5):

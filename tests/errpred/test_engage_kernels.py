@@ -99,8 +99,8 @@ def test_cell_weights_as_numpy(seed):
 @pytest.mark.parametrize("seed", range(4))
 def test_grid_candidates_as_numpy(seed):
     """The fused gather, shift and interval test against the steps it replaced (the
-    interval test is errpred._kernels.interval_membership), on a seeded wavy stock."""
-    from errpred._kernels import cells_smooth
+    interval test is errpred._interval_kernels.interval_membership), on a seeded wavy stock."""
+    from errpred._interval_kernels import cells_smooth
 
     rng = np.random.default_rng(300 + seed)
     n_px, pixel, depth_offset = 40, 0.25, 5.0

@@ -200,7 +200,7 @@ def test_removed_memo_answers_as_the_kernel_in_any_order():
     """The T1 memo of a point gives the kernel's own answer for every sample, however
     the samples are split between calls and repeated."""
     from errpred import constants as K
-    from errpred._kernels import inside_any_sweep_clustered
+    from errpred._cluster_kernels import inside_any_sweep_clustered
     from errpred.t1memo import RemovedMemo as _RemovedMemo
 
     tool, model, g = side_cut("slot", 0.0)

@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nc.path import CutterLocations
-from errpred._kernels import (inside_any_sweep, inside_any_sweep_clustered, sweep_distance,
-                              sweep_lower_bound, sweep_margin_clustered, sweep_within,
+from errpred._cluster_kernels import inside_any_sweep_clustered, sweep_margin_clustered
+from errpred._kernels import (inside_any_sweep, sweep_distance, sweep_lower_bound, sweep_within,
                               sweeps_within)
 from errpred.sweeps import build_sweeps
 from errpred.tool import Tool, core_distance
@@ -297,7 +297,8 @@ def test_shortlists_are_each_bin_tested_alone():
     """The per-bin short lists (with the Lipschitz shortcuts between the levels: all
     points, super cube, coarse cube, bin) are, in order, the sweeps that pass the
     reach test against the bin's own sphere."""
-    from errpred._kernels import _bins, _may_reach, _shortlists, _sphere
+    from errpred._cluster_kernels import _bins, _shortlists
+    from errpred._kernels import _may_reach, _sphere
     rng = np.random.default_rng(12)
     n = 300
     p0 = rng.uniform(-6, 6, (n, 3))
