@@ -5,8 +5,8 @@ the stock and the sweeps of the motion before (T1) or after (T2) a cutter
 location; no global model of the workpiece is kept. A :class:`Sweeps` holds
 one entry per straight move with a constant tool axis (5-axis moves are
 split where the axis turns by more than ``SWEEP_AXIS_STEP_RAD``; a turning
-move a rapid leaves from also gets the tool standing at its end, with the
-end's exact axis), the
+move whose turn does not go on into the next move, as before a rapid, also
+gets the tool standing at its end, with the end's exact axis), the
 cumulative tool-tip path length at its start and end (so T1/T2 are path
 intervals), its axis-aligned bounds, and a uniform grid over the bounds so
 that a query near a point costs the same whether the program has 10^3 or
@@ -371,10 +371,11 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
         this of the true one. A piece turns the tool about its tip, so at a move's
         end it misses the real tool by up to h x sin(half the piece's turn) at
         height h above the tip (a 0.81 deg turn: 35 um at a 5 mm ball's centre,
-        0.18 mm at 25 mm). Where a rapid leaves a move that turns (or the path
-        ends there), the move also gets a zero-length sweep with the end's own
-        axis: the tool standing at the move's end, which the real move removed,
-        so a rapid's start never meets a sliver the pieces left.
+        0.18 mm at 25 mm). Where the turn does not go on into the next move (a
+        rapid leaves from the end, the path ends, the next move turns back or not
+        at all), the move also gets a zero-length sweep with the end's own axis:
+        the tool standing at the move's end, which the real move removed, so a
+        rapid's start never meets a sliver the pieces left.
     cell_mm : float, optional [mm]
         Grid cell size (default: ``SWEEP_GRID_CELL_PER_RADIUS`` tool radii).
     """
@@ -390,13 +391,22 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
         u0, u1 = axis[ends - 1], axis[ends]
         ang = np.arccos(np.clip(np.sum(u0 * u1, axis=1), -1.0, 1.0))
         pieces = np.maximum(1, np.ceil(ang / axis_step_rad - 1e-12)).astype(np.int64)
-        # a turning move a rapid leaves from (or the path's last) also gets its end
-        # cap: the tool standing at the end, with the end's own axis
+        # a turning move whose turn does not go on into the next move (a rapid
+        # leaves from its end, the path ends there, the next move turns back or
+        # not at all) also gets its end cap: the tool standing at the end, with
+        # the end's own axis. Where the turn goes on, the pieces either side of
+        # the end are off to opposite sides by about +-e and cover the tool there
+        # to second order, e^2 / (2 R): 0.1 um at a 5 mm ball's centre (e = 35 um
+        # for a 0.81 deg turn), 5 um 25 mm up the flutes (e = 0.22 mm for 1 deg).
         nxt = ends + 1
-        leaves = np.ones(ends.size, dtype=bool)
+        goes_on = np.zeros(ends.size, dtype=bool)
         inside = nxt < n
-        leaves[inside] = cl.rapid[nxt[inside]]
-        cap = (ang > 0.0) & leaves
+        k_in = ends[inside]
+        nx = nxt[inside]
+        turn = np.cross(axis[k_in - 1], axis[k_in])
+        turn_next = np.cross(axis[nx - 1], axis[nx])
+        goes_on[inside] = ~cl.rapid[nx] & (np.sum(turn * turn_next, axis=1) > 0.0)
+        cap = (ang > 0.0) & ~goes_on
     else:
         ang = np.zeros(0)
         pieces = np.zeros(0, dtype=np.int64)

@@ -68,6 +68,38 @@ def test_the_tool_at_a_turning_moves_end_is_inside_its_sweeps():
     assert inside.all(), f"{(~inside).sum()} of {len(pts)} points outside"
 
 
+def _tool_points(tool, tip, u, inset=1e-3):
+    """Points all over the tool's flute part and ball at (tip, u), ``inset`` inside."""
+    e1 = np.cross(u, [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(u, e1)
+    phi = np.linspace(0.0, 2 * math.pi, 72, endpoint=False)
+    ring = np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2
+    R = tool.radius_mm
+    h = np.linspace(R, FLUTE, 40)
+    flank = tip + h[:, None, None] * u + (R - inset) * ring[None]
+    th = np.linspace(0.0, math.pi / 2, 20)[:, None, None]     # 0: the tip, pi/2: equator
+    ball = tip + R * u + (R - inset) * (np.sin(th) * ring[None] - np.cos(th) * u)
+    return np.concatenate([flank.reshape(-1, 3), ball.reshape(-1, 3)])
+
+
+def test_the_tool_where_the_turn_turns_back_is_inside_the_sweeps():
+    """Two feed moves turning the axis +0.9 then -0.9 deg: the tool at the corner between
+    them (where both moves' pieces are off to the same side) is inside the sweeps."""
+    tool = Tool("ball", D, flute_length_mm=FLUTE)
+    u0, u1 = _axis(TILT0), _axis(TILT0 + TURN)
+    tip = np.array([[-10.0, 0.0, -DEPTH], [20.0, 0.0, -DEPTH], [25.0, 0.0, -DEPTH],
+                    [30.0, 0.0, -DEPTH], [60.0, 0.0, -DEPTH]])
+    axis = np.array([u0, u0, u1, u0, u0])
+    cl = CutterLocations.from_arrays(tip, axis, 600.0, 6000.0)
+    sw = build_sweeps(cl, tool)
+    pts = _tool_points(tool, tip[2], u1)
+    inside = inside_any_sweep(pts, np.ones(len(pts), dtype=np.bool_), sw.p0, sw.d, sw.w,
+                              sw.lo, sw.hi, sw.core_radius_mm, sw.corner_radius_mm,
+                              sw.top_mm, 1e-6)
+    assert inside.all(), f"{(~inside).sum()} of {len(pts)} points outside"
+
+
 def test_a_retract_along_the_axis_from_a_turning_moves_end_is_no_rapid_into_material():
     model = _model("axis")
     (g,) = model.geometry(4)
