@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from .macro import expand_parameters, needs_expansion
 from .macro_b import expand_macro_b, needs_macro_b
 from .owords import expand_owords, has_owords
+from .program import split_lines
 
 __all__ = ["Source", "prepare_source"]
 
@@ -75,13 +76,7 @@ def prepare_source(text: str, file: str, block_delete: bool = False,
     NCParseError
         From the control flow, naming file, line and column.
     """
-    lines = text.split("\n")
-    if lines and lines[-1] == "":
-        lines.pop()
-    newline = "\n"
-    if "\r" in text:
-        newline = "\r\n" if "\r\n" in text[:65536] else "\n"
-        lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
+    lines, newline = split_lines(text)
     if has_owords(text):  # LinuxCNC O-word control flow: run first (nc.owords)
         source, numbers = expand_owords(lines, file)
         return Source(lines, newline, source, numbers,

@@ -12,6 +12,7 @@ from collections.abc import Iterable
 from typing import NamedTuple
 
 from .errors import NCParseError
+from .program import split_lines
 
 __all__ = ["TNCBlock", "split_blocks", "words", "BEGIN", "END", "LBL", "CALL_LBL",
            "normalise_allow_m", "M_SUPPORTED", "M_NOT_ALLOWABLE"]
@@ -52,13 +53,7 @@ class TNCBlock(NamedTuple):
 
 def split_blocks(text: str, file: str) -> tuple[list[str], str, list[TNCBlock]]:
     """Lines (no terminators), the newline, and the blocks of a program."""
-    lines = text.split("\n")
-    if lines and lines[-1] == "":
-        lines.pop()
-    newline = "\n"
-    if "\r" in text:
-        newline = "\r\n" if "\r\n" in text[:65536] else "\n"
-        lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
+    lines, newline = split_lines(text)
     blocks: list[TNCBlock] = []
     pending: list = []  # [line, col, parts, skip] of a block continued with '~'
     for i, raw in enumerate(lines):

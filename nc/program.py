@@ -35,6 +35,7 @@ __all__ = [
     "TCP_OFF",
     "TCP_ANGLES",
     "TCP_VECTOR",
+    "split_lines",
 ]
 
 #: Motion codes stored in :attr:`Program.motion` (the G number).
@@ -423,3 +424,21 @@ class ProgramRows:
             arc_plane=np.array(self.a_plane, dtype=np.int64),
             number=name, newline=newline, block_delete=block_delete,
             metadata=dict(metadata), **extra)
+
+
+def split_lines(text: str) -> tuple[list[str], str]:
+    """A program's lines without terminators, and its newline (``"\n"`` or ``"\r\n"``).
+
+    Split on ``"\n"`` only, as controls count lines (``str.splitlines`` would also
+    split at form feeds and other separators); a final empty line is dropped, a
+    trailing ``"\r"`` removed from each line. The newline is ``"\r\n"`` when it
+    occurs in the first 64 KiB, so a written program keeps the source's.
+    """
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    newline = "\n"
+    if "\r" in text:
+        newline = "\r\n" if "\r\n" in text[:65536] else "\n"
+        lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
+    return lines, newline

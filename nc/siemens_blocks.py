@@ -20,6 +20,7 @@ import re
 from typing import NamedTuple
 
 from .errors import NCParseError
+from .program import split_lines
 
 __all__ = ["SBlock", "Word", "split_blocks", "lex", "split_args", "HEADER"]
 
@@ -65,13 +66,7 @@ class Word(NamedTuple):
 
 def split_blocks(text: str, file: str) -> tuple[list[str], str, list[SBlock], str | None]:
     """Lines (no terminators), the newline, the blocks and the header's program name."""
-    lines = text.split("\n")
-    if lines and lines[-1] == "":
-        lines.pop()
-    newline = "\n"
-    if "\r" in text:
-        newline = "\r\n" if "\r\n" in text[:65536] else "\n"
-        lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
+    lines, newline = split_lines(text)
     blocks: list[SBlock] = []
     name = None
     for i, raw in enumerate(lines):
