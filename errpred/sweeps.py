@@ -79,13 +79,7 @@ def _query(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi):
     """Ids (sorted) of the sweeps whose bounds overlap the box [lo, hi]."""
     mark = np.zeros(lo_all.shape[0], dtype=np.bool_)
     ids = _grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark)
-    keep = np.empty(ids.shape[0], dtype=np.bool_)
-    for t in range(ids.shape[0]):
-        j = ids[t]
-        keep[t] = (lo_all[j, 0] <= hi[0] and lo_all[j, 1] <= hi[1] and lo_all[j, 2] <= hi[2]
-                   and hi_all[j, 0] >= lo[0] and hi_all[j, 1] >= lo[1]
-                   and hi_all[j, 2] >= lo[2])
-    return np.sort(ids[keep])
+    return np.sort(_overlapping(ids, lo_all, hi_all, lo, hi))
 
 
 @njit(cache=True)
