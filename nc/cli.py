@@ -99,6 +99,11 @@ def _print_summary(s, console=None) -> None:
         t.add_row("program end", f"M99 in the main program at line {s.main_m99_line}, read "
                   "as its end (as Centroid's controls read it; a Fanuc control would run "
                   "the program again from its start): the moves are one pass")
+    if s.main_open_end_line:
+        t.add_row("program end", f"the main program runs into the program at line "
+                  f"{s.main_open_end_line} without M30 or M02, read as its end (a control "
+                  "that runs on through the file, LinuxCNC or Mach3, would execute that "
+                  "program's blocks too: check the program)")
     if s.ignored:
         t.add_row("passed over", ", ".join(
             f"{code} x{count} (line {first})" for code, count, first in s.ignored))

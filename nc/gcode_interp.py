@@ -63,6 +63,8 @@ class Interpreter(BlockReader, CycleBlocks, RotationBlocks, ProgramRows):
         self.rewritten = src.rewritten if src.rewritten is not None else set()
         #: line of the M99 that ended the main program (nc.macro_b), 0 if none
         self.main_m99_line = src.main_m99_line
+        #: line of the O program the main program ran into (nc.macro_b), 0 if none
+        self.main_open_end_line = src.main_open_end_line
         self.file = file
         self.allow = allow
         self.allowed_names = frozenset(
@@ -607,4 +609,5 @@ class Interpreter(BlockReader, CycleBlocks, RotationBlocks, ProgramRows):
                           sorted(self.ignored.items(), key=lambda kv: (kv[1][1], kv[0]))),
             strict=self.strict,
             main_m99_line=self.main_m99_line,
+            main_open_end_line=self.main_open_end_line,
         )

@@ -40,6 +40,9 @@ class Source:
         Lines whose produced text is not the line itself.
     main_m99_line : int
         Line of the M99 that ended the main program (:mod:`nc.macro_b`), 0 if none.
+    main_open_end_line : int
+        Line of the ``O`` program the main program's text ran into without M30 or
+        M02 (:mod:`nc.macro_b`), 0 if none.
     """
 
     lines: list[str]
@@ -48,6 +51,7 @@ class Source:
     source_lines: list[int] | None = None
     rewritten: set[int] | None = None
     main_m99_line: int = 0
+    main_open_end_line: int = 0
 
 
 def prepare_source(text: str, file: str, block_delete: bool = False,
@@ -69,7 +73,8 @@ def prepare_source(text: str, file: str, block_delete: bool = False,
     block_delete : bool
         Skip blocks starting with ``/`` while running macro B.
     strict : bool
-        Passed to :func:`nc.macro_b.expand_macro_b` (M99 ending the main program).
+        Passed to :func:`nc.macro_b.expand_macro_b` (M99 ending the main program, a
+        main program running into the next ``O`` program).
 
     Raises
     ------
@@ -82,9 +87,9 @@ def prepare_source(text: str, file: str, block_delete: bool = False,
         return Source(lines, newline, source, numbers,
                       {n for n in set(numbers) if "#" in lines[n - 1] or "[" in lines[n - 1]})
     if needs_macro_b(text):  # Fanuc macro B, subprograms: run first (nc.macro_b)
-        source, numbers, rewritten, m99 = expand_macro_b(lines, file, block_delete,
-                                                         strict=strict)
-        return Source(lines, newline, source, numbers, rewritten, m99)
+        source, numbers, rewritten, m99, open_end = expand_macro_b(
+            lines, file, block_delete, strict=strict)
+        return Source(lines, newline, source, numbers, rewritten, m99, open_end)
     if needs_expansion(text):  # '#' parameters and '[ ]' without control flow
         return Source(lines, newline, expand_parameters(lines, file))
     return Source(lines, newline, lines)

@@ -10,7 +10,11 @@ source file:line:col).
   closing ``%``. The main program is the text before the first ``O`` (after
   ``%``) if it has blocks, else the first ``O`` program; the others are
   subprograms. M30 or M02 ends the run (also inside a subprogram); the main
-  program's end without M30 ends it too.
+  program's end without M30 ends it too. Where that end is the next ``O``
+  program's line (no M30, M02 or ``%`` between them), a control that runs on
+  through the file (LinuxCNC, Mach3) would execute that program's blocks as
+  well: the line is recorded (:attr:`nc.program.Program.main_open_end_line`,
+  shown by ``python -m nc parse``) and ``strict=True`` refuses it.
 - ``#`` variables, ``#i=expr``, arithmetic, functions and comparisons
   (:mod:`nc.expressions`, ``FANUC`` grammar; variables: :mod:`nc.macro_b_blocks`).
   A word whose value is a vacant variable (``X#1``, #1 vacant) is left out,
@@ -316,7 +320,7 @@ def _words(words: list, store: Variables) -> str:
 
 def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
                    max_blocks: int | None = None, strict: bool = False
-                   ) -> tuple[list[str], list[int], set[int], int]:
+                   ) -> tuple[list[str], list[int], set[int], int, int]:
     """Run the macro program ``lines``: the blocks that reach the reader.
 
     Parameters
@@ -332,15 +336,17 @@ def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
         when None.
     strict : bool
         Refuse a plain M99 in the main program instead of reading it as the
-        program's end (see the module's docstring).
+        program's end, and a main program that runs into the next ``O``
+        program's line without M30 or M02 (see the module's docstring).
 
     Returns
     -------
-    (out, numbers, rewritten, main_m99)
+    (out, numbers, rewritten, main_m99, open_end)
         The produced lines, the 1-based source line of each, the source
-        lines whose produced text is not the source line itself, and the
+        lines whose produced text is not the source line itself, the
         1-based line of the M99 that ended the main program (0 when the
-        program ended otherwise).
+        program ended otherwise), and the 1-based line of the ``O`` program
+        the main program's text ran into without M30 or M02 (0 if none).
 
     Raises
     ------
@@ -360,6 +366,7 @@ def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
     prog, pc = main, main.start
     executed = 0
     main_m99 = 0
+    open_end = 0
     try:
         while True:
             if pc >= prog.end:
@@ -370,6 +377,15 @@ def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
                     pc = prog.start
                     continue
                 if not stack:
+                    nxt = next((p for p in run.programs.values() if p.head == prog.end), None)
+                    if prog is main and nxt is not None:  # runs into the next O program
+                        if strict:
+                            raise run.error(prog.end, f"the main program ends where program "
+                                            f"O{nxt.number} begins, without M30 or M02 (a "
+                                            "control that runs on through the file would "
+                                            f"execute O{nxt.number}; strict reading refuses "
+                                            "it); expected M30 or M02 before it", 0)
+                        open_end = prog.end + 1
                     break
                 raise run.error(prog.head, f"{_name(prog)} ends at line {prog.end} without "
                                 "M99; expected M99 to return to the caller")
@@ -463,7 +479,7 @@ def expand_macro_b(lines: list[str], file: str, block_delete: bool = False,
                 prog, pc = _call(run, st, store, stack, prog, pc)
     except ExprError as exc:
         raise run.error(pc, str(exc), exc.offset) from None
-    return out, numbers, rewritten, main_m99
+    return out, numbers, rewritten, main_m99, open_end
 
 
 def _emit(st: Statement, store: Variables, pc: int, out: list, numbers: list,

@@ -251,6 +251,11 @@ class Program:
         as Centroid's controls read it (a Fanuc control would start the
         program again: the moves are one pass; :mod:`nc.macro_b`); 0 when
         the program ended otherwise.
+    main_open_end_line : int
+        Source line of the ``O`` program that the main program's text ran into
+        without M30 or M02, read as the main program's end (a control that runs
+        on through the file, LinuxCNC or Mach3, would execute that program's
+        blocks too; :mod:`nc.macro_b`); 0 when the program ended otherwise.
     metadata : dict
         What a reader keeps beside the moves (the Heidenhain reader:
         ``dialect``, ``name``, ``units``, ``blk_form``); empty for G-code.
@@ -279,6 +284,7 @@ class Program:
     ignored: tuple[tuple[str, int, int], ...] = ()
     strict: bool = False
     main_m99_line: int = 0
+    main_open_end_line: int = 0
     frames: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     reframed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     reframed_start: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))

@@ -49,6 +49,9 @@ class ProgramSummary:
     #: source line of the M99 that ended the main program (read as its end, as
     #: Centroid's controls do; a Fanuc control would run it again), None if none
     main_m99_line: int | None = None
+    #: source line of the O program the main program ran into without M30/M02
+    #: (read as its end; a control running on would execute it), None if none
+    main_open_end_line: int | None = None
 
     def as_dict(self) -> dict:
         """Plain types, ready for JSON."""
@@ -103,6 +106,7 @@ def summarize(program: Program, chord_tol_mm: float = K.CHORD_TOL_MM) -> Program
         unknown_blocks=int(np.sum(~known)),
         unknown_first_line=int(program.line[np.argmin(known)]) if not known.all() else None,
         main_m99_line=program.main_m99_line or None,
+        main_open_end_line=program.main_open_end_line or None,
     )
 
 

@@ -55,8 +55,12 @@ REASONS = {
     "m98": ("M98 (a subroutine call", "M98/M99 subprograms"),
     "m111": ("unsupported code M111", "LinuxCNC user M-codes (M100-M199)"),
     "spline": ("(a spline", "splines G5/G5.1"),
+    "sysvar": ("system variable", "the control's system variables (Mach's probe result #5063)"),
 }
-READ = ("read", "read-only", "empty")
+#: read-runs-on: read to the end of the main program's text, which runs into a
+#: subprogram without M30/M02 (recorded, Program.main_open_end_line); rs274 runs
+#: on into the subprogram's blocks, so the move lists differ by design
+READ = ("read", "read-only", "read-runs-on", "empty")
 
 
 def _manifest(name: str) -> list[tuple[str, str]]:
@@ -108,6 +112,7 @@ def test_corpus_program_is_read(status, path):
         assert len(prog) == 0
         return
     assert len(prog) > 0 and prog.known.all()
+    assert bool(prog.main_open_end_line) == (status == "read-runs-on")
     if status == "read" and rs274_path() is not None:
         result = compare_with_rs274(path, prog, tool_lengths_mm={t: 0.0 for t in range(100)})
         assert result.ok and result.moves == len(prog), result.message

@@ -20,6 +20,7 @@ from nc import constants as K
 from nc.errors import NCParseError
 from nc.gcode import parse_program, read_program
 from nc.macro_b import expand_macro_b, needs_macro_b
+from nc.summary import summarize
 from nc.rewrite import RewriteError, rewrite_coordinates
 
 
@@ -305,6 +306,37 @@ def test_m99_main_is_refused_when_strict_and_recorded_otherwise():
         info.value)
     assert parse_program("O1\nG0 X1\nM30\n").main_m99_line == 0
     assert parse_program("G0 X1\n").main_m99_line == 0
+
+
+OPEN_END = [
+    # (what, source, line of the O program the main program runs into, or 0)
+    ("runs into the subprogram", "G0 X1\nM98 P2\nG0 Z5\nO2\nG1 X2 F100\nM99\n", 4),
+    ("M30 before it", "G0 X1\nM98 P2\nM30\nO2\nG1 X2 F100\nM99\n", 0),
+    ("M02 before it", "G0 X1\nM98 P2\nM02\nO2\nG1 X2 F100\nM99\n", 0),
+    ("% before it", "%\nG0 X1\nM98 P2\n%\nO2\nG1 X2 F100\nM99\n", 0),
+    ("main program numbered, subprogram after M30", "O1\nM98 P2\nM30\nO2\nG1 X2 F100\nM99\n",
+     0),
+]
+
+
+@pytest.mark.parametrize("what,src,line", OPEN_END, ids=[m[0] for m in OPEN_END])
+def test_main_program_running_into_a_subprogram_is_recorded(what, src, line):
+    prog = parse_program(src, file="m.nc")
+    assert prog.main_open_end_line == line
+    assert summarize(prog).main_open_end_line == (line or None)
+    # the subprogram's blocks come once, from the call: the text after the main
+    # program's end is not run on into
+    sub_line = src.split("\n").index("G1 X2 F100") + 1
+    assert sum(1 for v in prog.line if v == sub_line) == 1
+
+
+def test_main_program_running_into_a_subprogram_is_refused_when_strict():
+    src = "G0 X1\nM98 P2\nG0 Z5\nO2\nG1 X2 F100\nM99\n"
+    with pytest.raises(NCParseError) as info:
+        parse_program(src, file="open.nc", strict=True)
+    msg = str(info.value)
+    assert msg.startswith("open.nc:4:") and "\n" not in msg
+    assert "begins, without M30 or M02" in msg and "expected M30 or M02 before it" in msg
 
 
 def test_runtime_errors_point_at_the_statement():
