@@ -275,14 +275,17 @@ class Predictor:
         return self.model.theta
 
     def geometries(self, blocks: Iterable[int], *, workers: int = 1,
-                   chunk: int = K.WORKER_CHUNK_MAX_BLOCKS, client=None) -> Iterator[list[PointGeometry]]:
+                   chunk: int = K.WORKER_CHUNK_MAX_BLOCKS, client=None
+                   ) -> Iterator[list[PointGeometry]]:
         """Stage 1 of ``blocks``, yielded in the given order.
 
         With ``client`` (a ``dask.distributed.Client``) the chunks run on its
         workers: the geometry model is scattered to every worker once, the chunks
         are submitted in order and their results taken in order (stage 1 of a
         block depends only on the program and the stock, method.md §3), so the
-        prediction is the same as in one process.
+        prediction is the same as in one process. With ``workers`` > 1 (and no
+        client) they run on as many forked processes. Either way in guided chunks
+        of at most ``chunk`` consecutive blocks (:func:`_chunks`).
         """
         blocks = list(blocks)
         self.model.plan_sweep_map(blocks)
