@@ -269,6 +269,22 @@ TOOL_STATE_MATCH_MM = 1.0e-6
 #: (every chunk's future used to be held until the pass ended: 2.1-2.6 GB a
 #: worker in the main job).
 DASK_CHUNKS_IN_FLIGHT = 3
+#: Stage 1 on worker processes or a Dask cluster (``errpred.predict``): consecutive
+#: blocks go to a worker as one task, the tasks shrinking toward the end of the run
+#: (guided: the blocks left over ``WORKER_CHUNK_SHARE`` times the workers, between
+#: ``WORKER_CHUNK_MIN_BLOCKS`` and ``WORKER_CHUNK_MAX_BLOCKS``) [blocks, -]. Equal chunks
+#: of a quarter of a worker's share (38 blocks on the 300-block bench slices) left a
+#: worker idle for up to a chunk at the end and the parent's stage 2 of the last chunk
+#: after both (together 7 % of the run's wall time with 2 workers on the raster slice);
+#: the first and largest chunks keep a worker on consecutive blocks (its sweep look-up
+#: and the sweeps' height map go forward), the last ones are a block or two.
+WORKER_CHUNK_MAX_BLOCKS = 64
+WORKER_CHUNK_MIN_BLOCKS = 2
+WORKER_CHUNK_SHARE = 4
+#: Chunks a worker process may have submitted ahead of the one the parent takes [-]
+#: (``concurrent.futures`` pool; the Dask cluster's is ``DASK_CHUNKS_IN_FLIGHT``): the
+#: results wait in order for the parent's stage 2, so memory stays flat in program length.
+POOL_CHUNKS_IN_FLIGHT = 3
 
 # --- limits of a scenario's values (errpred/limits.py; checked when it is loaded) --------
 # Each bounds a value that would otherwise run for hours or exhaust memory before any

@@ -11,6 +11,7 @@ bounded: stage-1 results are consumed in order as they arrive.
 
 from __future__ import annotations
 
+import gc
 import math
 import os
 from collections import deque
@@ -30,6 +31,7 @@ from .dynamics import Compliance
 from .geometry import STATUS, GeometryModel, PointGeometry, Resolution
 from .physics import PointResult, ShapeErrorModel, WearState, evaluate
 from .tool import Tool
+from .zmap import SweepMap
 
 __all__ = ["PointPrediction", "Prediction", "Predictor", "predict_points"]
 
@@ -99,37 +101,108 @@ _WORKER_MODEL: GeometryModel | None = None
 
 
 def _init_worker(model: GeometryModel) -> None:
+    """A forked worker's model: the parent's, inherited; its sweeps' height map (if
+    the parent had one) goes back to its kept state without a copy
+    (:meth:`errpred.zmap.SweepMap.hand_over_kept`: the worker's chunks come in order)."""
     global _WORKER_MODEL
     _WORKER_MODEL = model
+    zmap = getattr(model, "_zmap", None)
+    if isinstance(zmap, SweepMap):
+        zmap.hand_over_kept()
 
 
-def _on_cluster(client, model, blocks: list[int], chunk: int
-                ) -> Iterator[list[PointGeometry]]:
-    """Stage 1 of ``blocks`` on a Dask cluster, in order, with a bounded number of
-    chunks in flight (``DASK_CHUNKS_IN_FLIGHT`` a worker): each chunk's future is
-    released as soon as its result is taken, so the workers hold a few chunks'
-    results at a time, not the whole pass's."""
-    chunks = [blocks[i:i + chunk] for i in range(0, len(blocks), chunk)]
-    if not chunks:
-        return
-    workers = max(1, len(client.scheduler_info().get("workers", {})))
-    limit = K.DASK_CHUNKS_IN_FLIGHT * workers
-    scattered = client.scatter(model, broadcast=True)
+def _chunks(blocks: list[int], workers: int,
+            largest: int = K.WORKER_CHUNK_MAX_BLOCKS) -> list[list[int]]:
+    """``blocks`` cut into runs of consecutive entries for ``workers`` workers, in
+    order, shrinking toward the end (guided): each the blocks left over
+    ``WORKER_CHUNK_SHARE * workers``, at least ``WORKER_CHUNK_MIN_BLOCKS`` and at most
+    ``largest`` blocks, so the last tasks are short and no worker waits a whole
+    chunk for the other at the end."""
+    share = K.WORKER_CHUNK_SHARE * max(1, workers)
+    out: list[list[int]] = []
+    i, n = 0, len(blocks)
+    while i < n:
+        size = min(max(1, largest), max(K.WORKER_CHUNK_MIN_BLOCKS, -(-(n - i) // share)))
+        out.append(blocks[i:i + size])
+        i += size
+    return out
+
+
+def _in_order(submit: Callable, chunks: list[list[int]], limit: int,
+              release: Callable | None = None, cancel: Callable | None = None
+              ) -> Iterator[list[PointGeometry]]:
+    """The results of ``submit(chunk)`` (a future) for each chunk, block by block and
+    in order, with at most ``limit`` chunks submitted ahead of the one taken; each
+    future is dropped (``release(f)``) once taken, so the workers and this process
+    hold a few chunks' results, not a pass's; those still pending when the consumer
+    stops are handed to ``cancel``."""
     pending: deque = deque()
     nxt = 0
     try:
         while nxt < len(chunks) or pending:
             while nxt < len(chunks) and len(pending) < limit:
-                pending.append(client.submit(_model_chunk, scattered, chunks[nxt], pure=False))
+                pending.append(submit(chunks[nxt]))
                 nxt += 1
             f = pending.popleft()
             res = f.result()
-            f.release()
+            if release is not None:
+                release(f)
             del f
             yield from res
     finally:
-        if pending:
-            client.cancel(list(pending))
+        if pending and cancel is not None:
+            cancel(list(pending))
+
+
+def _on_cluster(client, model, blocks: list[int], chunk: int
+                ) -> Iterator[list[PointGeometry]]:
+    """Stage 1 of ``blocks`` on a Dask cluster, in order, in guided chunks of at most
+    ``chunk`` blocks (:func:`_chunks`), with a bounded number in flight
+    (``DASK_CHUNKS_IN_FLIGHT`` a worker): each chunk's future is released as soon
+    as its result is taken, so the workers hold a few chunks' results at a time, not
+    the whole pass's."""
+    if not blocks:
+        return
+    workers = max(1, len(client.scheduler_info().get("workers", {})))
+    chunks = _chunks(blocks, workers, chunk)
+    scattered = client.scatter(model, broadcast=True)
+    yield from _in_order(
+        lambda c: client.submit(_model_chunk, scattered, c, pure=False), chunks,
+        K.DASK_CHUNKS_IN_FLIGHT * workers, release=lambda f: f.release(),
+        cancel=client.cancel)
+
+
+def _on_pool(model, blocks: list[int], workers: int, chunk: int
+             ) -> Iterator[list[PointGeometry]]:
+    """Stage 1 of ``blocks`` on ``workers`` forked processes (where the platform
+    forks), in order, in guided chunks (:func:`_chunks`), at most
+    ``POOL_CHUNKS_IN_FLIGHT`` a worker submitted ahead. The model is inherited at the
+    fork (not pickled); Python's garbage collector is frozen over the fork, so the
+    workers' collections do not walk (and copy, page by page) every object the
+    parent had."""
+    import multiprocessing as mp
+
+    chunks = _chunks(blocks, workers, chunk)
+    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                             initializer=_init_worker, initargs=(model,)) as pool:
+        frozen = [True]
+        gc.freeze()             # the pool forks its workers at the first submit
+
+        def submit(c):
+            try:
+                return pool.submit(_worker_chunk, c)
+            finally:
+                if frozen:
+                    gc.unfreeze()
+                    frozen.clear()
+
+        try:
+            yield from _in_order(submit, chunks, K.POOL_CHUNKS_IN_FLIGHT * workers,
+                                 cancel=lambda fs: [f.cancel() for f in fs])
+        finally:
+            if frozen:
+                gc.unfreeze()
 
 
 def _model_chunk(model: GeometryModel, blocks: list[int]) -> list[list[PointGeometry]]:
@@ -201,15 +274,18 @@ class Predictor:
     def theta(self) -> np.ndarray:
         return self.model.theta
 
-    def geometries(self, blocks: Iterable[int], *, workers: int = 1, chunk: int = 64,
-                   client=None) -> Iterator[list[PointGeometry]]:
+    def geometries(self, blocks: Iterable[int], *, workers: int = 1,
+                   chunk: int = K.WORKER_CHUNK_MAX_BLOCKS, client=None
+                   ) -> Iterator[list[PointGeometry]]:
         """Stage 1 of ``blocks``, yielded in the given order.
 
         With ``client`` (a ``dask.distributed.Client``) the chunks run on its
         workers: the geometry model is scattered to every worker once, the chunks
         are submitted in order and their results taken in order (stage 1 of a
         block depends only on the program and the stock, method.md §3), so the
-        prediction is the same as in one process.
+        prediction is the same as in one process. With ``workers`` > 1 (and no
+        client) they run on as many forked processes. Either way in guided chunks
+        of at most ``chunk`` consecutive blocks (:func:`_chunks`).
         """
         blocks = list(blocks)
         self.model.plan_sweep_map(blocks)
@@ -220,16 +296,7 @@ class Predictor:
             for b in blocks:
                 yield self.model.geometry(b)
             return
-        # at least four chunks a worker, so the last ones do not leave a worker idle
-        chunk = max(1, min(chunk, -(-len(blocks) // (4 * workers))))
-        chunks = [blocks[i:i + chunk] for i in range(0, len(blocks), chunk)]
-        import multiprocessing as mp
-
-        ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                 initializer=_init_worker, initargs=(self.model,)) as pool:
-            for res in pool.map(_worker_chunk, chunks):
-                yield from res
+        yield from _on_pool(self.model, blocks, workers, chunk)
 
     def run(self, blocks: Iterable[int] | None = None, *, workers: int = 1,
             progress: Callable[[int], None] | None = None,

@@ -70,6 +70,7 @@ class SweepMap:
         self._zlo = float(sweeps.lo[:, 2].min())
         self._zhi = float(sweeps.hi[:, 2].max())
         self.shape = np.maximum(np.ceil((hi - lo) / span).astype(np.int64), 1)
+        self._hand_over = False
         self._reset()
 
     def _reset(self) -> None:
@@ -86,7 +87,8 @@ class SweepMap:
     @property
     def nbytes(self) -> int:
         """Memory held [bytes] (with the kept state)."""
-        kept = 0 if self._snapshot is None else self._snapshot["_vals"].nbytes
+        kept = 0 if self._snapshot is None or "_vals" not in self._snapshot \
+            else self._snapshot["_vals"].nbytes
         return int(self._vals.nbytes + self.tile_index.nbytes + kept)
 
     def _advance(self, t1_end: float) -> bool:
@@ -113,8 +115,21 @@ class SweepMap:
         self._snapshot = {name: copy(getattr(self, name)) for name in _STATE}
 
     def _restore(self) -> None:
+        if self._hand_over:         # the kept arrays themselves; no state kept after
+            for name in _STATE:
+                setattr(self, name, self._snapshot[name])
+            self._snapshot = {"time": np.iinfo(np.int64).max}
+            return
         for name in _STATE:
             setattr(self, name, copy(self._snapshot[name]))
+
+    def hand_over_kept(self) -> None:
+        """For a process that only goes forward from here (a forked stage-1 worker,
+        :mod:`errpred.predict`, whose chunks come in program order): going back to the
+        kept state takes the kept arrays themselves, not a copy of them (a copy of
+        the whole map, 76-151 MB on the mold-ball bench slices, in each worker of
+        each run); going back a second time starts the map again. Same answers."""
+        self._hand_over = True
 
     def _insert(self, ids: np.ndarray) -> None:
         """Insert sweeps ``ids`` (the map's next ones) into every tile they reach,

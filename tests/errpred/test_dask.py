@@ -151,3 +151,63 @@ def test_cluster_stopped_early_cancels_what_is_in_flight():
     next(gen)
     gen.close()
     assert client.cancelled and client.alive == len(client.cancelled)
+
+
+def test_guided_chunks_cover_the_blocks_in_order_and_shrink_to_the_end():
+    """Stage 1's tasks (worker pool and Dask): consecutive runs of the blocks given, in
+    order, none over the largest, shrinking toward the end to the smallest (so no worker
+    waits a whole chunk for the other at the end)."""
+    from errpred import constants as K
+    from errpred.predict import _chunks
+
+    blocks = list(range(3, 303))
+    chunks = _chunks(blocks, 2, 64)
+    assert [b for c in chunks for b in c] == blocks
+    sizes = [len(c) for c in chunks]
+    assert sizes == sorted(sizes, reverse=True)                 # never growing
+    assert sizes[0] == -(-300 // (K.WORKER_CHUNK_SHARE * 2))    # guided: left / (share x workers)
+    assert sizes[-1] <= K.WORKER_CHUNK_MIN_BLOCKS
+    assert max(sizes) <= 64 and max(len(c) for c in _chunks(list(range(5000)), 2, 64)) == 64
+    assert _chunks([], 2) == [] and _chunks([7], 2) == [[7]]
+
+
+def test_pool_results_in_order_bounded_and_the_collector_unfrozen():
+    """The worker pool yields every block's points in order, with at most
+    ``POOL_CHUNKS_IN_FLIGHT`` chunks a worker submitted ahead, and leaves Python's garbage
+    collector as it found it (frozen only over the fork)."""
+    import gc
+
+    from errpred import constants as K
+    from errpred import predict as P
+
+    submitted, taken = [], []
+
+    class _Taken:                       # a pool future that notes when it is taken
+        def __init__(self, chunk, future):
+            self.chunk, self.future = chunk, future
+
+        def result(self):
+            taken.append(self.chunk[0])
+            return self.future.result()
+
+        def cancel(self):
+            return self.future.cancel()
+
+    real = P._in_order
+
+    def spy(submit, chunks, limit, **kw):
+        def counted(c):
+            assert len(submitted) - len(taken) < limit
+            submitted.append(c[0])
+            return _Taken(c, submit(c))
+        assert limit == K.POOL_CHUNKS_IN_FLIGHT * 2
+        return real(counted, chunks, limit, **kw)
+
+    P._in_order = spy
+    try:
+        out = list(P._on_pool(_Model(), list(range(200)), 2, 64))
+    finally:
+        P._in_order = real
+    assert [g[0][1] for g in out] == list(range(200))
+    assert len(submitted) == len(taken) > 2
+    assert gc.get_freeze_count() == 0

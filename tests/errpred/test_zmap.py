@@ -3,6 +3,7 @@ prediction with it is the prediction without it, bit for bit."""
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -227,3 +228,48 @@ def test_a_run_far_into_the_program_leaves_the_map_out_unless_asked():
     fresh.model.use_sweep_map = True
     list(fresh.geometries(late))
     assert fresh.model._zmap.time > 0
+
+
+def test_forked_workers_take_the_parents_kept_map_and_answer_the_same():
+    """Predicted again in two forked workers, whose map (the parent's, past these
+    blocks) goes back to its kept state by taking the kept arrays, not a copy
+    (``SweepMap.hand_over_kept``): the same points as without the map; the parent's
+    map keeps its state."""
+    prog = parse_program(plane_raster(30.0, 5.0, passes=4))
+    blocks = [b for b in range(len(prog)) if 40 <= prog.line[b] <= 62]
+    runs = {}
+    for use in (False, True):
+        pred = Predictor(Tool("ball", 10.0, flute_length_mm=15), plane_stock(30.0, 0.2), prog,
+                         STEEL, stiff_tool())
+        pred.model.use_sweep_map = use
+        list(pred.geometries(blocks))                      # the parent's map past the blocks
+        runs[use] = [g for gl in pred.geometries(blocks, workers=2) for g in gl]
+        if use:
+            z = pred.model._zmap
+            assert not z._hand_over and "_vals" in z._snapshot     # the parent's: as it was
+    assert len(runs[False]) == len(runs[True]) >= 10
+    for a, b in zip(runs[False], runs[True], strict=True):
+        assert a.status == b.status
+        for name in ("cutting0", "weight0", "shift0", "cl_per_rev"):
+            x, y = getattr(a, name), getattr(b, name)
+            assert (x is None and y is None) or np.array_equal(x, y)
+
+
+def test_handed_over_kept_state_is_taken_once():
+    """``hand_over_kept``: going back takes the kept arrays themselves (answers as a
+    copy gives), leaves no kept arrays behind, and a second going back starts again."""
+    prog = parse_program(plane_raster(30.0, 5.0, passes=4))
+    pred = Predictor(Tool("ball", 10.0, flute_length_mm=15), plane_stock(30.0, 0.2), prog,
+                     STEEL, stiff_tool())
+    z = pred.model._sweep_map()
+    L = pred.model.path
+    pts = np.column_stack([np.linspace(-20, 20, 400), np.zeros(400), np.linspace(-2, 2, 400)])
+    z.classify(pts, float(L[len(L) // 3]))
+    z.classify(pts, float(L[-1]))
+    want = copy.deepcopy(z)
+    z.hand_over_kept()
+    got = z.classify(pts, float(L[len(L) // 2]))
+    assert np.array_equal(got, want.classify(pts, float(L[len(L) // 2])))
+    assert "_vals" not in z._snapshot and z.nbytes == z._vals.nbytes + z.tile_index.nbytes
+    assert np.array_equal(z.classify(pts, float(L[len(L) // 3])),
+                          want.classify(pts, float(L[len(L) // 3])))
