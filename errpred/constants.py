@@ -149,6 +149,10 @@ PRECHECK_INSET_MM = 1.0e-3
 #: A rapid move counts as "into material" only where the tool shrunk by this much
 #: still meets the stock [mm]: positioning onto the stock's surface is no crash.
 RAPID_TOUCH_MM = 0.01
+#: The pre-check's sample sets kept (one per set of micro edges under the stock's
+#: top and inset, each ~10k x 3 floats at the default resolution) before the cache
+#: is emptied [-]: a block's stations mostly share one set.
+PRECHECK_SAMPLE_SETS = 8
 #: A corrected program may be worse than the original by at most this much at any
 #: point of the dense verification (larger |E|, or a deeper overcut) [um]: below the
 #: prediction's own convergence (0.5 um at the default resolution) plus margin.

@@ -427,19 +427,9 @@ class GeometryModel:
             feed, spindle = float(self.cl.feed_mm_min[s]), float(self.cl.spindle_rpm[s])
             behind = feed / (spindle * tool.flutes) if spindle > 0 and feed > 0 else 0.0
         t1, _, _ = self._near_sweeps(tip, u, L, behind, z_top)
-        grid = self.engager.grid(1)
-        n, m = grid.shape
-        rows = np.arange(0, n, K.PRECHECK_ROTATION_STRIDE)
-        edge_ok = self.edges.z <= z_top + self.res.pixel_mm
-        idx = (rows[:, None] * m + np.flatnonzero(edge_ok)[None, :]).ravel()
-        local = grid.samples[idx]
-        # the tool shrunk a little: samples on the boundary of an earlier sweep (a
-        # slot's walls and floor) are no cut, whatever the rounding
-        inset = K.RAPID_TOUCH_MM if rapid else K.PRECHECK_INSET_MM
-        rho = np.hypot(local[:, 0], local[:, 1])
-        shrink = np.maximum(rho - inset, 0.0) / np.maximum(rho, 1e-300)
-        local = np.column_stack([local[:, 0] * shrink, local[:, 1] * shrink,
-                                 local[:, 2] + inset])
+        # the micro edges not above the stock's top, the tool shrunk a little
+        local = self.engager.precheck_samples(self.edges.z <= z_top + self.res.pixel_mm,
+                                              K.RAPID_TOUCH_MM if rapid else K.PRECHECK_INSET_MM)
         inside = self.bottom.in_stock_local(self.stock, interval, tip, frame, local)
         if not inside.any():
             return 0

@@ -49,6 +49,7 @@ class PointEngagement:
         self.bottom, self.stock = bottom, stock
         self.pixel_mm = float(pixel_mm)
         self._grids: dict[int, SampleGrid] = {1: bottom.grid}
+        self._precheck: dict[tuple, np.ndarray] = {}
         # the sub-edges of the step weights: profile radius, height and helix lag at
         # ENGAGEMENT_SUBEDGES points along each micro edge, (m, se) each
         se = K.ENGAGEMENT_SUBEDGES
@@ -69,6 +70,29 @@ class PointEngagement:
             grid = self._grids[factor] = self.bottom.sample_grid(
                 np.arange(n) * (2 * math.pi / n))
         return grid
+
+    def precheck_samples(self, edge_ok: np.ndarray, inset: float) -> np.ndarray:
+        """The block pre-check's samples, tool frame (k, 3) [mm], read only (cached):
+        every ``PRECHECK_ROTATION_STRIDE``-th rotation step of ``grid(1)``, the micro
+        edges where ``edge_ok`` (m,), moved ``inset`` [mm] in radially and up (the
+        tool shrunk a little: samples on the boundary of an earlier sweep, a slot's
+        walls and floor, are no cut, whatever the rounding)."""
+        key = (edge_ok.tobytes(), float(inset))
+        local = self._precheck.get(key)
+        if local is None:
+            grid = self.grid(1)
+            n, m = grid.shape
+            rows = np.arange(0, n, K.PRECHECK_ROTATION_STRIDE)
+            idx = (rows[:, None] * m + np.flatnonzero(edge_ok)[None, :]).ravel()
+            local = grid.samples[idx]
+            rho = np.hypot(local[:, 0], local[:, 1])
+            shrink = np.maximum(rho - inset, 0.0) / np.maximum(rho, 1e-300)
+            local = np.column_stack([local[:, 0] * shrink, local[:, 1] * shrink,
+                                     local[:, 2] + inset])
+            if len(self._precheck) >= K.PRECHECK_SAMPLE_SETS:
+                self._precheck.clear()
+            self._precheck[key] = local
+        return local
 
     def engagement(self, tip: np.ndarray, frame: np.ndarray, interval: StockView | None,
                    removed_by_t1, f_tooth: np.ndarray, z_top: float,

@@ -345,7 +345,9 @@ def contains_mesh(V, F, glo, cell, dims, col_offsets, col_items, tri_lo, tri_hi,
     ``eps`` of it (on the boundary, also on walls parallel to the ray). Same
     fill rule as the rasterizer, so shared edges are crossed exactly once.
     The triangles come from the grid's (x, y) columns (``col_offsets``,
-    ``col_items``: every triangle whose bounds touch the column).
+    ``col_items``: every triangle whose bounds touch the column), each column
+    ordered by the triangles' tops (``tri_hi[:, 2]``) from the highest down: a
+    ray stops reading its column at the first top more than ``eps`` below it.
     """
     n = points.shape[0]
     res = np.zeros(n, dtype=np.bool_)
@@ -360,8 +362,9 @@ def contains_mesh(V, F, glo, cell, dims, col_offsets, col_items, tri_lo, tri_hi,
             col = ix * d1 + iy
             for m in range(col_offsets[col], col_offsets[col + 1]):
                 t = col_items[m]
-                if (tri_hi[t, 2] < pz - eps or tri_lo[t, 0] > px or tri_hi[t, 0] < px
-                        or tri_lo[t, 1] > py or tri_hi[t, 1] < py):
+                if tri_hi[t, 2] < pz - eps:
+                    break  # this one and the rest of the column lie below the ray
+                if tri_lo[t, 0] > px or tri_hi[t, 0] < px or tri_lo[t, 1] > py or tri_hi[t, 1] < py:
                     continue
                 a, b, c = F[t, 0], F[t, 1], F[t, 2]
                 x0, y0, z0 = V[a, 0] - px, V[a, 1] - py, V[a, 2] - pz
@@ -407,9 +410,11 @@ def contains_mesh(V, F, glo, cell, dims, col_offsets, col_items, tri_lo, tri_hi,
                         col = cx * d1 + cy
                         for m in range(col_offsets[col], col_offsets[col + 1]):
                             t = col_items[m]
+                            if tri_hi[t, 2] < pz - eps:
+                                break  # the rest of this column lies lower still
                             if (tri_lo[t, 0] > px + eps or tri_hi[t, 0] < px - eps
                                     or tri_lo[t, 1] > py + eps or tri_hi[t, 1] < py - eps
-                                    or tri_lo[t, 2] > pz + eps or tri_hi[t, 2] < pz - eps):
+                                    or tri_lo[t, 2] > pz + eps):
                                 continue
                             a, b, c = F[t, 0], F[t, 1], F[t, 2]
                             if _dist2_point_triangle(px, py, pz, V[a, 0], V[a, 1], V[a, 2],

@@ -120,8 +120,13 @@ class TriangleGrid:
             if int(cnt.sum()) <= COLUMN_ENTRIES:
                 break
             col_cell *= 1.25
-        tri = np.repeat(np.arange(nt, dtype=np.int64), cnt)
-        k = np.arange(int(cnt.sum()), dtype=np.int64) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        # each column's triangles by their top, highest first (the stable sort by
+        # column keeps this order): a ray stops at the first one below its start
+        by_top = np.argsort(-self.tri_hi[:, 2], kind="stable")
+        cnt_top = cnt[by_top]
+        tri = np.repeat(by_top, cnt_top)
+        k = np.arange(int(cnt.sum()), dtype=np.int64) - np.repeat(np.cumsum(cnt_top) - cnt_top,
+                                                                  cnt_top)
         cols = (ccl[tri, 0] + k // span_xy[tri, 1]) * col_dims[1] + (ccl[tri, 1]
                                                                      + k % span_xy[tri, 1])
         order = np.argsort(cols, kind="stable")

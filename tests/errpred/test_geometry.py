@@ -281,3 +281,27 @@ def test_compiled_engagement_gives_the_numpy_twins_points(monkeypatch):
     assert len(compiled) == len(twins) >= 8
     assert sum(b"predicted" in p for p in compiled) >= 4  # points that cut and were predicted
     assert compiled == twins
+
+
+def test_precheck_samples_are_the_inset_grid_samples_and_cached():
+    """The pre-check's samples: every PRECHECK_ROTATION_STRIDE-th rotation step of the
+    micro edges asked for, moved in radially and up by the inset; a repeated request
+    gets the same array, a different edge set or inset its own."""
+    from errpred import constants as K
+
+    tool, model, g = side_cut("slot", 0.0)
+    eng = model.engager
+    grid = eng.grid(1)
+    n, m = grid.shape
+    ok = model.edges.z <= 1.0
+    assert 0 < ok.sum() < m
+    for inset in (K.PRECHECK_INSET_MM, K.RAPID_TOUCH_MM):
+        got = eng.precheck_samples(ok, inset)
+        src = grid.samples.reshape(n, m, 3)[::K.PRECHECK_ROTATION_STRIDE][:, ok].reshape(-1, 3)
+        assert got.shape == src.shape
+        rho0, rho = np.hypot(src[:, 0], src[:, 1]), np.hypot(got[:, 0], got[:, 1])
+        assert np.allclose(rho, np.maximum(rho0 - inset, 0.0), atol=1e-12)
+        assert np.allclose(got[:, 2], src[:, 2] + inset, atol=1e-12)
+        assert eng.precheck_samples(ok.copy(), inset) is got
+    rows = len(range(0, n, K.PRECHECK_ROTATION_STRIDE))
+    assert eng.precheck_samples(~ok, K.PRECHECK_INSET_MM).shape == (rows * (~ok).sum(), 3)
