@@ -1,5 +1,7 @@
-"""The grid's gains shared between cutter locations with the same local cut
-(orient.grid_gains): each location's equal the direct computation at its own frame."""
+"""The planner's shared work (issue 20): the grid's gains shared between cutter
+locations with the same local cut (orient.grid_gains) equal the direct computation in
+each location's frame; the margins of locations sharing one modal system, computed in
+one call (orient.plan_margins), equal one call per location bit for bit."""
 
 from __future__ import annotations
 
@@ -55,3 +57,60 @@ def test_shared_grid_gains_equal_the_direct_ones_in_every_frame():
     np.testing.assert_allclose(sense[r, c], direct.cut_sense, rtol=0, atol=1e-9)
     # the frames differ: the same canonical gains turned, not copied
     assert not np.allclose(P[0, 0], P[1, 0])
+
+
+class _Rigid:
+    """A workpiece without modes: every point's system is the tool's, one object."""
+
+    def system_at(self, tool, point):
+        return tool
+
+
+class _OwnSystem:
+    """Every point its own system object (as a thin wall's): the same modes here."""
+
+    def system_at(self, tool, point):
+        return tool.with_tool_axis(tool.tool_axis)
+
+
+def test_margins_of_locations_sharing_a_system_equal_one_call_per_location():
+    from orient.dynamics import Mode, ModalSystem
+    from orient.plan_margins import _margins_rows
+    from orient.stability import zoa_margin_batch
+
+    tool_sys = ModalSystem.from_modes([(Mode.from_frequency(2150, 0.03, 6e6), (1, 0, 0)),
+                                       (Mode.from_frequency(2240, 0.028, 6.5e6), (0, 1, 0))],
+                                      source="tool")
+    rng = np.random.default_rng(3)
+    t, s = 9, 7
+    normal = rng.normal(size=(t, 3)) * [0.4, 0.4, 1.0] + [0, 0, 2.0]
+    feed = rng.normal(size=(t, 3))
+    lead = np.radians(rng.uniform(-30, 30, s))
+    tilt = np.radians(rng.uniform(-30, 30, s))
+    axes = posture_axis(normal[:, None, :], feed[:, None, :], lead[None], tilt[None])
+    ok = rng.random((t, s)) < 0.7
+    ok[4] = False                                  # a location without candidates
+    P = np.zeros((t, s, 3, 3))
+    obj = np.empty(t * s, dtype=object)
+    obj[:] = [LocalCut(0.3, 0.5, 1, 0.08)] * (t * s)
+    g = process_gain_batch(BALL, COEF, axes.reshape(-1, 3), np.repeat(normal, s, axis=0),
+                           np.repeat(feed, s, axis=0), obj)
+    P[:] = g.P.reshape(t, s, 3, 3) * 3.0            # margins on both sides of the cap
+    points = rng.normal(size=(t, 3))
+    for cap in (None, 1.5):
+        expect = np.full((t, s), np.inf)
+        for i in range(t):
+            sel = np.flatnonzero(ok[i])
+            if len(sel):
+                expect[i, sel] = zoa_margin_batch(
+                    P[i, sel], tool_sys, 10000.0, 2,
+                    mode_directions=tool_sys.directions_for_axes(axes[i, sel]), cap=cap)
+        for wp in (_Rigid(), _OwnSystem()):
+            systems = [None] * t
+            got = _margins_rows(BALL, wp, tool_sys, points, axes, ok, P, 10000.0, cap, systems)
+            np.testing.assert_array_equal(got, expect)
+            assert systems[4] is None and all(systems[i] is not None for i in range(t)
+                                              if ok[i].any())
+        assert np.isfinite(expect[ok]).all() and np.ptp(expect[ok]) > 0.1
+        if cap is not None:
+            assert np.any(expect[ok] == cap) and np.any(expect[ok] < cap)
