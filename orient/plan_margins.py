@@ -88,7 +88,7 @@ def _gains_rows(tool, coeffs, normal: np.ndarray, feed: np.ndarray, axes: np.nda
 def _margins_rows(tool, wp: WorkpieceModel, tool_sys: ModalSystem, points: np.ndarray,
                   axes: np.ndarray, ok: np.ndarray, P: np.ndarray, rpm: float,
                   cap: float | None = None, systems: list | None = None,
-                  progress=None) -> np.ndarray:
+                  progress=None, parallel: bool | None = None) -> np.ndarray:
     """ZOA margin (t, s) of candidate axes (t, s, 3) at ``rpm`` where ``ok``; inf elsewhere.
 
     With ``cap``, margins at or above it come back as ``cap`` (the score only
@@ -96,7 +96,8 @@ def _margins_rows(tool, wp: WorkpieceModel, tool_sys: ModalSystem, points: np.nd
     t, receives each cutter location's :class:`ModalSystem`. The cutter locations
     whose system is one object (the tool's alone where the workpiece is rigid) are
     computed in one call, the others one by one (the same margins either way: one
-    kernel body per posture).
+    kernel body per posture). ``parallel``: as :func:`orient.stability.zoa_margin_batch`
+    (False in a Dask task: the workers are the parallelism there).
     """
     t, s, _ = axes.shape
     margin = np.full((t, s), np.inf)
@@ -116,7 +117,7 @@ def _margins_rows(tool, wp: WorkpieceModel, tool_sys: ModalSystem, points: np.nd
             r, c = r_all[a:a + MARGIN_CALL_POSTURES], c_all[a:a + MARGIN_CALL_POSTURES]
             dirs = system.directions_for_axes(axes[r, c])
             margin[r, c] = zoa_margin_batch(P[r, c], system, rpm, tool.flutes,
-                                            mode_directions=dirs, cap=cap)
+                                            mode_directions=dirs, cap=cap, parallel=parallel)
         done += len(members)
         if progress is not None:
             progress(done, t)
@@ -154,11 +155,12 @@ def _chunk_gains_margins(tool, coeffs, wp: WorkpieceModel, tool_sys: ModalSystem
     P, sense = _gains_rows(tool, coeffs, normal, feed, axes, ok, cuts, parallel=False,
                            grid=grid)
     systems: list = [None] * axes.shape[0]
-    margin = _margins_rows(tool, wp, tool_sys, points, axes, ok, P, rpm, cap, systems)
+    margin = _margins_rows(tool, wp, tool_sys, points, axes, ok, P, rpm, cap, systems,
+                           parallel=False)
     cam = None
     if cam_rpm is not None:
         cam = _margins_rows(tool, wp, tool_sys, points, axes, _cam_column(ok), P,
-                            cam_rpm)[:, -1]
+                            cam_rpm, parallel=False)[:, -1]
     return P, sense, margin, systems, cam
 
 
