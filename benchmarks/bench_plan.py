@@ -31,7 +31,15 @@ monodromy matrix (scipy, OpenBLAS threads): on a loaded machine a multi-
 threaded OpenBLAS can be several times slower than one thread; compare with
 ``OPENBLAS_NUM_THREADS=1``.
 
+With ``--scenario PATH`` (issue 20: the planner's time per cutter location), only
+:func:`orient.plan.plan` on that scenario, ``--plan-repeats`` times in this process
+(the first run may compile numba's kernels; it is reported but left out of the
+statistics when there are more runs): per run the wall and CPU seconds (this process,
+all its threads), the load average before it and the stage times; then the min and
+median over the runs, per touching cutter location.
+
 Usage: python benchmarks/bench_plan.py [--points N] [--sdm-speeds N] [--repeats N]
+       python benchmarks/bench_plan.py --scenario PATH [--plan-repeats N]
 """
 
 from __future__ import annotations
@@ -261,6 +269,28 @@ def run_plan(label: str, path: str) -> dict:
     return {"wall": wall, **sec}
 
 
+def per_location(path: str, repeats: int) -> None:
+    """``plan`` on one scenario ``repeats`` times: wall and CPU per touching location."""
+    scn = load_plan_scenario(path)
+    rows = []
+    for k in range(repeats):
+        load = os.getloadavg()[0]
+        t0, c0 = time.perf_counter(), time.process_time()
+        res = plan(scn)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        t = res.stats["touching"]
+        sec = res.stats["seconds"]
+        print(f"run {k + 1}: {wall:.1f} s wall, {cpu:.1f} s CPU, load {load:.1f} before; "
+              f"{t} touching of {res.stats['points']} points; "
+              + ", ".join(f"{a} {b:.1f}" for a, b in sec.items() if a != "total"))
+        rows.append((wall / t * 1e3, cpu / t * 1e3))
+    use = np.array(rows[1:] if len(rows) > 1 else rows)
+    print(f"per touching location over {len(use)} run(s)"
+          f"{' (the first left out)' if len(rows) > 1 else ''}: wall min "
+          f"{use[:, 0].min():.1f} ms, median {np.median(use[:, 0]):.1f} ms; CPU min "
+          f"{use[:, 1].min():.1f} ms, median {np.median(use[:, 1]):.1f} ms")
+
+
 # ---------------------------------------------------------------- 3. lobes
 def lobes(scn, setup, speeds: int, sdm_speeds: int, label: str) -> None:
     rpm = np.linspace(5000.0, 15000.0, speeds)
@@ -300,8 +330,16 @@ def main(argv=None) -> int:
                     help="speeds of the grid computed by the time-periodic method "
                          "(evenly spread; the rest extrapolated)")
     ap.add_argument("--skip-rigid", action="store_true")
+    ap.add_argument("--scenario", help="only plan this scenario, --plan-repeats times")
+    ap.add_argument("--plan-repeats", type=int, default=3)
     args = ap.parse_args(argv)
     import numba
+
+    if args.scenario:
+        print(f"{os.cpu_count()} CPUs, numba threads {numba.get_num_threads()}; load average "
+              f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+        per_location(args.scenario, args.plan_repeats)
+        return 0
 
     t_start = time.perf_counter()
     blas = os.environ.get("OPENBLAS_NUM_THREADS", "unset (one per CPU)")

@@ -195,6 +195,12 @@ ZOA_MIN_ZETA = 1e-3
 #: of the finest step any band asks for there to the previous kept point is
 #: dropped (the union of the bands would otherwise be denser than any band) [-].
 ZOA_THIN_FRACTION = 0.5
+#: ZOA margins of fewer postures than this in one call are computed in the calling
+#: thread, more over numba's threads [-]. A thread launch cost about 6 ms of CPU (20 ms
+#: wall) a call on the shared 2-core machine, a capped margin 7-8 us and an exact one
+#: about 15 us a posture in one thread: the planner's calls (a cutter location's 226
+#: postures) spent nearly all their time launching threads.
+ZOA_PARALLEL_MIN_POSTURES = 4096
 #: Mode directions with |d_a . d_b| above this share a group (add their receptances) [-].
 GROUP_PARALLEL_TOL = 1.0 - 1e-9
 

@@ -64,7 +64,7 @@ from nc.path import CutterLocations, cutter_locations
 from .contacts import Contacts, ball_contacts
 from .cuts import local_cuts
 from .dynamics import ModalSystem
-from .gain import process_gain, process_gain_batch
+from .gain import process_gain
 from .geometry import inclination, lead_tilt_of, posture_axis
 from .scenario import PlanScenario, ScenarioError
 from .choice import (
@@ -78,8 +78,20 @@ from .choice import (
     _Inherited,
     _inherited,
 )
+from .plan_margins import (
+    SPEED_SAMPLE_POINTS,
+    _cam_column,
+    _choose_speed,
+    _dask_gains_margins,
+    _gains,
+    _gains_rows,
+    _grid_postures,
+    _margins,
+    _uncap,
+    candidate_grid,
+)
 from .reasons import _reasons
-from .stability import recommended_samples, sdm_margin, zoa_margin_batch
+from .stability import recommended_samples, sdm_margin
 from .workpiece import WorkpieceModel
 
 __all__ = ["SDM_CHECK_POINTS", "PlanResult", "candidate_grid", "plan"]
@@ -90,14 +102,8 @@ SDM_CHECK_POINTS = 6
 #: Score preference for the CAM posture among equally good ones, per radian
 #: of axis change [-/rad] (small against any margin difference).
 CAM_PREFERENCE_PER_RAD = 1.0e-3
-#: Cutter locations (spread along the path) on which a spindle speed is chosen [-].
-SPEED_SAMPLE_POINTS = 24
-#: Cutter locations per Dask task when planning on a cluster [-].
-DASK_CHUNK_POINTS = 256
-#: Sampled cutter locations per Dask task of the speed choice [-]: small tasks (about
-#: 0.4 s each on the bundled thin wall), so that a worker busy elsewhere (the job's
-#: warm-up) holds up none for long: the idle worker takes them.
-DASK_SPEED_ROWS = 4
+
+
 @dataclass(frozen=True, eq=False)
 class PlanResult:
     """A planned path and why each posture was chosen.
@@ -146,14 +152,6 @@ class PlanResult:
     infeasible: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
-def candidate_grid(options) -> tuple[np.ndarray, np.ndarray]:
-    """Lead and tilt values of the search grid [rad], shapes (nl,), (nt,)."""
-    nl, nt = options.grid
-    lead = np.linspace(*options.lead_range_rad, nl) if nl > 1 else np.zeros(1)
-    tilt = np.linspace(*options.tilt_range_rad, nt) if nt > 1 else np.zeros(1)
-    return lead, tilt
-
-
 def _reachable(machine, tips: np.ndarray, axes: np.ndarray) -> np.ndarray:
     """True where some inverse solution of the machine is inside its limits."""
     s0, s1 = machine.inverse(tips.reshape(-1, 3), axes.reshape(-1, 3))
@@ -170,200 +168,6 @@ def _off_pole(machine, axes: np.ndarray, floor_rad: float) -> np.ndarray:
         return np.ones(axes.shape[:-1], bool)
     pole = np.asarray(machine.axes[1].vector, dtype=float)
     return np.abs(axes @ pole) <= np.cos(floor_rad) + 1e-12
-
-
-def _gains_rows(tool, coeffs, normal: np.ndarray, feed: np.ndarray, axes: np.ndarray,
-                ok: np.ndarray, cuts: list, parallel: bool = True
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """Process gain P (t, s, 3, 3) [N/m] and cut sense (t, s) of candidate axes (t, s, 3)
-    where ``ok`` (0 elsewhere), at cutter locations with ``normal``, ``feed`` (t, 3);
-    ``parallel``: over numba's threads (not in a Dask task: the workers are the
-    parallelism there, and the threaded kernel would only add its compilation)."""
-    t, s, _ = axes.shape
-    sense = np.zeros((t, s))
-    P = np.zeros((t, s, 3, 3))
-    pi, ps = np.nonzero(ok)
-    if len(pi) == 0:
-        return P, sense
-    per_point = np.empty(len(cuts), dtype=object)
-    per_point[:] = cuts
-    gains = process_gain_batch(tool, coeffs, axes[pi, ps], normal[pi], feed[pi], per_point[pi],
-                               parallel=parallel)
-    sense[pi, ps] = gains.cut_sense
-    P[pi, ps] = gains.P
-    return P, sense
-
-
-def _margins_rows(tool, wp: WorkpieceModel, tool_sys: ModalSystem, points: np.ndarray,
-                  axes: np.ndarray, ok: np.ndarray, P: np.ndarray, rpm: float,
-                  cap: float | None = None, systems: list | None = None,
-                  progress=None) -> np.ndarray:
-    """ZOA margin (t, s) of candidate axes (t, s, 3) at ``rpm`` where ``ok``; inf elsewhere.
-
-    With ``cap``, margins at or above it come back as ``cap`` (the score only
-    needs ``min(margin, target)``; much faster). ``systems``, a list of length
-    t, receives each cutter location's :class:`ModalSystem`.
-    """
-    t, s, _ = axes.shape
-    margin = np.full((t, s), np.inf)
-    for i in range(t):
-        sel = np.flatnonzero(ok[i])
-        if len(sel) == 0:
-            continue
-        system = wp.system_at(tool_sys, points[i])
-        if systems is not None:
-            systems[i] = system
-        dirs = system.directions_for_axes(axes[i, sel])
-        margin[i, sel] = zoa_margin_batch(P[i, sel], system, rpm, tool.flutes,
-                                          mode_directions=dirs, cap=cap)
-        if progress is not None:
-            progress(i + 1, t)
-    return margin
-
-
-def _gains(scn, contacts: Contacts, idx: np.ndarray, axes: np.ndarray, ok: np.ndarray,
-           cuts: list) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_gains_rows` at the touching cutter locations ``idx``."""
-    return _gains_rows(scn.base.tool, scn.base.coefficients, contacts.normal[idx],
-                       contacts.feed[idx], axes, ok, cuts)
-
-
-def _margins(scn, tool_sys: ModalSystem, wp: WorkpieceModel, contacts: Contacts,
-             idx: np.ndarray, axes: np.ndarray, ok: np.ndarray, P: np.ndarray, rpm: float,
-             progress=None, cap: float | None = None, systems: list | None = None
-             ) -> np.ndarray:
-    """:func:`_margins_rows` at the touching cutter locations ``idx``."""
-    return _margins_rows(scn.base.tool, wp, tool_sys, contacts.point[idx], axes, ok, P, rpm,
-                         cap, systems, progress)
-
-
-def _chunk_gains_margins(tool, coeffs, wp: WorkpieceModel, tool_sys: ModalSystem,
-                         points: np.ndarray, normal: np.ndarray, feed: np.ndarray,
-                         axes: np.ndarray, ok: np.ndarray, cuts: list, rpm: float,
-                         cap: float, cam_rpm: float | None = None) -> tuple:
-    """Process gains, cut senses, capped margins and systems of a chunk of cutter
-    locations (a Dask task; the same functions as the one-process path); with
-    ``cam_rpm``, also the CAM posture's (the last column's) exact margin at that speed
-    (None otherwise)."""
-    P, sense = _gains_rows(tool, coeffs, normal, feed, axes, ok, cuts, parallel=False)
-    systems: list = [None] * axes.shape[0]
-    margin = _margins_rows(tool, wp, tool_sys, points, axes, ok, P, rpm, cap, systems)
-    cam = None
-    if cam_rpm is not None:
-        cam = _margins_rows(tool, wp, tool_sys, points, axes, _cam_column(ok), P,
-                            cam_rpm)[:, -1]
-    return P, sense, margin, systems, cam
-
-
-def _cam_column(ok: np.ndarray) -> np.ndarray:
-    """Only the CAM posture (the last column) of ``ok``'s shape."""
-    out = np.zeros_like(ok)
-    out[:, -1] = True
-    return out
-
-
-def _dask_gains_margins(client, scn, wp, tool_sys, contacts, idx, axes, ok, cuts, rpm, cap,
-                        chunk: int = DASK_CHUNK_POINTS, wp_f=None,
-                        cam_rpm: float | None = None) -> tuple:
-    """:func:`_chunk_gains_margins` over chunks of cutter locations on a Dask cluster;
-    the workpiece model is scattered once (``wp_f``: already scattered); results are put
-    back in order. Returns P, sense, margin, systems and the CAM margins (None without
-    ``cam_rpm``)."""
-    t = len(idx)
-    wp_f = client.scatter(wp, broadcast=True) if wp_f is None else wp_f
-    tool, coeffs = scn.base.tool, scn.base.coefficients
-    futures = []
-    for a in range(0, t, chunk):
-        b = min(a + chunk, t)
-        r = idx[a:b]
-        futures.append(client.submit(
-            _chunk_gains_margins, tool, coeffs, wp_f, tool_sys, contacts.point[r],
-            contacts.normal[r], contacts.feed[r], axes[a:b], ok[a:b], cuts[a:b], rpm, cap,
-            cam_rpm, pure=False))
-    parts = client.gather(futures)
-    P = np.concatenate([p[0] for p in parts])
-    sense = np.concatenate([p[1] for p in parts])
-    margin = np.concatenate([p[2] for p in parts])
-    systems = [sys_ for p in parts for sys_ in p[3]]
-    cam = None if cam_rpm is None else np.concatenate([p[4] for p in parts])
-    return P, sense, margin, systems, cam
-
-
-def _uncap(scn, systems: list, axes: np.ndarray, P: np.ndarray, rpm: float,
-           margin: np.ndarray, cols: np.ndarray, cap: float, client=None,
-           chunk: int = DASK_CHUNK_POINTS) -> None:
-    """Exact margins, in place, of the postures ``margin[r, cols[r, :]]`` found capped
-    (with ``client``: chunks of rows on its workers, the same function)."""
-    flutes = scn.base.tool.flutes
-    wanted = []
-    for r in range(margin.shape[0]):
-        c = np.unique(cols[r])
-        c = c[margin[r, c] >= cap]
-        if len(c) and systems[r] is not None:
-            wanted.append((r, c))
-    if client is None or len(wanted) < 2:
-        parts = [_uncap_rows(flutes, rpm, [(systems[r], axes[r, c], P[r, c])
-                                           for r, c in wanted])]
-    else:
-        futures = [client.submit(_uncap_rows, flutes, rpm,
-                                 [(systems[r], axes[r, c], P[r, c]) for r, c in
-                                  wanted[a:a + chunk]], pure=False)
-                   for a in range(0, len(wanted), chunk)]
-        parts = client.gather(futures)
-    for (r, c), m in zip(wanted, (m for p in parts for m in p), strict=True):
-        margin[r, c] = m
-
-
-def _uncap_rows(flutes: int, rpm: float, rows: list) -> list:
-    """Exact ZOA margins of ``rows``: (system, axes (k, 3), P (k, 3, 3)) each."""
-    return [zoa_margin_batch(P_, sys_r, rpm, flutes,
-                             mode_directions=sys_r.directions_for_axes(ax))
-            for sys_r, ax, P_ in rows]
-
-
-def _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm0: float,
-                  client=None, wp_f=None) -> float:
-    """Spindle speed from the lobes: the speed of ``[orient.spindle]``'s range whose
-    worst sampled cutter location has the best reachable (capped) margin; ties go to
-    the speed nearest the programmed one. With ``client``, the sampled cutter locations
-    are shared among its workers (``wp_f``: the workpiece model scattered)."""
-    sp = scn.options.spindle
-    speeds = np.linspace(*sp.range_rpm, sp.steps)
-    rows = np.unique(np.linspace(0, len(idx) - 1, min(SPEED_SAMPLE_POINTS, len(idx)))
-                     .astype(int))
-    rows = [r for r in rows if ok[r].any()]
-    target = scn.options.margin_target
-    args = [(contacts.point[idx[r]], axes[r, ok[r]], P[r, ok[r]]) for r in rows]
-    flutes = scn.base.tool.flutes
-    if client is None:
-        bests = _speed_rows(wp, tool_sys, speeds, flutes, target, args)
-    else:
-        wp_f = client.scatter(wp, broadcast=True) if wp_f is None else wp_f
-        futures = [client.submit(_speed_rows, wp_f, tool_sys, speeds, flutes, target,
-                                 args[a:a + DASK_SPEED_ROWS], pure=False)
-                   for a in range(0, len(args), DASK_SPEED_ROWS)]
-        bests = [x for part in client.gather(futures) for x in part]
-    score = np.full(len(speeds), np.inf)
-    for best in bests:
-        score = np.minimum(score, best)
-    top = np.flatnonzero(score >= score.max() - 1e-9)
-    return float(speeds[top[np.argmin(np.abs(speeds[top] - rpm0))]])
-
-
-def _speed_rows(wp: WorkpieceModel, tool_sys: ModalSystem, speeds: np.ndarray, flutes: int,
-                target: float, rows: list) -> list:
-    """Per sampled cutter location (point, feasible axes (k, 3), their P (k, 3, 3)): the
-    best capped margin of its postures at each of ``speeds`` (a Dask task or not)."""
-    out = []
-    for point, ax, P_ in rows:
-        system = wp.system_at(tool_sys, point)
-        dirs = system.directions_for_axes(ax)
-        k = len(ax)
-        m = zoa_margin_batch(np.tile(P_, (len(speeds), 1, 1)), system,
-                             np.repeat(speeds, k), flutes,
-                             mode_directions=np.tile(dirs, (len(speeds), 1, 1)))
-        out.append(np.minimum(m.reshape(len(speeds), k), target).max(axis=1))
-    return out
 
 
 def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
@@ -461,7 +265,7 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
         sample_f = client.submit(_gains_rows, tool, scn.base.coefficients,
                                  contacts.normal[idx[rows_s]], contacts.feed[idx[rows_s]],
                                  axes[rows_s], ok[rows_s], [cuts[r] for r in rows_s], False,
-                                 pure=False)
+                                 _grid_postures(opt), pure=False)
     tool_sys = ModalSystem.tool(scn.base.compliance)
     wp = WorkpieceModel(scn.workpiece, contacts.point[idx])
     t2 = time.perf_counter()
@@ -616,6 +420,7 @@ def _sdm_checks(scn, tool_sys, wp, contacts, idx, u_new, cuts, rpm, zoa, runs
             break
         if all(runs[r] != runs[p] for p in picked):
             picked.append(int(r))
+
     out = []
     for r in picked:
         i = int(idx[r])
@@ -632,4 +437,3 @@ def _sdm_checks(scn, tool_sys, wp, contacts, idx, u_new, cuts, rpm, zoa, runs
         out.append({"point": i, "zoa_margin": float(zoa[r]), "sdm_margin": float(res.margin),
                     "kind": res.kind})
     return out
-

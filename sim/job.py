@@ -173,9 +173,13 @@ def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
     base = scn.base
     for part in parts:
         if part == "margins":
+            # both kernels: a cutter location's postures in one thread, the speed
+            # choice's and a rigid part's many postures over the threads
             P = np.broadcast_to(np.diag([1e6, 1e6, 1e5]), (2, 3, 3)).copy()
-            zoa_margin_batch(P, ModalSystem.tool(base.compliance), [9000.0, 10000.0],
-                             base.tool.flutes, cap=scn.options.margin_target)
+            for parallel in (False, True):
+                zoa_margin_batch(P, ModalSystem.tool(base.compliance), [9000.0, 10000.0],
+                                 base.tool.flutes, cap=scn.options.margin_target,
+                                 parallel=parallel)
         elif part == "predict":
             prog = base.read_program()
             build_predictor(base, prog).run(range(min(len(prog), JOB_WARM_BLOCKS)))

@@ -46,6 +46,7 @@ from orient.constants import (
     ZOA_MIN_ZETA,
     ZOA_NEAR_HALF_WIDTH,
     ZOA_NEAR_POINTS,
+    ZOA_PARALLEL_MIN_POSTURES,
     ZOA_THIN_FRACTION,
 )
 
@@ -362,8 +363,8 @@ def zoa_lobes(P: Any, system: ModalSystem, teeth: int, rpm: Any, omega_rad_s: An
 
 def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, *,
                      mode_directions: Any = None, omega_rad_s: Any = None,
-                     cap: float | None = None) -> np.ndarray:
-    """ZOA margins of many postures at once (numba, parallel over postures).
+                     cap: float | None = None, parallel: bool | None = None) -> np.ndarray:
+    """ZOA margins of many postures at once (numba, parallel over postures when many).
 
     Parameters
     ----------
@@ -387,6 +388,10 @@ def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, 
         are exact. Much faster when only ``min(margin, cap)`` matters (a
         planner's score): eigenvalues are computed only at frequencies where
         ``||Q diag(g)||_F >= 1 / (2 cap)``, a bound on their real parts.
+    parallel : bool, optional
+        Over numba's threads; default: from ``ZOA_PARALLEL_MIN_POSTURES`` postures on
+        (below, launching the threads costs more than the margins). The same margins
+        either way (the same loop body per posture).
 
     Returns
     -------
@@ -425,5 +430,8 @@ def zoa_margin_batch(P: Any, system: ModalSystem, spindle_rpm: Any, teeth: int, 
         d = md[:, first, :]
     taus = tooth_period(rpm, n)
     c = np.inf if cap is None else _positive("cap", cap)
-    return _k.margin_batch(np.ascontiguousarray(p), np.ascontiguousarray(d), w, gw, taus,
-                           mk, mm, mc, mr, group, c)
+    if parallel is None:
+        parallel = p.shape[0] >= ZOA_PARALLEL_MIN_POSTURES
+    kernel = _k.margin_batch if parallel else _k.margin_batch_serial
+    return kernel(np.ascontiguousarray(p), np.ascontiguousarray(d), w, gw, taus, mk, mm, mc,
+                  mr, group, c)
