@@ -525,3 +525,63 @@ def test_cutter_switch_takes_the_places_the_cuts_engage():
     ref[rows, cols] = q_b[rows]
     assert both.any() and (on_b & ~both).any() and p > 0
     np.testing.assert_array_equal(c.surface, ref)
+
+
+def test_advance_pieces_is_advance_piece_by_piece_bit_for_bit():
+    """The cutter's pieces in one kernel call (a stretch of servo ticks between two cutter
+    locations) give what advance gives piece by piece: the blend going from piece to
+    piece, the material's scatter, the generated surface per piece, the clock, the
+    modal state and the surface memory; and the idle pieces as idle does."""
+    import dataclasses
+
+    from sim.cutter import Cut, Cutter
+    from sim.generation import tooth_surface, tooth_surfaces
+
+    a, _ = _ball_cut(30.0, 10.0)
+    b0, _ = _ball_cut(30.0, 13.0, a.steps_per_rev)
+    b = dataclasses.replace(a, table=b0.table, generating=b0.generating)
+    spr = a.steps_per_rev
+    counts = [7, 613, 1, 1500, 2 * spr + 3, 240]
+    w = np.array([0.0, 0.004, 0.4, 0.4004, 0.66, 0.99, 1.0])
+    rng = np.random.default_rng(5)
+    v = 1.0 + 0.01 * rng.standard_normal(sum(counts))
+    one, many = Cutter(spr, a.n_edges), Cutter(spr, a.n_edges)
+    for c in (one, many):
+        c.switch(Cut(a, b, 0.0))
+        c.advance(a, 333, previous=b, weight=(0.0, 0.0))
+    runs, k = [], 0
+    for p, n in enumerate(counts):
+        runs.append(one.advance(a, n, previous=b, weight=(w[p], w[p + 1]),
+                                variation=v[k:k + n]))
+        k += n
+    run, teeth = many.advance_pieces(a, counts, previous=b, weights=(w[:-1], w[1:]),
+                                     variation=v)
+    for key in ("time_s", "force_N", "displacement_m", "tool_acceleration_m_s2",
+                "chip_mean_mm", "contact_loss", "surface_offset_mm"):
+        np.testing.assert_array_equal(getattr(run, key),
+                                      np.concatenate([getattr(r, key) for r in runs]))
+    np.testing.assert_array_equal(teeth, [r.surface_offset_mm.size for r in runs])
+    assert teeth.sum() > 5
+    for x, y in ((one.state, many.state), (one.surface, many.surface)):
+        np.testing.assert_array_equal(x, y)
+    assert (one.step, one.time_s) == (many.step, many.time_s)
+    assert many.cut.same_as(one.cut)
+    idle = [one.idle(a.dt_s, n, a.system) for n in counts[:3]]
+    free = many.idle_pieces(a.dt_s, counts[:3], a.system)
+    np.testing.assert_array_equal(free.tool_acceleration_m_s2,
+                                  np.concatenate([r.tool_acceleration_m_s2 for r in idle]))
+    np.testing.assert_array_equal(free.time_s, np.concatenate([r.time_s for r in idle]))
+    np.testing.assert_array_equal(one.state, many.state)
+    assert many.cut is None and one.time_s == many.time_s
+    # the surface of pieces at once, with and without their own generating weights
+    d = rng.normal(0.0, 1e-6, (sum(counts), 3))
+    starts = 11 + np.cumsum(counts) - counts
+    g = rng.random((len(counts), a.steps_per_tooth)) * (rng.random(a.steps_per_tooth) < 0.1)
+    for gen in (None, g):
+        got, per = tooth_surfaces(d, a, starts, counts, gen)
+        want = [tooth_surface(d[s - 11:s - 11 + n], a, s, None if gen is None else gen[p])
+                for p, (s, n) in enumerate(zip(starts, counts))]
+        np.testing.assert_array_equal(got, np.concatenate(want))
+        np.testing.assert_array_equal(per, [x.size for x in want])
+    with pytest.raises(ValueError, match="weights"):
+        many.advance_pieces(a, counts, previous=b, weights=(w[:-1], w[1:] + 0.5))
