@@ -585,3 +585,57 @@ def test_advance_pieces_is_advance_piece_by_piece_bit_for_bit():
         np.testing.assert_array_equal(per, [x.size for x in want])
     with pytest.raises(ValueError, match="weights"):
         many.advance_pieces(a, counts, previous=b, weights=(w[:-1], w[1:] + 0.5))
+
+
+def _forced_before(model):
+    """forced_response as it was written before its parts were kept and its filters ran in
+    a kernel (scipy's lfilter per mode and eigenvalue): the reference, bit for bit."""
+    import scipy.signal
+
+    ptr, _pos, _e, h0, _nrm, f0, f1 = model.table
+    spr, nm = model.steps_per_rev, model.system.n_modes
+    sample = np.repeat(np.arange(spr), np.diff(ptr))
+    fe = 1.0 * (f0 + h0[:, None] * f1)
+    force = np.stack([np.bincount(sample, fe[:, a], minlength=spr) for a in range(3)], axis=1)
+    u = force @ model.system.direction.T
+    phi, gam = model.step_map
+    lam, vec = np.linalg.eig(phi)
+    z = np.linalg.solve(vec, gam[..., None].astype(complex))[..., 0]
+    tail = np.empty((spr + 1, nm, 2), complex)
+    uc = np.zeros((nm, spr + 1), complex)
+    uc[:, :spr] = u.T
+    for m in range(nm):
+        for i in range(2):
+            tail[:, m, i] = scipy.signal.lfilter(np.array([0.0, 1.0]),
+                                                 np.array([1.0, -lam[m, i]]), uc[m])
+    w0 = z * tail[spr] / (1.0 - lam ** spr)
+    w = np.cumprod(np.concatenate([np.ones((1, nm, 2), complex),
+                                   np.broadcast_to(lam, (spr - 1, nm, 2))]), axis=0)
+    w = w * w0[None] + z[None] * tail[:-1]
+    return np.einsum("mij,pmj->pmi", vec, w).real
+
+
+def test_forced_response_with_kept_parts_is_the_former_one_bit_for_bit():
+    """The forced response with its unchanging parts kept (static force per table, the
+    step map's eigen-decomposition) and its filters in sim._kernels.forced_tail equals
+    the former computation bit for bit, kept parts reused or not, for two tables on the
+    same dynamics and for other dynamics (three tool modes)."""
+    import dataclasses
+
+    from errpred.dynamics import Mode
+    from sim.cutting import with_system
+    from sim.forced import forced_response
+
+    a, u = _ball_cut(30.0, 10.0)
+    b0, _ = _ball_cut(30.0, 13.0, a.steps_per_rev)
+    b = dataclasses.replace(a, table=b0.table, generating=b0.generating)
+    modes = [(Mode.from_frequency(f, 0.02, 2e6), d) for f, d in
+             ((700.0, (1, 0, 0)), (1300.0, (0, 1, 0)), (2900.0, (0.6, 0.8, 0)))]
+    c = with_system(b, ModalSystem.from_modes(modes, source="tool"), u)
+    parts: dict = {}
+    for m in (a, b, a, c, b):
+        ref = _forced_before(m)
+        assert np.abs(ref).max() > 0
+        for kept in (parts, None):
+            np.testing.assert_array_equal(forced_response(m, parts=kept), ref)
+    assert len(parts) == 4          # two tables, two step maps
