@@ -31,6 +31,7 @@ import time
 from pathlib import Path
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")                  # one core
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")               # BLAS too
 
 import numpy as np
 
@@ -78,7 +79,8 @@ def main(argv=None) -> int:
             "cam": (scn, cam)}
     picked = [r.strip() for r in args.runs.split(",") if r.strip()]
     print(f"load average at start {', '.join(f'{x:.2f}' for x in os.getloadavg())}; "
-          f"NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}")
+          f"NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}, "
+          f"OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}")
     t = time.perf_counter()
     s0, _ = runs["cam"]
     verify_program(s0, points=(cam[0], cam[0] + 3))

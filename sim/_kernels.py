@@ -13,7 +13,7 @@ from numba import njit
 
 from .constants import SUBNORMAL_FLUSH
 
-__all__ = ["accel_filter", "integrate"]
+__all__ = ["accel_filter", "forced_tail", "integrate"]
 
 _TINY = SUBNORMAL_FLUSH
 
@@ -88,6 +88,35 @@ def _leave(i, ptr, pos, edge, h0, nrm, h, q, linear, surface, o_ptr, o_pos, o_ed
 
 
 @njit(cache=True, nogil=True)
+def _ring_down(n_steps, phi_d, gam_d, dirs, mk, mc, mm, mr, tool_mode, half_dt, state, force,
+               disp, acc_tool, chip_mean, contact_loss):
+    """:func:`integrate`'s steps when neither table engages anything (an air move): the
+    same arithmetic with the force zero (``u = d . 0`` kept as written, so that even the
+    signs of zeros are the same), without the tables' empty loops."""
+    nm = dirs.shape[0]
+    for n in range(n_steps):
+        for a in range(3):
+            disp[n, a] = 0.0
+            force[n, a] = 0.0
+            acc_tool[n, a] = 0.0
+        for k in range(nm):
+            for a in range(3):
+                disp[n, a] += dirs[k, a] * (state[k, 0] + (half_dt + mr[k]) * state[k, 1])
+        chip_mean[n] = 0.0
+        contact_loss[n] = 0
+        for k in range(nm):
+            u = dirs[k, 0] * 0.0 + dirs[k, 1] * 0.0 + dirs[k, 2] * 0.0
+            if tool_mode[k]:
+                acc = (u - mc[k] * state[k, 1] - mk[k] * state[k, 0]) / mm[k]
+                for a in range(3):
+                    acc_tool[n, a] += dirs[k, a] * acc
+            x0 = phi_d[k, 0, 0] * state[k, 0] + phi_d[k, 0, 1] * state[k, 1] + gam_d[k, 0] * u
+            x1 = phi_d[k, 1, 0] * state[k, 0] + phi_d[k, 1, 1] * state[k, 1] + gam_d[k, 1] * u
+            state[k, 0] = _flushed(x0)
+            state[k, 1] = _flushed(x1)
+
+
+@njit(cache=True, nogil=True)
 def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1,
               ptr_b, pos_b, edge_b, h0_b, nrm_b, f0_b, f1_b, blend,
               phi_d, gam_d, dirs, scale,
@@ -131,6 +160,10 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1,
     (module docstring).
     """
     nm = dirs.shape[0]
+    if ptr[spr] == 0 and ptr_b[spr] == 0:         # nothing engaged: the modes ring down
+        _ring_down(n_steps, phi_d, gam_d, dirs, mk, mc, mm, mr, tool_mode, half_dt, state,
+                   force, disp, acc_tool, chip_mean, contact_loss)
+        return
     q = np.zeros(3)
     F = np.zeros(3)
     most = 1
@@ -218,17 +251,64 @@ def accel_filter(acc, rotation, factor, sos, zi, out):
     """
     n = acc.shape[0]
     ns = sos.shape[0]
-    for c in range(2):
-        r0 = rotation[c, 0]
-        r1 = rotation[c, 1]
-        r2 = rotation[c, 2]
-        for k in range(n):
-            x = factor * (acc[k, 0] * r0 + acc[k, 1] * r1 + acc[k, 2] * r2)
-            for s in range(ns):
-                y = sos[s, 0] * x + zi[s, 0, c]
-                z0 = sos[s, 1] * x - sos[s, 4] * y + zi[s, 1, c]
-                z1 = sos[s, 2] * x - sos[s, 5] * y
-                zi[s, 0, c] = _flushed(z0)
-                zi[s, 1, c] = _flushed(z1)
-                x = y
-            out[k, c] = x
+    # the two channels side by side: two independent recurrences in one loop (each with
+    # its own arithmetic, as channel by channel), so the processor overlaps them
+    for k in range(n):
+        x = factor * (acc[k, 0] * rotation[0, 0] + acc[k, 1] * rotation[0, 1]
+                      + acc[k, 2] * rotation[0, 2])
+        v = factor * (acc[k, 0] * rotation[1, 0] + acc[k, 1] * rotation[1, 1]
+                      + acc[k, 2] * rotation[1, 2])
+        for s in range(ns):
+            y = sos[s, 0] * x + zi[s, 0, 0]
+            w = sos[s, 0] * v + zi[s, 0, 1]
+            z0 = sos[s, 1] * x - sos[s, 4] * y + zi[s, 1, 0]
+            z1 = sos[s, 2] * x - sos[s, 5] * y
+            u0 = sos[s, 1] * v - sos[s, 4] * w + zi[s, 1, 1]
+            u1 = sos[s, 2] * v - sos[s, 5] * w
+            zi[s, 0, 0] = _flushed(z0)
+            zi[s, 1, 0] = _flushed(z1)
+            zi[s, 0, 1] = _flushed(u0)
+            zi[s, 1, 1] = _flushed(u1)
+            x = y
+            v = w
+        out[k, 0] = x
+        out[k, 1] = v
+
+
+@njit(cache=True, nogil=True)
+def forced_tail(u, neg_lam, tail):
+    """The first-order filters of :func:`sim.forced.forced_response`: for each mode ``m``
+    and eigenvalue ``lam[m, i]`` (``neg_lam`` = ``-lam`` as a complex array, scipy's
+    ``a[1]``), ``tail[p + 1] = lam tail[p] + u[p]`` from ``tail[0] = 0``
+    over ``u[:, m]`` (spr,) and a final 0 (``tail`` (spr + 1, nm, 2) complex), with the
+    arithmetic of ``scipy.signal.lfilter([0, 1], [1, -lam], ...)`` on complex numbers
+    (scipy's transposed direct form, its normalisation by ``a[0] = 1`` and its complex
+    products written out in real and imaginary parts, in its order), so the same
+    numbers bit for bit, without a Python call per mode and eigenvalue."""
+    spr, nm = u.shape
+    a0r = 1.0
+    a0i = 0.0
+    mag = a0r * a0r + a0i * a0i
+    b0r, b0i, b1r, b1i = 0.0, 0.0, 1.0, 0.0
+    for m in range(nm):
+        for i in range(2):
+            a1r = neg_lam[m, i].real
+            a1i = neg_lam[m, i].imag
+            zr = 0.0
+            zi = 0.0
+            for k in range(spr + 1):
+                xr = u[k, m] if k < spr else 0.0
+                xi = 0.0
+                tr = b0r * a0r + b0i * a0i
+                ti = b0i * a0r - b0r * a0i
+                yr = zr + (tr * xr - ti * xi) / mag
+                yi = zi + (ti * xr + tr * xi) / mag
+                tr = b1r * a0r + b1i * a0i
+                ti = b1i * a0r - b1r * a0i
+                zr = (tr * xr - ti * xi) / mag
+                zi = (ti * xr + tr * xi) / mag
+                tr = a1r * a0r + a1i * a0i
+                ti = a1i * a0r - a1r * a0i
+                zr -= (tr * yr - ti * yi) / mag
+                zi -= (ti * yr + tr * yi) / mag
+                tail[k, m, i] = complex(yr, yi)

@@ -24,7 +24,7 @@ from orient.dynamics import ModalSystem
 
 from .cutting import CuttingModel, MillingRun, _integrate, _step_map, empty_table
 from .forced import forced_response, mid_step_displacement
-from .generation import tooth_surface
+from .generation import tooth_surfaces
 
 __all__ = ["Cut", "Cutter"]
 
@@ -94,6 +94,7 @@ class Cutter:
         #: The cut in effect after the last :meth:`advance` or :meth:`switch` (None: idle).
         self.cut: Cut | None = None
         self._forced_cache: OrderedDict = OrderedDict()
+        self._forced_parts: dict = {}            # forced_response's unchanging parts
         self._idle: tuple | None = None          # (system, dt_s, model) of the last idle
 
     def switch(self, new: Cut | CuttingModel | None,
@@ -150,7 +151,7 @@ class Cutter:
         for m, w in cut.parts():
             hit = self._forced_cache.get(id(m))
             if hit is None or hit[0] is not m:
-                hit = (m, forced_response(m))
+                hit = (m, forced_response(m, parts=self._forced_parts))
                 self._forced_cache[id(m)] = hit
                 if len(self._forced_cache) > _FORCED_CACHE:
                     self._forced_cache.popitem(last=False)
@@ -179,6 +180,35 @@ class Cutter:
         the start of the stretch to ``weight[1]`` at its end, ``previous`` has the
         rest. ``variation`` (``n_steps``,) [-], optional, multiplies the chip widths step
         by step (the work material's scatter, ``sim.constants.MATERIAL_SCATTER``)."""
+        w0, w1 = (real_number("weight", w, ">=0") for w in weight)
+        if w0 > 1.0 or w1 > 1.0:
+            raise ValueError(f"weight: expected values in [0, 1], got {weight!r}")
+        run, _teeth = self.advance_pieces(model, [int(n_steps)], scale, linear=linear,
+                                          previous=previous, weights=([w0], [w1]),
+                                          variation=variation)
+        return run
+
+    def advance_pieces(self, model: CuttingModel, counts, scale: float = 1.0, *,
+                       linear: bool = False, previous: CuttingModel | None = None,
+                       weights: tuple | None = None, variation: np.ndarray | None = None
+                       ) -> tuple[MillingRun, np.ndarray]:
+        """:meth:`advance` over consecutive pieces in one kernel call: the same numbers,
+        bit for bit, as calling it piece by piece with the same model.
+
+        Piece ``p`` is ``counts[p]`` steps over which ``model``'s share goes linearly
+        from ``weights[0][p]`` to ``weights[1][p]`` (with ``previous``; default 1 to
+        1); its time starts where the piece before ended, its surface offsets are
+        those of the teeth mostly within it, with the generating weights of its
+        mean share (as :meth:`advance` gives them). ``variation`` covers all the
+        steps.
+
+        Returns
+        -------
+        MillingRun
+            All the steps (``surface_offset_mm`` the pieces' teeth, piece after piece).
+        ndarray of int, shape (len(counts),)
+            Teeth per piece in ``surface_offset_mm``.
+        """
         for m in (model, previous):
             if m is not None and (m.steps_per_rev != self.steps_per_rev
                                   or m.n_edges != self.n_edges):
@@ -188,7 +218,10 @@ class Cutter:
         if previous is not None and previous.system is not model.system:
             raise ValueError("previous: expected a table with the model's dynamics "
                              "(the same system)")
-        n = int(n_steps)
+        counts = np.asarray(counts, dtype=np.int64).reshape(-1)
+        if np.any(counts < 0):
+            raise ValueError(f"counts: expected steps >= 0, got {counts.min()}")
+        n = int(counts.sum())
         s = real_number("scale", scale, ">=0")
         widths = np.full(n, s)
         if variation is not None:
@@ -196,9 +229,15 @@ class Cutter:
             if v.shape != (n,) or not np.all(v >= 0.0):
                 raise ValueError(f"variation: expected {n} values >= 0, got shape {v.shape}")
             widths = widths * v
-        w0, w1 = (real_number("weight", w, ">=0") for w in weight)
-        if w0 > 1.0 or w1 > 1.0:
-            raise ValueError(f"weight: expected values in [0, 1], got {weight!r}")
+        if weights is None:
+            w0 = w1 = np.ones(counts.size)
+        else:
+            w0, w1 = (np.asarray(w, dtype=float).reshape(-1) for w in weights)
+            if w0.shape != counts.shape or w1.shape != counts.shape \
+                    or not (np.all(w0 >= 0.0) and np.all(w0 <= 1.0)
+                            and np.all(w1 >= 0.0) and np.all(w1 <= 1.0)):
+                raise ValueError(f"weights: expected {counts.size} values in [0, 1] at each "
+                                 f"end of the pieces")
         nm = model.system.n_modes
         if self.state.shape[0] != nm:
             st = np.zeros((nm, 2))
@@ -210,29 +249,45 @@ class Cutter:
         acc = np.empty((n, 3))
         chip = np.empty(n)
         lost = np.empty(n, dtype=np.int64)
+        first = np.cumsum(counts) - counts               # each piece's first step
+        local = np.arange(n) - np.repeat(first, counts)  # step within its piece
         generating = None
         if previous is None:
             _integrate(model, self.step, widths, linear, self.surface, self.state,
                        force, disp, acc, chip, lost)
         else:
-            w = w0 + (w1 - w0) * (np.arange(n) + 0.5) / max(n, 1)
+            # each piece's share, as advance has it: w0 + (w1 - w0) (j + 1/2) / n
+            w = np.repeat(w0, counts) + np.repeat(w1 - w0, counts) * (local + 0.5) \
+                / np.repeat(np.maximum(counts, 1), counts)
             _integrate(model, self.step, widths, linear, self.surface, self.state,
                        force, disp, acc, chip, lost, previous.table, 1.0 - w)
             wm = 0.5 * (w0 + w1)
-            generating = wm * model.generating + (1.0 - wm) * previous.generating
-        t = self.time_s + np.arange(n) * model.dt_s
-        surf = tooth_surface(disp, model, self.step, generating)
+            generating = wm[:, None] * model.generating + (1.0 - wm)[:, None] \
+                * previous.generating
+        start = np.empty(counts.size)                    # each piece's start time
+        t0 = self.time_s
+        for p, k in enumerate(counts.tolist()):
+            start[p] = t0
+            t0 += k * model.dt_s
+        t = np.repeat(start, counts) + local * model.dt_s
+        surf, teeth = tooth_surfaces(disp, model, self.step + first, counts, generating)
         self.step += n
-        self.time_s += n * model.dt_s
-        self.cut = Cut(model, previous, w1)
-        return MillingRun(time_s=t, force_N=force, displacement_m=disp,
-                          tool_acceleration_m_s2=acc, modal_state=np.zeros((0, nm, 2)),
-                          chip_mean_mm=chip, contact_loss=lost, surface_offset_mm=surf, scale=s)
+        self.time_s = t0
+        self.cut = Cut(model, previous, float(w1[-1]) if w1.size else 1.0)
+        return (MillingRun(time_s=t, force_N=force, displacement_m=disp,
+                           tool_acceleration_m_s2=acc, modal_state=np.zeros((0, nm, 2)),
+                           chip_mean_mm=chip, contact_loss=lost, surface_offset_mm=surf,
+                           scale=s), teeth)
 
     def idle(self, dt_s: float, n_steps: int, system: ModalSystem) -> MillingRun:
         """Advance without cutting (the modes ring down; no force), ``dt_s`` [s] per step.
         The idle model of the last ``system`` and step is kept (the air moves of a run
         ring down the same tool modes tick after tick: one step map, not one a tick)."""
+        return self.idle_pieces(dt_s, [int(n_steps)], system)
+
+    def idle_pieces(self, dt_s: float, counts, system: ModalSystem) -> MillingRun:
+        """:meth:`idle` over consecutive pieces of ``counts`` steps in one kernel call (each
+        piece's time starting where the one before ended, as piece by piece)."""
         hit = self._idle
         if hit is not None and hit[0] is system and hit[1] == dt_s:
             model = hit[2]
@@ -244,6 +299,6 @@ class Cutter:
                                  table=empty_table(spr), n_edges=self.n_edges,
                                  step_map=_step_map(system, dt_s), generating=np.zeros(spr))
             self._idle = (system, dt_s, model)
-        run = self.advance(model, n_steps, 0.0)
+        run, _teeth = self.advance_pieces(model, counts, 0.0)
         self.cut = None
         return run

@@ -18,7 +18,7 @@ from .constants import MM_PER_M, STRIP_GRID, STRIP_REACH
 if TYPE_CHECKING:
     from .cutting_model import CuttingModel
 
-__all__ = ["edge_spacing_rad", "generating_weights", "tooth_surface"]
+__all__ = ["edge_spacing_rad", "generating_weights", "tooth_surface", "tooth_surfaces"]
 
 
 
@@ -112,3 +112,40 @@ def tooth_surface(disp_m: np.ndarray, model: CuttingModel, first_step: int,
     den = np.bincount(tooth, w)
     keep = den > 0.5
     return num[keep] / den[keep] * MM_PER_M
+
+
+def tooth_surfaces(disp_m: np.ndarray, model: CuttingModel, first_steps: np.ndarray,
+                   counts: np.ndarray, generating: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`tooth_surface` of consecutive pieces of a run at once, the same numbers bit
+    for bit: piece ``p`` is ``counts[p]`` rows of ``disp_m`` from step ``first_steps[p]``,
+    with the generating weights ``generating[p]`` (shape (pieces, steps_per_tooth);
+    default ``model.generating`` for all). Returns the pieces' offsets [mm], piece after
+    piece, and how many each piece has."""
+    counts = np.asarray(counts, dtype=np.int64)
+    n = disp_m.shape[0]
+    per_piece = np.zeros(counts.size, dtype=np.int64)
+    if n == 0:
+        return np.zeros(0), per_piece
+    spt = model.steps_per_tooth
+    piece = np.repeat(np.arange(counts.size), counts)
+    first = np.asarray(first_steps, dtype=np.int64)
+    steps = np.repeat(first - (np.cumsum(counts) - counts), counts) + np.arange(n)
+    if generating is None:
+        if not model.generating.any():
+            return np.zeros(0), per_piece
+        w = model.generating[steps % spt]
+    else:
+        w = generating[piece, steps % spt]
+    # each piece's teeth counted from its first, the pieces' bins one after the other
+    local = steps // spt - np.repeat(first // spt, counts)
+    span = np.zeros(counts.size, dtype=np.int64)
+    has = counts > 0
+    span[has] = local[np.cumsum(counts)[has] - 1] + 1
+    tooth = local + np.repeat(np.cumsum(span) - span, counts)
+    num = np.bincount(tooth, w * (disp_m @ model.normal))
+    den = np.bincount(tooth, w)
+    keep = den > 0.5
+    per_piece = np.bincount(np.repeat(np.arange(counts.size), span)[keep],
+                            minlength=counts.size)
+    return num[keep] / den[keep] * MM_PER_M, per_piece

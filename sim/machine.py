@@ -25,10 +25,12 @@ passes the commands.
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import math
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -54,7 +56,7 @@ from .program import PartProgram
 from .registers import ACK, STATUS
 from .sensors import Accelerometers, AccelerometerStream
 
-__all__ = ["NO_WALL", "NCState", "SimulatedNC", "SurfaceRecord", "carry_wall_state"]
+__all__ = ["NO_WALL", "NCState", "SimulatedNC", "SurfaceRecord", "TickRun", "carry_wall_state"]
 
 
 @dataclass
@@ -96,6 +98,27 @@ class SurfaceRecord:
     def arrays(self) -> dict:
         return {k: np.asarray(getattr(self, k)) for k in
                 ("time_s", "point", "offset_mm", "lead_offset_deg", "tilt_offset_deg")}
+
+
+class TickRun(NamedTuple):
+    """Interpolation periods run at once (:meth:`SimulatedNC.run_ticks`).
+
+    Attributes
+    ----------
+    time_s : ndarray, shape (k,) [s]
+        The simulation instants of all the periods, in order.
+    tool_acceleration_m_s2 : ndarray, shape (k, 3) [m/s^2]
+        Tool acceleration at those instants (workpiece frame).
+    steps : ndarray of int, shape (periods,)
+        Instants per period (they sum to ``k``).
+    cutting : ndarray of bool, shape (periods,)
+        Whether the tool was in the cut at the end of each period (``NCState.cutting``).
+    """
+
+    time_s: np.ndarray
+    tool_acceleration_m_s2: np.ndarray
+    steps: np.ndarray
+    cutting: np.ndarray
 
 
 #: No workpiece modes: ``(level, index, amp)`` of :meth:`WorkpieceModel.shape_at`.
@@ -194,6 +217,13 @@ class SimulatedNC:
         seg = np.linalg.norm(np.diff(self.cam.tip, axis=0), axis=1)
         self.arc = np.concatenate([[0.0], np.cumsum(seg)])
         self.s = self.arc[first]
+        # per cutter location, as plain Python values for the per-period bookkeeping
+        self._arc = self.arc.tolist()
+        self._feed = [RAPID_MM_MIN if r else float(f)
+                      for r, f in zip(self.cam.rapid.tolist(), self.cam.feed_mm_min.tolist())]
+        self._block = [int(b) for b in self.cam.block]
+        self._touching = [bool(t) for t in self.contacts.touching]
+        self._idle_at: tuple | None = None
         self.state = NCState(spindle_rpm=self.rpm)
         self.surface = SurfaceRecord()
         self.cut_at = np.zeros(len(self.cam), bool)
@@ -245,7 +275,7 @@ class SimulatedNC:
     # --- motion ------------------------------------------------------------------
     def point_index(self) -> int:
         """Cutter location the tool is moving toward (index into the program)."""
-        j = int(np.searchsorted(self.arc, self.s, side="right"))
+        j = bisect.bisect_right(self._arc, self.s)     # np.searchsorted(side="right")
         return min(max(j, self.first), self.last)
 
     def _posture(self, rows: np.ndarray, dlead: float, dtilt: float
@@ -323,7 +353,7 @@ class SimulatedNC:
     def _weight(self, i: int, s: float) -> float:
         """Share of cutter location ``i``'s engagement at arc length ``s`` [mm] on the
         segment into it (0 at the one before, 1 at ``i``)."""
-        a, b = self.arc[max(i - 1, 0)], self.arc[i]
+        a, b = self._arc[max(i - 1, 0)], self._arc[i]
         if i <= self.first or b <= a:
             return 1.0
         return min(max((s - a) / (b - a), 0.0), 1.0)
@@ -335,17 +365,16 @@ class SimulatedNC:
             i = self.point_index()
             w = self._weight(i, s1)
             return [(i, n, w, w)]
-        # the cutter locations strictly between (arc is non-decreasing: a slice)
-        inner = self.arc[np.searchsorted(self.arc, s0, side="right"):
-                         np.searchsorted(self.arc, s1, side="left")]
-        marks = np.concatenate([[s0], inner, [s1]])
-        steps = np.round(n * (marks - s0) / (s1 - s0)).astype(int)
+        # the cutter locations strictly between (arc is non-decreasing: a slice); plain
+        # floats, the arithmetic of numpy's searchsorted and round (half to even)
+        arc = self._arc
+        marks = [s0, *arc[bisect.bisect_right(arc, s0):bisect.bisect_left(arc, s1)], s1]
+        steps = [round(n * (m - s0) / (s1 - s0)) for m in marks]
         out = []
         for a, b, ka, kb in zip(marks[:-1], marks[1:], steps[:-1], steps[1:]):
             if kb > ka:
-                i = min(max(int(np.searchsorted(self.arc, 0.5 * (a + b), side="right")),
-                            self.first), self.last)
-                out.append((i, int(kb - ka), self._weight(i, a), self._weight(i, b)))
+                i = min(max(bisect.bisect_right(arc, 0.5 * (a + b)), self.first), self.last)
+                out.append((i, kb - ka, self._weight(i, a), self._weight(i, b)))
         return out
 
     @property
@@ -364,60 +393,142 @@ class SimulatedNC:
     def tick_motion(self, dt_s: float = TICK_S) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`tick` without the accelerometers: the period's simulation instants [s]
         and tool acceleration [m/s^2] (shapes (k,) and (k, 3)), which the caller hands to
-        ``self.stream`` in order (several periods at once:
-        :meth:`sim.sensors.AccelerometerStream.push_many`, the same samples)."""
-        st = self.state
-        s0 = self.s
-        if self.done:
-            st.status = STATUS["finished"]
-        else:
-            st.status = STATUS["running"]
-            i = self.point_index()
-            rapid = bool(self.cam.rapid[i])
-            feed = RAPID_MM_MIN if rapid else float(self.cam.feed_mm_min[i])
-            self.s = min(self.s + feed * st.feed_override_pct / 100.0 / 60.0 * dt_s,
-                         self.arc[self.last])
-            st.block = int(self.cam.block[i])
-        n = max(1, round((st.time_s + dt_s - self.cutter.time_s) / self.dt_s))
-        times, accel = [], []
-        for i, k, w0, w1 in self._pieces(s0, self.s, n):
-            run, touching = self._run(i, k, w0, w1, self.s > s0)
-            times.append(run.time_s)
-            accel.append(run.tool_acceleration_m_s2)
-        st.cutting = int(touching)
-        st.time_s = self.cutter.time_s
-        if len(times) == 1:
-            return times[0], accel[0]
-        return np.concatenate(times), np.concatenate(accel)
+        ``self.stream`` in order (several periods at once: :meth:`run_ticks` and
+        :meth:`sim.sensors.AccelerometerStream.push_chunks`, the same samples)."""
+        run = self.run_ticks(1, dt_s)
+        return run.time_s, run.tool_acceleration_m_s2
 
-    def _run(self, i: int, n: int, w0: float, w1: float, moving: bool):
-        """``n`` steps on the segment into cutter location ``i`` (weights ``w0`` to ``w1``
-        of its engagement); the run and whether the tool is in the cut (at the end of
-        the program it is not, unless this tick moved it there)."""
+    def run_ticks(self, count: int, dt_s: float = TICK_S, *, to_end: bool = False,
+                  until_s: float | None = None) -> TickRun:
+        """``count`` interpolation periods, as :meth:`tick_motion` runs them one by one (the
+        same numbers bit for bit), with one kernel call for each stretch of steps whose
+        cut does not change (the periods between two cutter locations, an air move)
+        instead of one a period: the NC's state after each period (path position,
+        clock, pieces split at cutter locations) is worked out in plain floats first,
+        the cutting simulation then runs stretch by stretch, and the cut is changed
+        (:meth:`_switch`) between stretches where the path passes a cutter location.
+
+        Parameters
+        ----------
+        count : int
+            Periods to run at most.
+        dt_s : float [s]
+            The interpolation period.
+        to_end : bool
+            Stop before a period when the NC has finished (the end of its stretch).
+        until_s : float, optional [s]
+            Stop before a period when the NC's clock has reached this time.
+
+        Returns
+        -------
+        TickRun
+        """
         st = self.state
-        touching = (moving or not self.done) and bool(self.contacts.touching[i]) \
-            and i in self.cuts
-        cut = None
-        if touching and st.feed_override_pct > 0:
-            model, start = self._model(i)
-            cut = Cut(model, start, w0)
-        self._switch(i, cut)
-        if cut is not None:
-            self.cut_at[i] = True
-            run = self.cutter.advance(cut.model, n, previous=cut.previous, weight=(w0, w1),
-                                      variation=self._variation(n))
-            if run.surface_offset_mm.size:
-                k = run.surface_offset_mm.size
-                self.surface.time_s.extend(np.linspace(run.time_s[0], run.time_s[-1], k))
-                self.surface.point.extend([i] * k)
-                self.surface.offset_mm.extend(run.surface_offset_mm.tolist())
-                self.surface.lead_offset_deg.extend([st.lead_offset_deg] * k)
-                self.surface.tilt_offset_deg.extend([st.tilt_offset_deg] * k)
+        arc = self._arc
+        feed = self._feed
+        steps, cutting, times, accel = [], [], [], []
+        gathered: list = []                   # the stretch in hand: [cut, system, pieces]
+        now_cut, now_shape = self.cutter.cut, self._shape_now   # after the gathered pieces
+        t_cut = self.cutter.time_s
+        for _ in range(int(count)):
+            if to_end and self.done or until_s is not None and st.time_s >= until_s:
+                break
+            s0 = self.s
+            if self.done:
+                st.status = STATUS["finished"]
+            else:
+                st.status = STATUS["running"]
+                i = self.point_index()
+                self.s = min(self.s + feed[i] * st.feed_override_pct / 100.0 / 60.0 * dt_s,
+                             arc[self.last])
+                st.block = self._block[i]
+            n = max(1, round((st.time_s + dt_s - t_cut) / self.dt_s))
+            moving = self.s > s0
+            for i, k, w0, w1 in self._pieces(s0, self.s, n):
+                touching = (moving or not self.done) and self._touching[i] and i in self.cuts
+                if touching and st.feed_override_pct > 0:
+                    model, start = self._model(i)
+                    cut = Cut(model, start, w0)
+                    system, dt = model.system, model.dt_s
+                else:
+                    cut, system, dt = None, self._idle_system(i), self.dt_s
+                shape = self._shape(i)
+                same = shape is now_shape and (cut is None and now_cut is None
+                                               or cut is not None and cut.same_as(now_cut))
+                if not (same and gathered and gathered[1] is system):
+                    self._flush(gathered, times, accel)
+                    self._switch(i, cut)
+                    gathered = [cut, system, []]
+                gathered[2].append((i, k, w0, w1))
+                t_cut += k * dt
+                now_cut = None if cut is None else Cut(cut.model, cut.previous, w1)
+                now_shape = shape
+            st.cutting = int(touching)
+            st.time_s = t_cut
+            steps.append(n)
+            cutting.append(touching)
+        self._flush(gathered, times, accel)
+        if times and self.cutter.time_s != st.time_s:      # the plan and the run disagree
+            raise RuntimeError("run_ticks: the cutter's clock left the NC's")
+        return TickRun(time_s=np.concatenate([np.zeros(0), *times]),
+                       tool_acceleration_m_s2=np.concatenate([np.zeros((0, 3)), *accel]),
+                       steps=np.array(steps, dtype=np.int64),
+                       cutting=np.array(cutting, dtype=bool))
+
+    def _flush(self, gathered: list, times: list, accel: list) -> None:
+        """Run the stretch of pieces in hand (``[cut, system, [(i, steps, w0, w1), ...]]``,
+        one cut or one idle system) in one call of the cutter; its instants and tool
+        acceleration go to ``times`` and ``accel``, its surface to :attr:`surface`."""
+        if not gathered or not gathered[2]:
+            return
+        cut, system, pieces = gathered
+        idx, counts, w0, w1 = zip(*pieces)
+        if cut is None:
+            run = self.cutter.idle_pieces(self.dt_s, counts, system)
         else:
-            system = self.workpiece.system_at(self.tool_system, self.contacts.point[i]) \
-                if self.contacts.touching[i] else self.tool_system
-            run = self.cutter.idle(self.dt_s, n, system)
-        return run, touching
+            run, teeth = self.cutter.advance_pieces(
+                cut.model, counts, previous=cut.previous, weights=(w0, w1),
+                variation=self._variation(int(sum(counts))))
+            self.cut_at[list(idx)] = True
+            self._record(run, idx, counts, teeth)
+        times.append(run.time_s)
+        accel.append(run.tool_acceleration_m_s2)
+
+    def _record(self, run, idx: tuple, counts: tuple, teeth: np.ndarray) -> None:
+        """The generated surface of a stretch's pieces (cutter locations ``idx``, ``counts``
+        steps, ``teeth`` offsets each) to :attr:`surface`, as each piece's run gives it."""
+        st, rec = self.state, self.surface
+        t = run.time_s
+        off = run.surface_offset_mm.tolist()
+        a = b = 0
+        for i, k, m in zip(idx, counts, teeth.tolist()):
+            if m:
+                rec.time_s.extend(np.linspace(t[a], t[a + k - 1], m))
+                rec.point.extend([i] * m)
+                rec.offset_mm.extend(off[b:b + m])
+                rec.lead_offset_deg.extend([st.lead_offset_deg] * m)
+                rec.tilt_offset_deg.extend([st.tilt_offset_deg] * m)
+            a += k
+            b += m
+
+    def _idle_system(self, i: int) -> ModalSystem:
+        """The dynamics the modes ring down in on the segment into ``i`` when the tool does
+        not cut: the wall's at ``i`` where the ball touches it, else the tool's (the last
+        point's kept: a stretch of idle periods there is one call)."""
+        if not self.contacts.touching[i]:
+            return self.tool_system
+        if self._idle_at is None or self._idle_at[0] != i:
+            self._idle_at = (i, self.workpiece.system_at(self.tool_system,
+                                                         self.contacts.point[i]))
+        return self._idle_at[1]
+
+    def _shape(self, i: int) -> tuple:
+        """The wall's mode shapes at cutter location ``i`` (``NO_WALL`` off the part)."""
+        if not self.contacts.touching[i]:
+            return NO_WALL
+        if i not in self._shapes:
+            self._shapes[i] = self.workpiece.shape_at(self.contacts.point[i])
+        return self._shapes[i]
 
     def _variation(self, n: int) -> np.ndarray:
         """Chip-width factors of the next ``n`` steps: one draw per tooth pass, held over
@@ -440,12 +551,7 @@ class SimulatedNC:
         a machine would, moving continuously: the vibration goes on in the workpiece's
         modes at the new point (:func:`carry_wall_state`) and follows the change of
         the cut's forced response (:meth:`sim.cutter.Cutter.switch`)."""
-        if not self.contacts.touching[i]:
-            shape = NO_WALL
-        else:
-            if i not in self._shapes:
-                self._shapes[i] = self.workpiece.shape_at(self.contacts.point[i])
-            shape = self._shapes[i]
+        shape = self._shape(i)
         now = self.cutter.cut
         if shape is self._shape_now and (cut is None and now is None
                                          or cut is not None and cut.same_as(now)):

@@ -324,20 +324,39 @@ class AccelerometerStream:
         if len(chunks) != len(accs):
             raise ValueError(f"tool_acceleration_m_s2: expected {len(chunks)} chunks, got "
                              f"{len(accs)}")
+        return self.push_chunks(np.concatenate([np.zeros(0), *chunks]),
+                                np.concatenate([np.zeros((0, 3)), *accs]),
+                                np.array([c.size for c in chunks], dtype=np.int64))
+
+    def push_chunks(self, time_s: np.ndarray, tool_acceleration_m_s2: np.ndarray,
+                    counts: np.ndarray) -> tuple[SensorSignals, np.ndarray]:
+        """:meth:`push_many` with the chunks one after the other in two arrays: ``time_s``
+        (k,) [s] and ``tool_acceleration_m_s2`` (k, 3) [m/s^2], ``counts`` (chunks,) the
+        instants of each chunk (summing to k), as :meth:`sim.machine.SimulatedNC.run_ticks`
+        gives them. The same samples, bit for bit, as :meth:`push` chunk by chunk."""
+        counts = np.asarray(counts, dtype=np.int64).reshape(-1)
+        t_all = np.asarray(time_s, dtype=float).reshape(-1)
+        acc = np.asarray(tool_acceleration_m_s2, dtype=float).reshape(-1, 3)
+        if acc.shape[0] != t_all.size or int(counts.sum()) != t_all.size \
+                or np.any(counts < 0):
+            raise ValueError(f"counts: expected chunk sizes >= 0 summing to the {t_all.size} "
+                             f"instants (and as many accelerations), got {int(counts.sum())} "
+                             f"and {acc.shape[0]}")
         s = self.sensors
-        t, x = self._filtered(np.concatenate([np.zeros(0), *chunks]),
-                              np.concatenate([np.zeros((0, 3)), *accs]))
-        per_chunk = np.zeros(len(chunks), dtype=np.int64)
+        t, x = self._filtered(t_all, acc)
+        per_chunk = np.zeros(counts.size, dtype=np.int64)
         if t.size == 0:
             return (SensorSignals(np.zeros(0), np.zeros((0, 2), np.int32), np.zeros((0, 2)), 0),
                     per_chunk)
         step = 1.0 / s.sample_rate_hz
         nxt = self._next_sample
-        first = np.zeros(len(chunks))
+        first = np.zeros(counts.size)
         t_end = self._t_last
-        for c, tc in enumerate(chunks):     # as push steps them, chunk by chunk
-            if tc.size:
-                t_end = float(tc[-1])
+        ends = t_all[np.maximum(np.cumsum(counts) - 1, 0)].tolist() if t_all.size \
+            else [0.0] * counts.size
+        for c, (k, te) in enumerate(zip(counts.tolist(), ends)):   # as push steps them
+            if k:
+                t_end = te
             if t_end is None:
                 continue
             # the instants nxt + step * j, j = 0 .. m - 1, that are <= t_end (the

@@ -204,18 +204,6 @@ def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
         raise ValueError(f"max_machining_s: expected a time > 0 s, got {max_machining_s!r}")
     nc = SimulatedNC(scn, points=points, seed=seed, workpiece=workpiece)
     times, accel, cutting = [], [], []
-    batch_t, batch_a, batch_cut = [], [], []
-
-    def push() -> None:         # the batch's ticks to the accelerometers, in one call
-        sig, per_tick = nc.stream.push_many(batch_t, batch_a)
-        if sig.time_s.size:
-            times.append(sig.time_s)
-            accel.append(sig.acceleration_m_s2)
-            cutting.append(np.repeat(np.array(batch_cut, dtype=bool), per_tick))
-        batch_t.clear()
-        batch_a.clear()
-        batch_cut.clear()
-
     total = nc.last - nc.first
     k = 0
     stop = None
@@ -223,16 +211,19 @@ def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
         if max_machining_s is not None and nc.state.time_s >= max_machining_s:
             stop = f"the run's time budget ({max_machining_s:g} s simulated) ran out"
             break
-        t_tick, a_tick = nc.tick_motion()
-        batch_t.append(t_tick)
-        batch_a.append(a_tick)
-        batch_cut.append(bool(nc.state.cutting))
-        k += 1
-        if k % VERIFY_TICKS_PER_PUSH == 0:
-            push()
+        # up to the next multiple of VERIFY_TICKS_PER_PUSH servo ticks at once, to the
+        # accelerometers in one call (the same samples as tick by tick)
+        run = nc.run_ticks(VERIFY_TICKS_PER_PUSH - k % VERIFY_TICKS_PER_PUSH, to_end=True,
+                           until_s=max_machining_s)
+        k += run.steps.size
+        sig, per_tick = nc.stream.push_chunks(run.time_s, run.tool_acceleration_m_s2,
+                                              run.steps)
+        if sig.time_s.size:
+            times.append(sig.time_s)
+            accel.append(sig.acceleration_m_s2)
+            cutting.append(np.repeat(run.cutting, per_tick))
         if progress is not None and k % 200 == 0:
             progress(nc.point_index() - nc.first, total)
-    push()
     if progress is not None:
         progress(nc.point_index() - nc.first if stop else total, total)
     t = np.concatenate(times) if times else np.zeros(0)

@@ -525,3 +525,117 @@ def test_cutter_switch_takes_the_places_the_cuts_engage():
     ref[rows, cols] = q_b[rows]
     assert both.any() and (on_b & ~both).any() and p > 0
     np.testing.assert_array_equal(c.surface, ref)
+
+
+def test_advance_pieces_is_advance_piece_by_piece_bit_for_bit():
+    """The cutter's pieces in one kernel call (a stretch of servo ticks between two cutter
+    locations) give what advance gives piece by piece: the blend going from piece to
+    piece, the material's scatter, the generated surface per piece, the clock, the
+    modal state and the surface memory; and the idle pieces as idle does."""
+    import dataclasses
+
+    from sim.cutter import Cut, Cutter
+    from sim.generation import tooth_surface, tooth_surfaces
+
+    a, _ = _ball_cut(30.0, 10.0)
+    b0, _ = _ball_cut(30.0, 13.0, a.steps_per_rev)
+    b = dataclasses.replace(a, table=b0.table, generating=b0.generating)
+    spr = a.steps_per_rev
+    counts = [7, 613, 1, 1500, 2 * spr + 3, 240]
+    w = np.array([0.0, 0.004, 0.4, 0.4004, 0.66, 0.99, 1.0])
+    rng = np.random.default_rng(5)
+    v = 1.0 + 0.01 * rng.standard_normal(sum(counts))
+    one, many = Cutter(spr, a.n_edges), Cutter(spr, a.n_edges)
+    for c in (one, many):
+        c.switch(Cut(a, b, 0.0))
+        c.advance(a, 333, previous=b, weight=(0.0, 0.0))
+    runs, k = [], 0
+    for p, n in enumerate(counts):
+        runs.append(one.advance(a, n, previous=b, weight=(w[p], w[p + 1]),
+                                variation=v[k:k + n]))
+        k += n
+    run, teeth = many.advance_pieces(a, counts, previous=b, weights=(w[:-1], w[1:]),
+                                     variation=v)
+    for key in ("time_s", "force_N", "displacement_m", "tool_acceleration_m_s2",
+                "chip_mean_mm", "contact_loss", "surface_offset_mm"):
+        np.testing.assert_array_equal(getattr(run, key),
+                                      np.concatenate([getattr(r, key) for r in runs]))
+    np.testing.assert_array_equal(teeth, [r.surface_offset_mm.size for r in runs])
+    assert teeth.sum() > 5
+    for x, y in ((one.state, many.state), (one.surface, many.surface)):
+        np.testing.assert_array_equal(x, y)
+    assert (one.step, one.time_s) == (many.step, many.time_s)
+    assert many.cut.same_as(one.cut)
+    idle = [one.idle(a.dt_s, n, a.system) for n in counts[:3]]
+    free = many.idle_pieces(a.dt_s, counts[:3], a.system)
+    np.testing.assert_array_equal(free.tool_acceleration_m_s2,
+                                  np.concatenate([r.tool_acceleration_m_s2 for r in idle]))
+    np.testing.assert_array_equal(free.time_s, np.concatenate([r.time_s for r in idle]))
+    np.testing.assert_array_equal(one.state, many.state)
+    assert many.cut is None and one.time_s == many.time_s
+    # the surface of pieces at once, with and without their own generating weights
+    d = rng.normal(0.0, 1e-6, (sum(counts), 3))
+    starts = 11 + np.cumsum(counts) - counts
+    g = rng.random((len(counts), a.steps_per_tooth)) * (rng.random(a.steps_per_tooth) < 0.1)
+    for gen in (None, g):
+        got, per = tooth_surfaces(d, a, starts, counts, gen)
+        want = [tooth_surface(d[s - 11:s - 11 + n], a, s, None if gen is None else gen[p])
+                for p, (s, n) in enumerate(zip(starts, counts))]
+        np.testing.assert_array_equal(got, np.concatenate(want))
+        np.testing.assert_array_equal(per, [x.size for x in want])
+    with pytest.raises(ValueError, match="weights"):
+        many.advance_pieces(a, counts, previous=b, weights=(w[:-1], w[1:] + 0.5))
+
+
+def _forced_before(model):
+    """forced_response as it was written before its parts were kept and its filters ran in
+    a kernel (scipy's lfilter per mode and eigenvalue): the reference, bit for bit."""
+    import scipy.signal
+
+    ptr, _pos, _e, h0, _nrm, f0, f1 = model.table
+    spr, nm = model.steps_per_rev, model.system.n_modes
+    sample = np.repeat(np.arange(spr), np.diff(ptr))
+    fe = 1.0 * (f0 + h0[:, None] * f1)
+    force = np.stack([np.bincount(sample, fe[:, a], minlength=spr) for a in range(3)], axis=1)
+    u = force @ model.system.direction.T
+    phi, gam = model.step_map
+    lam, vec = np.linalg.eig(phi)
+    z = np.linalg.solve(vec, gam[..., None].astype(complex))[..., 0]
+    tail = np.empty((spr + 1, nm, 2), complex)
+    uc = np.zeros((nm, spr + 1), complex)
+    uc[:, :spr] = u.T
+    for m in range(nm):
+        for i in range(2):
+            tail[:, m, i] = scipy.signal.lfilter(np.array([0.0, 1.0]),
+                                                 np.array([1.0, -lam[m, i]]), uc[m])
+    w0 = z * tail[spr] / (1.0 - lam ** spr)
+    w = np.cumprod(np.concatenate([np.ones((1, nm, 2), complex),
+                                   np.broadcast_to(lam, (spr - 1, nm, 2))]), axis=0)
+    w = w * w0[None] + z[None] * tail[:-1]
+    return np.einsum("mij,pmj->pmi", vec, w).real
+
+
+def test_forced_response_with_kept_parts_is_the_former_one_bit_for_bit():
+    """The forced response with its unchanging parts kept (static force per table, the
+    step map's eigen-decomposition) and its filters in sim._kernels.forced_tail equals
+    the former computation bit for bit, kept parts reused or not, for two tables on the
+    same dynamics and for other dynamics (three tool modes)."""
+    import dataclasses
+
+    from errpred.dynamics import Mode
+    from sim.cutting import with_system
+    from sim.forced import forced_response
+
+    a, u = _ball_cut(30.0, 10.0)
+    b0, _ = _ball_cut(30.0, 13.0, a.steps_per_rev)
+    b = dataclasses.replace(a, table=b0.table, generating=b0.generating)
+    modes = [(Mode.from_frequency(f, 0.02, 2e6), d) for f, d in
+             ((700.0, (1, 0, 0)), (1300.0, (0, 1, 0)), (2900.0, (0.6, 0.8, 0)))]
+    c = with_system(b, ModalSystem.from_modes(modes, source="tool"), u)
+    parts: dict = {}
+    for m in (a, b, a, c, b):
+        ref = _forced_before(m)
+        assert np.abs(ref).max() > 0
+        for kept in (parts, None):
+            np.testing.assert_array_equal(forced_response(m, parts=kept), ref)
+    assert len(parts) == 4          # two tables, two step maps

@@ -155,6 +155,28 @@ def test_integrate_equals_its_numpy_twin(blended, linear):
             np.testing.assert_array_equal(got, ref)
 
 
+def test_integrate_with_nothing_engaged_equals_its_numpy_twin():
+    """An air move (both tables empty: the kernel's ring-down loop) against the twin:
+    displacement, tool acceleration, the zero force and chips, the state."""
+    for seed in range(3):
+        args, surface, state, n = _case(seed, False, False)
+        args = list(args)
+        args[3] = np.zeros_like(args[3])
+        for k in (4, 5, 6, 7, 8, 9):
+            args[k] = args[k][:0]
+        out = []
+        for f in (K.integrate, _integrate_twin):
+            s, st = surface.copy(), state.copy()
+            res = (np.ones((n, 3)), np.ones((n, 3)), np.ones((n, 3)), np.ones(n),
+                   np.ones(n, np.int64))
+            f(*args, s, st, *res)
+            out.append((s, st, *res))
+        assert out[0][3].any() and out[0][4].any() and not out[0][2].any()
+        for got, ref in zip(*out):
+            np.testing.assert_array_equal(got, ref)
+            assert np.array_equal(np.signbit(got), np.signbit(ref))
+
+
 def test_integrate_flushes_a_mode_ringing_down_into_subnormal_numbers():
     args, surface, _, n = _case(0, False, False)
     args = list(args)
@@ -248,3 +270,28 @@ def test_stream_samples_are_unchanged_by_the_flush():
     lsb = Accelerometers().lsb_m_s2
     np.testing.assert_array_equal(got.counts, np.clip(np.rint(y / lsb), -32768, 32767))
     assert got.time_s[1] - got.time_s[0] == pytest.approx(1.0 / fs)
+
+
+@pytest.mark.parametrize("real_poles", [False, True])
+def test_forced_tail_equals_scipy_lfilter(real_poles):
+    """forced_tail against its twin, the lfilter calls forced_response made per mode and
+    eigenvalue (complex input, a real force and a final 0), bit for bit."""
+    rng = np.random.default_rng(11)
+    spr, nm = 701, 5
+    u = rng.normal(0.0, 30.0, (spr, nm))
+    u[5:9] = 0.0
+    u[12, 1] = -0.0
+    if real_poles:
+        lam = rng.uniform(-0.99, 0.99, (nm, 2))
+    else:
+        lam = 0.999 * np.exp(1j * rng.uniform(0.01, 3.0, (nm, 2)))
+    got = np.empty((spr + 1, nm, 2), complex)
+    K.forced_tail(u, np.ascontiguousarray((-lam).astype(complex)), got)
+    uc = np.zeros((nm, spr + 1), complex)
+    uc[:, :spr] = u.T
+    for m in range(nm):
+        for i in range(2):
+            ref = signal.lfilter(np.array([0.0, 1.0]), np.array([1.0, -lam[m, i]]), uc[m])
+            mine = np.ascontiguousarray(got[:, m, i]).view(np.float64)
+            assert np.array_equal(mine, ref.view(np.float64))
+            assert np.array_equal(np.signbit(mine), np.signbit(ref.view(np.float64)))

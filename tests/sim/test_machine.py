@@ -108,3 +108,47 @@ def test_the_wall_vibration_is_carried_in_modal_coordinates():
     np.testing.assert_allclose(out[4], state[3] * (1.5 / 0.5))
     assert not carry_wall_state(state, 2, old, (2, new[1], new[2]))[2:].any()
     np.testing.assert_array_equal(carry_wall_state(state, 2, old, NO_WALL), state[:2])
+
+
+def test_ticks_run_at_once_are_the_ticks_one_by_one(built):
+    """SimulatedNC.run_ticks (a stretch of servo ticks, one kernel call per stretch whose
+    cut does not change) gives what tick_motion gives tick by tick, bit for bit: the
+    instants and accelerations, the cutting flag per tick, the generated surface, the
+    coverage and the cutter's state; a feed override taken between calls holds for
+    both; it stops at the program's end and at a clock time as asked."""
+    scn, wp = built
+    one = SimulatedNC(scn, points=(2, 36), workpiece=wp)
+    many = SimulatedNC(scn, points=(2, 36), workpiece=wp)
+    t1, a1, c1, n1, clk = [], [], [], [], []
+    while not one.done:
+        if len(c1) == 150:
+            one.set_feed_override(70.0)
+        t, a = one.tick_motion()
+        t1.append(t)
+        a1.append(a)
+        c1.append(one.state.cutting)
+        n1.append(t.size)
+        clk.append(one.state.time_s)
+    runs, sizes = [], iter([1, 7, 142, 1, 3, 500])
+    while not many.done:
+        if sum(r.steps.size for r in runs) == 150:
+            many.set_feed_override(70.0)
+        runs.append(many.run_ticks(next(sizes), to_end=True))
+    assert sum(c1) > 100 and len(c1) - sum(c1) > 10          # cutting and in the air
+    np.testing.assert_array_equal(np.concatenate([r.time_s for r in runs]), np.concatenate(t1))
+    np.testing.assert_array_equal(np.concatenate([r.tool_acceleration_m_s2 for r in runs]),
+                                  np.concatenate(a1))
+    np.testing.assert_array_equal(np.concatenate([r.cutting for r in runs]), np.array(c1, bool))
+    np.testing.assert_array_equal(np.concatenate([r.steps for r in runs]), n1)
+    for key, x in one.surface.arrays().items():
+        np.testing.assert_array_equal(many.surface.arrays()[key], x)
+    np.testing.assert_array_equal(many.cut_at, one.cut_at)
+    np.testing.assert_array_equal(many.cutter.state, one.cutter.state)
+    np.testing.assert_array_equal(many.cutter.surface, one.cutter.surface)
+    assert (many.state.time_s, many.s, many.state.cutting) == \
+        (one.state.time_s, one.s, one.state.cutting)
+    assert many.run_ticks(5, to_end=True).steps.size == 0
+    clock = SimulatedNC(scn, points=(2, 36), workpiece=wp)
+    run = clock.run_ticks(10_000, until_s=0.1)
+    k = int(np.argmax(np.array(clk) >= 0.1)) + 1          # the ticks that reach 0.1 s
+    assert run.steps.size == k and clock.state.time_s == clk[k - 1]
