@@ -527,6 +527,15 @@ def margin_speeds(p, d, omega, gw, taus, mk, mm, mc, mr, group):
     return out
 
 
+@njit(cache=True)
+def _posture_margin(p, d, omega, gw, tau, mk, mm, mc, mr, group, q, lam, rmin, cap):
+    """One posture's margin for :func:`margin_batch` and :func:`margin_batch_serial`
+    (``q`` and ``lam`` are work arrays the caller owns)."""
+    _q_matrix(p, d, q)
+    s = margin_one(q, omega, gw, tau, mk, mm, mc, mr, group, lam, rmin)[0]
+    return min(s, cap)
+
+
 @njit(cache=True, parallel=True)
 def margin_batch(p, d, omega, gw, taus, mk, mm, mc, mr, group, cap=np.inf):
     """ZOA margins of many postures: ``p`` (n, 3, 3), ``d`` (n or 1, ng, 3),
@@ -540,10 +549,9 @@ def margin_batch(p, d, omega, gw, taus, mk, mm, mc, mr, group, cap=np.inf):
     out = np.empty(n)
     for i in prange(n):
         q = np.empty((ng, ng))
-        _q_matrix(p[i], d[i * dstep], q)
         lam = np.empty((omega.shape[0], ng), dtype=np.complex128)
-        s = margin_one(q, omega, gw, taus[i * tstep], mk, mm, mc, mr, group, lam, rmin)[0]
-        out[i] = min(s, cap)
+        out[i] = _posture_margin(p[i], d[i * dstep], omega, gw, taus[i * tstep], mk, mm, mc,
+                                 mr, group, q, lam, rmin, cap)
     return out
 
 
@@ -562,7 +570,6 @@ def margin_batch_serial(p, d, omega, gw, taus, mk, mm, mc, mr, group, cap=np.inf
     q = np.empty((ng, ng))
     lam = np.empty((omega.shape[0], ng), dtype=np.complex128)
     for i in range(n):
-        _q_matrix(p[i], d[i * dstep], q)
-        s = margin_one(q, omega, gw, taus[i * tstep], mk, mm, mc, mr, group, lam, rmin)[0]
-        out[i] = min(s, cap)
+        out[i] = _posture_margin(p[i], d[i * dstep], omega, gw, taus[i * tstep], mk, mm, mc,
+                                 mr, group, q, lam, rmin, cap)
     return out
