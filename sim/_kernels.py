@@ -88,6 +88,21 @@ def _leave(i, ptr, pos, edge, h0, nrm, h, q, linear, surface, o_ptr, o_pos, o_ed
 
 
 @njit(cache=True, nogil=True)
+def _mode_step(k, n, u, phi_d, gam_d, dirs, mk, mc, mm, tool_mode, state, acc_tool):
+    """Mode ``k`` over one step under its modal force ``u``: the tool's acceleration
+    added to ``acc_tool[n]`` (tool modes), the state advanced by the discrete map
+    (the idle loop and the cutting loop alike)."""
+    if tool_mode[k]:
+        acc = (u - mc[k] * state[k, 1] - mk[k] * state[k, 0]) / mm[k]
+        for a in range(3):
+            acc_tool[n, a] += dirs[k, a] * acc
+    x0 = phi_d[k, 0, 0] * state[k, 0] + phi_d[k, 0, 1] * state[k, 1] + gam_d[k, 0] * u
+    x1 = phi_d[k, 1, 0] * state[k, 0] + phi_d[k, 1, 1] * state[k, 1] + gam_d[k, 1] * u
+    state[k, 0] = _flushed(x0)
+    state[k, 1] = _flushed(x1)
+
+
+@njit(cache=True, nogil=True)
 def _ring_down(n_steps, phi_d, gam_d, dirs, mk, mc, mm, mr, tool_mode, half_dt, state, force,
                disp, acc_tool, chip_mean, contact_loss):
     """:func:`integrate`'s steps when neither table engages anything (an air move): the
@@ -106,14 +121,7 @@ def _ring_down(n_steps, phi_d, gam_d, dirs, mk, mc, mm, mr, tool_mode, half_dt, 
         contact_loss[n] = 0
         for k in range(nm):
             u = dirs[k, 0] * 0.0 + dirs[k, 1] * 0.0 + dirs[k, 2] * 0.0
-            if tool_mode[k]:
-                acc = (u - mc[k] * state[k, 1] - mk[k] * state[k, 0]) / mm[k]
-                for a in range(3):
-                    acc_tool[n, a] += dirs[k, a] * acc
-            x0 = phi_d[k, 0, 0] * state[k, 0] + phi_d[k, 0, 1] * state[k, 1] + gam_d[k, 0] * u
-            x1 = phi_d[k, 1, 0] * state[k, 0] + phi_d[k, 1, 1] * state[k, 1] + gam_d[k, 1] * u
-            state[k, 0] = _flushed(x0)
-            state[k, 1] = _flushed(x1)
+            _mode_step(k, n, u, phi_d, gam_d, dirs, mk, mc, mm, tool_mode, state, acc_tool)
 
 
 @njit(cache=True, nogil=True)
@@ -223,14 +231,7 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1,
             acc_tool[n, a] = 0.0
         for k in range(nm):
             u = dirs[k, 0] * F[0] + dirs[k, 1] * F[1] + dirs[k, 2] * F[2]
-            if tool_mode[k]:
-                acc = (u - mc[k] * state[k, 1] - mk[k] * state[k, 0]) / mm[k]
-                for a in range(3):
-                    acc_tool[n, a] += dirs[k, a] * acc
-            x0 = phi_d[k, 0, 0] * state[k, 0] + phi_d[k, 0, 1] * state[k, 1] + gam_d[k, 0] * u
-            x1 = phi_d[k, 1, 0] * state[k, 0] + phi_d[k, 1, 1] * state[k, 1] + gam_d[k, 1] * u
-            state[k, 0] = _flushed(x0)
-            state[k, 1] = _flushed(x1)
+            _mode_step(k, n, u, phi_d, gam_d, dirs, mk, mc, mm, tool_mode, state, acc_tool)
 
 
 @njit(cache=True, nogil=True)
