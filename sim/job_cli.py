@@ -66,6 +66,27 @@ def _progress(con):
                     TimeElapsedColumn(), console=con, transient=False)
 
 
+class _StageLog:
+    """Where stderr is not a terminal (a log file, a CI job) rich draws no bar until the
+    end: one line per stage instead, when it starts, at every tenth of it and when it is
+    done, with the run's elapsed time, so a long run's log says where it is."""
+
+    def __init__(self, con, t0: float) -> None:
+        self.on = not con.is_terminal
+        self.t0 = t0
+        self.last: dict[str, int] = {}
+
+    def __call__(self, name: str, done: int, total: int) -> None:
+        if not self.on:
+            return
+        tenth = 10 if total <= 0 or done >= total else (10 * done) // total
+        if self.last.get(name) == tenth:
+            return
+        self.last[name] = tenth
+        print(f"[{time.perf_counter() - self.t0:7.1f} s] {name}: {done}/{total}",
+              file=sys.stderr, flush=True)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the job for parsed arguments (see :func:`add_job_arguments`)."""
     from rich.console import Console
@@ -98,10 +119,13 @@ def run(args: argparse.Namespace) -> int:
                     threadpool_limits(limits=JOB_BLAS_THREADS, user_api="blas"):
                 tasks: dict[str, int] = {}
 
+                log = _StageLog(con, t0)
+
                 def progress(name: str, done: int, total: int) -> None:
                     if name not in tasks:
                         tasks[name] = bar.add_task(name, total=total)
                     bar.update(tasks[name], completed=done, total=total)
+                    log(name, done, total)
 
                 res = run_job(scn, stage, client=client, progress=progress,
                               allow_fallback=True if getattr(args, "allow_fallback", False)

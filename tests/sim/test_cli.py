@@ -40,3 +40,26 @@ def test_module_entry_point_help():
                          text=True, timeout=60, check=True).stdout
     for cmd in ("serve", "controller", "run"):
         assert cmd in out
+
+
+def test_job_stage_log_writes_lines_only_off_a_terminal(capsys):
+    """Off a terminal (a log file) the job says where it is, a line at each tenth of a
+    stage; on a terminal the bar does and the log says nothing."""
+    import io
+
+    from rich.console import Console
+
+    from sim.job_cli import _StageLog
+
+    log = _StageLog(Console(file=io.StringIO(), force_terminal=False), 0.0)
+    for d in range(0, 101):
+        log("predict 0", d, 100)
+    log("verify", 0, 3)
+    log("verify", 3, 3)
+    lines = capsys.readouterr().err.splitlines()
+    pred = [ln for ln in lines if "predict 0:" in ln]
+    assert [ln.rsplit(" ", 1)[1] for ln in pred] == [f"{10 * k}/100" for k in range(11)]
+    assert [ln.rsplit(" ", 1)[1] for ln in lines if "verify:" in ln] == ["0/3", "3/3"]
+    tty = _StageLog(Console(file=io.StringIO(), force_terminal=True), 0.0)
+    tty("predict 0", 50, 100)
+    assert capsys.readouterr().err == ""
