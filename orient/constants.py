@@ -355,10 +355,6 @@ CONTACT_TOL_MM = 0.01
 #: centre against the design (``orient.contacts.closest_points``; FCL has no point shape,
 #: the distance is corrected by it) [mm]: far below any tolerance here.
 CONTACT_PROBE_RADIUS_MM = 1e-9
-#: Ball centres tested at once for lying inside the design (trimesh's ray tests, whose
-#: memory grows with the points asked at once: about 0.6 MB a point on errpred's mold-ball
-#: design, 55,604 triangles) [-]: about 120 MB a chunk there.
-CONTACT_CONTAINS_CHUNK = 200
 #: An FCL answer whose nearest point is not at its distance from the query point within
 #: this is asked again of trimesh's exact query [mm] (a safeguard; none seen).
 CONTACT_NEAREST_CHECK_MM = 1e-6

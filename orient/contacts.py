@@ -16,7 +16,6 @@ import numpy as np
 
 from nc.path import CutterLocations
 from .constants import (
-    CONTACT_CONTAINS_CHUNK,
     CONTACT_NEAREST_CHECK_MM,
     CONTACT_PROBE_RADIUS_MM,
     CONTACT_TOL_MM,
@@ -121,13 +120,15 @@ def ball_contacts(cl: CutterLocations, radius_mm: float, design, *,
 
 
 def _contains(mesh, points: np.ndarray) -> np.ndarray:
-    """trimesh's ``contains`` (ray tests) ``CONTACT_CONTAINS_CHUNK`` points at a time: its
-    memory grows with the points asked at once (about 0.6 MB a point on errpred's
-    mold-ball design: 10,000 ball centres took 5 GB)."""
-    out = np.zeros(len(points), bool)
-    for k in range(0, len(points), CONTACT_CONTAINS_CHUNK):
-        out[k:k + CONTACT_CONTAINS_CHUNK] = mesh.contains(points[k:k + CONTACT_CONTAINS_CHUNK])
-    return out
+    """Which points (n, 3) [mm] lie inside the closed ``mesh``: errpred's stock inside test
+    (:meth:`errpred.raster.meshes.Stock.contains`, one +Z ray per point through a grid of
+    the triangles; a point within its eps of the surface counts as inside). It replaced
+    trimesh's ``contains``, whose ray tests took 142 s and about 0.6 MB a point on the
+    mold core's ball centres and random points (51,590 points, 55,604 triangles; the
+    grid: 0.19 s to build, 0.19 s to test, the same answer at every point)."""
+    from errpred.raster.meshes import Stock
+
+    return Stock.from_mesh(mesh).contains(points)
 
 
 def closest_points(mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

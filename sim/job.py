@@ -238,8 +238,9 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     client : dask.distributed.Client, optional
         Run the parallel stages on its workers.
     progress : callable, optional
-        ``progress(stage, done, total)``; stages ``plan``, ``predict k`` (pass k,
-        blocks), ``verify`` (runs), ``lobes``.
+        ``progress(stage, done, total)``; stages ``plan`` (and the planner's own without
+        a client), ``predict k`` (candidate k, blocks), ``write``, ``verify`` (runs),
+        ``lobes``.
     allow_fallback : bool, optional
         Keep the CAM posture where no posture is feasible (default: the scenario's
         ``[orient] allow_fallback``); otherwise such points end the job.
@@ -273,7 +274,9 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
         t0 = time.perf_counter()
 
     # 1-2: plan
+    say("plan", 0, 1)
     res = plan(scn, progress=lambda stage, d, t: say(f"plan: {stage}", d, t), client=client)
+    say("plan", 1, 1)
     allow = scn.options.allow_fallback if allow_fallback is None else allow_fallback
     if res.infeasible.size and not allow:
         raise Refused(f"{scn.path}: {infeasible_summary(res)}; nothing written (allow the "
@@ -324,6 +327,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     lap("predict_and_correct")
 
     # 4: write both programs and read the final one back
+    say("write", 0, 1)
     planned_post = post(res.cl, machine, opts)
     final_post = post(comp.cl, machine, opts)
     planned_path = work / f"{scn.name}-planned.nc"
@@ -337,6 +341,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     feed = ~comp.cl.rapid
     r = chk.check(comp.cl.tip[feed], comp.cl.axis[feed])
     collisions = int(np.count_nonzero(r.collides | r.gouges))
+    say("write", 1, 1)
     lap("write")
 
     # 5: verify in the simulated machine

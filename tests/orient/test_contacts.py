@@ -35,13 +35,12 @@ def test_closest_points_of_nothing():
     assert near.shape == (0, 3) and dist.shape == (0,)
 
 
-def test_ball_centres_inside_the_design_are_gouges_across_chunks():
+def test_ball_centres_inside_the_design_are_gouges():
     from nc.path import CutterLocations
-    from orient.constants import CONTACT_CONTAINS_CHUNK
     from orient.contacts import ball_contacts
 
     box = trimesh.creation.box(extents=(100.0, 100.0, 20.0))       # top face at z = 10
-    n = 2 * CONTACT_CONTAINS_CHUNK + 7
+    n = 407
     x = np.linspace(-40, 40, n)
     # centres alternately 2 mm inside the box and 5 mm above its top (touching, R = 5)
     z = np.where(np.arange(n) % 2 == 0, 8.0, 15.0) - 5.0
@@ -52,3 +51,19 @@ def test_ball_centres_inside_the_design_are_gouges_across_chunks():
     np.testing.assert_allclose(c.gap_mm[1::2], 0.0, atol=1e-9)
     assert c.touching[1::2].all() and not c.touching[0::2].any()
     np.testing.assert_allclose(c.normal[1::2], np.tile([0, 0, 1.0], (n // 2, 1)), atol=1e-9)
+
+
+def test_inside_test_agrees_with_trimesh_on_a_free_form_part():
+    """The ball centres' inside test (errpred's grid of +Z rays) gives trimesh's ray-test
+    answer on a curved closed mesh, at points inside, outside and on the surface."""
+    from orient.contacts import _contains
+
+    mesh = trimesh.creation.icosphere(subdivisions=3, radius=10.0)
+    mesh.apply_scale([1.0, 0.7, 0.5])                          # an ellipsoid
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-11, 11, (3000, 3))
+    on = mesh.vertices[rng.choice(len(mesh.vertices), 50)] * (1 - 1e-3)   # just inside
+    pts = np.vstack([pts, on, mesh.vertices[:50] * (1 + 1e-3)])           # and just outside
+    got = _contains(mesh, pts)
+    np.testing.assert_array_equal(got, mesh.contains(pts))
+    assert got[3000:3050].all() and not got[3050:].any()
