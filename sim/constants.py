@@ -171,7 +171,8 @@ SPECTRUM_CHUNK_SEGMENTS = 64
 #: first is under-relaxed (errpred.constants.RELAXATION, 0.7), each is verified on the
 #: dense points: on the job's light copy of the thin wall the dense RMS goes 5.25 ->
 #: 1.69 -> 0.33 um in two (the second after three fallbacks), and the third finds
-#: nothing left above the 1 um move tolerance.
+#: nothing left above the 1 um move tolerance. A scenario's ``[correction]
+#: max_iterations`` below this is honoured (one pass: its fit applied whole).
 JOB_CORRECTION_PASSES = 3
 #: The Dask job's warm-up (``sim.job._warm_kernels``): blocks of the CAM program
 #: predicted and cutter locations simulated while the planner chooses the speed [-].

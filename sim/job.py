@@ -318,9 +318,13 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
 
         wait(warm)
         del warm
-    comp = compensate_path(res.cl, predict, iterate=True,
+    # at most JOB_CORRECTION_PASSES, fewer where the scenario's [correction] says so (a
+    # long program: each pass costs a dense prediction or more); one pass applies its
+    # fit whole, as errpred's single correction does (the fallback guards it)
+    passes = min(JOB_CORRECTION_PASSES, base.correction.max_iterations)
+    comp = compensate_path(res.cl, predict, iterate=passes > 1,
                            tolerance_mm=base.correction.tolerance_um * 1e-3,
-                           max_iterations=JOB_CORRECTION_PASSES, progress=on_pass,
+                           max_iterations=passes, progress=on_pass,
                            tolerance_um=base.correction.verify_tolerance_um,
                            spacing_mm=dense.point_spacing_mm,
                            reach_mm=FALLBACK_REACH_RADII * base.tool.radius_mm)
