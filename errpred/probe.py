@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._side_kernels import interval_contains
 from .constants import MEMBERSHIP_EPS_MM
 
 __all__ = ["StockProbe"]
@@ -42,11 +43,7 @@ class StockProbe:
             lo, hi = self.stock.bounds
             e = MEMBERSHIP_EPS_MM
             return np.all((pts >= lo - e) & (pts <= hi + e), axis=1)
-        i, j, inside = self.view.pixel_of(pts)
-        depth = self.view.to_view(pts)[:, 2]
-        out = np.zeros(pts.shape[0], dtype=bool)
-        ii, jj = i[inside], j[inside]
-        d = depth[inside]
-        e = MEMBERSHIP_EPS_MM
-        out[inside] = (self.bottom[ii, jj] - e <= d) & (d <= self.top[ii, jj] + e)
-        return out
+        v = self.view
+        # one numba pass (its numpy twin: errpred._side_kernels.interval_contains_numpy)
+        return interval_contains(np.ascontiguousarray(pts), v.origin, v.basis, v.pixel_mm,
+                                 v.nx, v.ny, self.bottom, self.top, MEMBERSHIP_EPS_MM)

@@ -24,11 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._cluster_kernels import inside_any_sweep_clustered
+from ._side_kernels import side_hits
 from .constants import CLUSTER_CELL_MM, MEMBERSHIP_EPS_MM
 from .tool import Tool
 
-__all__ = ["EnvelopeHits", "Region", "GenerationPoint", "envelope_hits", "regions",
-           "generation_point", "strip_samples"]
+__all__ = ["EnvelopeHits", "Region", "GenerationPoint", "envelope_hits", "envelope_hits_numpy",
+           "regions", "generation_point", "strip_samples"]
 
 _PARALLEL_TOL = 1e-9
 #: Finished pixels kept per point for averaging the error over the strip.
@@ -71,8 +72,27 @@ def envelope_hits(tool: Tool, view, frame: np.ndarray, tip: np.ndarray) -> Envel
     """First hits of the view's pixel rays on the tool's cutting envelope.
 
     The view must look along the tool axis (bottom view, ``+z'``) or across
-    it (side view); other directions raise ``ValueError``.
+    it (side view); other directions raise ``ValueError``. A side view is one
+    numba pass over its pixels (:func:`errpred._side_kernels.side_hits`), the
+    rest :func:`envelope_hits_numpy` (the kernel's twin: the same hits within
+    ``SIDE_HITS_TOL_MM`` / ``SIDE_HITS_TOL_RAD``).
     """
+    frame = np.asarray(frame, dtype=float)
+    v_t = frame @ np.asarray(view.basis[2], dtype=float)
+    if abs(v_t[2]) < _PARALLEL_TOL:
+        valid, xyz, world, phi, kappa = side_hits(
+            np.ascontiguousarray(view.origin, dtype=float),
+            np.ascontiguousarray(view.basis, dtype=float), float(view.pixel_mm), int(view.nx),
+            int(view.ny), np.ascontiguousarray(tip, dtype=float), np.ascontiguousarray(frame),
+            float(tool.radius_mm), float(tool.corner_radius_mm), float(tool.core_radius_mm),
+            float(tool.flute_length_mm))
+        return EnvelopeHits(valid=valid, tool_xyz=xyz, world=world, phi=phi, kappa=kappa,
+                            shape=(view.ny, view.nx))
+    return envelope_hits_numpy(tool, view, frame, tip)
+
+
+def envelope_hits_numpy(tool: Tool, view, frame: np.ndarray, tip: np.ndarray) -> EnvelopeHits:
+    """:func:`envelope_hits` in numpy, both views (the side view's kernel's twin)."""
     o, v = _pixel_rays(view)
     o_t = (o - tip) @ frame.T
     v_t = frame @ v
