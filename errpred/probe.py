@@ -18,6 +18,9 @@ from .constants import MEMBERSHIP_EPS_MM
 
 __all__ = ["StockProbe"]
 
+_UNUSED = np.zeros((1, 1))
+_UNUSED_3 = np.zeros(3)
+
 
 class StockProbe:
     """``probe(points) -> bool`` for one stock and one view.
@@ -36,6 +39,15 @@ class StockProbe:
         self._box = getattr(stock, "is_box", False)
         if not self._box:
             self.bottom, self.top = stock.interval(view, depth_range=depth_range)
+
+    def kernel_args(self) -> tuple:
+        """``(box, lo, hi, bottom, top)`` for :func:`errpred._side_kernels.side_stock_hits`:
+        whether the stock is a box, its bounds [mm], and the view's material interval
+        [mm] (a box's: unused 1 x 1 arrays)."""
+        if self._box:
+            lo, hi = (np.ascontiguousarray(b, dtype=float) for b in self.stock.bounds)
+            return True, lo, hi, _UNUSED, _UNUSED
+        return False, _UNUSED_3, _UNUSED_3, self.bottom, self.top
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         pts = np.asarray(points, dtype=float).reshape(-1, 3)

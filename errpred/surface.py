@@ -24,12 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._cluster_kernels import inside_any_sweep_clustered
-from ._side_kernels import side_hits
+from ._side_kernels import side_hits, side_stock_hits
 from .constants import CLUSTER_CELL_MM, MEMBERSHIP_EPS_MM
 from .tool import Tool
 
 __all__ = ["EnvelopeHits", "Region", "GenerationPoint", "envelope_hits", "envelope_hits_numpy",
-           "regions", "generation_point", "strip_samples"]
+           "regions", "side_regions", "generation_point", "strip_samples"]
 
 _PARALLEL_TOL = 1e-9
 #: Finished pixels kept per point for averaging the error over the strip.
@@ -50,6 +50,9 @@ class EnvelopeHits:
         Angular position and contact angle of the envelope at the hit.
     shape : tuple
         (ny, nx) of the view.
+    index : ndarray, shape (p,), int, or None
+        Where only some of the view's pixels are kept (:func:`side_regions`): the flat
+        pixel index (``i * nx + j``) of each; None: every pixel, in order.
     """
 
     valid: np.ndarray
@@ -58,6 +61,7 @@ class EnvelopeHits:
     phi: np.ndarray
     kappa: np.ndarray
     shape: tuple[int, int]
+    index: np.ndarray | None = None
 
 
 def _pixel_rays(view) -> tuple[np.ndarray, np.ndarray]:
@@ -160,6 +164,41 @@ def regions(tool: Tool, hits: EnvelopeHits, pixel_mm: float,
     cutting = _outside(tool, hits.world, cand, t1)
     finished = _outside(tool, hits.world, cutting, t2)
     return Region(hits=hits, cutting=cutting, finished=finished, pixel_mm=pixel_mm)
+
+
+def side_regions(tool: Tool, view, frame: np.ndarray, tip: np.ndarray, probe, t1, t2
+                 ) -> Region:
+    """:func:`regions` of a side view's :func:`envelope_hits`, kept to the pixels whose
+    hit lies in the stock (``probe``, a :class:`errpred.probe.StockProbe` of ``view``):
+    the cutting and finished regions are made of those alone, so they are the same
+    pixels; the others' arrays are never made (``EnvelopeHits.index`` says which
+    pixels these are). One numba pass finds them and their hits
+    (:func:`errpred._side_kernels.side_stock_hits`); ``phi`` and ``kappa`` as
+    :func:`envelope_hits_numpy` forms them.
+    """
+    frame = np.ascontiguousarray(frame, dtype=float)
+    v_t = frame @ np.asarray(view.basis[2], dtype=float)
+    if not abs(v_t[2]) < _PARALLEL_TOL:
+        raise ValueError("side_regions: the view must look across the tool axis")
+    R, r, c = tool.radius_mm, tool.corner_radius_mm, tool.core_radius_mm
+    box, lo, hi, bottom, top = probe.kernel_args()
+    index, xyz, world = side_stock_hits(
+        np.ascontiguousarray(view.origin, dtype=float),
+        np.ascontiguousarray(view.basis, dtype=float), float(view.pixel_mm), int(view.nx),
+        int(view.ny), np.ascontiguousarray(tip, dtype=float), frame, float(R), float(r),
+        float(c), float(tool.flute_length_mm), bool(box), lo, hi, bottom, top,
+        MEMBERSHIP_EPS_MM)
+    z = xyz[:, 2]
+    with np.errstate(invalid="ignore"):
+        kappa = np.where(z >= r, math.pi / 2,
+                         np.arccos(np.clip((r - z) / r if r > 0 else 0.0, -1, 1)))
+    stock = np.ones(index.shape[0], dtype=bool)
+    hits = EnvelopeHits(valid=stock, tool_xyz=xyz, world=world,
+                        phi=np.arctan2(xyz[:, 0], xyz[:, 1]), kappa=kappa,
+                        shape=(view.ny, view.nx), index=index)
+    cutting = _outside(tool, world, stock, t1)
+    finished = _outside(tool, world, cutting, t2)
+    return Region(hits=hits, cutting=cutting, finished=finished, pixel_mm=view.pixel_mm)
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,8 @@ from errpred.constants import MEMBERSHIP_EPS_MM
 from errpred.geometry import GeometryModel, Resolution
 from errpred.raster.camera import View
 from errpred.raster.meshes import Stock
-from errpred.surface import envelope_hits, envelope_hits_numpy, generation_point, regions
+from errpred.surface import (envelope_hits, envelope_hits_numpy, generation_point, regions,
+                             side_regions)
 from errpred.tool import Tool
 
 TOOLS = (Tool("ball", 10.0, flute_length_mm=15.0),
@@ -105,27 +106,23 @@ def test_interval_contains_matches_the_numpy_twin():
 
 def _side_cuts(stock, tool):
     """Geometry of the middle block of a wall side-milled along +X (material on +Y), with
-    every side view the points make recorded: (view, frame, tip, probe, t1, t2)."""
+    every side view the point makes recorded: (view, frame, tip, probe, t1, t2)."""
     prog = parse_program("G21 G90 G94\nS6000 M3\nG0 X-30 Y0 Z0\nG1 X-2 F600\nG1 X2\n"
                          "G1 X30\nM30\n")
     res = Resolution(pixel_mm=tool.diameter_mm / 32, angle_step_rad=math.radians(4.0))
     model = GeometryModel(tool, stock, cutter_locations(prog), res, sensitivity=False)
     seen = []
-    env, reg = G.envelope_hits, G.regions
+    reg = G.side_regions
 
-    def record_env(tool_, view, frame, tip):
-        seen.append([view, frame.copy(), tip.copy()])
-        return env(tool_, view, frame, tip)
+    def record(tool_, view, frame, tip, probe, t1, t2):
+        seen.append((view, frame.copy(), tip.copy(), probe, t1, t2))
+        return reg(tool_, view, frame, tip, probe, t1, t2)
 
-    def record_reg(tool_, hits, pixel, probe, t1, t2):
-        seen[-1] += [probe, t1, t2]
-        return reg(tool_, hits, pixel, probe, t1, t2)
-
-    G.envelope_hits, G.regions = record_env, record_reg
+    G.side_regions = record
     try:
         (g,) = model.geometry(2)
     finally:
-        G.envelope_hits, G.regions = env, reg
+        G.side_regions = reg
     return g, seen
 
 
@@ -134,7 +131,9 @@ def test_real_side_views_flag_the_same_pixels_as_the_numpy_twins(mesh):
     """The side views of wall cuts (a flat end mill with a counter-clockwise spindle, a
     radius end mill; the stock a box and the same box as a mesh, whose probe is the
     interval kernel): hits within the tolerances, the same in-stock, cutting and
-    finished pixels as the numpy twins, the generation point within the tolerances."""
+    finished pixels as the numpy twins, the generation point within the tolerances;
+    and :func:`side_regions` (one kernel: the in-stock pixels only) the same pixels and
+    generation point as the numpy twins over the whole view."""
     finished = 0
     for tool in (TOOLS[2], Tool("radius", 10.0, corner_radius_mm=1.5, flute_length_mm=6.0)):
         # 1 mm radial depth of cut, 2 mm high, above the corner
@@ -144,7 +143,7 @@ def test_real_side_views_flag_the_same_pixels_as_the_numpy_twins(mesh):
                  else Stock.from_box(lo, hi))
         g, seen = _side_cuts(stock, tool)
         assert g.status == "predicted" and g.view == "side"
-        assert seen and all(len(s) == 6 for s in seen)
+        assert seen
         for view, frame, tip, probe, t1, t2 in seen:
             a = envelope_hits(tool, view, frame, tip)
             b = envelope_hits_numpy(tool, view, frame, tip)
@@ -161,13 +160,27 @@ def test_real_side_views_flag_the_same_pixels_as_the_numpy_twins(mesh):
             np.testing.assert_array_equal(ra.cutting, rb.cutting)
             np.testing.assert_array_equal(ra.finished, rb.finished)
             finished += int(ra.finished.sum())
-            ga, gb = generation_point(tool, ra, frame, tip), generation_point(tool, rb, frame, tip)
-            assert (ga is None) == (gb is None)
-            if ga is not None:
-                assert ga.pixels == gb.pixels
-                np.testing.assert_allclose(ga.point_world, gb.point_world, atol=SIDE_HITS_TOL_MM)
-                np.testing.assert_allclose(ga.normal_world, gb.normal_world,
-                                           atol=SIDE_HITS_TOL_RAD)
-                assert abs(math.remainder(ga.theta_rad - gb.theta_rad, 2 * math.pi)) \
-                    <= SIDE_HITS_TOL_RAD
+            # the compact region: exactly the twin's in-stock pixels, in order
+            rc = side_regions(tool, view, frame, tip, probe, t1, t2)
+            in_stock = b.valid.copy()
+            in_stock[in_stock] = twin(b.world[b.valid])
+            np.testing.assert_array_equal(rc.hits.index, np.flatnonzero(in_stock))
+            np.testing.assert_allclose(rc.hits.world, b.world[rc.hits.index], rtol=0,
+                                       atol=SIDE_HITS_TOL_MM)
+            for got, want in ((rc.cutting, rb.cutting), (rc.finished, rb.finished)):
+                np.testing.assert_array_equal(got, want[rc.hits.index])
+                assert got.sum() == want.sum()
+            gb = generation_point(tool, rb, frame, tip)
+            for ga in (generation_point(tool, ra, frame, tip), generation_point(tool, rc, frame, tip)):
+                assert (ga is None) == (gb is None)
+                if ga is not None:
+                    assert ga.pixels == gb.pixels
+                    np.testing.assert_allclose(ga.point_world, gb.point_world,
+                                               atol=SIDE_HITS_TOL_MM)
+                    np.testing.assert_allclose(ga.normal_world, gb.normal_world,
+                                               atol=SIDE_HITS_TOL_RAD)
+                    np.testing.assert_allclose(ga.samples_kappa, gb.samples_kappa,
+                                               atol=SIDE_HITS_TOL_RAD)
+                    assert abs(math.remainder(ga.theta_rad - gb.theta_rad, 2 * math.pi)) \
+                        <= SIDE_HITS_TOL_RAD
     assert finished > 100
