@@ -248,6 +248,14 @@ MIN_AXIS_NORMAL_ANGLE_RAD = math.radians(5.0)
 VIEW_CORRECTION_KAPPA_RAD = math.radians(60.0)
 #: Zoom factor of the corrected view [-].
 VIEW_ZOOM = 8.0
+#: The side view, which needs only its finished pixels, tests its in-stock pixels
+#: first against this many sweeps of T2, those starting nearest the tip (the tool's
+#: own path ahead, which holds nearly all of the cutting region: the front of the
+#: tool), then against T1, then against the rest of T2: the same pixels, but the
+#: cutting region is not refuted against every sweep of T1 first [-] (1, 3, 8
+#: measured on the planned 5-axis mold-core program's side views: T1 and T2 took
+#: about half the time at 3, a little more at 1 and 8).
+SIDE_T2_FIRST_SWEEPS = 3
 
 # --- the local Dask cluster (errpred/cluster.py) ---------------------------------
 #: glibc malloc settings of the local cluster's workers [bytes]: trim threshold and mmap

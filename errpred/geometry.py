@@ -640,8 +640,9 @@ class GeometryModel:
             side = View.side(tip, frame, az, tool.diameter_mm + 2 * res.pixel_mm,
                              max(height, 2 * res.pixel_mm), res.pixel_mm / K.VIEW_ZOOM)
             probe = StockProbe(self.stock, side, (0.0, tool.diameter_mm + 2 * res.pixel_mm))
-            # regions(envelope_hits(...)) kept to the pixels whose hit is in the stock
-            reg = side_regions(tool, side, frame, tip, probe, t1, t2)
+            # regions(envelope_hits(...)) kept to the pixels whose hit is in the stock;
+            # its finished pixels only (the cutting region is not needed here)
+            reg = side_regions(tool, side, frame, tip, probe, t1, t2, cutting=False)
             gen = generation_point(tool, reg, frame, tip)
             if gen is not None:
                 return gen

@@ -114,9 +114,9 @@ def _side_cuts(stock, tool):
     seen = []
     reg = G.side_regions
 
-    def record(tool_, view, frame, tip, probe, t1, t2):
+    def record(tool_, view, frame, tip, probe, t1, t2, **kw):
         seen.append((view, frame.copy(), tip.copy(), probe, t1, t2))
-        return reg(tool_, view, frame, tip, probe, t1, t2)
+        return reg(tool_, view, frame, tip, probe, t1, t2, **kw)
 
     G.side_regions = record
     try:
@@ -170,8 +170,14 @@ def test_real_side_views_flag_the_same_pixels_as_the_numpy_twins(mesh):
             for got, want in ((rc.cutting, rb.cutting), (rc.finished, rb.finished)):
                 np.testing.assert_array_equal(got, want[rc.hits.index])
                 assert got.sum() == want.sum()
+            # finished pixels only, T2's nearest sweeps asked first: the same pixels
+            rf = side_regions(tool, view, frame, tip, probe, t1, t2, cutting=False)
+            assert rf.cutting is None
+            np.testing.assert_array_equal(rf.hits.index, rc.hits.index)
+            np.testing.assert_array_equal(rf.finished, rc.finished)
             gb = generation_point(tool, rb, frame, tip)
-            for ga in (generation_point(tool, ra, frame, tip), generation_point(tool, rc, frame, tip)):
+            for ga in (generation_point(tool, ra, frame, tip), generation_point(tool, rc, frame, tip),
+                       generation_point(tool, rf, frame, tip)):
                 assert (ga is None) == (gb is None)
                 if ga is not None:
                     assert ga.pixels == gb.pixels
