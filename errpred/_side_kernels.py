@@ -11,14 +11,15 @@ over the view's ~55,000 pixels and kept every pixel's arrays; each kernel is one
 
 Their numpy twins are :func:`errpred.surface.envelope_hits_numpy` (its side-view
 branch), :func:`interval_contains_numpy` (what :class:`errpred.probe.StockProbe` did
-for a mesh), and for :func:`side_stock_hits` the two together. They are compared in ``tests/errpred/test_side_kernels.py``: the same
-IEEE operations, but numpy forms its matrix products in BLAS (another order of the
-sums, fused multiply-adds) and evaluates ``arctan2``/``arccos`` with its own
-routines, so the coordinates agree within a few ulps
-(:data:`SIDE_HITS_TOL_MM`, :data:`SIDE_HITS_TOL_RAD`), and a pixel's flags could
-differ only for a ray within rounding of the envelope's silhouette or a hit within
-rounding of the stock's surface ``± MEMBERSHIP_EPS_MM`` (on the real views of the
-tests: none).
+for a mesh), and for :func:`side_stock_hits` the two together. They are compared in
+``tests/errpred/test_side_kernels.py``: the same IEEE operations, but numpy forms its
+matrix products in BLAS (another order of the sums) and evaluates ``arctan2`` and
+``arccos`` with its own routines, so the coordinates agree within a few ulps of the
+world coordinates they are formed from (``constants.SIDE_HITS_TOL_MM``,
+``SIDE_HITS_TOL_RAD``), not to the bit, and a pixel's flags could differ only for a
+ray within rounding of the envelope's silhouette or a hit within rounding of the
+stock's surface ``± MEMBERSHIP_EPS_MM`` (on the real views of the tests, and on the
+376 views of 600 blocks of the planned mold-core program: none).
 """
 
 from __future__ import annotations
@@ -28,16 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["side_hits", "side_stock_hits", "interval_contains", "interval_contains_numpy",
-           "SIDE_HITS_TOL_MM", "SIDE_HITS_TOL_RAD"]
-
-#: How far the kernels' hit coordinates may lie from their numpy twins' [mm]: a few
-#: ulps of world coordinates up to ~1 m (ulp 1.1e-13 mm), far below any pixel.
-SIDE_HITS_TOL_MM = 1e-11
-#: How far the kernels' angles may lie from their numpy twins' [rad] (``arctan2`` and
-#: ``arccos`` of the same arguments within an ulp or two; ``arccos`` near 1 magnifies
-#: the arguments' rounding: sqrt(2 * 1e-16) ~ 1.5e-8 at worst).
-SIDE_HITS_TOL_RAD = 1e-7
+__all__ = ["side_hits", "side_stock_hits", "interval_contains", "interval_contains_numpy"]
 
 
 @njit(cache=True, nogil=True, inline="always")

@@ -79,7 +79,7 @@ def envelope_hits(tool: Tool, view, frame: np.ndarray, tip: np.ndarray) -> Envel
     it (side view); other directions raise ``ValueError``. A side view is one
     numba pass over its pixels (:func:`errpred._side_kernels.side_hits`), the
     rest :func:`envelope_hits_numpy` (the kernel's twin: the same hits within
-    ``SIDE_HITS_TOL_MM`` / ``SIDE_HITS_TOL_RAD``).
+    ``constants.SIDE_HITS_TOL_MM`` / ``SIDE_HITS_TOL_RAD``).
     """
     frame = np.asarray(frame, dtype=float)
     v_t = frame @ np.asarray(view.basis[2], dtype=float)

@@ -17,9 +17,8 @@ import trimesh
 from nc import parse_program
 from nc.path import cutter_locations
 from errpred import geometry as G
-from errpred._side_kernels import (SIDE_HITS_TOL_MM, SIDE_HITS_TOL_RAD, interval_contains,
-                                   interval_contains_numpy)
-from errpred.constants import MEMBERSHIP_EPS_MM
+from errpred._side_kernels import interval_contains, interval_contains_numpy
+from errpred.constants import MEMBERSHIP_EPS_MM, SIDE_HITS_TOL_MM, SIDE_HITS_TOL_RAD
 from errpred.geometry import GeometryModel, Resolution
 from errpred.raster.camera import View
 from errpred.raster.meshes import Stock
@@ -176,7 +175,8 @@ def test_real_side_views_flag_the_same_pixels_as_the_numpy_twins(mesh):
             np.testing.assert_array_equal(rf.hits.index, rc.hits.index)
             np.testing.assert_array_equal(rf.finished, rc.finished)
             gb = generation_point(tool, rb, frame, tip)
-            for ga in (generation_point(tool, ra, frame, tip), generation_point(tool, rc, frame, tip),
+            for ga in (generation_point(tool, ra, frame, tip),
+                       generation_point(tool, rc, frame, tip),
                        generation_point(tool, rf, frame, tip)):
                 assert (ga is None) == (gb is None)
                 if ga is not None:
