@@ -9,7 +9,15 @@ dtypes included), in order, to a JSON file (``--save``); ``--compare`` reads
 such a file made by the code before a change and says which points differ
 (exit 1 if any, or if the point counts differ).
 
-Usage: python benchmarks/check_geometry_same.py (--save F | --compare F)
+It also keeps each point's values (status, view, pixel counts, a digest of the
+per-revolution arrays, the generation point's angles, point, normal and pixel
+count, and its strip samples' count, sums, minima and maxima); with ``--tol T``
+the points whose bytes differ are compared value by value instead: everything
+but the floats equal, the floats within ``T`` (mm or rad; angles modulo 2 pi).
+A change that is the same arithmetic in another order (a numba kernel for numpy
+code) passes ``--tol`` but not the bytes.
+
+Usage: python benchmarks/check_geometry_same.py (--save F | --compare F [--tol T])
 [--blocks N] [--slices NAMES] [--dense]
 """
 
@@ -19,9 +27,12 @@ import argparse
 import dataclasses
 import hashlib
 import json
+import math
 import os
 import pickle
 import sys
+
+import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
@@ -35,7 +46,50 @@ SLICES = {
 }
 
 
-def digests(name: str, n_blocks: int, dense: bool, zmap: bool | None) -> list[str]:
+def _sha(obj) -> str:
+    return hashlib.sha256(pickle.dumps(obj, protocol=4)).hexdigest()
+
+
+def values(g) -> dict:
+    """A point's values for the comparison within a tolerance (floats as a list)."""
+    arrays = (g.cutting0, g.weight0, g.shift0, g.cl_per_rev, g.sensitivity)
+    exact = [g.block, g.status, g.view, g.cutting_pixels, g.finished_pixels, list(g.notes),
+             _sha(arrays)]
+    floats = [g.path_mm, *map(float, g.tip), *map(float, g.axis), *map(float, g.frame.ravel())]
+    angles: list[float] = []
+    gen = g.gen
+    if gen is not None:
+        exact += [gen.pixels, 0 if gen.samples_theta is None else len(gen.samples_theta)]
+        angles += [gen.theta_rad, gen.phi_rad]
+        floats += [gen.kappa_rad, *map(float, gen.point_tool), *map(float, gen.point_world),
+                   *map(float, gen.normal_world)]
+        for a in (gen.samples_kappa, gen.samples_z, gen.samples_normal):
+            if a is not None:
+                floats += [float(a.sum()), float(a.min()), float(a.max())]
+        if gen.samples_theta is not None:
+            # rotation angles near 0 and 2 pi: their sines and cosines
+            floats += [float(np.sin(gen.samples_theta).sum()),
+                       float(np.cos(gen.samples_theta).sum())]
+    return {"exact": exact, "floats": floats, "angles": angles}
+
+
+def differs(a: dict, b: dict, tol: float) -> str | None:
+    """Why two points' values differ beyond ``tol``, or None."""
+    if a["exact"] != b["exact"]:
+        return f"exact fields {a['exact']} vs {b['exact']}"
+    for key in ("floats", "angles"):
+        if len(a[key]) != len(b[key]):
+            return f"{key}: {len(a[key])} vs {len(b[key])} values"
+    d = max((abs(x - y) for x, y in zip(a["floats"], b["floats"])), default=0.0)
+    da = max((abs(math.remainder(x - y, 2 * math.pi))
+              for x, y in zip(a["angles"], b["angles"])), default=0.0)
+    if not (d <= tol and da <= tol):
+        return f"floats off by {d:.3g}, angles by {da:.3g}"
+    return None
+
+
+def digests(name: str, n_blocks: int, dense: bool, zmap: bool | None
+            ) -> tuple[list[str], list[dict]]:
     scenario, first = SLICES[name]
     s = load(bundled_scenario(scenario))
     s = dataclasses.replace(s, lines=(first, 10**9))
@@ -43,8 +97,8 @@ def digests(name: str, n_blocks: int, dense: bool, zmap: bool | None) -> list[st
     pred = build_predictor(s, resolution=res, sensitivity=True)
     pred.model.use_sweep_map = zmap
     blocks = blocks_in_scope(s, pred.program)[:n_blocks]
-    return [hashlib.sha256(pickle.dumps(g, protocol=4)).hexdigest()
-            for gl in pred.geometries(blocks) for g in gl]
+    points = [g for gl in pred.geometries(blocks) for g in gl]
+    return [_sha(g) for g in points], [values(g) for g in points]
 
 
 def main(argv=None) -> int:
@@ -56,23 +110,32 @@ def main(argv=None) -> int:
     ap.add_argument("--slices", default=",".join(SLICES))
     ap.add_argument("--dense", action="store_true",
                     help="also at the dense verification's spacing (Resolution.dense)")
+    ap.add_argument("--tol", type=float, default=None,
+                    help="with --compare: points whose bytes differ pass when their values "
+                         "agree within this [mm or rad] (see the module's docstring)")
     args = ap.parse_args(argv)
-    runs = {}
+    if args.tol is not None and not (args.compare and math.isfinite(args.tol)
+                                     and args.tol >= 0):
+        ap.error(f"--tol: expected a finite value >= 0 with --compare, got {args.tol!r}")
+    runs, vals = {}, {}
     for name in args.slices.split(","):
         if name not in SLICES:
             ap.error(f"--slices: unknown slice {name!r}; expected one of {', '.join(SLICES)}")
         # with and without the sweeps' height map: both ways of answering T1
         for zmap in (None, False):
-            runs[f"{name} zmap={zmap}"] = digests(name, args.blocks, False, zmap)
+            key = f"{name} zmap={zmap}"
+            runs[key], vals[key] = digests(name, args.blocks, False, zmap)
         if args.dense:
-            runs[f"{name} dense"] = digests(name, args.blocks, True, False)
+            key = f"{name} dense"
+            runs[key], vals[key] = digests(name, args.blocks, True, False)
     if args.save:
         with open(args.save, "w") as fh:
-            json.dump(runs, fh, indent=0)
+            json.dump({**runs, "values": vals}, fh, indent=0)
         print(f"{sum(map(len, runs.values()))} points in {args.save}")
         return 0
     with open(args.compare) as fh:
         ref = json.load(fh)
+    ref_vals = ref.pop("values", {})
     bad = 0
     for key, got in runs.items():
         want = ref.get(key)
@@ -82,8 +145,19 @@ def main(argv=None) -> int:
             continue
         diff = [i for i, (a, b) in enumerate(zip(got, want)) if a != b]
         same = len(got) == len(want) and not diff
-        print(f"{key}: {len(got)} points, {'same bytes' if same else f'{len(diff)} differ'}"
-              + ("" if len(got) == len(want) else f" (reference {len(want)} points)"))
+        line = (f"{key}: {len(got)} points, {'same bytes' if same else f'{len(diff)} differ'}"
+                + ("" if len(got) == len(want) else f" (reference {len(want)} points)"))
+        if not same and args.tol is not None and len(got) == len(want):
+            want_vals = ref_vals.get(key)
+            if want_vals is None:
+                line += f"; no values in {args.compare} (saved by an older version)"
+            else:
+                why = [(i, differs(vals[key][i], want_vals[i], args.tol)) for i in diff]
+                why = [(i, w) for i, w in why if w is not None]
+                line += (f"; {len(diff) - len(why)} of them within --tol {args.tol:g}"
+                         + "".join(f"\n  point {i}: {w}" for i, w in why[:5]))
+                same = not why
+        print(line)
         bad += not same
     return 1 if bad else 0
 

@@ -248,6 +248,22 @@ MIN_AXIS_NORMAL_ANGLE_RAD = math.radians(5.0)
 VIEW_CORRECTION_KAPPA_RAD = math.radians(60.0)
 #: Zoom factor of the corrected view [-].
 VIEW_ZOOM = 8.0
+#: The side view, which needs only its finished pixels, tests its in-stock pixels
+#: first against this many sweeps of T2, those starting nearest the tip (the tool's
+#: own path ahead, which holds nearly all of the cutting region: the front of the
+#: tool), then against T1, then against the rest of T2: the same pixels, but the
+#: cutting region is not refuted against every sweep of T1 first [-] (1, 3, 8
+#: measured on the planned 5-axis mold-core program's side views: T1 and T2 took
+#: about half the time at 3, a little more at 1 and 8).
+SIDE_T2_FIRST_SWEEPS = 3
+#: How far the side view's kernels' hits may lie from their numpy twins'
+#: (``errpred/_side_kernels.py``; the same arithmetic, numpy's BLAS sums in another
+#: order) [mm]: a few ulps of world coordinates up to ~1 m (ulp 1.1e-13 mm; measured
+#: 5.9e-13 mm on the mold-core program's views), far below any pixel ...
+SIDE_HITS_TOL_MM = 1e-11
+#: ... and their angles [rad]: ``arctan2``/``arccos`` of arguments that differ by
+#: that rounding (``arccos`` near 1 magnifies it: sqrt(2 * 1e-16) ~ 1.5e-8 at worst).
+SIDE_HITS_TOL_RAD = 1e-7
 
 # --- the local Dask cluster (errpred/cluster.py) ---------------------------------
 #: glibc malloc settings of the local cluster's workers [bytes]: trim threshold and mmap

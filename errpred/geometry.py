@@ -29,7 +29,7 @@ from .frames import tool_frame
 from .point_engagement import PointEngagement
 from .probe import StockProbe
 from .raster.camera import View
-from .surface import GenerationPoint, envelope_hits, generation_point, regions, strip_samples
+from .surface import GenerationPoint, generation_point, side_regions, strip_samples
 from .sweeps import BlockLookup, Sweeps, build_sweeps
 from .tool import MicroEdges, Tool
 from .t1memo import RemovedMemo as _RemovedMemo
@@ -640,8 +640,9 @@ class GeometryModel:
             side = View.side(tip, frame, az, tool.diameter_mm + 2 * res.pixel_mm,
                              max(height, 2 * res.pixel_mm), res.pixel_mm / K.VIEW_ZOOM)
             probe = StockProbe(self.stock, side, (0.0, tool.diameter_mm + 2 * res.pixel_mm))
-            hits = envelope_hits(tool, side, frame, tip)
-            reg = regions(tool, hits, side.pixel_mm, probe, t1, t2)
+            # regions(envelope_hits(...)) kept to the pixels whose hit is in the stock;
+            # its finished pixels only (the cutting region is not needed here)
+            reg = side_regions(tool, side, frame, tip, probe, t1, t2, cutting=False)
             gen = generation_point(tool, reg, frame, tip)
             if gen is not None:
                 return gen

@@ -13,9 +13,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._side_kernels import interval_contains
 from .constants import MEMBERSHIP_EPS_MM
 
 __all__ = ["StockProbe"]
+
+_UNUSED = np.zeros((1, 1))
+_UNUSED_3 = np.zeros(3)
 
 
 class StockProbe:
@@ -36,17 +40,22 @@ class StockProbe:
         if not self._box:
             self.bottom, self.top = stock.interval(view, depth_range=depth_range)
 
+    def kernel_args(self) -> tuple:
+        """``(box, lo, hi, bottom, top)`` for :func:`errpred._side_kernels.side_stock_hits`:
+        whether the stock is a box, its bounds [mm], and the view's material interval
+        [mm] (a box's: unused 1 x 1 arrays)."""
+        if self._box:
+            lo, hi = (np.ascontiguousarray(b, dtype=float) for b in self.stock.bounds)
+            return True, lo, hi, _UNUSED, _UNUSED
+        return False, _UNUSED_3, _UNUSED_3, self.bottom, self.top
+
     def __call__(self, points: np.ndarray) -> np.ndarray:
         pts = np.asarray(points, dtype=float).reshape(-1, 3)
         if self._box:
             lo, hi = self.stock.bounds
             e = MEMBERSHIP_EPS_MM
             return np.all((pts >= lo - e) & (pts <= hi + e), axis=1)
-        i, j, inside = self.view.pixel_of(pts)
-        depth = self.view.to_view(pts)[:, 2]
-        out = np.zeros(pts.shape[0], dtype=bool)
-        ii, jj = i[inside], j[inside]
-        d = depth[inside]
-        e = MEMBERSHIP_EPS_MM
-        out[inside] = (self.bottom[ii, jj] - e <= d) & (d <= self.top[ii, jj] + e)
-        return out
+        v = self.view
+        # one numba pass (its numpy twin: errpred._side_kernels.interval_contains_numpy)
+        return interval_contains(np.ascontiguousarray(pts), v.origin, v.basis, v.pixel_mm,
+                                 v.nx, v.ny, self.bottom, self.top, MEMBERSHIP_EPS_MM)

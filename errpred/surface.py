@@ -24,11 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._cluster_kernels import inside_any_sweep_clustered
-from .constants import CLUSTER_CELL_MM, MEMBERSHIP_EPS_MM
+from ._side_kernels import side_hits, side_stock_hits
+from .constants import CLUSTER_CELL_MM, MEMBERSHIP_EPS_MM, SIDE_T2_FIRST_SWEEPS
 from .tool import Tool
 
-__all__ = ["EnvelopeHits", "Region", "GenerationPoint", "envelope_hits", "regions",
-           "generation_point", "strip_samples"]
+__all__ = ["EnvelopeHits", "Region", "GenerationPoint", "envelope_hits", "envelope_hits_numpy",
+           "regions", "side_regions", "generation_point", "strip_samples"]
 
 _PARALLEL_TOL = 1e-9
 #: Finished pixels kept per point for averaging the error over the strip.
@@ -49,6 +50,9 @@ class EnvelopeHits:
         Angular position and contact angle of the envelope at the hit.
     shape : tuple
         (ny, nx) of the view.
+    index : ndarray, shape (p,), int, or None
+        Where only some of the view's pixels are kept (:func:`side_regions`): the flat
+        pixel index (``i * nx + j``) of each; None: every pixel, in order.
     """
 
     valid: np.ndarray
@@ -57,6 +61,7 @@ class EnvelopeHits:
     phi: np.ndarray
     kappa: np.ndarray
     shape: tuple[int, int]
+    index: np.ndarray | None = None
 
 
 def _pixel_rays(view) -> tuple[np.ndarray, np.ndarray]:
@@ -71,8 +76,27 @@ def envelope_hits(tool: Tool, view, frame: np.ndarray, tip: np.ndarray) -> Envel
     """First hits of the view's pixel rays on the tool's cutting envelope.
 
     The view must look along the tool axis (bottom view, ``+z'``) or across
-    it (side view); other directions raise ``ValueError``.
+    it (side view); other directions raise ``ValueError``. A side view is one
+    numba pass over its pixels (:func:`errpred._side_kernels.side_hits`), the
+    rest :func:`envelope_hits_numpy` (the kernel's twin: the same hits within
+    ``constants.SIDE_HITS_TOL_MM`` / ``SIDE_HITS_TOL_RAD``).
     """
+    frame = np.asarray(frame, dtype=float)
+    v_t = frame @ np.asarray(view.basis[2], dtype=float)
+    if abs(v_t[2]) < _PARALLEL_TOL:
+        valid, xyz, world, phi, kappa = side_hits(
+            np.ascontiguousarray(view.origin, dtype=float),
+            np.ascontiguousarray(view.basis, dtype=float), float(view.pixel_mm), int(view.nx),
+            int(view.ny), np.ascontiguousarray(tip, dtype=float), np.ascontiguousarray(frame),
+            float(tool.radius_mm), float(tool.corner_radius_mm), float(tool.core_radius_mm),
+            float(tool.flute_length_mm))
+        return EnvelopeHits(valid=valid, tool_xyz=xyz, world=world, phi=phi, kappa=kappa,
+                            shape=(view.ny, view.nx))
+    return envelope_hits_numpy(tool, view, frame, tip)
+
+
+def envelope_hits_numpy(tool: Tool, view, frame: np.ndarray, tip: np.ndarray) -> EnvelopeHits:
+    """:func:`envelope_hits` in numpy, both views (the side view's kernel's twin)."""
     o, v = _pixel_rays(view)
     o_t = (o - tip) @ frame.T
     v_t = frame @ v
@@ -113,10 +137,11 @@ def envelope_hits(tool: Tool, view, frame: np.ndarray, tip: np.ndarray) -> Envel
 
 @dataclass(frozen=True, eq=False)
 class Region:
-    """Cutting and finished pixels of a view (flat boolean arrays)."""
+    """Cutting and finished pixels of a view (flat boolean arrays; ``cutting`` None where
+    only the finished pixels were asked for, :func:`side_regions`)."""
 
     hits: EnvelopeHits
-    cutting: np.ndarray
+    cutting: np.ndarray | None
     finished: np.ndarray
     pixel_mm: float
 
@@ -140,6 +165,63 @@ def regions(tool: Tool, hits: EnvelopeHits, pixel_mm: float,
     cutting = _outside(tool, hits.world, cand, t1)
     finished = _outside(tool, hits.world, cutting, t2)
     return Region(hits=hits, cutting=cutting, finished=finished, pixel_mm=pixel_mm)
+
+
+def _nearest_sweeps(sweeps, point: np.ndarray, k: int):
+    """The ``k`` sweeps (``(p0, d, w, lo, hi)``) whose start lies nearest ``point``."""
+    p0 = sweeps[0]
+    if p0.shape[0] <= k:
+        return sweeps
+    pick = np.sort(np.argpartition(((p0 - point) ** 2).sum(axis=1), k - 1)[:k])
+    return tuple(np.ascontiguousarray(a[pick]) for a in sweeps)
+
+
+def side_regions(tool: Tool, view, frame: np.ndarray, tip: np.ndarray, probe, t1, t2,
+                 cutting: bool = True) -> Region:
+    """:func:`regions` of a side view's :func:`envelope_hits`, kept to the pixels whose
+    hit lies in the stock (``probe``, a :class:`errpred.probe.StockProbe` of ``view``):
+    the cutting and finished regions are made of those alone, so they are the same
+    pixels; the others' arrays are never made (``EnvelopeHits.index`` says which
+    pixels these are). One numba pass finds them and their hits
+    (:func:`errpred._side_kernels.side_stock_hits`); ``phi`` and ``kappa`` as
+    :func:`envelope_hits_numpy` forms them.
+
+    With ``cutting=False`` only the finished pixels are wanted (``Region.cutting`` is
+    None): the same pixels, found in a cheaper order. A finished pixel is in the
+    stock and in no sweep of T1 or T2, whichever is asked first, and each answer is
+    exact; so the pixels go first against the ``SIDE_T2_FIRST_SWEEPS`` sweeps of T2
+    that start nearest the tip (the tool's own path ahead, which holds the front of
+    the tool), then T1, then all of T2, instead of refuting the whole cutting region
+    against every sweep of T1 first.
+    """
+    frame = np.ascontiguousarray(frame, dtype=float)
+    v_t = frame @ np.asarray(view.basis[2], dtype=float)
+    if not abs(v_t[2]) < _PARALLEL_TOL:
+        raise ValueError("side_regions: the view must look across the tool axis")
+    R, r, c = tool.radius_mm, tool.corner_radius_mm, tool.core_radius_mm
+    box, lo, hi, bottom, top = probe.kernel_args()
+    index, xyz, world = side_stock_hits(
+        np.ascontiguousarray(view.origin, dtype=float),
+        np.ascontiguousarray(view.basis, dtype=float), float(view.pixel_mm), int(view.nx),
+        int(view.ny), np.ascontiguousarray(tip, dtype=float), frame, float(R), float(r),
+        float(c), float(tool.flute_length_mm), bool(box), lo, hi, bottom, top,
+        MEMBERSHIP_EPS_MM)
+    z = xyz[:, 2]
+    with np.errstate(invalid="ignore"):
+        kappa = np.where(z >= r, math.pi / 2,
+                         np.arccos(np.clip((r - z) / r if r > 0 else 0.0, -1, 1)))
+    stock = np.ones(index.shape[0], dtype=bool)
+    hits = EnvelopeHits(valid=stock, tool_xyz=xyz, world=world,
+                        phi=np.arctan2(xyz[:, 0], xyz[:, 1]), kappa=kappa,
+                        shape=(view.ny, view.nx), index=index)
+    if cutting:
+        cut = _outside(tool, world, stock, t1)
+        finished = _outside(tool, world, cut, t2)
+    else:
+        cut = None
+        left = _outside(tool, world, stock, _nearest_sweeps(t2, tip, SIDE_T2_FIRST_SWEEPS))
+        finished = _outside(tool, world, _outside(tool, world, left, t1), t2)
+    return Region(hits=hits, cutting=cut, finished=finished, pixel_mm=view.pixel_mm)
 
 
 @dataclass(frozen=True)
