@@ -114,3 +114,33 @@ def test_every_point_of_a_turning_ball_pass_leaves_a_finished_strip():
             assert kappa.min() - 1e-3 < g.gen.kappa_rad < kappa.max() + 1e-3
             assert abs(float(g.gen.point_world[1])) < R * math.sin(psi_max)
             assert -DEPTH - 1e-3 < float(g.gen.point_world[2]) < 1e-3
+
+
+def _bend(bend_deg: float) -> CutterLocations:
+    """A 3-axis ball pass along +X, its centre ``DEPTH`` into a flat stock's top, that at
+    x = 6 turns down (toward the stock) by ``bend_deg`` for 3 mm; 0.05 mm a tooth."""
+    b = math.radians(bend_deg)
+    z = -DEPTH
+    tip = np.array([[-8.0, 0.0, 30.0], [-8.0, 0.0, z], [6.0, 0.0, z],
+                    [6.0 + 3.0 * math.cos(b), 0.0, z - 3.0 * math.sin(b)]])
+    rapid = np.array([True, True, False, False])
+    return CutterLocations.from_arrays(tip, [0.0, 0.0, 1.0], 600.0, 6000.0, rapid=rapid)
+
+
+def test_a_vertex_turning_toward_the_stock_by_more_than_fz_over_r_finishes_nothing():
+    """Not a discretization artefact, and not 5-axis: at a vertex where the path turns
+    toward the surface by delta, the next move's ball a little way on (a < 2 R delta) is
+    deeper under the vertex's contact than the vertex's own ball, by up to R delta^2 / 8
+    (0.76 um for 2 deg at R 5 mm), so the strip of one feed per tooth the vertex's
+    revolution leaves is overcut wherever delta > fz / R (0.57 deg here). The dense
+    point at the vertex finishes nothing at 2 deg, at the default pixel and at half of
+    it; at 0.3 deg it finishes a strip."""
+    tool = Tool("ball", D, flute_length_mm=20.0)
+    stock = Stock.from_box([-20.0, -20.0, -10.0], [40.0, 20.0, 0.0])
+    res = Resolution(pixel_mm=D / 64).dense()
+    for bend, want in ((2.0, "no-finished-surface"), (0.3, "predicted")):
+        for r in (res, res.finer(2)):
+            model = GeometryModel(tool, stock, _bend(bend), r, sensitivity=False)
+            vertex = [g for g in model.geometry(2) if abs(g.tip[0] - 6.0) < 1e-9]
+            assert len(vertex) == 1
+            assert vertex[0].status == want, (bend, r.pixel_mm)
