@@ -462,6 +462,8 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
     # ends, not the tip (the tip-anchored piece's ball centre is off by anchor x sin
     # of half the piece's turn, mostly along the feed, and jumps by that at every joint)
     anchor = tool.corner_radius_mm if anchor_mm is None else float(anchor_mm)
+    if not math.isfinite(anchor):
+        raise ValueError(f"anchor_mm: expected a finite height [mm], got {anchor_mm!r}")
     turning = (om > 0.0) & ~is_cap
     if anchor != 0.0 and turning.any():
         u0 = slerp(ua[turning], ub[turning], om[turning], t0[turning])

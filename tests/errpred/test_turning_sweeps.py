@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from errpred.geometry import GeometryModel, Resolution
 from errpred.raster.meshes import Stock
@@ -75,6 +76,11 @@ def test_turning_pieces_hold_the_real_ball_centre_at_their_ends():
     old = build_sweeps(cl, tool, anchor_mm=0.0)
     off = np.linalg.norm(old.p0[feed] + R * old.w[feed] - start, axis=1)
     assert np.allclose(off, 2 * R * np.sin(om / 4), rtol=1e-6)
+
+
+def test_a_non_finite_anchor_is_refused():
+    with pytest.raises(ValueError, match="anchor_mm"):
+        build_sweeps(_pass(), Tool("ball", D, flute_length_mm=20.0), anchor_mm=math.nan)
 
 
 def test_slerp_turns_at_a_constant_rate():
