@@ -30,7 +30,7 @@ from .point_engagement import PointEngagement
 from .probe import StockProbe
 from .raster.camera import View
 from .surface import GenerationPoint, generation_point, side_regions, strip_samples
-from .sweeps import BlockLookup, Sweeps, build_sweeps
+from .sweeps import BlockLookup, Sweeps, build_sweeps, slerp
 from .tool import MicroEdges, Tool
 from .t1memo import RemovedMemo as _RemovedMemo
 from .zmap import SweepMap, sweep_map
@@ -270,8 +270,13 @@ class GeometryModel:
         a, b = self.cl.tip[s - 1], self.cl.tip[s]
         tip = a + t * (b - a)
         ua, ub = self.cl.axis[s - 1], self.cl.axis[s]
-        u = (1 - t) * ua + t * ub
-        u /= np.linalg.norm(u)
+        om = math.acos(min(max(float(ua @ ub), -1.0), 1.0))
+        if om > 0.0:
+            # turning at a constant rate, as the sweeps do (errpred.sweeps.slerp)
+            u = slerp(ua, ub, om, t)
+        else:
+            u = (1 - t) * ua + t * ub
+            u /= np.linalg.norm(u)
         feed = b - a
         if t >= 1.0 and s + 1 < len(self.cl) and not self.cl.rapid[s + 1] \
                 and self.cl.block[s + 1] == self.cl.block[s]:

@@ -4,7 +4,8 @@
 the stock and the sweeps of the motion before (T1) or after (T2) a cutter
 location; no global model of the workpiece is kept. A :class:`Sweeps` holds
 one entry per straight move with a constant tool axis (5-axis moves are
-split where the axis turns by more than ``SWEEP_AXIS_STEP_RAD``; a turning
+split where the axis turns by more than ``SWEEP_AXIS_STEP_RAD``, each piece
+following the real motion at the centre of the tool's corner; a turning
 move whose turn does not go on into the next move, as before a rapid, also
 gets the tool standing at its end, with the end's exact axis), the
 cumulative tool-tip path length at its start and end (so T1/T2 are path
@@ -33,7 +34,7 @@ from .tool import Tool
 #: ``inside_any_sweep`` and ``sweep_distance`` (numba, usable inside other
 #: numba kernels) are the swept tool solid's membership and distance, public
 #: here for the packages above errpred.
-__all__ = ["BlockLookup", "Sweeps", "build_sweeps", "inside_any_sweep", "sweep_distance"]
+__all__ = ["BlockLookup", "Sweeps", "build_sweeps", "inside_any_sweep", "slerp", "sweep_distance"]
 
 
 def _cylinder_bounds(p: np.ndarray, w: np.ndarray, height: float, radius: float):
@@ -348,9 +349,23 @@ class BlockLookup:
         return self._ids
 
 
+def slerp(ua: np.ndarray, ub: np.ndarray, om: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Unit axes a fraction ``t`` of the way from ``ua`` to ``ub`` (rows), turning at a
+    constant rate through the angle ``om`` between them [rad] (straight interpolation
+    where they are parallel)."""
+    om = np.asarray(om, dtype=float)
+    t = np.asarray(t, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        so = np.sin(om)
+        wa = np.where(so > 1e-12, np.sin((1 - t) * om) / so, 1 - t)
+        wb = np.where(so > 1e-12, np.sin(t * om) / so, t)
+    u = wa[..., None] * ua + wb[..., None] * ub
+    return u / np.linalg.norm(u, axis=-1, keepdims=True)
+
+
 def build_sweeps(cl: CutterLocations, tool: Tool, *,
                  axis_step_rad: float = K.SWEEP_AXIS_STEP_RAD,
-                 cell_mm: float | None = None) -> Sweeps:
+                 cell_mm: float | None = None, anchor_mm: float | None = None) -> Sweeps:
     """Sweeps of every cutting move of ``cl``.
 
     Parameters
@@ -362,16 +377,32 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
     axis_step_rad : float [rad]
         5-axis moves whose axis turns by more are split into pieces with the
         axis of each piece's middle (slerp), so a piece's axis is within half
-        this of the true one. A piece turns the tool about its tip, so at a move's
-        end it misses the real tool by up to h x sin(half the piece's turn) at
-        height h above the tip (a 0.81 deg turn: 35 um at a 5 mm ball's centre,
-        0.18 mm at 25 mm). Where the turn does not go on into the next move (a
+        this of the true one. A turning piece is anchored at the anchor point
+        (``anchor_mm`` up the axis from the tip): that point is where the real
+        tool's is at both of the piece's ends, and the piece misses the real tool
+        there by up to |h - anchor| x sin(half the piece's turn) at height h above
+        the tip (a 0.81 deg turn: 0.14 mm at 25 mm up a 5 mm ball). For a ball end
+        mill the anchor is the ball's centre, so the ball part of every piece is
+        the real ball at both ends (between them its centre runs on the chord of
+        the real centre's arc, R (1 - cos(turn / 2)) off it: 0.2 um for 1 deg
+        at R 5 mm). Anchored at the tip, the ball's centre was off by
+        R sin(half the turn) at a piece's ends (22 um for 0.5 deg at R 5 mm),
+        mostly along the feed, and jumped by twice that at each joint: far more
+        than the strip of about one feed per tooth a point finishes, which the
+        pieces after a point (T2) then took away ("no-finished-surface" at points of
+        5-axis finishing passes the real tool finishes). Where the turn does not go
+        on into the next move (a
         rapid leaves from the end, the path ends, the next move turns back or not
         at all), the move also gets a zero-length sweep with the end's own axis:
         the tool standing at the move's end, which the real move removed, so a
         rapid's start never meets a sliver the pieces left.
     cell_mm : float, optional [mm]
         Grid cell size (default: ``SWEEP_GRID_CELL_PER_RADIUS`` tool radii).
+    anchor_mm : float, optional [mm]
+        Height above the tip at which turning pieces follow the real motion
+        (default: the tool's corner radius: a ball's centre, a torus end mill's
+        corner centre; 0 for a flat end mill, the tip). Moves that do not turn
+        are the same for any anchor.
     """
     n = len(cl)
     tip, axis = cl.tip, cl.axis
@@ -390,8 +421,8 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
         # not at all) also gets its end cap: the tool standing at the end, with
         # the end's own axis. Where the turn goes on, the pieces either side of
         # the end are off to opposite sides by about +-e and cover the tool there
-        # to second order, e^2 / (2 R): 0.1 um at a 5 mm ball's centre (e = 35 um
-        # for a 0.81 deg turn), 5 um 25 mm up the flutes (e = 0.22 mm for 1 deg).
+        # to second order, e^2 / (2 R): nothing at the anchor (a ball's centre,
+        # e = 0), 3 um 25 mm up a 5 mm ball's flutes (e = 0.17 mm for 1 deg).
         nxt = ends + 1
         goes_on = np.zeros(ends.size, dtype=bool)
         inside = nxt < n
@@ -426,6 +457,20 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
     w = wa[:, None] * ua + wb[:, None] * ub
     w[is_cap] = ub[is_cap]
     w /= np.linalg.norm(w, axis=1, keepdims=True)
+    # a turning piece is anchored at the centre of the tool's corner (a ball's centre):
+    # the point ``anchor`` up the axis follows the real motion at both of the piece's
+    # ends, not the tip (the tip-anchored piece's ball centre is off by anchor x sin
+    # of half the piece's turn, mostly along the feed, and jumps by that at every joint)
+    anchor = tool.corner_radius_mm if anchor_mm is None else float(anchor_mm)
+    if not math.isfinite(anchor):
+        raise ValueError(f"anchor_mm: expected a finite height [mm], got {anchor_mm!r}")
+    turning = (om > 0.0) & ~is_cap
+    if anchor != 0.0 and turning.any():
+        u0 = slerp(ua[turning], ub[turning], om[turning], t0[turning])
+        u1 = slerp(ua[turning], ub[turning], om[turning], t1[turning])
+        wt = w[turning]
+        p0[turning] += anchor * (u0 - wt)
+        d[turning] += anchor * (u1 - u0)
     ps = cum[seg - 1] + t0 * seg_len[seg]
     pe = cum[seg - 1] + t1 * seg_len[seg]
     R = tool.radius_mm
