@@ -13,8 +13,9 @@ one pass and without the arrays numpy made per sample (``docs/method.md`` §8;
 3. outside the previous pass's sweep (when there is one), tested only for the
    points whose answer can matter: ``h > chip_min``, or ``h <= 0`` when the trailing
    edges are asked for;
-4. with ``trailing``: of the points in the material with ``h <= 0``, those outside the
-   current pass's sweep up to one feed per tooth back.
+4. with ``trailing``: of the points below the top with ``h <= 0``, those outside the
+   current pass's sweep up to one feed per tooth back (tested before the previous
+   pass's: most of them are inside it, and then the other test is not needed).
 
 The sweep tests are errpred's (``errpred.sweeps.inside_any_sweep``) on world points
 ``tip + x F_0 + y F_1 + z F_2``, formed term by term (the numpy code formed them by a
@@ -114,6 +115,36 @@ def flute0_engagement(sin0, cos0, rho, z, sk, ck, frame, tip, proj, depth, kf, k
                 jj[k] = j
                 k += 1
     big = np.full((1, 3), _BIG)
+    # a zero chip cuts only outside both sweeps: the current pass's first, which holds most
+    # of them (the same answers as the previous pass's first; fewer tests)
+    if trailing:
+        kz = 0
+        for t in range(k):
+            if h[ii[t], jj[t]] <= 0.0:
+                kz += 1
+        if kz > 0:
+            iz = np.empty(kz, np.int64)
+            jz = np.empty(kz, np.int64)
+            kz = 0
+            for t in range(k):
+                if h[ii[t], jj[t]] <= 0.0:
+                    iz[kz] = ii[t]
+                    jz[kz] = jj[t]
+                    kz += 1
+            pts = _world_points(sin0, cos0, rho, z, frame, tip, iz, jz, kz)
+            removed = inside_any_sweep(pts, np.ones(kz, np.bool_), cur_p0, cur_d, axis, -big,
+                                       big, c, r, top, eps)
+            kept = 0
+            kz = 0
+            for t in range(k):
+                if h[ii[t], jj[t]] <= 0.0:
+                    kz += 1
+                    if removed[kz - 1]:
+                        continue
+                ii[kept] = ii[t]
+                jj[kept] = jj[t]
+                kept += 1
+            k = kept
     if prev_p0.shape[0] > 0 and k > 0:
         pts = _world_points(sin0, cos0, rho, z, frame, tip, ii, jj, k)
         removed = inside_any_sweep(pts, np.ones(k, np.bool_), prev_p0, prev_d, axis, -big,
@@ -125,23 +156,9 @@ def flute0_engagement(sin0, cos0, rho, z, sk, ck, frame, tip, proj, depth, kf, k
                 jj[kept] = jj[t]
                 kept += 1
         k = kept
-    # in the material: a chip above chip_min cuts; a zero chip is a trailing candidate
-    kt = 0
+    # what is left is in the material (and, for a zero chip, outside the current pass)
     for t in range(k):
-        i, j = ii[t], jj[t]
-        if h[i, j] > chip_min:
-            cutting[i, j] = True
-        elif h[i, j] <= 0.0:
-            ii[kt] = i
-            jj[kt] = j
-            kt += 1
-    if trailing and kt > 0:
-        pts = _world_points(sin0, cos0, rho, z, frame, tip, ii, jj, kt)
-        removed = inside_any_sweep(pts, np.ones(kt, np.bool_), cur_p0, cur_d, axis, -big,
-                                   big, c, r, top, eps)
-        for t in range(kt):
-            if not removed[t]:
-                cutting[ii[t], jj[t]] = True
+        cutting[ii[t], jj[t]] = True
 
 
 def flute0_engagement_numpy(sin0, cos0, rho, z, sk, ck, frame, tip, proj, depth, kf, kb,
