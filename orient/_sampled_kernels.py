@@ -92,6 +92,9 @@ def flute0_engagement(sin0, cos0, rho, z, sk, ck, frame, tip, proj, depth, kf, k
     """
     n, m = sin0.shape
     f0, f1, f2 = f_tool[0], f_tool[1], f_tool[2]
+    # a flat top is at ``depth`` exactly: ``depth - 0.5 (0 (af af) + 0 (ab ab))`` is
+    # ``depth`` for any finite af, ab (a zero's sign aside, which the difference drops)
+    flat = kf == 0.0 and kb == 0.0
     # samples whose sweep test can matter, and what their chip says
     ii = np.empty(n * m, np.int64)
     jj = np.empty(n * m, np.int64)
@@ -102,9 +105,12 @@ def flute0_engagement(sin0, cos0, rho, z, sk, ck, frame, tip, proj, depth, kf, k
             y = rho[j] * cos0[i, j]
             zz = z[j]
             an = proj[0, 0] + x * proj[0, 1] + y * proj[0, 2] + zz * proj[0, 3]
-            af = proj[1, 0] + x * proj[1, 1] + y * proj[1, 2] + zz * proj[1, 3]
-            ab = proj[2, 0] + x * proj[2, 1] + y * proj[2, 2] + zz * proj[2, 3]
-            level = depth - 0.5 * (kf * (af * af) + kb * (ab * ab))
+            if flat:
+                level = depth
+            else:
+                af = proj[1, 0] + x * proj[1, 1] + y * proj[1, 2] + zz * proj[1, 3]
+                ab = proj[2, 0] + x * proj[2, 1] + y * proj[2, 2] + zz * proj[2, 3]
+                level = depth - 0.5 * (kf * (af * af) + kb * (ab * ab))
             hv = (f0 * sk[j]) * sin0[i, j] + (f1 * sk[j]) * cos0[i, j] - f2 * ck[j]
             if hv < 0.0:
                 hv = 0.0
