@@ -54,7 +54,7 @@ def test_kernel_equals_numpy_twin(kind, monkeypatch):
         calls.append(args)
 
     monkeypatch.setattr(SK, "flute0_engagement", record)
-    cutting_seen = trailing_seen = 0
+    cutting_seen = trailing_seen = removed_seen = 0
     for tool, u, n, feed, cut in _cases(11, kind, 12):
         edges = tool.micro_edges(60)
         for trailing in (False, True):
@@ -64,9 +64,13 @@ def test_kernel_equals_numpy_twin(kind, monkeypatch):
             assert cutting.tobytes() == fe.cutting0.tobytes()
             assert h.tobytes() == fe.h0.tobytes()
             cutting_seen += int(fe.cutting0.sum())
+            if cut.previous_side != 0:      # the previous pass took material away somewhere
+                none = np.zeros((0, 3))
+                alone, _ = SK.flute0_engagement_numpy(*args[:12], none, none, *args[14:-2])
+                removed_seen += int((alone & ~cutting).sum())
             if trailing:
                 trailing_seen += int((fe.cutting0 & (fe.h0 <= 0.0)).sum())
-    assert cutting_seen > 0
+    assert cutting_seen > 0 and removed_seen > 0
     if kind == "ball":          # the ball's trailing sliver is there, so it was compared
         assert trailing_seen > 0
 
