@@ -1,17 +1,17 @@
 """Time-domain milling with regeneration (``docs/method.md`` §8).
 
 The force model is errpred's micro-edge model, the engagement orient's
-(:func:`orient.engagement.engagement`: which micro edges of which flute are in
-the material at each rotation sample of a finishing cut, and their static
-chip ``h0``; taken as flute 0's, ``flute_engagement``, and its cutting samples of
-every flute, ``FluteEngagement.entries``), with its trailing edges
-(``trailing=True``: in the material the tooth before left, first-order chip 0 -- a ball's sliver ``-fz/2 < (p - c).f
-<= 0``, which errpred's rasterizer keeps too). Those rub: the law's zero-chip
-force, no chip term (``F1 = 0``), their static chip the thickness the tooth
-before left (second order, ``fz^2 / 2R`` at most). The surface is generated
-among them, so their edge force is in the deflection the surface keeps:
-without them the simulated surface of the bundled thin wall kept 1-2 um less
-than errpred's prediction on every tilted pass. The dynamics orient's
+(:func:`orient.engagement.engagement`: which micro edges of which flute are in the
+material at each rotation sample of a finishing cut, and their static chip ``h0``; taken
+as flute 0's, ``flute_engagement``, and its cutting samples of every flute,
+``FluteEngagement.entries``), with its trailing edges (``trailing=True``: in the
+material the tooth before left, first-order chip 0 -- a ball's sliver
+``-fz/2 < (p - c).f <= 0``, which errpred's rasterizer keeps too). Those rub: the law's zero-chip
+force, no chip term (``F1 = 0``), their static chip the thickness the tooth before left
+(second order, ``fz^2 / 2R`` at most). The surface is generated among them, so their
+edge force is in the deflection the surface keeps: without them the simulated surface of
+the bundled thin wall kept 1-2 um less than errpred's prediction on every tilted pass.
+The dynamics orient's
 :class:`~orient.dynamics.ModalSystem`
 (tool modes turned with the axis, workpiece modes along their directions;
 ``q`` is the relative displacement, tool minus workpiece, in the workpiece
