@@ -89,6 +89,11 @@ def flute0_engagement(sin0, cos0, rho, z, sk, ck, frame, tip, proj, depth, kf, k
     trailing : bool
     cutting : ndarray of bool, shape (n, m)
     h : ndarray, shape (n, m) [mm]
+
+    Returns
+    -------
+    rows, cols : ndarray of int64, shape (c,)
+        The cutting samples, ``np.nonzero(cutting)``.
     """
     n, m = sin0.shape
     f0, f1, f2 = f_tool[0], f_tool[1], f_tool[2]
@@ -162,16 +167,18 @@ def flute0_engagement(sin0, cos0, rho, z, sk, ck, frame, tip, proj, depth, kf, k
                 jj[kept] = jj[t]
                 kept += 1
         k = kept
-    # what is left is in the material (and, for a zero chip, outside the current pass)
+    # what is left is in the material (and, for a zero chip, outside the current pass);
+    # every step kept the samples' order: by row, then edge (np.nonzero's)
     for t in range(k):
         cutting[ii[t], jj[t]] = True
+    return ii[:k].copy(), jj[:k].copy()
 
 
 def flute0_engagement_numpy(sin0, cos0, rho, z, sk, ck, frame, tip, proj, depth, kf, kb,
                             prev_p0, prev_d, cur_p0, cur_d, axis, c, r, top, eps, f_tool,
                             chip_min, trailing):
     """The twin of :func:`flute0_engagement` on whole arrays (the numpy code it replaced,
-    with the world points formed term by term); returns ``(cutting, h)``."""
+    with the world points formed term by term); returns ``(cutting, h, rows, cols)``."""
     x = rho * sin0
     y = rho * cos0
     zz = z[None, :]
@@ -202,4 +209,5 @@ def flute0_engagement_numpy(sin0, cos0, rho, z, sk, ck, frame, tip, proj, depth,
         cand = material & (h <= 0.0)
         if cand.any():
             cutting |= cand & ~removed_by(cand, cur_p0, cur_d)
-    return cutting, h
+    rows, cols = np.nonzero(cutting)
+    return cutting, h, rows.astype(np.int64), cols.astype(np.int64)

@@ -306,6 +306,8 @@ class FluteEngagement:
     cutting0 : ndarray of bool, shape (n, m)
     h0 : ndarray, shape (n, m) [mm]
         Chip thickness (clamped at 0).
+    rows, cols : ndarray of int64, shape (c,)
+        The cutting samples of flute 0, ``np.nonzero(cutting0)``.
     psi : ndarray, shape (m,) [rad]
         The micro edges' helix lag.
     flutes : int
@@ -316,6 +318,8 @@ class FluteEngagement:
     theta: np.ndarray
     cutting0: np.ndarray
     h0: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
     psi: np.ndarray
     flutes: int
     frame: np.ndarray
@@ -329,7 +333,7 @@ class FluteEngagement:
         nonzeros of its ``cutting``, the same numbers, without its (n, flutes, m) arrays."""
         n = self.theta.size
         shift = n // self.flutes
-        i0, j0 = np.nonzero(self.cutting0)
+        i0, j0 = self.rows, self.cols
         k = np.repeat(np.arange(self.flutes, dtype=np.int64), i0.size)
         j = np.tile(j0, self.flutes)
         i = (np.tile(i0, self.flutes) - shift * k) % n      # flute k at i is flute 0 at i0
@@ -379,16 +383,15 @@ def flute_engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: A
                      for a in ("rho", "z", "kappa"))
     shape = sin0.shape
     cutting0, h0 = np.empty(shape, bool), np.empty(shape)
-    SK.flute0_engagement(sin0, cos0, rho, z, np.sin(kappa), np.cos(kappa),
-                         np.ascontiguousarray(pl.frame), np.ascontiguousarray(pl.tip), proj,
-                         cut.depth_mm, kf, kb, np.ascontiguousarray(prev_p0),
-                         np.ascontiguousarray(prev_d), np.ascontiguousarray(cur_p0),
-                         np.ascontiguousarray(cur_d), pl.axis[None, :].copy(),
-                         tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm,
-                         MEMBERSHIP_EPS_MM, f_tool, CHIP_EPS * cut.fz_mm, bool(trailing),
-                         cutting0, h0)
-    return FluteEngagement(theta=theta, cutting0=cutting0, h0=h0, psi=psi,
-                           flutes=tool.flutes, frame=pl.frame, normal=pl.n,
+    rows, cols = SK.flute0_engagement(
+        sin0, cos0, rho, z, np.sin(kappa), np.cos(kappa), np.ascontiguousarray(pl.frame),
+        np.ascontiguousarray(pl.tip), proj, cut.depth_mm, kf, kb,
+        np.ascontiguousarray(prev_p0), np.ascontiguousarray(prev_d),
+        np.ascontiguousarray(cur_p0), np.ascontiguousarray(cur_d), pl.axis[None, :].copy(),
+        tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm, MEMBERSHIP_EPS_MM,
+        f_tool, CHIP_EPS * cut.fz_mm, bool(trailing), cutting0, h0)
+    return FluteEngagement(theta=theta, cutting0=cutting0, h0=h0, rows=rows, cols=cols,
+                           psi=psi, flutes=tool.flutes, frame=pl.frame, normal=pl.n,
                            f_tooth_world=cut.fz_mm * pl.f)
 
 

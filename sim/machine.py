@@ -302,16 +302,17 @@ class SimulatedNC:
         return (round(lead, 5), round(tilt, 5), tuple(np.round(n, 6)), tuple(np.round(f, 6)),
                 tuple(np.round(self.cuts[i].row(), 9)))
 
-    def _base(self, i: int, key: tuple, system: ModalSystem):
+    def _base(self, i: int, key: tuple, system: ModalSystem, axis: bool = True):
         """The engagement at cutter location ``i`` (cached by ``key``: shared by the
         cutter locations of a pass; built with ``system``, which the engagement does
-        not depend on), the tool axis there, and whether it was made now."""
+        not depend on), the tool axis there (None when ``axis`` is False and the
+        engagement was cached: not needed), and whether it was made now."""
         lead, tilt = key[0], key[1]
         n, f = self.contacts.normal[i], self.contacts.feed[i]
-        u = posture_axis(n, f, lead, tilt)
         if key in self._models:
             self._models.move_to_end(key)
-            return self._models[key], u, False
+            return self._models[key], posture_axis(n, f, lead, tilt) if axis else None, False
+        u = posture_axis(n, f, lead, tilt)
         base = prepare_cut(self.tool, self.scn.base.coefficients, u, n, f, self.cuts[i],
                            system, self.rpm, edges=self.edges, steps_per_rev=self.steps_per_rev)
         self._models[key] = base
@@ -345,7 +346,7 @@ class SimulatedNC:
             model = base if fresh else with_system(base, system, u)
             start = None
             if prev_key is not None:
-                before, _, _ = self._base(j, prev_key, system)
+                before, _, _ = self._base(j, prev_key, system, axis=False)
                 start = dataclasses.replace(model, table=before.table,
                                             generating=before.generating)
             self._current = (model, start)

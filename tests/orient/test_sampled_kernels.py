@@ -50,8 +50,8 @@ def test_kernel_equals_numpy_twin(kind, monkeypatch):
     kernel = SK.flute0_engagement
 
     def record(*args):
-        kernel(*args)
         calls.append(args)
+        return kernel(*args)
 
     monkeypatch.setattr(SK, "flute0_engagement", record)
     cutting_seen = trailing_seen = removed_seen = 0
@@ -60,13 +60,15 @@ def test_kernel_equals_numpy_twin(kind, monkeypatch):
         for trailing in (False, True):
             fe = flute_engagement(tool, edges, u, n, feed, cut, 96, trailing=trailing)
             args = calls[-1]
-            cutting, h = SK.flute0_engagement_numpy(*args[:-2])
+            cutting, h, rows, cols = SK.flute0_engagement_numpy(*args[:-2])
             assert cutting.tobytes() == fe.cutting0.tobytes()
             assert h.tobytes() == fe.h0.tobytes()
+            for a, b in ((rows, fe.rows), (cols, fe.cols)):
+                assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
             cutting_seen += int(fe.cutting0.sum())
             if cut.previous_side != 0:      # the previous pass took material away somewhere
                 none = np.zeros((0, 3))
-                alone, _ = SK.flute0_engagement_numpy(*args[:12], none, none, *args[14:-2])
+                alone = SK.flute0_engagement_numpy(*args[:12], none, none, *args[14:-2])[0]
                 removed_seen += int((alone & ~cutting).sum())
             if trailing:
                 trailing_seen += int((fe.cutting0 & (fe.h0 <= 0.0)).sum())
