@@ -68,6 +68,10 @@ GAIN_ROOT_MAX_ITER = 60
 #: the feed per tooth (a bottom face edge with the feed normal to the axis
 #: has h = 0 up to round-off and does not cut) [-].
 CHIP_EPS = 1.0e-12
+
+#: Angle grids (the rotation samples' sin and cos for one tool and angle count,
+#: ``orient.engagement.flute_engagement``) kept: a run uses one or two [-].
+ANGLE_GRIDS_KEPT = 4
 #: A point this close to the previous pass's swept volume counts as removed
 #: [mm] (as ``errpred.constants.MEMBERSHIP_EPS_MM``).
 MEMBERSHIP_EPS_MM = 1.0e-6

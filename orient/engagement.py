@@ -49,20 +49,22 @@ they are parallel).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from errpred.sweeps import inside_any_sweep
 from errpred.engagement import expand_flutes, revolution_angles
 from errpred.force import chip_thickness
 from errpred.frames import tool_frame
 from errpred.tool import MicroEdges, Tool
 
 from . import _kernels as KN
+from . import _sampled_kernels as SK
 from .constants import (
+    ANGLE_GRIDS_KEPT,
     AXIS_NORMAL_MIN_COS,
     CHIP_EPS,
     DIRECTION_MIN_NORM,
@@ -78,11 +80,13 @@ from .constants import (
 from .geometry import local_frame
 
 __all__ = [
+    "FluteEngagement",
     "LocalCut",
     "Placement",
     "SampledEngagement",
     "cutting_intervals",
     "engagement",
+    "flute_engagement",
     "from_errpred",
     "geometry_vector",
     "kernel_settings",
@@ -279,58 +283,116 @@ class SampledEngagement:
     f_tooth_world: np.ndarray
 
 
-def _in_material(tool: Tool, pl: Placement, cut: LocalCut, x: np.ndarray, y: np.ndarray,
-                 z: np.ndarray) -> np.ndarray:
-    """Below the stock top and outside the previous pass: points given by their tool-frame
-    coordinates ``x, y, z`` (broadcasting arrays) [mm] -> bool of their broadcast shape.
+@functools.lru_cache(maxsize=ANGLE_GRIDS_KEPT)
+def _angle_grid(n_angles: int, flutes: int, psi: bytes) -> tuple[np.ndarray, ...]:
+    """``theta`` (n,) and ``sin``, ``cos`` of flute 0's ``phi = theta - psi`` (n, m): the
+    same for every cutter location of a tool and angle count (numpy's, read-only)."""
+    theta = revolution_angles(2 * math.pi / n_angles, flutes)
+    phi0 = theta[:, None] - np.frombuffer(psi)[None, :]
+    out = (theta, np.sin(phi0), np.cos(phi0))
+    for a in out:
+        a.flags.writeable = False
+    return out
 
-    Only the three projections of the world points on ``f``, ``b``, ``n`` are formed
-    (``(tip + p @ frame) . v = tip . v + p . (frame v)``); world points are built for the
-    points below the top alone, for the previous pass's sweep."""
-    def along(v: np.ndarray) -> np.ndarray:
-        w = pl.frame @ v
-        return float(pl.tip @ v) + x * w[0] + y * w[1] + z * w[2]
 
+@dataclass(frozen=True, eq=False)
+class FluteEngagement:
+    """Flute 0's engagement over one revolution (:func:`flute_engagement`); the other
+    flutes are flute 0 a tooth later (``errpred.engagement.expand_flutes``).
+
+    Attributes
+    ----------
+    theta : ndarray, shape (n,) [rad]
+    cutting0 : ndarray of bool, shape (n, m)
+    h0 : ndarray, shape (n, m) [mm]
+        Chip thickness (clamped at 0).
+    rows, cols : ndarray of int64, shape (c,)
+        The cutting samples of flute 0, ``np.nonzero(cutting0)``.
+    psi : ndarray, shape (m,) [rad]
+        The micro edges' helix lag.
+    flutes : int
+    frame, normal, f_tooth_world
+        As in :class:`SampledEngagement`.
+    """
+
+    theta: np.ndarray
+    cutting0: np.ndarray
+    h0: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
+    psi: np.ndarray
+    flutes: int
+    frame: np.ndarray
+    normal: np.ndarray
+    f_tooth_world: np.ndarray
+
+    def entries(self) -> tuple[np.ndarray, ...]:
+        """The cutting samples of every flute, ``(i, k, j, phi, h)``: angle sample, flute,
+        micro edge (int64, in ``np.nonzero``'s order of the (n, flutes, m) mask),
+        angular position [rad] and chip [mm] -- :meth:`expand`'s ``phi``, ``h`` at the
+        nonzeros of its ``cutting``, the same numbers, without its (n, flutes, m) arrays."""
+        n = self.theta.size
+        shift = n // self.flutes
+        i0, j0 = self.rows, self.cols
+        k = np.repeat(np.arange(self.flutes, dtype=np.int64), i0.size)
+        j = np.tile(j0, self.flutes)
+        i = (np.tile(i0, self.flutes) - shift * k) % n      # flute k at i is flute 0 at i0
+        order = np.lexsort((j, k, i))
+        i, k, j = i[order], k[order], j[order]
+        h = np.tile(self.h0[i0, j0], self.flutes)[order]
+        phi = self.theta[i] + (2 * math.pi / self.flutes) * k - self.psi[j]
+        return i, k, j, phi, h
+
+    def expand(self, edges: MicroEdges) -> SampledEngagement:
+        """Every flute's ``phi``, ``cutting``, ``h``, shape (n, flutes, m)."""
+        phi, cutting = expand_flutes(self.theta, self.cutting0, edges, self.flutes)
+        # flute k at step i is flute 0 at step i + k n / N (expand_flutes): same chip
+        h = expand_flutes(self.theta, self.h0, edges, self.flutes)[1]
+        return SampledEngagement(theta=self.theta, phi=phi, cutting=cutting, h=h,
+                                 weight=None, frame=self.frame, normal=self.normal,
+                                 f_tooth_world=self.f_tooth_world)
+
+
+def flute_engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: Any,
+                     feed_dir: Any, cut: LocalCut, n_angles: int = GAIN_ANGLES_PER_REV, *,
+                     trailing: bool = False) -> FluteEngagement:
+    """:func:`engagement` of flute 0 alone (same arguments, same samples): one numba
+    kernel over the rotation samples x micro edges (``orient/_sampled_kernels.py``)."""
+    if not isinstance(cut, LocalCut):
+        raise ValueError(f"cut: expected a LocalCut, got {type(cut).__name__}")
+    if not (isinstance(n_angles, (int, np.integer)) and n_angles >= 4):
+        raise ValueError(f"n_angles: expected an integer >= 4, got {n_angles!r}")
+    cut.check_tool(tool)
+    pl = place(tool, posture_axis, normal, feed_dir)
+    psi = np.ascontiguousarray(edges.psi, dtype=float)
+    theta, sin0, cos0 = _angle_grid(int(n_angles), tool.flutes, psi.tobytes())
+    # the projections of the edge points on n, f, b: tip . v + p . (frame v)
+    proj = np.array([[float(pl.tip @ v), *(pl.frame @ v)] for v in (pl.n, pl.f, pl.b)])
     kf = cut.curvature_f_1_mm / (1.0 + cut.curvature_f_1_mm * cut.depth_mm)
     kb = cut.curvature_b_1_mm / (1.0 + cut.curvature_b_1_mm * cut.depth_mm)
-    top = cut.depth_mm - 0.5 * (kf * along(pl.f) ** 2 + kb * along(pl.b) ** 2)
-    inside = along(pl.n) < top
-    if cut.previous_side != 0 and inside.any():
-        half = _pass_half_length(tool, cut.pick_mm)
-        p0 = (pl.tip + cut.previous_side * cut.pick_mm * pl.b - half * pl.f)[None, :]
-        d = (2.0 * half * pl.f)[None, :]
-        big = np.full((1, 3), 1e300)
-        where = np.nonzero(inside)
-        xyz = np.broadcast_arrays(x, y, z)
-        pts = pl.tip + np.stack([a[where] for a in xyz], axis=-1) @ pl.frame
-        removed = inside_any_sweep(np.ascontiguousarray(pts), np.ones(len(pts), bool), p0, d,
-                                   pl.axis[None, :].copy(), -big, big, tool.core_radius_mm,
-                                   tool.corner_radius_mm, tool.flute_length_mm,
-                                   MEMBERSHIP_EPS_MM)
-        inside[where] = ~removed
-    return inside
-
-
-def _trailing(tool: Tool, pl: Placement, cut: LocalCut, candidates: np.ndarray, x: np.ndarray,
-              y: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Of the ``candidates`` (edge points in the material whose chip is 0, bool of the
-    broadcast shape of the tool-frame coordinates ``x, y, z`` [mm]), those outside the
-    current pass's sweep up to one feed per tooth back: material the tooth before left."""
-    out = np.zeros(candidates.shape, bool)
-    if not candidates.any():
-        return out
-    where = np.nonzero(candidates)
-    xyz = np.broadcast_arrays(x, y, z)
-    pts = pl.tip + np.stack([a[where] for a in xyz], axis=-1) @ pl.frame
     half = _pass_half_length(tool, cut.pick_mm)
-    p0 = (pl.tip - half * pl.f)[None, :]
-    d = ((half - cut.fz_mm) * pl.f)[None, :]
-    big = np.full((1, 3), 1e300)
-    removed = inside_any_sweep(np.ascontiguousarray(pts), np.ones(len(pts), bool), p0, d,
-                               pl.axis[None, :].copy(), -big, big, tool.core_radius_mm,
-                               tool.corner_radius_mm, tool.flute_length_mm, MEMBERSHIP_EPS_MM)
-    out[where] = ~removed
-    return out
+    if cut.previous_side != 0:
+        prev_p0 = (pl.tip + cut.previous_side * cut.pick_mm * pl.b - half * pl.f)[None, :]
+        prev_d = (2.0 * half * pl.f)[None, :]
+    else:
+        prev_p0 = prev_d = np.zeros((0, 3))
+    cur_p0 = (pl.tip - half * pl.f)[None, :]
+    cur_d = ((half - cut.fz_mm) * pl.f)[None, :]
+    f_tool = pl.frame @ (cut.fz_mm * pl.f)
+    rho, z, kappa = (np.ascontiguousarray(getattr(edges, a), dtype=float)
+                     for a in ("rho", "z", "kappa"))
+    shape = sin0.shape
+    cutting0, h0 = np.empty(shape, bool), np.empty(shape)
+    rows, cols = SK.flute0_engagement(
+        sin0, cos0, rho, z, np.sin(kappa), np.cos(kappa), np.ascontiguousarray(pl.frame),
+        np.ascontiguousarray(pl.tip), proj, cut.depth_mm, kf, kb,
+        np.ascontiguousarray(prev_p0), np.ascontiguousarray(prev_d),
+        np.ascontiguousarray(cur_p0), np.ascontiguousarray(cur_d), pl.axis[None, :].copy(),
+        tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm, MEMBERSHIP_EPS_MM,
+        f_tool, CHIP_EPS * cut.fz_mm, bool(trailing), cutting0, h0)
+    return FluteEngagement(theta=theta, cutting0=cutting0, h0=h0, rows=rows, cols=cols,
+                           psi=psi, flutes=tool.flutes, frame=pl.frame, normal=pl.n,
+                           f_tooth_world=cut.fz_mm * pl.f)
 
 
 def engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: Any, feed_dir: Any,
@@ -364,29 +426,8 @@ def engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: Any, fe
         ``phi``, ``cutting``, ``h`` of shape (n_ang, n_fl, m); with ``trailing``
         the trailing edges are those cutting with ``h == 0``.
     """
-    if not isinstance(cut, LocalCut):
-        raise ValueError(f"cut: expected a LocalCut, got {type(cut).__name__}")
-    if not (isinstance(n_angles, (int, np.integer)) and n_angles >= 4):
-        raise ValueError(f"n_angles: expected an integer >= 4, got {n_angles!r}")
-    cut.check_tool(tool)
-    pl = place(tool, posture_axis, normal, feed_dir)
-    theta = revolution_angles(2 * math.pi / n_angles, tool.flutes)
-    phi0 = theta[:, None] - edges.psi[None, :]               # (n, m) flute 0
-    sin0, cos0 = np.sin(phi0), np.cos(phi0)
-    # flute 0's edge points in the tool frame (errpred.engagement.edge_points_tool)
-    material = _in_material(tool, pl, cut, edges.rho * sin0, edges.rho * cos0,
-                            edges.z[None, :])
-    f_tool = pl.frame @ (cut.fz_mm * pl.f)
-    h0 = chip_thickness(edges, phi0, f_tool, sin_cos=(sin0, cos0))
-    cutting0 = material & (h0 > CHIP_EPS * cut.fz_mm)
-    if trailing:
-        cutting0 |= _trailing(tool, pl, cut, material & (h0 <= 0.0), edges.rho * sin0,
-                              edges.rho * cos0, edges.z[None, :])
-    phi, cutting = expand_flutes(theta, cutting0, edges, tool.flutes)
-    # flute k at step i is flute 0 at step i + k n / N (expand_flutes): same chip
-    h = expand_flutes(theta, h0, edges, tool.flutes)[1]
-    return SampledEngagement(theta=theta, phi=phi, cutting=cutting, h=h, weight=None,
-                             frame=pl.frame, normal=pl.n, f_tooth_world=cut.fz_mm * pl.f)
+    return flute_engagement(tool, edges, posture_axis, normal, feed_dir, cut, n_angles,
+                            trailing=trailing).expand(edges)
 
 
 def from_errpred(eng: Any, tool: Tool, edges: MicroEdges, normal: Any, frame: Any = None,

@@ -1,16 +1,17 @@
 """Time-domain milling with regeneration (``docs/method.md`` §8).
 
 The force model is errpred's micro-edge model, the engagement orient's
-(:func:`orient.engagement.engagement`: which micro edges of which flute are in
-the material at each rotation sample of a finishing cut, and their static
-chip ``h0``), with its trailing edges (``trailing=True``: in the material the
-tooth before left, first-order chip 0 -- a ball's sliver ``-fz/2 < (p - c).f
-<= 0``, which errpred's rasterizer keeps too). Those rub: the law's zero-chip
-force, no chip term (``F1 = 0``), their static chip the thickness the tooth
-before left (second order, ``fz^2 / 2R`` at most). The surface is generated
-among them, so their edge force is in the deflection the surface keeps:
-without them the simulated surface of the bundled thin wall kept 1-2 um less
-than errpred's prediction on every tilted pass. The dynamics orient's
+(:func:`orient.engagement.engagement`: which micro edges of which flute are in the
+material at each rotation sample of a finishing cut, and their static chip ``h0``; taken
+as flute 0's, ``flute_engagement``, and its cutting samples of every flute,
+``FluteEngagement.entries``), with its trailing edges (``trailing=True``: in the
+material the tooth before left, first-order chip 0 -- a ball's sliver
+``-fz/2 < (p - c).f <= 0``, which errpred's rasterizer keeps too). Those rub: the law's zero-chip
+force, no chip term (``F1 = 0``), their static chip the thickness the tooth before left
+(second order, ``fz^2 / 2R`` at most). The surface is generated among them, so their
+edge force is in the deflection the surface keeps: without them the simulated surface of
+the bundled thin wall kept 1-2 um less than errpred's prediction on every tilted pass.
+The dynamics orient's
 :class:`~orient.dynamics.ModalSystem`
 (tool modes turned with the axis, workpiece modes along their directions;
 ``q`` is the relative displacement, tool minus workpiece, in the workpiece
@@ -66,7 +67,7 @@ from errpred.spindle import tooth_frequency, tooth_period
 from errpred.tool import MicroEdges, Tool, core_distance
 from nc.checks import real_number
 from orient.dynamics import ModalSystem
-from orient.engagement import LocalCut, engagement
+from orient.engagement import LocalCut, flute_engagement
 
 from . import _kernels as _k
 from .constants import (
@@ -263,14 +264,12 @@ def prepare_cut(tool: Tool, coeffs: LawCoefficients, posture_axis: Any, normal: 
     spr = _steps_per_rev(system, rpm, tool.flutes, steps_per_rev)
     # the trailing edges (chip 0, in the material the tooth before left) rub: their edge
     # force acts where the surface is generated, as in errpred's engagement
-    eng = engagement(tool, edges, u, normal, feed_dir, cut, n_angles=spr, trailing=True)
+    eng = flute_engagement(tool, edges, u, normal, feed_dir, cut, n_angles=spr, trailing=True)
     spr = eng.theta.size                       # rounded to the flutes and even
     spt = spr // tool.flutes
-    i, f, j = np.nonzero(eng.cutting)          # (angle sample, flute, edge), i sorted
-    phi = eng.phi[i, f, j]
+    i, f, j, phi, h0 = eng.entries()           # (angle sample, flute, edge), i sorted
     kappa = edges.kappa[j]
     db = edges.db[j]
-    h0 = eng.h[i, f, j]
     # the law's per-entry table: the tangent of F(h) at the static chip; a trailing edge
     # (first-order chip 0) rubs: the law's zero-chip force, no chip term, as errpred's
     fh = laws.force(coeffs, h0, kappa, cl)

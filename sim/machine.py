@@ -302,22 +302,23 @@ class SimulatedNC:
         return (round(lead, 5), round(tilt, 5), tuple(np.round(n, 6)), tuple(np.round(f, 6)),
                 tuple(np.round(self.cuts[i].row(), 9)))
 
-    def _base(self, i: int, key: tuple, system: ModalSystem):
+    def _base(self, i: int, key: tuple, system: ModalSystem, axis: bool = True):
         """The engagement at cutter location ``i`` (cached by ``key``: shared by the
         cutter locations of a pass; built with ``system``, which the engagement does
-        not depend on) and the tool axis there."""
+        not depend on), the tool axis there (None when ``axis`` is False and the
+        engagement was cached: not needed), and whether it was made now."""
         lead, tilt = key[0], key[1]
         n, f = self.contacts.normal[i], self.contacts.feed[i]
-        u = posture_axis(n, f, lead, tilt)
         if key in self._models:
             self._models.move_to_end(key)
-            return self._models[key], u
+            return self._models[key], posture_axis(n, f, lead, tilt) if axis else None, False
+        u = posture_axis(n, f, lead, tilt)
         base = prepare_cut(self.tool, self.scn.base.coefficients, u, n, f, self.cuts[i],
                            system, self.rpm, edges=self.edges, steps_per_rev=self.steps_per_rev)
         self._models[key] = base
         if len(self._models) > MODEL_CACHE:
             self._models.popitem(last=False)
-        return base, u
+        return base, u, True
 
     def _model(self, i: int) -> tuple[CuttingModel, CuttingModel | None]:
         """Cutting model on the segment into cutter location ``i`` with the offset in
@@ -339,11 +340,13 @@ class SimulatedNC:
                 prev_key = None
         if (i, key, prev_key) != self._current_key:
             system = self.workpiece.system_at(self.tool_system, self.contacts.point[i])
-            base, u = self._base(i, key, system)
-            model = with_system(base, system, u)
+            base, u, fresh = self._base(i, key, system)
+            # made with this system just now, the base is with_system(base, system, u)
+            # already (the same modes turned to u, the same step map)
+            model = base if fresh else with_system(base, system, u)
             start = None
             if prev_key is not None:
-                before, _ = self._base(j, prev_key, system)
+                before, _, _ = self._base(j, prev_key, system, axis=False)
                 start = dataclasses.replace(model, table=before.table,
                                             generating=before.generating)
             self._current = (model, start)
