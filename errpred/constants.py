@@ -93,6 +93,10 @@ STOCK_INTERPOLATION_SLOPE_RAD = math.radians(60.0)
 #: Tool-axis change inside one sweep segment above which the segment is
 #: split so that each piece has a nearly constant axis [rad].
 SWEEP_AXIS_STEP_RAD = math.radians(1.0)
+#: Two tool axes are taken as parallel where the sine of the angle between them is
+#: below this [-] (``errpred.sweeps.slerp``: straight interpolation there, where the
+#: turning formula divides by that sine).
+PARALLEL_AXES_SIN = 1e-12
 #: Cell of the uniform grid over the sweeps' bounds, in tool radii [-]. A query
 #: (the tool near one point, ~2 radii wide) is answered by the cells it overlaps and
 #: then by each sweep's bounds exactly, so the cell changes only the speed: a sweep's
@@ -262,7 +266,10 @@ SIDE_T2_FIRST_SWEEPS = 3
 #: 5.9e-13 mm on the mold-core program's views), far below any pixel ...
 SIDE_HITS_TOL_MM = 1e-11
 #: ... and their angles [rad]: ``arctan2``/``arccos`` of arguments that differ by
-#: that rounding (``arccos`` near 1 magnifies it: sqrt(2 * 1e-16) ~ 1.5e-8 at worst).
+#: that rounding divided by a radius of at least ~1 mm (1e-11 rad), away from the
+#: ball's pole: there ``arccos`` of (r - z) / r turns a rounding dz of z into
+#: sqrt(2 dz / r) (3.7e-7 rad for dz 1e-13 mm, r 1.5 mm), so the tests compare the
+#: contact angle's cosine within ``SIDE_HITS_TOL_MM`` per mm of radius there.
 SIDE_HITS_TOL_RAD = 1e-7
 
 # --- the local Dask cluster (errpred/cluster.py) ---------------------------------

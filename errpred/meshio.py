@@ -62,7 +62,8 @@ def load_mesh(path: str | os.PathLike, *, what: str = "mesh", closed: bool = Fal
     MeshFileError
         No such file, an empty or unreadable one, more than
         :data:`errpred.constants.MAX_MESH_FILE_BYTES`, no triangles, coordinates
-        that are not finite, or (``closed``) a mesh that is not closed.
+        that are not finite, (``closed``) a mesh that is not closed, or a closed mesh
+        whose triangles are not consistently oriented.
     """
     import trimesh
 
@@ -89,7 +90,9 @@ def load_mesh(path: str | os.PathLike, *, what: str = "mesh", closed: bool = Fal
     if not np.isfinite(mesh.vertices).all():
         raise MeshFileError(p, f"the {what} has coordinates that are not finite numbers")
     mesh.process()  # merge the corners an STL repeats per triangle (trimesh's default)
-    if closed:
+    if closed or mesh.is_watertight:
+        # a closed mesh has an inside (the stock's material, the design's part): its
+        # triangles must agree on it, checked here rather than at its first inside test
         check_closed(mesh, p, what)
     return mesh
 

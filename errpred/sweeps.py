@@ -357,8 +357,8 @@ def slerp(ua: np.ndarray, ub: np.ndarray, om: np.ndarray, t: np.ndarray) -> np.n
     t = np.asarray(t, dtype=float)
     with np.errstate(invalid="ignore", divide="ignore"):
         so = np.sin(om)
-        wa = np.where(so > 1e-12, np.sin((1 - t) * om) / so, 1 - t)
-        wb = np.where(so > 1e-12, np.sin(t * om) / so, t)
+        wa = np.where(so > K.PARALLEL_AXES_SIN, np.sin((1 - t) * om) / so, 1 - t)
+        wb = np.where(so > K.PARALLEL_AXES_SIN, np.sin(t * om) / so, t)
     u = wa[..., None] * ua + wb[..., None] * ub
     return u / np.linalg.norm(u, axis=-1, keepdims=True)
 
@@ -450,13 +450,8 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
     ua, ub = axis[seg - 1], axis[seg]
     om = np.repeat(ang, rows)
     tm = np.where(is_cap, 1.0, 0.5 * (t0 + t1))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        so = np.sin(om)
-        wa = np.where(so > 1e-12, np.sin((1 - tm) * om) / so, 1 - tm)
-        wb = np.where(so > 1e-12, np.sin(tm * om) / so, tm)
-    w = wa[:, None] * ua + wb[:, None] * ub
-    w[is_cap] = ub[is_cap]
-    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    w = slerp(ua, ub, om, tm)
+    w[is_cap] = ub[is_cap] / np.linalg.norm(ub[is_cap], axis=1, keepdims=True)
     # a turning piece is anchored at the centre of the tool's corner (a ball's centre):
     # the point ``anchor`` up the axis follows the real motion at both of the piece's
     # ends, not the tip (the tip-anchored piece's ball centre is off by anchor x sin

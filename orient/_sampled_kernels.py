@@ -36,7 +36,7 @@ from errpred.sweeps import inside_any_sweep
 
 __all__ = ["flute0_engagement", "flute0_engagement_numpy"]
 
-#: The sweeps' axis-aligned bounds: none (one sweep, every point tested).
+#: The sweeps' axis-aligned bounds: none (one sweep, every point tested) [mm].
 _BIG = 1e300
 
 

@@ -128,7 +128,7 @@ def _contains(mesh, points: np.ndarray) -> np.ndarray:
     grid: 0.19 s to build, 0.19 s to test, the same answer at every point)."""
     from errpred.raster.meshes import Stock
 
-    return Stock.from_mesh(mesh).contains(points)
+    return Stock.from_mesh(mesh, name="design mesh").contains(points)
 
 
 def closest_points(mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

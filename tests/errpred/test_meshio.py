@@ -81,3 +81,22 @@ def test_size_limit(tmp_path, monkeypatch):
     monkeypatch.setattr(K, "MAX_MESH_FILE_BYTES", 100)
     with pytest.raises(MeshFileError, match="MAX_MESH_FILE_BYTES"):
         load_mesh(p)
+
+
+def test_a_closed_mesh_with_triangles_turned_the_wrong_way_is_refused_when_read(tmp_path):
+    """A closed mesh has an inside (a design's part, a stock's material): one triangle
+    turned against its neighbours is refused when the file is read, naming it, whether or
+    not a closed mesh was asked for; the same mesh turned the right way loads."""
+    box = _box()
+    faces = box.faces.copy()
+    faces[0] = faces[0][::-1]
+    bad = tmp_path / "design.stl"
+    bad.write_bytes(trimesh.exchange.stl.export_stl(
+        trimesh.Trimesh(box.vertices, faces, process=False)))
+    for closed in (False, True):
+        with pytest.raises(MeshFileError, match="not consistently oriented") as exc:
+            load_mesh(bad, what="design mesh", closed=closed)
+        assert str(exc.value).startswith(str(bad))
+    good = tmp_path / "good.stl"
+    good.write_bytes(trimesh.exchange.stl.export_stl(box))
+    assert load_mesh(good, what="design mesh").is_winding_consistent

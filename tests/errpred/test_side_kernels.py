@@ -48,7 +48,12 @@ def _assert_same_hits(a, b) -> None:
     np.testing.assert_allclose(a.world, b.world, rtol=0, atol=SIDE_HITS_TOL_MM)
     dphi = np.abs(np.angle(np.exp(1j * (a.phi[v] - b.phi[v]))))
     assert dphi.max(initial=0.0) <= SIDE_HITS_TOL_RAD
-    np.testing.assert_allclose(a.kappa, b.kappa, rtol=0, atol=SIDE_HITS_TOL_RAD)
+    # the contact angle through its cosine, (r - z) / r: well conditioned where arccos is
+    # not (near kappa 0 a rounding of z moves kappa by sqrt(2 dz / r)); the tools' corner
+    # radii are at least 1 mm, so the cosines agree within SIDE_HITS_TOL_MM / 1 mm
+    np.testing.assert_allclose(np.cos(a.kappa), np.cos(b.kappa), rtol=0, atol=SIDE_HITS_TOL_MM)
+    away = np.cos(a.kappa) < 1.0 - 1e-6      # off the pole: the angles themselves
+    np.testing.assert_allclose(a.kappa[away], b.kappa[away], rtol=0, atol=SIDE_HITS_TOL_RAD)
 
 
 @pytest.mark.parametrize("tool", TOOLS, ids=lambda t: t.kind)
