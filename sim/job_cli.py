@@ -62,14 +62,17 @@ def _progress(con):
         TimeElapsedColumn,
     )
 
+    # off a terminal rich would draw its bars once, at the end: the stage log says it there
     return Progress(TextColumn("{task.description:<26}"), BarColumn(), MofNCompleteColumn(),
-                    TimeElapsedColumn(), console=con, transient=False)
+                    TimeElapsedColumn(), console=con, transient=False,
+                    disable=not con.is_terminal)
 
 
 class _StageLog:
     """Where stderr is not a terminal (a log file, a CI job) rich draws no bar until the
-    end: one line per stage instead, when it starts, at every tenth of it and when it is
-    done, with the run's elapsed time, so a long run's log says where it is."""
+    end: one line per stage instead, at every tenth of it and when it is done, with the
+    run's elapsed time, so a long run's log says where it is. Not when a stage starts:
+    bad input found as a stage starts stays the one line that says so."""
 
     def __init__(self, con, t0: float) -> None:
         self.on = not con.is_terminal
@@ -77,10 +80,10 @@ class _StageLog:
         self.last: dict[str, int] = {}
 
     def __call__(self, name: str, done: int, total: int) -> None:
-        if not self.on:
+        if not self.on or done <= 0:
             return
         tenth = 10 if total <= 0 or done >= total else (10 * done) // total
-        if self.last.get(name) == tenth:
+        if self.last.get(name, 0) >= tenth:
             return
         self.last[name] = tenth
         print(f"[{time.perf_counter() - self.t0:7.1f} s] {name}: {done}/{total}",

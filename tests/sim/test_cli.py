@@ -44,7 +44,8 @@ def test_module_entry_point_help():
 
 def test_job_stage_log_writes_lines_only_off_a_terminal(capsys):
     """Off a terminal (a log file) the job says where it is, a line at each tenth of a
-    stage; on a terminal the bar does and the log says nothing."""
+    stage (none as it starts: bad input then stays one line); on a terminal the bar does
+    and the log says nothing."""
     import io
 
     from rich.console import Console
@@ -58,8 +59,8 @@ def test_job_stage_log_writes_lines_only_off_a_terminal(capsys):
     log("verify", 3, 3)
     lines = capsys.readouterr().err.splitlines()
     pred = [ln for ln in lines if "predict 0:" in ln]
-    assert [ln.rsplit(" ", 1)[1] for ln in pred] == [f"{10 * k}/100" for k in range(11)]
-    assert [ln.rsplit(" ", 1)[1] for ln in lines if "verify:" in ln] == ["0/3", "3/3"]
+    assert [ln.rsplit(" ", 1)[1] for ln in pred] == [f"{10 * k}/100" for k in range(1, 11)]
+    assert [ln.rsplit(" ", 1)[1] for ln in lines if "verify:" in ln] == ["3/3"]
     tty = _StageLog(Console(file=io.StringIO(), force_terminal=True), 0.0)
     tty("predict 0", 50, 100)
     assert capsys.readouterr().err == ""
