@@ -1,17 +1,16 @@
 """Numba kernels of the side view (:meth:`errpred.geometry.GeometryModel._side_view`).
 
 The side view looks across the tool axis at the finished surface (``docs/method.md``
-§3). Per pixel it needs where the pixel's ray first meets the tool's envelope
-(:func:`side_hits`) and whether that point lies in the stock
-(:func:`interval_contains`: in the material interval the view rendered); the side
-view itself asks both at once and keeps only the pixels whose hit is in the stock
-(:func:`side_stock_hits`, about one in eight), as the cutting and finished regions
-are made of those alone. The numpy code these replace made about thirty passes
+§3). Per pixel it needs where the pixel's ray first meets the tool's envelope and whether
+that point lies in the stock (in the material interval the view rendered,
+:func:`interval_contains`); the side view asks both at once and keeps only the pixels
+whose hit is in the stock (:func:`side_stock_hits`, about one in eight), as the cutting
+and finished regions are made of those alone. The numpy code these replace made about thirty passes
 over the view's ~55,000 pixels and kept every pixel's arrays; each kernel is one pass.
 
-Their numpy twins are :func:`errpred.surface.envelope_hits_numpy` (its side-view
-branch), :func:`interval_contains_numpy` (what :class:`errpred.probe.StockProbe` did
-for a mesh), and for :func:`side_stock_hits` the two together. They are compared in
+Their numpy twins are, for :func:`side_stock_hits`, :func:`errpred.surface.envelope_hits`
+(its side-view branch) with the stock probe's test, and :func:`interval_contains_numpy`
+(what :class:`errpred.probe.StockProbe` did for a mesh). They are compared in
 ``tests/errpred/test_side_kernels.py``: the same IEEE operations, but numpy forms its
 matrix products in BLAS (another order of the sums) and evaluates ``arctan2`` and
 ``arccos`` with its own routines, so the coordinates agree within a few ulps of the
@@ -29,7 +28,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["side_hits", "side_stock_hits", "interval_contains", "interval_contains_numpy"]
+__all__ = ["side_stock_hits", "interval_contains", "interval_contains_numpy"]
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -69,77 +68,6 @@ def _ray_direction(basis, frame):
     return vx / nv, vy / nv
 
 
-@njit(cache=True, nogil=True)
-def side_hits(origin, basis, pixel, nx, ny, tip, frame, R, r, c, top):
-    """First hits of a side view's pixel rays on a tool's cutting envelope.
-
-    The view (``origin`` (3,) [mm], ``basis`` (3, 3) rows ``u, v, d``, ``pixel``
-    [mm], ``nx`` x ``ny`` pixels; see :class:`errpred.raster.camera.View`) must look
-    across the tool axis (``d`` normal to ``frame[2]``; the caller checks). Pixel
-    ``(i, j)`` is flat index ``i * nx + j``; its ray starts at its centre on the
-    depth-0 plane and runs along ``d``.
-
-    Parameters
-    ----------
-    origin : ndarray, shape (3,) [mm]
-    basis : ndarray, shape (3, 3)
-    pixel : float [mm]
-    nx, ny : int
-    tip : ndarray, shape (3,) [mm]
-    frame : ndarray, shape (3, 3)
-        Tool frame (rows ``x', y', z'``).
-    R, r, c, top : float [mm]
-        Tool radius, corner radius, core radius ``R - r`` and flute length.
-
-    Returns
-    -------
-    valid : ndarray, shape (p,), bool
-        The ray meets the envelope (within the flute length).
-    tool_xyz : ndarray, shape (p, 3) [mm]
-        Hit in the tool frame (where not valid: the ray's point nearest the axis).
-    world : ndarray, shape (p, 3) [mm]
-        Hit in the world (``tip`` where not valid).
-    phi, kappa : ndarray, shape (p,) [rad]
-        Angular position (``atan2(x', y')``) and contact angle of the envelope there.
-    """
-    p = nx * ny
-    valid = np.zeros(p, dtype=np.bool_)
-    xyz = np.empty((p, 3))
-    world = np.empty((p, 3))
-    phi = np.empty(p)
-    kappa = np.empty(p)
-    f00, f01, f02 = frame[0, 0], frame[0, 1], frame[0, 2]
-    f10, f11, f12 = frame[1, 0], frame[1, 1], frame[1, 2]
-    f20, f21, f22 = frame[2, 0], frame[2, 1], frame[2, 2]
-    vx, vy = _ray_direction(basis, frame)
-    half_pi = math.pi / 2
-    for i in range(ny):
-        si = (i + 0.5) * pixel
-        for j in range(nx):
-            k = i * nx + j
-            ok, x, y, z = _ray_hit(origin, basis, si, (j + 0.5) * pixel, tip, f00, f01, f02,
-                                   f10, f11, f12, f20, f21, f22, vx, vy, R, r, c, top)
-            valid[k] = ok
-            xyz[k, 0] = x
-            xyz[k, 1] = y
-            xyz[k, 2] = z
-            phi[k] = math.atan2(x, y)
-            if z >= r:
-                kappa[k] = half_pi
-            else:
-                a = (r - z) / r if r > 0 else 0.0
-                kappa[k] = math.acos(min(max(a, -1.0), 1.0))
-            if ok:
-                world[k, 0] = tip[0] + (x * f00 + y * f10 + z * f20)
-                world[k, 1] = tip[1] + (x * f01 + y * f11 + z * f21)
-                world[k, 2] = tip[2] + (x * f02 + y * f12 + z * f22)
-            else:
-                world[k, 0] = tip[0]
-                world[k, 1] = tip[1]
-                world[k, 2] = tip[2]
-    return valid, xyz, world, phi, kappa
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _in_interval(x, y, z, origin, basis, inv, nx, ny, bottom, top, eps):
     """Is the world point in its pixel's material interval (:func:`interval_contains`)?"""
@@ -160,14 +88,21 @@ def _in_interval(x, y, z, origin, basis, inv, nx, ny, bottom, top, eps):
 @njit(cache=True, nogil=True)
 def side_stock_hits(origin, basis, pixel, nx, ny, tip, frame, R, r, c, top, box, lo, hi,
                     bottom, top_depth, eps):
-    """The pixels of a side view whose envelope hit (:func:`side_hits`) lies in the
-    stock, and their hits: what the side view's cutting and finished regions are made
-    of, without the other pixels' arrays.
+    """The pixels of a side view whose first hit on the tool's cutting envelope lies in
+    the stock, and their hits: what the side view's cutting and finished regions are
+    made of, without the other pixels' arrays.
+
+    The view (``origin`` (3,) [mm], ``basis`` (3, 3) rows ``u, v, d``, ``pixel``
+    [mm], ``nx`` x ``ny`` pixels; see :class:`errpred.raster.camera.View`) must look
+    across the tool axis (``d`` normal to ``frame[2]``; the caller checks). Pixel
+    ``(i, j)`` is flat index ``i * nx + j``; its ray starts at its centre on the
+    depth-0 plane and runs along ``d``. ``tip`` (3,) [mm], ``frame`` (3, 3) the tool
+    frame (rows ``x', y', z'``); ``R``, ``r``, ``c``, ``top`` [mm] the tool radius,
+    corner radius, core radius ``R - r`` and flute length.
 
     The stock test is the stock probe's (:class:`errpred.probe.StockProbe`): with
     ``box``, the box ``[lo, hi]`` (3,) [mm] grown by ``eps``; else the view's material
     interval ``bottom``, ``top_depth`` (ny, nx) [mm] (:func:`interval_contains`).
-    Other parameters as :func:`side_hits`.
 
     Returns
     -------
@@ -227,7 +162,7 @@ def interval_contains(points, origin, basis, pixel, nx, ny, bottom, top, eps):
     ----------
     points : ndarray, shape (k, 3) [mm]
     origin, basis, pixel, nx, ny
-        The view (see :func:`side_hits`).
+        The view (see :func:`side_stock_hits`).
     bottom, top : ndarray, shape (ny, nx) [mm]
         Depths of the first entry into and exit from the stock per pixel.
     eps : float [mm]

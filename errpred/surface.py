@@ -24,12 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._cluster_kernels import inside_any_sweep_clustered
-from ._side_kernels import side_hits, side_stock_hits
+from ._side_kernels import side_stock_hits
 from .constants import CLUSTER_CELL_MM, MEMBERSHIP_EPS_MM, SIDE_T2_FIRST_SWEEPS
 from .tool import Tool
 
-__all__ = ["EnvelopeHits", "Region", "GenerationPoint", "envelope_hits", "envelope_hits_numpy",
-           "regions", "side_regions", "generation_point", "strip_samples"]
+__all__ = ["EnvelopeHits", "Region", "GenerationPoint", "envelope_hits", "regions",
+           "side_regions", "generation_point", "strip_samples"]
 
 _PARALLEL_TOL = 1e-9
 #: Finished pixels kept per point for averaging the error over the strip.
@@ -72,31 +72,23 @@ def _pixel_rays(view) -> tuple[np.ndarray, np.ndarray]:
     return o, np.asarray(view.basis[2], dtype=float)
 
 
+def _side_kappa(z: np.ndarray, r: float) -> np.ndarray:
+    """Contact angle [rad] of the envelope at tool-frame heights ``z`` [mm] seen from the
+    side: pi/2 on the cylinder (``z >= r``), the corner's angle below it."""
+    with np.errstate(invalid="ignore"):
+        return np.where(z >= r, math.pi / 2,
+                        np.arccos(np.clip((r - z) / r if r > 0 else 0.0, -1, 1)))
+
+
 def envelope_hits(tool: Tool, view, frame: np.ndarray, tip: np.ndarray) -> EnvelopeHits:
     """First hits of the view's pixel rays on the tool's cutting envelope.
 
     The view must look along the tool axis (bottom view, ``+z'``) or across
-    it (side view); other directions raise ``ValueError``. A side view is one
-    numba pass over its pixels (:func:`errpred._side_kernels.side_hits`), the
-    rest :func:`envelope_hits_numpy` (the kernel's twin: the same hits within
+    it (side view); other directions raise ``ValueError``. Over a whole view, in
+    numpy: the twin of the side view's kernel (:func:`side_regions`,
+    :func:`errpred._side_kernels.side_stock_hits`: the same hits within
     ``constants.SIDE_HITS_TOL_MM`` / ``SIDE_HITS_TOL_RAD``).
     """
-    frame = np.asarray(frame, dtype=float)
-    v_t = frame @ np.asarray(view.basis[2], dtype=float)
-    if abs(v_t[2]) < _PARALLEL_TOL:
-        valid, xyz, world, phi, kappa = side_hits(
-            np.ascontiguousarray(view.origin, dtype=float),
-            np.ascontiguousarray(view.basis, dtype=float), float(view.pixel_mm), int(view.nx),
-            int(view.ny), np.ascontiguousarray(tip, dtype=float), np.ascontiguousarray(frame),
-            float(tool.radius_mm), float(tool.corner_radius_mm), float(tool.core_radius_mm),
-            float(tool.flute_length_mm))
-        return EnvelopeHits(valid=valid, tool_xyz=xyz, world=world, phi=phi, kappa=kappa,
-                            shape=(view.ny, view.nx))
-    return envelope_hits_numpy(tool, view, frame, tip)
-
-
-def envelope_hits_numpy(tool: Tool, view, frame: np.ndarray, tip: np.ndarray) -> EnvelopeHits:
-    """:func:`envelope_hits` in numpy, both views (the side view's kernel's twin)."""
     o, v = _pixel_rays(view)
     o_t = (o - tip) @ frame.T
     v_t = frame @ v
@@ -124,9 +116,7 @@ def envelope_hits_numpy(tool: Tool, view, frame: np.ndarray, tip: np.ndarray) ->
         t = -b - np.sqrt(np.where(valid, disc, 0.0))
         xyz[:, :2] = o_t[:, :2] + t[:, None] * v2[None, :]
         xyz[:, 2] = z
-        with np.errstate(invalid="ignore"):
-            kappa = np.where(z >= r, math.pi / 2,
-                             np.arccos(np.clip((r - z) / r if r > 0 else 0.0, -1, 1)))
+        kappa = _side_kappa(z, r)
     else:
         raise ValueError("views must look along or across the tool axis")
     phi = np.arctan2(xyz[:, 0], xyz[:, 1])
@@ -184,7 +174,7 @@ def side_regions(tool: Tool, view, frame: np.ndarray, tip: np.ndarray, probe, t1
     pixels; the others' arrays are never made (``EnvelopeHits.index`` says which
     pixels these are). One numba pass finds them and their hits
     (:func:`errpred._side_kernels.side_stock_hits`); ``phi`` and ``kappa`` as
-    :func:`envelope_hits_numpy` forms them.
+    :func:`envelope_hits` forms them.
 
     With ``cutting=False`` only the finished pixels are wanted (``Region.cutting`` is
     None): the same pixels, found in a cheaper order. A finished pixel is in the
@@ -206,21 +196,19 @@ def side_regions(tool: Tool, view, frame: np.ndarray, tip: np.ndarray, probe, t1
         int(view.ny), np.ascontiguousarray(tip, dtype=float), frame, float(R), float(r),
         float(c), float(tool.flute_length_mm), bool(box), lo, hi, bottom, top,
         MEMBERSHIP_EPS_MM)
-    z = xyz[:, 2]
-    with np.errstate(invalid="ignore"):
-        kappa = np.where(z >= r, math.pi / 2,
-                         np.arccos(np.clip((r - z) / r if r > 0 else 0.0, -1, 1)))
     stock = np.ones(index.shape[0], dtype=bool)
     hits = EnvelopeHits(valid=stock, tool_xyz=xyz, world=world,
-                        phi=np.arctan2(xyz[:, 0], xyz[:, 1]), kappa=kappa,
+                        phi=np.arctan2(xyz[:, 0], xyz[:, 1]), kappa=_side_kappa(xyz[:, 2], r),
                         shape=(view.ny, view.nx), index=index)
     if cutting:
         cut = _outside(tool, world, stock, t1)
         finished = _outside(tool, world, cut, t2)
     else:
         cut = None
-        left = _outside(tool, world, stock, _nearest_sweeps(t2, tip, SIDE_T2_FIRST_SWEEPS))
-        finished = _outside(tool, world, _outside(tool, world, left, t1), t2)
+        first = _nearest_sweeps(t2, tip, SIDE_T2_FIRST_SWEEPS)
+        finished = _outside(tool, world, _outside(tool, world, stock, first), t1)
+        if first is not t2:             # T2 has more sweeps than those asked first
+            finished = _outside(tool, world, finished, t2)
     return Region(hits=hits, cutting=cut, finished=finished, pixel_mm=view.pixel_mm)
 
 

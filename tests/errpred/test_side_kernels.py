@@ -22,8 +22,7 @@ from errpred.constants import MEMBERSHIP_EPS_MM, SIDE_HITS_TOL_MM, SIDE_HITS_TOL
 from errpred.geometry import GeometryModel, Resolution
 from errpred.raster.camera import View
 from errpred.raster.meshes import Stock
-from errpred.surface import (envelope_hits, envelope_hits_numpy, generation_point, regions,
-                             side_regions)
+from errpred.surface import envelope_hits, generation_point, regions, side_regions
 from errpred.tool import Tool
 
 TOOLS = (Tool("ball", 10.0, flute_length_mm=15.0),
@@ -41,26 +40,42 @@ def _random_frame(rng: np.random.Generator, mirrored: bool) -> np.ndarray:
 
 
 def _assert_same_hits(a, b) -> None:
-    np.testing.assert_array_equal(a.valid, b.valid)
+    """``a``: the kernel's hits (its in-stock pixels, ``a.index``); ``b``: the numpy twin's
+    over the whole view."""
     assert a.shape == b.shape
-    v = a.valid
-    np.testing.assert_allclose(a.tool_xyz[v], b.tool_xyz[v], rtol=0, atol=SIDE_HITS_TOL_MM)
-    np.testing.assert_allclose(a.world, b.world, rtol=0, atol=SIDE_HITS_TOL_MM)
-    dphi = np.abs(np.angle(np.exp(1j * (a.phi[v] - b.phi[v]))))
+    k = a.index
+    np.testing.assert_allclose(a.tool_xyz, b.tool_xyz[k], rtol=0, atol=SIDE_HITS_TOL_MM)
+    np.testing.assert_allclose(a.world, b.world[k], rtol=0, atol=SIDE_HITS_TOL_MM)
+    dphi = np.abs(np.angle(np.exp(1j * (a.phi - b.phi[k]))))
     assert dphi.max(initial=0.0) <= SIDE_HITS_TOL_RAD
     # the contact angle through its cosine, (r - z) / r: well conditioned where arccos is
     # not (near kappa 0 a rounding of z moves kappa by sqrt(2 dz / r)); the tools' corner
     # radii are at least 1 mm, so the cosines agree within SIDE_HITS_TOL_MM / 1 mm
-    np.testing.assert_allclose(np.cos(a.kappa), np.cos(b.kappa), rtol=0, atol=SIDE_HITS_TOL_MM)
+    np.testing.assert_allclose(np.cos(a.kappa), np.cos(b.kappa[k]), rtol=0,
+                               atol=SIDE_HITS_TOL_MM)
     away = np.cos(a.kappa) < 1.0 - 1e-6      # off the pole: the angles themselves
-    np.testing.assert_allclose(a.kappa[away], b.kappa[away], rtol=0, atol=SIDE_HITS_TOL_RAD)
+    np.testing.assert_allclose(a.kappa[away], b.kappa[k][away], rtol=0, atol=SIDE_HITS_TOL_RAD)
+
+
+class _Everywhere:
+    """A stock probe whose box holds every hit (the kernel then keeps every pixel hit)."""
+
+    _BIG = np.full(3, 1e9)
+
+    def kernel_args(self):
+        return True, -self._BIG, self._BIG, np.zeros((1, 1)), np.zeros((1, 1))
+
+
+_NO_SWEEPS = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
+              np.zeros((0, 3)))
 
 
 @pytest.mark.parametrize("tool", TOOLS, ids=lambda t: t.kind)
 def test_side_hits_match_the_numpy_twin_on_seeded_views(tool):
     """Seeded side views (frames at any attitude, mirrored ones too, tips far from the
     origin where coordinates round coarsely, windows past the flute length and below
-    the tip): the same hits within the tolerances, the same pixels hit."""
+    the tip), the stock everywhere: the kernel keeps exactly the pixels the numpy twin
+    hits, with the same hits within the tolerances."""
     rng = np.random.default_rng(20261127)
     hit = 0
     for k in range(12):
@@ -74,13 +89,14 @@ def test_side_hits_match_the_numpy_twin_on_seeded_views(tool):
         if k % 3 == 0:  # the window starting below the tip
             view = View(view.origin - 0.7 * view.basis[1], view.basis, pixel, view.nx,
                         view.ny + 20)
-        a = envelope_hits(tool, view, frame, tip)
-        b = envelope_hits_numpy(tool, view, frame, tip)
+        a = side_regions(tool, view, frame, tip, _Everywhere(), _NO_SWEEPS, _NO_SWEEPS).hits
+        b = envelope_hits(tool, view, frame, tip)
+        np.testing.assert_array_equal(a.index, np.flatnonzero(b.valid))
         _assert_same_hits(a, b)
-        hit += int(a.valid.sum())
+        hit += a.index.size
         # hits lie on the envelope: radius R above the corner, on the ray
-        z = a.tool_xyz[a.valid, 2]
-        rho = np.hypot(a.tool_xyz[a.valid, 0], a.tool_xyz[a.valid, 1])
+        z = a.tool_xyz[:, 2]
+        rho = np.hypot(a.tool_xyz[:, 0], a.tool_xyz[:, 1])
         up = z >= tool.corner_radius_mm
         np.testing.assert_allclose(rho[up], tool.radius_mm, atol=1e-9)
         assert z.min(initial=0.0) >= 0.0 and z.max(initial=0.0) <= tool.flute_length_mm
@@ -149,28 +165,22 @@ def test_real_side_views_flag_the_same_pixels_as_the_numpy_twins(mesh):
         assert g.status == "predicted" and g.view == "side"
         assert seen
         for view, frame, tip, probe, t1, t2 in seen:
-            a = envelope_hits(tool, view, frame, tip)
-            b = envelope_hits_numpy(tool, view, frame, tip)
-            _assert_same_hits(a, b)
+            b = envelope_hits(tool, view, frame, tip)
             if mesh:
                 assert not probe._box
                 twin = (lambda p, v=view, pr=probe:  # noqa: E731
                         interval_contains_numpy(p, v, pr.bottom, pr.top, MEMBERSHIP_EPS_MM))
-                np.testing.assert_array_equal(probe(a.world[a.valid]), twin(b.world[b.valid]))
+                np.testing.assert_array_equal(probe(b.world[b.valid]), twin(b.world[b.valid]))
             else:
                 twin = probe
-            ra = regions(tool, a, view.pixel_mm, probe, t1, t2)
             rb = regions(tool, b, view.pixel_mm, twin, t1, t2)
-            np.testing.assert_array_equal(ra.cutting, rb.cutting)
-            np.testing.assert_array_equal(ra.finished, rb.finished)
-            finished += int(ra.finished.sum())
-            # the compact region: exactly the twin's in-stock pixels, in order
+            finished += int(rb.finished.sum())
+            # the kernel's region: exactly the twin's in-stock pixels, in order
             rc = side_regions(tool, view, frame, tip, probe, t1, t2)
             in_stock = b.valid.copy()
             in_stock[in_stock] = twin(b.world[b.valid])
             np.testing.assert_array_equal(rc.hits.index, np.flatnonzero(in_stock))
-            np.testing.assert_allclose(rc.hits.world, b.world[rc.hits.index], rtol=0,
-                                       atol=SIDE_HITS_TOL_MM)
+            _assert_same_hits(rc.hits, b)
             for got, want in ((rc.cutting, rb.cutting), (rc.finished, rb.finished)):
                 np.testing.assert_array_equal(got, want[rc.hits.index])
                 assert got.sum() == want.sum()
@@ -180,8 +190,7 @@ def test_real_side_views_flag_the_same_pixels_as_the_numpy_twins(mesh):
             np.testing.assert_array_equal(rf.hits.index, rc.hits.index)
             np.testing.assert_array_equal(rf.finished, rc.finished)
             gb = generation_point(tool, rb, frame, tip)
-            for ga in (generation_point(tool, ra, frame, tip),
-                       generation_point(tool, rc, frame, tip),
+            for ga in (generation_point(tool, rc, frame, tip),
                        generation_point(tool, rf, frame, tip)):
                 assert (ga is None) == (gb is None)
                 if ga is not None:
