@@ -404,6 +404,9 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
         corner centre; 0 for a flat end mill, the tip). Moves that do not turn
         are the same for any anchor.
     """
+    anchor = tool.corner_radius_mm if anchor_mm is None else float(anchor_mm)
+    if not math.isfinite(anchor):
+        raise ValueError(f"anchor_mm: expected a finite height [mm], got {anchor_mm!r}")
     n = len(cl)
     tip, axis = cl.tip, cl.axis
     seg_len = np.zeros(n)
@@ -456,9 +459,6 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
     # the point ``anchor`` up the axis follows the real motion at both of the piece's
     # ends, not the tip (the tip-anchored piece's ball centre is off by anchor x sin
     # of half the piece's turn, mostly along the feed, and jumps by that at every joint)
-    anchor = tool.corner_radius_mm if anchor_mm is None else float(anchor_mm)
-    if not math.isfinite(anchor):
-        raise ValueError(f"anchor_mm: expected a finite height [mm], got {anchor_mm!r}")
     turning = (om > 0.0) & ~is_cap
     if anchor != 0.0 and turning.any():
         u0 = slerp(ua[turning], ub[turning], om[turning], t0[turning])
