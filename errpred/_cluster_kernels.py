@@ -36,7 +36,7 @@ def _bins(points, candidates, cell):
     idx = np.empty(k, dtype=np.int64)
     keys = np.empty(k, dtype=np.int64)
     m = 0
-    big = 1 << 14  # super cubes either side of the origin (cell 0.2 mm: 105 m)
+    big = 1 << 14  # super cubes either side of the origin (cell 0.05 mm: 26 m)
     span = 2 * big
     q = CLUSTER_COARSE
     sq = CLUSTER_SUPER
