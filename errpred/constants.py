@@ -146,6 +146,11 @@ SHARED_LOOKUP_SPAN_PER_DIAMETER = 4.0
 #: of a tool position between cutter locations (~1e-15 mm), so that every
 #: position on a block with a constant axis lies inside it.
 SHARED_LOOKUP_PAD_MM = 1.0e-6
+#: A block's stage 1 is taken from the program before (errpred.repredict) only
+#: where no changed sweep's bounds come within this of its look-up box [mm]: far
+#: above the bounds' rounding (~1e-12 mm), so a sweep the look-up could have met
+#: is never missed; reuses a little less than exactly possible.
+REUSE_BOX_PAD_MM = 1.0e-3
 #: ... and where a block's cutting stretch begins or ends, between a station that cuts
 #: and one that does not, is found by this many halvings (to 1/8 of the step: the
 #: stretch's length, which sets the wear it adds, within 0.6 mm for a D20 tool) [-].

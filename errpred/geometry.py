@@ -136,6 +136,10 @@ class PointGeometry:
     view : str
         ``"bottom"``, ``"bottom-zoom"`` or ``"side"``: the view that gave ``gen``.
     cutting_pixels, finished_pixels : int
+    lookup_box : ndarray, shape (2, 3), or None [mm]
+        A box holding every box in which the block's stage 1 looked up sweeps (the
+        same for each point of the block; None: it looked up none). Sweeps whose
+        bounds miss it cannot change the block's stage 1 (:mod:`errpred.repredict`).
     """
 
     block: int
@@ -158,6 +162,7 @@ class PointGeometry:
     cutting_pixels: int = 0
     finished_pixels: int = 0
     notes: tuple[str, ...] = field(default_factory=tuple)
+    lookup_box: np.ndarray | None = None
 
     def __getstate__(self) -> dict:
         # the per-revolution arrays are mostly zero rows (a refined step outside the
@@ -230,6 +235,7 @@ class GeometryModel:
         self.engager = PointEngagement(tool, self.edges, self.theta, self.bottom, stock,
                                        resolution.pixel_mm)
         self._last_interval = self._last_near = None
+        self._lookup_box: np.ndarray | None = None
         #: the block :meth:`geometry` works on (CL range) and its shared sweep look-up
         self._block_span = self._block_near = None
         # how far outside the sweeps the finished-surface search measures margins [mm]
@@ -288,6 +294,17 @@ class GeometryModel:
         return tip, u, feed, s
 
     def geometry(self, block: int) -> list[PointGeometry]:
+        """Prediction point(s) of one block, with their stage-1 geometry
+        (:meth:`_geometry`), each with the block's :attr:`PointGeometry.lookup_box`."""
+        self._lookup_box = None
+        out = self._geometry(block)
+        box = self._lookup_box
+        if box is None:
+            return out
+        box.flags.writeable = False
+        return [dataclasses.replace(g, lookup_box=box) for g in out]
+
+    def _geometry(self, block: int) -> list[PointGeometry]:
         """Prediction point(s) of one block, with their stage-1 geometry.
 
         The whole block is checked first (the seeds' pre-check: the block's sweep
@@ -584,11 +601,16 @@ class GeometryModel:
                float(fz), float(z_top))
         last = self._last_near
         if last is not None and last[0] == key:
-            return last[1]
-        out = self._near_sweeps_new(tip, u, L, fz, z_top)
-        for part in (*out[0], *out[1], out[2]):
-            part.flags.writeable = False
-        self._last_near = (key, out)
+            out, box = last[1]
+        else:
+            out, box = self._near_sweeps_new(tip, u, L, fz, z_top)
+            for part in (*out[0], *out[1], out[2]):
+                part.flags.writeable = False
+            self._last_near = (key, (out, box))
+        # the block's look-ups so far, in one box (PointGeometry.lookup_box)
+        have = self._lookup_box
+        self._lookup_box = box.copy() if have is None else np.stack(
+            [np.minimum(have[0], box[0]), np.maximum(have[1], box[1])])
         return out
 
     def _near_sweeps_new(self, tip, u, L, fz, z_top):
@@ -599,12 +621,13 @@ class GeometryModel:
         top = tip + height * u
         ext = R * np.sqrt(np.clip(1 - u * u, 0, None)) + 2 * self.res.pixel_mm
         lo, hi = np.minimum(tip, top) - ext, np.maximum(tip, top) + ext
+        box = np.stack([lo, hi])
         mid_axis = tip + 0.5 * height * u
         # only sweeps that may reach the ball around everything this point tests
         # (the tool below ``height``, and the finished-surface margins beyond it)
         ball = math.hypot(R + 2 * self.res.pixel_mm, 0.5 * height)
         return self.sweeps.near(lo, hi, mid_axis, ball + self._margin_reach, tip + R * u,
-                                L - fz, L + fz, within=self._shared_lookup(lo, hi))
+                                L - fz, L + fz, within=self._shared_lookup(lo, hi)), box
 
     def _shared_lookup(self, lo, hi) -> np.ndarray | None:
         """The block's shared sweep look-up (:class:`~errpred.sweeps.BlockLookup`,

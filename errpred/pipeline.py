@@ -21,6 +21,7 @@ from .correct import Compensation, compensate
 from .geometry import Resolution
 from .physics import ShapeErrorModel
 from .predict import Prediction, Predictor
+from .repredict import Repredictor
 from .report import report, write_report
 from .scenario import Scenario, load_scenario
 from .tool_state import write_tool_state
@@ -203,6 +204,10 @@ def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, work
     res = scenario.resolution.dense()
     machine = scenario.resolve_machine()
 
+    # each candidate takes stage 1 from the one before where it cannot have changed
+    # (a fallback differs only near the worse points)
+    repro = Repredictor()
+
     def run(prog: Program, origin: np.ndarray) -> Prediction:
         pred = build_predictor(scenario, prog, res, stock)
         if scenario.lines is None:
@@ -212,7 +217,7 @@ def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, work
             orig = origin[prog.line - 1]
             blocks = [int(b) for b in np.flatnonzero((orig >= lo) & (orig <= hi))]
         cb = None if block_progress is None else (lambda d: block_progress(d, len(blocks)))
-        out = pred.run(blocks, workers=workers, progress=cb, client=client)
+        out = repro.run(pred, blocks, workers=workers, progress=cb, client=client)
         if prog is program:
             found = error_findings(out)
             if found:
@@ -222,12 +227,15 @@ def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, work
     def path(prog: Program):
         return cutter_locations(prog, machine, chord_tol_mm=res.chord_tol_mm)
 
-    comp = compensate(program, run, path=path, iterate=it,
-                      tolerance_mm=opts.tolerance_um * 1e-3,
-                      max_iterations=opts.max_iterations,
-                      tolerance_um=opts.verify_tolerance_um,
-                      reach_mm=K.FALLBACK_REACH_RADII * scenario.tool.radius_mm,
-                      progress=progress)
+    try:
+        comp = compensate(program, run, path=path, iterate=it,
+                          tolerance_mm=opts.tolerance_um * 1e-3,
+                          max_iterations=opts.max_iterations,
+                          tolerance_um=opts.verify_tolerance_um,
+                          reach_mm=K.FALLBACK_REACH_RADII * scenario.tool.radius_mm,
+                          progress=progress)
+    finally:
+        repro.close()
     if tool_state_out is not None and (comp.corrected or not comp.verified.passes):
         cut = comp.predictions[comp.verified.best_pass + 1]
         write_end_state(scenario, cut, tool_state_out, "compensate")

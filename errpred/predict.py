@@ -15,7 +15,7 @@ import gc
 import math
 import os
 from collections import deque
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
@@ -275,9 +275,13 @@ class Predictor:
         return self.model.theta
 
     def geometries(self, blocks: Iterable[int], *, workers: int = 1,
-                   chunk: int = K.WORKER_CHUNK_MAX_BLOCKS, client=None
+                   chunk: int = K.WORKER_CHUNK_MAX_BLOCKS, client=None,
+                   given: Mapping[int, list[PointGeometry]] | None = None
                    ) -> Iterator[list[PointGeometry]]:
         """Stage 1 of ``blocks``, yielded in the given order.
+
+        ``given``: stage 1 of some blocks, already known (a block in it is taken from
+        it, not computed; :class:`errpred.repredict.Repredictor`).
 
         With ``client`` (a ``dask.distributed.Client``) the chunks run on its
         workers: the geometry model is scattered to every worker once, the chunks
@@ -288,6 +292,15 @@ class Predictor:
         of at most ``chunk`` consecutive blocks (:func:`_chunks`).
         """
         blocks = list(blocks)
+        if given:
+            todo = [b for b in blocks if b not in given]
+            computed = self.geometries(todo, workers=workers, chunk=chunk, client=client)
+            try:
+                for b in blocks:
+                    yield given[b] if b in given else next(computed)
+            finally:
+                computed.close()        # the cluster's chunks in flight are cancelled
+            return
         self.model.plan_sweep_map(blocks)
         if client is not None:
             yield from _on_cluster(client, self.model, blocks, chunk)
@@ -300,7 +313,9 @@ class Predictor:
 
     def run(self, blocks: Iterable[int] | None = None, *, workers: int = 1,
             progress: Callable[[int], None] | None = None,
-            series_lines: Iterable[int] = (), client=None) -> Prediction:
+            series_lines: Iterable[int] = (), client=None,
+            given: Mapping[int, list[PointGeometry]] | None = None,
+            keep: Callable[[int, list[PointGeometry]], None] | None = None) -> Prediction:
         """Predict the error of ``blocks`` (default: every block of the program).
 
         Parameters
@@ -318,6 +333,12 @@ class Predictor:
             kept (:attr:`Prediction.series`); the largest-|E| point's always is.
         client : dask.distributed.Client, optional
             Run stage 1 on a Dask cluster instead (``workers`` is then unused).
+        given : mapping, optional
+            Stage 1 of some blocks, already known (:meth:`geometries`); stage 2 runs
+            for every block as usual (the wear goes on through them).
+        keep : callable, optional
+            ``keep(block, points)`` with each block's stage 1 as it arrives (the whole
+            :class:`PointGeometry`, before stage 2).
 
         The wear starts from :attr:`initial_wear_mm` (a fresh tool unless the
         predictor was given a used tool's state).
@@ -325,11 +346,15 @@ class Predictor:
         blocks = list(range(len(self.program))) if blocks is None else list(blocks)
         wear = WearState(self.initial_wear_mm.copy())
         out: list[PointPrediction] = []
-        keep = set(int(x) for x in series_lines)
+        series_kept = set(int(x) for x in series_lines)
         kept: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
         worst = -1.0
         done = 0
-        for geoms in self.geometries(blocks, workers=workers, client=client):
+        for block, geoms in zip(blocks, self.geometries(blocks, workers=workers,
+                                                        client=client, given=given),
+                                strict=True):
+            if keep is not None:
+                keep(block, geoms)
             for g in geoms:
                 buf: list = []
                 res = evaluate(self.tool, self.edges, self.coefficients, self.compliance,
@@ -339,7 +364,7 @@ class Predictor:
                 out.append(PointPrediction(g.light(), res, line))
                 if buf:
                     item = (buf[0][1], buf[0][2], g.gen.theta_rad, buf[0][0])
-                    if line in keep:
+                    if line in series_kept:
                         kept[line] = item
                     if g.status == "predicted" and abs(res.E_um) > worst:
                         worst = abs(res.E_um)

@@ -39,6 +39,7 @@ from errpred.correct_path import PathCompensation, compensate_path
 from errpred.findings import error_findings, findings_line
 from errpred.pipeline import build_predictor
 from errpred.predict import Prediction
+from errpred.repredict import Repredictor
 from nc.atomic import atomic_write
 from nc.command import Refused
 from nc.gcode import parse_program
@@ -100,6 +101,10 @@ class JobResult:
         the operating point.
     seconds : dict
         Wall time per stage [s].
+    stage1_computed : list of int
+        Per dense prediction of the correction (the reference first): the blocks whose
+        stage 1 was computed (the others' taken from the prediction before,
+        :class:`errpred.repredict.Repredictor`).
     """
 
     scenario: PlanScenario
@@ -118,6 +123,7 @@ class JobResult:
     cam_points: tuple[int, int]
     lobes: list = field(default_factory=list)
     seconds: dict = field(default_factory=dict)
+    stage1_computed: list = field(default_factory=list)
 
     @property
     def surface_ratio(self) -> float:
@@ -293,6 +299,9 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     state = {"pass": 0}
     dense = base.resolution.dense()
     found: list = []
+    # a fallback candidate differs from the one before it only near the worse points:
+    # stage 1 is taken from that prediction wherever it cannot have changed
+    repro = Repredictor()
 
     def predict(cl: CutterLocations) -> Prediction:
         text = post(cl, machine, opts).text
@@ -301,8 +310,8 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
                                machine=machine)
         blocks = list(range(len(prog)))
         stage = f"predict {state['pass']}"
-        out = pred.run(blocks, client=client,
-                       progress=lambda d: say(stage, d, len(blocks)) if d % 25 == 0 else None)
+        out = repro.run(pred, blocks, client=client,
+                        progress=lambda d: say(stage, d, len(blocks)) if d % 25 == 0 else None)
         say(stage, len(blocks), len(blocks))
         if state["pass"] == 0:
             found.extend(error_findings(out))
@@ -322,12 +331,15 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     # long program: each pass costs a dense prediction or more); one pass applies its
     # fit whole, as errpred's single correction does (the fallback guards it)
     passes = min(JOB_CORRECTION_PASSES, base.correction.max_iterations)
-    comp = compensate_path(res.cl, predict, iterate=passes > 1,
-                           tolerance_mm=base.correction.tolerance_um * 1e-3,
-                           max_iterations=passes, progress=on_pass,
-                           tolerance_um=base.correction.verify_tolerance_um,
-                           spacing_mm=dense.point_spacing_mm,
-                           reach_mm=FALLBACK_REACH_RADII * base.tool.radius_mm)
+    try:
+        comp = compensate_path(res.cl, predict, iterate=passes > 1,
+                               tolerance_mm=base.correction.tolerance_um * 1e-3,
+                               max_iterations=passes, progress=on_pass,
+                               tolerance_um=base.correction.verify_tolerance_um,
+                               spacing_mm=dense.point_spacing_mm,
+                               reach_mm=FALLBACK_REACH_RADII * base.tool.radius_mm)
+    finally:
+        repro.close()
     lap("predict_and_correct")
 
     # 4: write both programs and read the final one back
@@ -387,4 +399,5 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
                      round_trip=rt, collisions=collisions, findings=found,
                      verify_planned=verified[0],
                      verify_final=verified[1], verify_cam=verified[2], cam_points=cam_points,
-                     lobes=lobes, seconds=seconds)
+                     lobes=lobes, seconds=seconds,
+                     stage1_computed=[r["computed"] for r in repro.stats])

@@ -153,6 +153,7 @@ def job_report(res: JobResult, errors: tuple | None = None) -> dict[str, Any]:
             "largest_change_um": [_r(x * 1e3) for x in comp.largest_change_mm],
             "predicted_max_abs_um": [_r(x) for x in comp.max_error_um],
             "predicted_rms_um": [_r(x) for x in comp.rms_error_um],
+            "stage1_blocks_computed": list(res.stage1_computed),
             "verified": comp.corrected,
             "verification": (comp.verified.comparison.as_dict()
                              if comp.verified.comparison is not None else None),

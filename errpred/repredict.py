@@ -1,0 +1,263 @@
+"""Predicting programs that differ a little, each taking stage 1 from the one before.
+
+A verified correction (:mod:`errpred.verified`) predicts its candidates densely,
+one after another; a fallback candidate differs from the one before it only
+near the points that were worse, yet each was predicted whole (on the whole
+mold core, ~400 s a prediction on two workers, for 4 worse points of 11,411).
+:class:`Repredictor` predicts each program of such a sequence with stage 1
+(``docs/method.md`` §3-4, the expensive part) taken from the program before
+wherever it cannot have changed, and stage 2 (forces, wear, deflection, error)
+for every block, in order, as :meth:`errpred.predict.Predictor.run` does.
+
+Stage 1 of a block depends on (``errpred/geometry.py``):
+
+* the block's cutter locations and their neighbours: the one before the block
+  (where its first move starts; the move before for a corner; the pre-check's
+  station at the block's start looks back across moves of zero length) and the
+  one after (a corner's plunge, a turning move's end cap in
+  :func:`errpred.sweeps.build_sweeps`): :func:`block_keys` digests them;
+* the tool, the resolution and the stock (the same objects for every program);
+* the sweeps whose bounds overlap a box in which the block looked sweeps up
+  (every use of the sweeps goes through :meth:`errpred.sweeps.Sweeps.near`,
+  whose answer is decided by those boxes): their union is
+  :attr:`errpred.geometry.PointGeometry.lookup_box`.
+
+So a block of the new program whose key is that of a block of the last one
+(the two programs aligned as sequences of keys, in order) and whose look-up
+box no sweep of a changed block overlaps, in either program, has the last
+one's stage 1, but for its path lengths, shifted by the difference of the
+blocks' starts (rounding: ~1e-12 mm on a path of metres; the T1/T2 split of the
+sweeps is the same, as every sweep near the block keeps its order). Stage 1
+of every other block is computed. ``tests/errpred/test_repredict.py`` compares
+the result with a whole prediction of the new program.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import hashlib
+import pickle
+import tempfile
+from collections.abc import Iterable, Iterator, Mapping
+
+import numpy as np
+
+from . import constants as K
+from .geometry import GeometryModel, PointGeometry
+from .predict import Prediction, Predictor
+from .sweeps import _build_grid, _query
+
+__all__ = ["Repredictor", "block_keys"]
+
+
+def block_keys(model: GeometryModel, n_blocks: int) -> list[bytes | None]:
+    """A digest per program block of what its stage 1 reads of the path (None for a
+    block without cutter locations: no stage 1).
+
+    The cutter locations from the one before the block (further back across moves
+    of zero length, where the pre-check's station at the block's start lands) to
+    the one after it: tips, axes, feeds, spindle speeds, rapid flags, which of
+    them are the block's, and whether the path starts or ends there.
+    """
+    cl = model.cl
+    n = len(cl)
+    path = model.path
+    out: list[bytes | None] = []
+    for b in range(n_blocks):
+        rng = model.block_points(b)
+        if rng is None:
+            out.append(None)
+            continue
+        i0, i1 = rng
+        start = path[i0 - 1] if i0 > 0 else 0.0
+        first = max(min(i0 - 1, int(np.searchsorted(path, start, side="left")) - 1), 0)
+        rows = slice(first, min(i1 + 2, n))
+        h = hashlib.blake2b(digest_size=20)
+        h.update(np.array([i0 == 0, i1 == n - 1, first - i0, rows.stop - i1]).tobytes())
+        for a in (cl.tip[rows], cl.axis[rows], cl.feed_mm_min[rows], cl.spindle_rpm[rows],
+                  cl.rapid[rows], cl.block[rows] == b):
+            h.update(np.ascontiguousarray(a).tobytes())
+        out.append(h.digest())
+    return out
+
+
+class _Store:
+    """Stage 1 of a run's blocks, pickled into a temporary file (memory stays flat in
+    program length), read back by block."""
+
+    def __init__(self) -> None:
+        self._file = tempfile.TemporaryFile()
+        self._at: dict[int, tuple[int, int]] = {}
+
+    def put(self, block: int, points: list[PointGeometry]) -> None:
+        data = pickle.dumps(points, protocol=pickle.HIGHEST_PROTOCOL)
+        self._file.seek(0, 2)
+        self._at[block] = (self._file.tell(), len(data))
+        self._file.write(data)
+
+    def __contains__(self, block: int) -> bool:
+        return block in self._at
+
+    def get(self, block: int) -> list[PointGeometry]:
+        offset, size = self._at[block]
+        self._file.seek(offset)
+        return pickle.loads(self._file.read(size))
+
+    def close(self) -> None:
+        self._file.close()
+
+
+@dataclasses.dataclass
+class _Run:
+    """What the next program needs of the last run."""
+
+    model: GeometryModel
+    keys: list[bytes | None]
+    starts: np.ndarray           # path length at each block's start [mm] (nan: none)
+    boxes: np.ndarray            # (n_blocks, 2, 3) look-up box (nan: none, or no look-up)
+    store: _Store
+
+
+class _Given(Mapping):
+    """The reused blocks' stage 1, read from the last run's store as asked for, with the
+    new program's block index and path lengths."""
+
+    def __init__(self, last: _Run, pairs: dict[int, int], shift: dict[int, float]) -> None:
+        self._last, self._pairs, self._shift = last, pairs, shift
+
+    def __getitem__(self, block: int) -> list[PointGeometry]:
+        a = self._pairs[block]
+        dL = self._shift[block]
+        return [dataclasses.replace(g, block=block, path_mm=g.path_mm + dL)
+                for g in self._last.store.get(a)]
+
+    def __contains__(self, block: object) -> bool:
+        return block in self._pairs
+
+    def __iter__(self) -> Iterator[int]:
+        return iter(self._pairs)
+
+    def __len__(self) -> int:
+        return len(self._pairs)
+
+
+def _starts(model: GeometryModel, n_blocks: int) -> np.ndarray:
+    out = np.full(n_blocks, np.nan)
+    for b in range(n_blocks):
+        rng = model.block_points(b)
+        if rng is not None:
+            out[b] = model.path[rng[0] - 1] if rng[0] > 0 else 0.0
+    return out
+
+
+def _changed_sweeps(model: GeometryModel, changed_blocks: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds (lo, hi) of the sweeps of ``changed_blocks`` (bool per block)."""
+    sw = model.sweeps
+    if len(sw) == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    owner = model.cl.block[sw.cl_index]
+    hit = changed_blocks[owner]
+    return sw.lo[hit], sw.hi[hit]
+
+
+class Repredictor:
+    """Predicts programs one after another, each taking stage 1 from the one before
+    where it cannot have changed (see the module docstring).
+
+    Attributes
+    ----------
+    stats : list of dict
+        Per run: ``blocks`` predicted, ``reused`` (stage 1 taken from the run before),
+        ``computed``.
+    reused : frozenset of int
+        The last run's blocks whose stage 1 was taken from the run before.
+    """
+
+    def __init__(self) -> None:
+        self._last: _Run | None = None
+        self.stats: list[dict] = []
+        self.reused: frozenset[int] = frozenset()
+
+    def close(self) -> None:
+        """Drop the last run's stage 1 (its temporary file)."""
+        if self._last is not None:
+            self._last.store.close()
+            self._last = None
+
+    def run(self, predictor: Predictor, blocks: Iterable[int] | None = None,
+            **kwargs) -> Prediction:
+        """:meth:`errpred.predict.Predictor.run` of ``blocks`` (default: all), with the
+        stage 1 of the last run's program reused where it cannot have changed.
+
+        The predictor must share the last one's tool and stock (the same objects) and
+        resolution; otherwise nothing is reused. ``kwargs`` go to
+        :meth:`~errpred.predict.Predictor.run` (not ``given`` nor ``keep``).
+        """
+        model = predictor.model
+        n_blocks = len(predictor.program)
+        blocks = list(range(n_blocks)) if blocks is None else [int(b) for b in blocks]
+        keys = block_keys(model, n_blocks)
+        starts = _starts(model, n_blocks)
+        given = self._reusable(model, keys, starts, blocks)
+        store = _Store()
+        boxes = np.full((n_blocks, 2, 3), np.nan)
+
+        def keep(block: int, points: list[PointGeometry]) -> None:
+            store.put(block, points)
+            if points and points[0].lookup_box is not None:
+                boxes[block] = points[0].lookup_box
+
+        try:
+            out = predictor.run(blocks, given=given, keep=keep, **kwargs)
+        except BaseException:
+            store.close()
+            raise
+        self.close()
+        self._last = _Run(model, keys, starts, boxes, store)
+        self.reused = frozenset(given)
+        self.stats.append(dict(blocks=len(blocks), reused=len(given),
+                               computed=len(blocks) - len(given)))
+        return out
+
+    def _reusable(self, model: GeometryModel, keys: list, starts: np.ndarray,
+                  blocks: list[int]) -> _Given:
+        last = self._last
+        if last is None or not (model.tool is last.model.tool
+                                and model.stock is last.model.stock
+                                and model.res == last.model.res
+                                and model.sensitivity == last.model.sensitivity):
+            return _Given(last, {}, {})
+        # align the programs (in order) by their blocks' keys; blocks without cutter
+        # locations never pair
+        a_seq = [k if k is not None else ("none-a", i) for i, k in enumerate(last.keys)]
+        b_seq = [k if k is not None else ("none-b", i) for i, k in enumerate(keys)]
+        sm = difflib.SequenceMatcher(None, a_seq, b_seq, autojunk=False)
+        pair_b = np.full(len(b_seq), -1, dtype=np.int64)
+        for m in sm.get_matching_blocks():
+            pair_b[m.b:m.b + m.size] = np.arange(m.a, m.a + m.size)
+        changed_a = np.ones(len(a_seq), dtype=bool)
+        changed_a[pair_b[pair_b >= 0]] = False
+        changed_b = pair_b < 0
+        lo_a, hi_a = _changed_sweeps(last.model, changed_a)
+        lo_b, hi_b = _changed_sweeps(model, changed_b)
+        lo, hi = np.concatenate([lo_a, lo_b]), np.concatenate([hi_a, hi_b])
+        cell = K.SWEEP_GRID_CELL_PER_RADIUS * model.tool.radius_mm
+        grid = _build_grid(lo, hi, cell) if lo.shape[0] else None
+        pad = K.REUSE_BOX_PAD_MM
+        pairs: dict[int, int] = {}
+        shift: dict[int, float] = {}
+        for b in blocks:
+            a = int(pair_b[b])
+            if a < 0 or a not in last.store:
+                continue
+            box = last.boxes[a]
+            if grid is not None and not np.isnan(box[0, 0]):
+                hit = _query(grid["cell_start"], grid["cell_items"], grid["grid_shape"],
+                             grid["grid_origin"], cell, lo, hi, box[0] - pad, box[1] + pad)
+                if hit.size:
+                    continue
+            pairs[b] = a
+            shift[b] = float(starts[b] - last.starts[a])
+        return _Given(last, pairs, shift)

@@ -1,0 +1,136 @@
+"""errpred.repredict: a program predicted after another that differs a little takes
+stage 1 from it where it cannot have changed, and the prediction is that of the whole
+program: the same statuses, errors, gains, path lengths and wear as predicting it from
+scratch, with the blocks near the change (and only some of the others) computed."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from errpred.geometry import Resolution
+from errpred.predict import Predictor
+from errpred.repredict import Repredictor, block_keys
+from errpred.tool import Tool
+from nc import parse_program
+
+from .cases import STEEL, plane_raster, plane_stock, stiff_tool
+
+R, D = 3.0, 6.0
+SLOPE = 20.0
+#: a tilted tool (5-axis): lead 10 deg about the cross-feed
+_s, _a = math.radians(SLOPE), math.radians(10.0)
+AXIS = (math.sin(_s + _a), 0.0, math.cos(_s + _a))
+
+
+@pytest.fixture(scope="module")
+def case():
+    tool = Tool("ball", D, flute_length_mm=15)
+    stock = plane_stock(SLOPE, 0.2)
+    text = plane_raster(SLOPE, R, passes=4, length=48.0, step=1.0, axis=AXIS)
+    res = Resolution.default(tool).dense(1.0)
+    return tool, stock, text, res
+
+
+def _predictor(case, text):
+    tool, stock, _, res = case
+    return Predictor(tool, stock, parse_program(text), STEEL, stiff_tool(), resolution=res)
+
+
+def _edited(text: str) -> tuple[str, list[int]]:
+    """The program with two moves of the second pass 3 um deeper and a vertex added in the
+    middle of a third-pass move (a block split in two), both a fifth of the way along
+    their passes; the edited lines (0-based)."""
+    lines = text.splitlines()
+    cut = [i for i, s in enumerate(lines) if s.startswith("G1 X")]
+    per_pass = len(cut) // 4
+    a = cut[1 * per_pass + per_pass // 5]
+    for i in (a, a + 1):
+        lines[i] = re.sub(r"Z(-?\d+\.\d+)", lambda m: f"Z{float(m.group(1)) - 0.003:.5f}",
+                          lines[i])
+    b = cut[2 * per_pass + per_pass // 5]
+    p = [np.array([float(v) for v in re.findall(r"[XYZ](-?\d+\.\d+)", lines[k])[:3]])
+         for k in (b - 1, b)]
+    mid = 0.5 * (p[0] + p[1])
+    vec = lines[b][lines[b].index(" I"):]
+    lines.insert(b, f"G1 X{mid[0]:.5f} Y{mid[1]:.5f} Z{mid[2]:.5f}{vec}")
+    return "\n".join(lines) + "\n", [a, a + 1, b, b + 1]
+
+
+def _same(got, want):
+    assert len(got.points) == len(want.points)
+    for p, q in zip(got.points, want.points, strict=True):
+        assert p.status == q.status and p.geometry.block == q.geometry.block
+        assert p.geometry.path_mm == pytest.approx(q.geometry.path_mm, abs=1e-9)
+        if math.isnan(q.E_um):
+            assert math.isnan(p.E_um)
+        else:
+            assert p.E_um == pytest.approx(q.E_um, abs=1e-9)
+            np.testing.assert_allclose(p.result.gain, q.result.gain, atol=1e-9)
+    np.testing.assert_allclose(got.wear_mm, want.wear_mm, atol=1e-9)
+
+
+def test_an_edited_program_is_predicted_as_a_whole_prediction_would(case):
+    text = case[2]
+    edited, where = _edited(text)
+    rp = Repredictor()
+    first = rp.run(_predictor(case, text))
+    assert rp.stats[-1]["reused"] == 0
+    _same(first, _predictor(case, text).run())
+    pred = _predictor(case, edited)
+    got = rp.run(pred)
+    want = _predictor(case, edited).run()
+    _same(got, want)
+    assert sum(p.status == "predicted" for p in want.points) >= 40   # a case that cuts
+    st = rp.stats[-1]
+    # the edited blocks and those within the tool's reach computed (the tilted D6 ball's
+    # 15 mm flutes reach ~13 mm along X); the far ends of the passes reused
+    assert st["computed"] > 0 and st["reused"] >= 0.25 * st["blocks"], st
+    edited = {b for b in range(len(pred.program)) if int(pred.program.line[b]) - 1 in where}
+    assert len(edited) == len(where) and not edited & rp.reused
+    rp.close()
+
+
+def test_the_same_program_again_is_all_reused_and_the_same(case):
+    text = case[2]
+    rp = Repredictor()
+    a = rp.run(_predictor(case, text))
+    b = rp.run(_predictor(case, text))
+    assert rp.stats[-1]["computed"] == 0
+    _same(b, a)
+    rp.close()
+
+
+def test_nothing_is_reused_at_another_resolution_or_with_another_stock(case):
+    tool, stock, text, res = case
+    rp = Repredictor()
+    rp.run(_predictor(case, text))
+    other = Predictor(tool, stock, parse_program(text), STEEL, stiff_tool(),
+                      resolution=res.finer(2))
+    rp.run(other, [0, 1, 2, 3])
+    assert rp.stats[-1]["reused"] == 0
+    moved = Predictor(tool, plane_stock(SLOPE, 0.2), parse_program(text), STEEL,
+                      stiff_tool(), resolution=res)
+    rp.run(moved, [0, 1, 2, 3])
+    assert rp.stats[-1]["reused"] == 0
+    rp.close()
+
+
+def test_block_keys_change_with_the_block_and_its_neighbours_only(case):
+    text = case[2]
+    lines = text.splitlines()
+    cut = [i for i, s in enumerate(lines) if s.startswith("G1 X")]
+    k = cut[len(cut) // 2]
+    lines[k] = re.sub(r"Y(-?\d+\.\d+)", lambda m: f"Y{float(m.group(1)) + 0.001:.5f}",
+                      lines[k])
+    pa, pb = _predictor(case, text), _predictor(case, "\n".join(lines) + "\n")
+    ka, kb = block_keys(pa.model, len(pa.program)), block_keys(pb.model, len(pb.program))
+    differ = {b for b in range(len(ka)) if ka[b] != kb[b]}
+    b = int(np.flatnonzero(pa.program.line == k + 1)[0])
+    # the block itself; the one before (the corner at its end); the two after (the
+    # first's start moved, the second's corner check reads the move before it); the
+    # third after at most (the tip's feed of the move after the edit changes by rounding)
+    assert {b - 1, b, b + 1, b + 2} <= differ <= {b - 1, b, b + 1, b + 2, b + 3}, (b, differ)
