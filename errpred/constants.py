@@ -241,6 +241,15 @@ FALLBACK_SCALINGS = 1
 #: ... at most this [-]: a step the linear estimate calls nearly harmless is still cut
 #: by a tenth (the response is not linear near a wall's end).
 FALLBACK_SCALE_MAX = 0.9
+#: A fallback's refit moves every vertex of a chain a little (least squares with
+#: smoothing: a weight changed at the worse points reaches along the chain); where a
+#: vertex's move differs from the rejected candidate's by at most this, the
+#: fallback keeps that candidate's move exactly [mm]. A hundredth of a micrometre:
+#: a tenth of the written programs' 0.1 um resolution, a hundredth of the comparison's
+#: tolerance; the fallback is then the rejected candidate but near the worse points,
+#: and its dense prediction recomputes only there (errpred.repredict). The candidate
+#: is predicted and compared as any.
+FALLBACK_SETTLE_MM = 1.0e-5
 #: ... "near": within this many tool radii of a worse point (at least one dense
 #: spacing; the pass beside or below can finish the same surface) [-].
 FALLBACK_REACH_RADII = 0.25

@@ -46,6 +46,8 @@ amplitude per pass (``s = OFFSET_SMOOTH``: 11 %). Both are tested
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 from dataclasses import dataclass
 
@@ -500,6 +502,28 @@ class OffsetEdit:
     def largest_mm(self) -> float:
         """Largest vertex move [mm]."""
         return float(np.linalg.norm(self.moves, axis=1).max(initial=0.0))
+
+    def settled_to(self, other: "OffsetEdit", tol_mm: float) -> "OffsetEdit":
+        """This edit with ``other``'s moves (and full circles' changes) wherever they
+        differ from these by at most ``tol_mm`` [mm] (each component); itself where the
+        two are not edits of the same vertices (other splits)."""
+        same = (self.moves.shape == other.moves.shape
+                and np.array_equal(self.vertices, other.vertices)
+                and self.split_fractions.keys() == other.split_fractions.keys()
+                and all(np.array_equal(v, other.split_fractions[u])
+                        for u, v in self.split_fractions.items())
+                and self.circles.keys() == other.circles.keys())
+        if not same:
+            return self
+        close = np.all(np.abs(self.moves - other.moves) <= tol_mm, axis=1)
+        moves = np.where(close[:, None], other.moves, self.moves)
+        circles = {}
+        for u, (shift, dr) in self.circles.items():
+            o_shift, o_dr = other.circles[u]
+            near = bool(np.all(np.abs(np.asarray(shift) - o_shift) <= tol_mm)
+                        and abs(dr - o_dr) <= tol_mm)
+            circles[u] = (o_shift, o_dr) if near else (shift, dr)
+        return dataclasses.replace(self, moves=moves, circles=circles)
 
 
 def split_fractions(length_mm: float, t: np.ndarray, target: np.ndarray,

@@ -110,9 +110,13 @@ class _Store:
 
 @dataclasses.dataclass
 class _Run:
-    """What the next program needs of the last run."""
+    """What the next program needs of the last run (not its model: the sweeps' index
+    and the sample grids are large)."""
 
-    model: GeometryModel
+    same: tuple                  # (tool, stock, resolution, sensitivity)
+    sweep_lo: np.ndarray         # the sweeps' bounds, (k, 3) each [mm]
+    sweep_hi: np.ndarray
+    sweep_block: np.ndarray      # the block each sweep belongs to, (k,)
     keys: list[bytes | None]
     starts: np.ndarray           # path length at each block's start [mm] (nan: none)
     boxes: np.ndarray            # (n_blocks, 2, 3) look-up box (nan: none, or no look-up)
@@ -151,15 +155,13 @@ def _starts(model: GeometryModel, n_blocks: int) -> np.ndarray:
     return out
 
 
-def _changed_sweeps(model: GeometryModel, changed_blocks: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds (lo, hi) of the sweeps of ``changed_blocks`` (bool per block)."""
-    sw = model.sweeps
-    if len(sw) == 0:
-        return np.zeros((0, 3)), np.zeros((0, 3))
-    owner = model.cl.block[sw.cl_index]
-    hit = changed_blocks[owner]
-    return sw.lo[hit], sw.hi[hit]
+def _sweep_blocks(model: GeometryModel) -> np.ndarray:
+    """The program block of each sweep."""
+    return model.cl.block[model.sweeps.cl_index]
+
+
+def _same(model: GeometryModel) -> tuple:
+    return (model.tool, model.stock, model.res, model.sensitivity)
 
 
 class Repredictor:
@@ -215,7 +217,9 @@ class Repredictor:
             store.close()
             raise
         self.close()
-        self._last = _Run(model, keys, starts, boxes, store)
+        sw = model.sweeps
+        self._last = _Run(_same(model), sw.lo, sw.hi, _sweep_blocks(model), keys, starts,
+                          boxes, store)
         self.reused = frozenset(given)
         self.stats.append(dict(blocks=len(blocks), reused=len(given),
                                computed=len(blocks) - len(given)))
@@ -224,10 +228,11 @@ class Repredictor:
     def _reusable(self, model: GeometryModel, keys: list, starts: np.ndarray,
                   blocks: list[int]) -> _Given:
         last = self._last
-        if last is None or not (model.tool is last.model.tool
-                                and model.stock is last.model.stock
-                                and model.res == last.model.res
-                                and model.sensitivity == last.model.sensitivity):
+        if last is None:
+            return _Given(last, {}, {})
+        tool, stock, res, sens = last.same
+        if not (model.tool is tool and model.stock is stock and model.res == res
+                and model.sensitivity == sens):
             return _Given(last, {}, {})
         # align the programs (in order) by their blocks' keys; blocks without cutter
         # locations never pair
@@ -240,9 +245,10 @@ class Repredictor:
         changed_a = np.ones(len(a_seq), dtype=bool)
         changed_a[pair_b[pair_b >= 0]] = False
         changed_b = pair_b < 0
-        lo_a, hi_a = _changed_sweeps(last.model, changed_a)
-        lo_b, hi_b = _changed_sweeps(model, changed_b)
-        lo, hi = np.concatenate([lo_a, lo_b]), np.concatenate([hi_a, hi_b])
+        hit_a = changed_a[last.sweep_block]
+        hit_b = changed_b[_sweep_blocks(model)]
+        lo = np.concatenate([last.sweep_lo[hit_a], model.sweeps.lo[hit_b]])
+        hi = np.concatenate([last.sweep_hi[hit_a], model.sweeps.hi[hit_b]])
         cell = K.SWEEP_GRID_CELL_PER_RADIUS * model.tool.radius_mm
         grid = _build_grid(lo, hi, cell) if lo.shape[0] else None
         pad = K.REUSE_BOX_PAD_MM

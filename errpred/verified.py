@@ -36,6 +36,7 @@ import numpy as np
 
 from .constants import (
     FALLBACK_SCALE_MAX,
+    FALLBACK_SETTLE_MM,
     FALLBACK_SCALINGS,
     RELAXATION,
     SECANT_MIN_SHIFT_UM,
@@ -309,7 +310,9 @@ def correct_verified(original: Any,
         for attempt in range(FALLBACK_SCALINGS + 2):
             say(f"pass {k}" + (f", fallback {attempt}" if attempt else ""))
             if attempt:
-                edit = fit(current, Fc, slope, weight)
+                # the refit, but the rejected candidate's moves where they hardly differ
+                # (FALLBACK_SETTLE_MM): the fallback changes only near the worse points
+                edit = fit(current, Fc, slope, weight).settled_to(edit, FALLBACK_SETTLE_MM)
             cand = apply(current, edit, omega)
             Fk, Pk = predict(cand)
             out.predictions.append(Pk)

@@ -135,3 +135,32 @@ def test_a_block_leaving_the_material_does_not_pull_the_wall():
     assert np.all(moves_y[edit.movable] >= -1e-3)           # never away from the wall
     last = [b for b in wall if prog.start[b, 0] == 55.0][0]
     assert last in edit.split_fractions
+
+
+def test_a_settled_edit_takes_the_other_moves_only_where_they_hardly_differ():
+    """OffsetEdit.settled_to: the other edit's moves (and circle changes) where every
+    component is within the tolerance, its own elsewhere; itself for edits of other
+    vertices (other splits)."""
+    import dataclasses
+
+    from errpred.offset import OffsetEdit
+
+    rng = np.random.default_rng(7)
+    base = rng.normal(scale=1e-3, size=(6, 3))
+    verts = rng.normal(size=(6, 3))
+    a = OffsetEdit(moves=base, split_fractions={}, split_vertices={},
+                   circles={2: (np.array([1e-3, 0.0, 0.0]), 2e-3)},
+                   movable=np.ones(6, bool), vertices=verts)
+    moved = base.copy()
+    moved[1] += 4e-6                     # within 1e-5: settles to a's
+    moved[4, 2] += 3e-5                  # one component beyond: keeps its own
+    b = dataclasses.replace(a, moves=moved,
+                            circles={2: (np.array([1e-3 + 2e-6, 0.0, 0.0]), 2e-3 + 5e-5)})
+    s = b.settled_to(a, 1e-5)
+    np.testing.assert_array_equal(s.moves[[0, 1, 2, 3, 5]], base[[0, 1, 2, 3, 5]])
+    np.testing.assert_array_equal(s.moves[4], moved[4])
+    assert s.circles[2][1] == 2e-3 + 5e-5          # the radius change is beyond
+    split = dataclasses.replace(b, split_fractions={0: np.array([0.5])})
+    assert split.settled_to(a, 1e-5) is split
+    other = dataclasses.replace(b, vertices=verts + 1.0)
+    assert other.settled_to(a, 1e-5) is other
