@@ -20,6 +20,8 @@ left as it is (an object array, or one the runs would not make smaller).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import constants as K
@@ -63,9 +65,9 @@ def _indices(runs: bytes, size: int) -> np.ndarray:
     se = np.frombuffer(runs, dtype=_index_dtype(size)).astype(np.intp)
     k = se.size // 2
     starts, lengths = se[:k], se[k:]
-    total = int(lengths.sum())
-    offset = starts - (np.cumsum(lengths) - lengths)
-    return np.repeat(offset, lengths) + np.arange(total)
+    ends = np.cumsum(lengths)
+    offset = starts - (ends - lengths)
+    return np.repeat(offset, lengths) + np.arange(int(ends[-1]) if k else 0)
 
 
 def pack_sparse(a):
@@ -95,7 +97,7 @@ def unpack_sparse(p):
         return p
     _, shape, dtype, runs, values = p
     dtype = np.dtype(dtype)
-    size = int(np.prod(shape, dtype=np.int64))
+    size = math.prod(shape)
     out = np.zeros(size, dtype=dtype)
     out[_indices(runs, size)] = np.frombuffer(values, dtype=dtype)
     return out.reshape(shape)
@@ -161,7 +163,7 @@ def unpack_engagement(p: tuple) -> tuple:
     idx = None
     if isinstance(wp, tuple) and len(wp) == 5 and wp[0] == _COUNTS:
         _, shape, denominator, runs, counts = wp
-        size = int(np.prod(shape, dtype=np.int64))
+        size = math.prod(shape)
         idx = _indices(runs, size)
         cdt = np.uint8 if denominator <= 255 else np.uint16
         weight = np.zeros(size, dtype=np.float32)
@@ -177,7 +179,11 @@ def unpack_engagement(p: tuple) -> tuple:
         shift = shift.reshape(weight.shape)
     else:
         shift = unpack_sparse(sp)
-    if isinstance(cp, str) and cp == _DERIVED:
+    if isinstance(cp, str) and cp == _DERIVED and idx is not None:
+        cutting = np.zeros(weight.size, dtype=bool)   # weight > 0 exactly on idx
+        cutting[idx] = True
+        cutting = cutting.reshape(weight.shape)
+    elif isinstance(cp, str) and cp == _DERIVED:
         cutting = weight > 0
     else:
         cutting = unpack_sparse(cp)
