@@ -26,6 +26,7 @@ from ._cluster_kernels import inside_any_sweep_clustered
 from .bottomview import BottomTemplate, StockView, stock_view
 from .engagement import revolution_angles
 from .frames import tool_frame
+from .geometry_pack import pack_engagement, pack_sparse, unpack_engagement, unpack_sparse
 from .point_engagement import PointEngagement
 from .probe import StockProbe
 from .raster.camera import View
@@ -165,22 +166,26 @@ class PointGeometry:
     lookup_box: np.ndarray | None = None
 
     def __getstate__(self) -> dict:
-        # the per-revolution arrays are mostly zero rows (a refined step outside the
-        # engaged window): ship the rows with anything in them (workers -> stage 2)
+        # the per-revolution arrays are almost all zero: shipped packed, exactly
+        # (errpred.geometry_pack; workers -> stage 2)
         state = dict(self.__dict__)
-        for name in ("cutting0", "weight0", "shift0"):
-            state[name] = _pack_rows(state[name])
-        if state["sensitivity"] is not None:
-            delta, *arrays = state["sensitivity"]
-            state["sensitivity"] = (delta, *(_pack_rows(a) for a in arrays))
+        state["engagement"] = pack_engagement(state.pop("cutting0"), state.pop("weight0"),
+                                              state.pop("shift0"))
+        sens = state.pop("sensitivity")
+        if sens is not None:
+            state["sensitivity_packed"] = (sens[0], pack_engagement(*sens[1:]))
+        else:
+            state["sensitivity"] = None
+        state["cl_per_rev"] = pack_sparse(state["cl_per_rev"])
         return state
 
     def __setstate__(self, state: dict) -> None:
-        for name in ("cutting0", "weight0", "shift0"):
-            state[name] = _unpack_rows(state[name])
-        if state["sensitivity"] is not None:
-            delta, *arrays = state["sensitivity"]
-            state["sensitivity"] = (delta, *(_unpack_rows(a) for a in arrays))
+        state["cutting0"], state["weight0"], state["shift0"] = unpack_engagement(
+            state.pop("engagement"))
+        if "sensitivity_packed" in state:
+            delta, packed = state.pop("sensitivity_packed")
+            state["sensitivity"] = (delta, *unpack_engagement(packed))
+        state["cl_per_rev"] = unpack_sparse(state["cl_per_rev"])
         self.__dict__.update(state)
 
     @property
@@ -693,24 +698,6 @@ def _generation(tool: Tool, xyz, phi, kappa, frame, tip) -> GenerationPoint:
     return GenerationPoint(theta_rad=theta, phi_rad=phi_m, kappa_rad=kappa_m, point_tool=pt,
                            point_world=tip + pt @ frame, normal_world=n_tool @ frame,
                            pixels=int(xyz.shape[0]), **strip)
-
-
-def _pack_rows(a):
-    """A 2-d array as (shape, dtype, indices of its non-zero rows, those rows)."""
-    if a is None or a.ndim != 2:
-        return a
-    rows = np.flatnonzero(a.any(axis=1))
-    return ("rows", a.shape, a.dtype.str, rows, np.ascontiguousarray(a[rows]))
-
-
-def _unpack_rows(p):
-    """The array :func:`_pack_rows` packed."""
-    if not (isinstance(p, tuple) and len(p) == 5 and isinstance(p[0], str) and p[0] == "rows"):
-        return p
-    _, shape, dtype, rows, data = p
-    a = np.zeros(shape, dtype=np.dtype(dtype))
-    a[rows] = data
-    return a
 
 
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
