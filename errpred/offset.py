@@ -505,18 +505,26 @@ class OffsetEdit:
 
     def settled_to(self, other: "OffsetEdit", tol_mm: float) -> "OffsetEdit":
         """This edit with ``other``'s moves (and full circles' changes) wherever they
-        differ from these by at most ``tol_mm`` [mm] (each component); itself where the
-        two are not edits of the same vertices (other splits)."""
-        same = (self.moves.shape == other.moves.shape
-                and np.array_equal(self.vertices, other.vertices)
-                and self.split_fractions.keys() == other.split_fractions.keys()
-                and all(np.array_equal(v, other.split_fractions[u])
-                        for u, v in self.split_fractions.items())
-                and self.circles.keys() == other.circles.keys())
-        if not same:
+        differ from these by at most ``tol_mm`` [mm] (each component): the units' ends,
+        and the split points of the units split at the same fractions in both; itself
+        where the two are not edits of the same units (another path)."""
+        def units(e: "OffsetEdit") -> int:
+            return e.n_vertices - 1 - sum(len(v) for v in e.split_vertices.values())
+
+        n = units(self)
+        if (n != units(other) or self.circles.keys() != other.circles.keys()
+                or not np.array_equal(self.vertices[:n + 1], other.vertices[:n + 1])):
             return self
-        close = np.all(np.abs(self.moves - other.moves) <= tol_mm, axis=1)
-        moves = np.where(close[:, None], other.moves, self.moves)
+        mine, theirs = [np.arange(n + 1)], [np.arange(n + 1)]
+        for u, fr in self.split_fractions.items():
+            o = other.split_fractions.get(u)
+            if o is not None and np.array_equal(fr, o):
+                mine.append(np.asarray(self.split_vertices[u]))
+                theirs.append(np.asarray(other.split_vertices[u]))
+        a, b = np.concatenate(mine), np.concatenate(theirs)
+        close = np.all(np.abs(self.moves[a] - other.moves[b]) <= tol_mm, axis=1)
+        moves = self.moves.copy()
+        moves[a[close]] = other.moves[b[close]]
         circles = {}
         for u, (shift, dr) in self.circles.items():
             o_shift, o_dr = other.circles[u]

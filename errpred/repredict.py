@@ -55,9 +55,10 @@ def block_keys(model: GeometryModel, n_blocks: int) -> list[bytes | None]:
     """A digest per program block of what its stage 1 reads of the path (None for a
     block without cutter locations: no stage 1).
 
-    The cutter locations from the one before the block (further back across moves
-    of zero length, where the pre-check's station at the block's start lands) to
-    the one after it: tips, axes, feeds, spindle speeds, rapid flags, which of
+    The cutter locations from the one before the move before the block (the corner
+    at the block's start asks whether that move is a plunge; further back across moves
+    of zero length, where the pre-check's station at the block's start lands) to the
+    one after it: tips, axes, feeds, spindle speeds, rapid flags, which of
     them are the block's, and whether the path starts or ends there.
     """
     cl = model.cl

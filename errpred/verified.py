@@ -262,7 +262,10 @@ def correct_verified(original: Any,
         candidates (NaN: not measured; use the model's); ``weight`` (one per point)
         scales each point's wanted move (1; less near the places where a candidate
         was worse; 0 at last: those points are held where they are). The edit has
-        ``largest_mm`` (largest vertex move [mm]).
+        ``largest_mm`` (largest vertex move [mm]) and ``settled_to(edit, tol_mm)``
+        (:meth:`errpred.offset.OffsetEdit.settled_to`: a fallback's refit keeps the
+        rejected candidate's moves where they differ by at most
+        ``FALLBACK_SETTLE_MM``).
     apply : callable
         ``apply(candidate, edit, factor) -> new candidate``: the edit's moves times
         ``factor`` (the relaxation).

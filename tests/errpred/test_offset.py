@@ -148,6 +148,7 @@ def test_a_settled_edit_takes_the_other_moves_only_where_they_hardly_differ():
     rng = np.random.default_rng(7)
     base = rng.normal(scale=1e-3, size=(6, 3))
     verts = rng.normal(size=(6, 3))
+    # 5 units (vertices 0-4 their ends, 5 the fixed start), none split
     a = OffsetEdit(moves=base, split_fractions={}, split_vertices={},
                    circles={2: (np.array([1e-3, 0.0, 0.0]), 2e-3)},
                    movable=np.ones(6, bool), vertices=verts)
@@ -160,7 +161,20 @@ def test_a_settled_edit_takes_the_other_moves_only_where_they_hardly_differ():
     np.testing.assert_array_equal(s.moves[[0, 1, 2, 3, 5]], base[[0, 1, 2, 3, 5]])
     np.testing.assert_array_equal(s.moves[4], moved[4])
     assert s.circles[2][1] == 2e-3 + 5e-5          # the radius change is beyond
-    split = dataclasses.replace(b, split_fractions={0: np.array([0.5])})
-    assert split.settled_to(a, 1e-5) is split
+    np.testing.assert_array_equal(s.circles[2][0], b.circles[2][0])
+    near = dataclasses.replace(b, circles={2: (np.array([1e-3 + 2e-6, 0.0, 0.0]), 2e-3)})
+    np.testing.assert_array_equal(near.settled_to(a, 1e-5).circles[2][0], [1e-3, 0.0, 0.0])
+    # unit 3 split in one edit only (a vertex added): the units' ends still settle, the
+    # split point keeps its own move
+    split = OffsetEdit(moves=np.vstack([moved, [[4e-3, 0.0, 0.0]]]),
+                       split_fractions={3: np.array([0.5])},
+                       split_vertices={3: np.array([6])}, circles=b.circles,
+                       movable=np.ones(7, bool), vertices=np.vstack([verts, [[0, 0, 0]]]))
+    s2 = split.settled_to(a, 1e-5)
+    np.testing.assert_array_equal(s2.moves[[0, 1, 2, 3, 5]], base[[0, 1, 2, 3, 5]])
+    np.testing.assert_array_equal(s2.moves[[4, 6]], split.moves[[4, 6]])
+    # the same split in both: the split point settles too
+    both = dataclasses.replace(split, moves=split.moves + 1e-6)
+    np.testing.assert_array_equal(both.settled_to(split, 1e-5).moves, split.moves)
     other = dataclasses.replace(b, vertices=verts + 1.0)
     assert other.settled_to(a, 1e-5) is other

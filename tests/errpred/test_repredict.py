@@ -28,7 +28,7 @@ AXIS = (math.sin(_s + _a), 0.0, math.cos(_s + _a))
 
 @pytest.fixture(scope="module")
 def case():
-    tool = Tool("ball", D, flute_length_mm=15)
+    tool = Tool("ball", D, flute_length_mm=5)
     stock = plane_stock(SLOPE, 0.2)
     text = plane_raster(SLOPE, R, passes=4, length=48.0, step=1.0, axis=AXIS)
     res = Resolution.default(tool).dense(1.0)
@@ -73,24 +73,72 @@ def _same(got, want):
     np.testing.assert_allclose(got.wear_mm, want.wear_mm, atol=1e-9)
 
 
+def _lifted(text: str) -> str:
+    """The program with 20 moves of the second pass (from its middle on, 20 mm over the
+    stock, longer than the tool reaches) made rapids: the material under them left for
+    the passes beside, whose own moves did not change (only the program before has
+    sweeps there)."""
+    lines = text.splitlines()
+    cut = [i for i, s in enumerate(lines) if s.startswith("G1 X")]
+    per_pass = len(cut) // 4
+    a = cut[per_pass + per_pass // 2]
+    for i in range(a, a + 20):
+        lines[i] = lines[i].replace("G1 ", "G0 ", 1)
+    return "\n".join(lines) + "\n"
+
+
 def test_an_edited_program_is_predicted_as_a_whole_prediction_would(case):
     text = case[2]
     edited, where = _edited(text)
     rp = Repredictor()
-    first = rp.run(_predictor(case, text))
+    pred_a = _predictor(case, text)
+    first = rp.run(pred_a)
     assert rp.stats[-1]["reused"] == 0
-    _same(first, _predictor(case, text).run())
     pred = _predictor(case, edited)
     got = rp.run(pred)
     want = _predictor(case, edited).run()
     _same(got, want)
     assert sum(p.status == "predicted" for p in want.points) >= 40   # a case that cuts
     st = rp.stats[-1]
-    # the edited blocks and those within the tool's reach computed (the tilted D6 ball's
-    # 15 mm flutes reach ~13 mm along X); the far ends of the passes reused
+    # the edited blocks and those within the tool's reach computed; the far ends of
+    # the passes reused
     assert st["computed"] > 0 and st["reused"] >= 0.25 * st["blocks"], st
     edited = {b for b in range(len(pred.program)) if int(pred.program.line[b]) - 1 in where}
     assert len(edited) == len(where) and not edited & rp.reused
+    # a third program after that one (a chain)
+    lifted = _lifted(text)
+    _same(rp.run(_predictor(case, lifted)), _predictor(case, lifted).run())
+    rp.close()
+
+
+def test_blocks_the_old_programs_moves_reached_are_computed_again(case):
+    """Moves made rapids (no sweeps in the new program): the passes beside meet material
+    the old program's sweeps had taken, though their own moves did not change. Those
+    blocks are computed (the old program's changed sweeps are checked too), and the
+    prediction is that of the whole program."""
+    text = case[2]
+    lifted = _lifted(text)
+    rp = Repredictor()
+    pred_a = _predictor(case, text)
+    first = rp.run(pred_a)
+    pred_c = _predictor(case, lifted)
+    got = rp.run(pred_c)
+    want = _predictor(case, lifted).run()
+    _same(got, want)
+    keys_a, keys_c = (block_keys(p.model, len(p.program)) for p in (pred_a, pred_c))
+
+    def stage1(out):                   # what stage 1 found, per block (not the wear's E)
+        blocks: dict = {}
+        for p in out.points:
+            g = p.geometry
+            blocks.setdefault(g.block, []).append((g.status, g.cutting_pixels,
+                                                   g.finished_pixels))
+        return blocks
+
+    before, after = stage1(first), stage1(want)
+    changed = {b for b, v in after.items() if keys_c[b] == keys_a[b] and before.get(b) != v}
+    assert len(changed) >= 10 and not changed & rp.reused, (changed, rp.stats[-1])
+    assert rp.stats[-1]["reused"] > 0
     rp.close()
 
 
