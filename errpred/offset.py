@@ -46,10 +46,8 @@ amplitude per pass (``s = OFFSET_SMOOTH``: 11 %). Both are tested
 
 from __future__ import annotations
 
-import dataclasses
-
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -531,7 +529,7 @@ class OffsetEdit:
             near = bool(np.all(np.abs(np.asarray(shift) - o_shift) <= tol_mm)
                         and abs(dr - o_dr) <= tol_mm)
             circles[u] = (o_shift, o_dr) if near else (shift, dr)
-        return dataclasses.replace(self, moves=moves, circles=circles)
+        return replace(self, moves=moves, circles=circles)
 
 
 def split_fractions(length_mm: float, t: np.ndarray, target: np.ndarray,

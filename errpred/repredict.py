@@ -61,17 +61,25 @@ def block_keys(model: GeometryModel, n_blocks: int) -> list[bytes | None]:
     one after it: tips, axes, feeds, spindle speeds, rapid flags, which of
     them are the block's, and whether the path starts or ends there.
     """
+    return _block_table(model, n_blocks)[0]
+
+
+def _block_table(model: GeometryModel, n_blocks: int
+                 ) -> tuple[list[bytes | None], np.ndarray]:
+    """:func:`block_keys`, and the path length at each block's start [mm] (nan: no
+    cutter locations), in one pass over the blocks."""
     cl = model.cl
     n = len(cl)
     path = model.path
-    out: list[bytes | None] = []
+    keys: list[bytes | None] = []
+    starts = np.full(n_blocks, np.nan)
     for b in range(n_blocks):
         rng = model.block_points(b)
         if rng is None:
-            out.append(None)
+            keys.append(None)
             continue
         i0, i1 = rng
-        start = path[i0 - 1] if i0 > 0 else 0.0
+        start = starts[b] = path[i0 - 1] if i0 > 0 else 0.0
         first = max(min(i0 - 1, int(np.searchsorted(path, start, side="left")) - 1), 0)
         rows = slice(first, min(i1 + 2, n))
         h = hashlib.blake2b(digest_size=20)
@@ -79,8 +87,8 @@ def block_keys(model: GeometryModel, n_blocks: int) -> list[bytes | None]:
         for a in (cl.tip[rows], cl.axis[rows], cl.feed_mm_min[rows], cl.spindle_rpm[rows],
                   cl.rapid[rows], cl.block[rows] == b):
             h.update(np.ascontiguousarray(a).tobytes())
-        out.append(h.digest())
-    return out
+        keys.append(h.digest())
+    return keys, starts
 
 
 class _Store:
@@ -147,15 +155,6 @@ class _Given(Mapping):
         return len(self._pairs)
 
 
-def _starts(model: GeometryModel, n_blocks: int) -> np.ndarray:
-    out = np.full(n_blocks, np.nan)
-    for b in range(n_blocks):
-        rng = model.block_points(b)
-        if rng is not None:
-            out[b] = model.path[rng[0] - 1] if rng[0] > 0 else 0.0
-    return out
-
-
 def _sweep_blocks(model: GeometryModel) -> np.ndarray:
     """The program block of each sweep."""
     return model.cl.block[model.sweeps.cl_index]
@@ -201,9 +200,9 @@ class Repredictor:
         model = predictor.model
         n_blocks = len(predictor.program)
         blocks = list(range(n_blocks)) if blocks is None else [int(b) for b in blocks]
-        keys = block_keys(model, n_blocks)
-        starts = _starts(model, n_blocks)
-        given = self._reusable(model, keys, starts, blocks)
+        keys, starts = _block_table(model, n_blocks)
+        sweep_block = _sweep_blocks(model)
+        given = self._reusable(model, keys, starts, sweep_block, blocks)
         store = _Store()
         boxes = np.full((n_blocks, 2, 3), np.nan)
 
@@ -219,15 +218,15 @@ class Repredictor:
             raise
         self.close()
         sw = model.sweeps
-        self._last = _Run(_same(model), sw.lo, sw.hi, _sweep_blocks(model), keys, starts,
-                          boxes, store)
+        self._last = _Run(_same(model), sw.lo, sw.hi, sweep_block, keys, starts, boxes,
+                          store)
         self.reused = frozenset(given)
         self.stats.append(dict(blocks=len(blocks), reused=len(given),
                                computed=len(blocks) - len(given)))
         return out
 
     def _reusable(self, model: GeometryModel, keys: list, starts: np.ndarray,
-                  blocks: list[int]) -> _Given:
+                  sweep_block: np.ndarray, blocks: list[int]) -> _Given:
         last = self._last
         if last is None:
             return _Given(last, {}, {})
@@ -247,7 +246,7 @@ class Repredictor:
         changed_a[pair_b[pair_b >= 0]] = False
         changed_b = pair_b < 0
         hit_a = changed_a[last.sweep_block]
-        hit_b = changed_b[_sweep_blocks(model)]
+        hit_b = changed_b[sweep_block]
         lo = np.concatenate([last.sweep_lo[hit_a], model.sweeps.lo[hit_b]])
         hi = np.concatenate([last.sweep_hi[hit_a], model.sweeps.hi[hit_b]])
         cell = K.SWEEP_GRID_CELL_PER_RADIUS * model.tool.radius_mm
