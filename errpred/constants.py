@@ -241,15 +241,19 @@ FALLBACK_SCALINGS = 1
 #: ... at most this [-]: a step the linear estimate calls nearly harmless is still cut
 #: by a tenth (the response is not linear near a wall's end).
 FALLBACK_SCALE_MAX = 0.9
-#: A fallback's refit moves every vertex of a chain a little (least squares with
-#: smoothing: a weight changed at the worse points reaches along the chain); where a
-#: vertex's move differs from the rejected candidate's by at most this, the
-#: fallback keeps that candidate's move exactly [mm]. A hundredth of a micrometre:
-#: a tenth of the written programs' 0.1 um resolution, a hundredth of the comparison's
-#: tolerance; the fallback is then the rejected candidate but near the worse points,
-#: and its dense prediction recomputes only there (errpred.repredict). The candidate
-#: is predicted and compared as any.
-FALLBACK_SETTLE_MM = 1.0e-5
+#: A fallback refits the moves near the worse points only: a vertex more than this many
+#: vertices along its chain from a unit whose points' weights changed keeps the rejected
+#: candidate's move exactly, and the vertices between are fitted to it (so the path
+#: changes near the worse points only, and its dense prediction recomputes there only:
+#: errpred.repredict). A whole refit moved every vertex of the chains a little (on the
+#: whole mold core the first fallback recomputed 22,297 of 28,219 blocks). The fit's
+#: smoothing (OFFSET_SMOOTH) couples a vertex to its neighbours: a change of the wanted
+#: moves decays along the chain by about a factor 0.45 a vertex (measured on a raster
+#: chain of 0.25 mm units, 3 points each: 5 % of the change 2 vertices on, 1e-4 after
+#: 8), so the whole refit would have moved the vertices held by less than a ten-thousandth
+#: of the change (0.01 um for a 100 um move); the local and the whole refit agree within
+#: a thousandth of the change (tests/errpred/test_offset.py) [-].
+FALLBACK_FREE_VERTICES = 8
 #: ... "near": within this many tool radii of a worse point (at least one dense
 #: spacing; the pass beside or below can finish the same surface) [-].
 FALLBACK_REACH_RADII = 0.25

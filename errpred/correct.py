@@ -127,7 +127,9 @@ def _full_circle(program: Program, b: int) -> bool:
 
 
 def fit_program(program: Program, field_: ErrorField, slope: np.ndarray | None = None,
-                weight: np.ndarray | None = None, *, split: bool = True) -> ProgramEdit:
+                weight: np.ndarray | None = None, *, split: bool = True,
+                hold: ProgramEdit | None = None, free: np.ndarray | None = None
+                ) -> ProgramEdit:
     """The correction of ``program`` for the errors ``field_`` (its own dense prediction,
     against the original surface).
 
@@ -143,6 +145,9 @@ def fit_program(program: Program, field_: ErrorField, slope: np.ndarray | None =
         point must not move (held where it is).
     split : bool
         Split straight blocks whose points ask for more than a straight move.
+    hold, free : optional
+        A fallback's refit: keep ``hold``'s moves away from the points ``free``
+        (:func:`errpred.offset.fit_units`).
     """
     pblock = field_.block
     t = np.array([_fraction_on_block(program, int(b), tip)
@@ -153,7 +158,7 @@ def fit_program(program: Program, field_: ErrorField, slope: np.ndarray | None =
     circle = np.array([_full_circle(program, b) for b in range(n)], bool)
     chains = feed_chains(program.motion != RAPID, cut, sticky=circle)
     return fit_units(program_units(program), chains, pblock, t, wanted_moves(field_, slope),
-                     field_.normal, weight=weight, split=split)
+                     field_.normal, weight=weight, split=split, hold=hold, free=free)
 
 
 def apply_edit(program: Program, edit: ProgramEdit, scale: np.ndarray | None = None, *,
@@ -296,8 +301,9 @@ def compensate(program: Program, predict: Callable[[Program, np.ndarray], Predic
         pred = predict(c.program, c.origin)
         return error_field(pred, ref_cl, program.line, moved=c is not first), pred
 
-    def fit(c: _Candidate, fld: ErrorField, slope, weight) -> ProgramEdit:
-        return fit_program(c.program, fld, slope, weight)
+    def fit(c: _Candidate, fld: ErrorField, slope, weight, hold=None, free=None
+            ) -> ProgramEdit:
+        return fit_program(c.program, fld, slope, weight, hold=hold, free=free)
 
     def apply(c: _Candidate, edit: ProgramEdit, factor: float) -> _Candidate:
         prog = c.program

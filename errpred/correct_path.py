@@ -65,7 +65,8 @@ def path_units(cl: CutterLocations) -> Units:
 
 
 def fit_path(cl: CutterLocations, field_: ErrorField, slope: np.ndarray | None = None,
-             weight: np.ndarray | None = None, *, split: bool = True) -> PathEdit:
+             weight: np.ndarray | None = None, *, split: bool = True,
+             hold: PathEdit | None = None, free: np.ndarray | None = None) -> PathEdit:
     """The correction of path ``cl`` for the errors ``field_`` (its own dense
     prediction, against the reference surface): see :mod:`errpred.correct`; segments
     whose points ask for more than a straight move get cutter locations inserted."""
@@ -76,9 +77,10 @@ def fit_path(cl: CutterLocations, field_: ErrorField, slope: np.ndarray | None =
     feed = ~cl.rapid
     feed[0] = False                       # location 0 starts the path: no segment ends there
     w = None if weight is None else np.asarray(weight, float)[ok]
+    f = None if free is None else np.asarray(free, bool)[ok]
     return fit_units(path_units(cl), feed_chains(feed, cut), seg[ok], t[ok],
                      wanted_moves(field_, slope)[ok], field_.normal[ok], weight=w,
-                     split=split)
+                     split=split, hold=hold, free=f)
 
 
 def apply_path_edit(cl: CutterLocations, edit: PathEdit, scale: np.ndarray | None = None

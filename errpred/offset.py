@@ -47,11 +47,12 @@ amplitude per pass (``s = OFFSET_SMOOTH``: 11 %). Both are tested
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from .constants import (
+    FALLBACK_FREE_VERTICES,
     OFFSET_EDGE_ITERATIONS,
     OFFSET_EDGE_UM,
     OFFSET_HOLD,
@@ -104,6 +105,9 @@ class OffsetProblem:
         Wanted move along the normal.
     pt_weight : ndarray, shape (Q,)
         Weight of each equation (the path length it stands for, relative).
+    fixed_moves : ndarray, shape (V, 3), optional [mm]
+        What the vertices that may not move (``movable`` False) move by, given (zero
+        when None): the rows that read them take them as known.
     """
 
     vertices: np.ndarray
@@ -121,6 +125,7 @@ class OffsetProblem:
     pt_normal: np.ndarray
     pt_target: np.ndarray
     pt_weight: np.ndarray
+    fixed_moves: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -194,12 +199,19 @@ def solve_offsets(pb: OffsetProblem, *, smooth: float = OFFSET_SMOOTH,
     vals: list[np.ndarray] = []
     rhs: list[float] = []
     r = 0
+    # a vertex that may not move has columns -2 - (3 v + axis): known, its given move
+    # (pt.fixed_moves) goes to the right-hand side
+    known = (np.zeros(3 * V) if pb.fixed_moves is None
+             else np.asarray(pb.fixed_moves, float).reshape(-1))
 
     def add(cs, vs, b):
         nonlocal r
         cs = np.asarray(cs, np.int64)
         vs = np.asarray(vs, float)
         keep = cs >= 0
+        given = cs <= -2
+        if given.any():
+            b = b - float(vs[given] @ known[-2 - cs[given]])
         rows.append(np.full(int(keep.sum()), r, np.int64))
         cols.append(cs[keep])
         vals.append(vs[keep])
@@ -208,7 +220,8 @@ def solve_offsets(pb: OffsetProblem, *, smooth: float = OFFSET_SMOOTH,
 
     def vcols(v: int) -> np.ndarray:
         u = unknown[v]
-        return np.array([3 * u, 3 * u + 1, 3 * u + 2]) if u >= 0 else np.full(3, -1)
+        return (np.array([3 * u, 3 * u + 1, 3 * u + 2]) if u >= 0
+                else -2 - (3 * v + np.arange(3)))
 
     # --- the points' equations --------------------------------------------------------
     Q = pb.pt_seg.size
@@ -322,11 +335,20 @@ def solve_offsets(pb: OffsetProblem, *, smooth: float = OFFSET_SMOOTH,
     vals.append(np.full(N, lr))
     rhs.extend([0.0] * N)
     r += N
+    moves = np.zeros((V, 3)) if pb.fixed_moves is None else np.array(pb.fixed_moves, float)
+    moves[mov] = 0.0
+    b = np.asarray(rhs)
+    sw = np.sqrt(np.maximum(pb.pt_weight, 0.0))
+
+    def per_point(resid: np.ndarray) -> np.ndarray:
+        if not Q:
+            return np.zeros(0)
+        return np.where(sw > 0, resid[eq_rows] / np.where(sw > 0, sw, 1.0), np.nan)
+
     if N == 0:
-        return OffsetSolution(np.zeros((V, 3)), {}, -np.asarray(pb.pt_target, float))
+        return OffsetSolution(moves, {}, per_point(-b))
     A = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                    shape=(r, N)).tocsr()
-    b = np.asarray(rhs)
     # edge-preserving smoothness (iteratively reweighted): a second difference much
     # larger than OFFSET_EDGE_UM is a real step of the error (a wall's end, the tool
     # leaving the material), which the moves follow; smaller ones (noise) are damped
@@ -337,19 +359,14 @@ def solve_offsets(pb: OffsetProblem, *, smooth: float = OFFSET_SMOOTH,
         x = np.atleast_1d(spsolve((Aw.T @ Aw).tocsc(), Aw.T @ (scale * b)))
         if d2.size == 0 or it == OFFSET_EDGE_ITERATIONS:
             break
-        res = (A @ x)
+        res = A @ x - b             # rows next to a given vertex have a right-hand side
         mag = np.sqrt(res[d2] ** 2 + res[d2 + 1] ** 2 + res[d2 + 2] ** 2) / max(ls, 1e-300)
         w = 1.0 / np.sqrt(1.0 + (mag * 1e3 / OFFSET_EDGE_UM) ** 2)
         for a in range(3):
             scale[d2 + a] = w
-    moves = np.zeros((V, 3))
     moves[mov] = x[:3 * mov.size].reshape(-1, 3)
     circle = {s: (_circle_shift(pb, s, x[g:g + 3]), float(x[g + 2])) for s, g in circ_col.items()}
-    resid = A @ x - b
-    sw = np.sqrt(np.maximum(pb.pt_weight, 0.0))
-    residual = np.where(sw > 0, resid[eq_rows] / np.where(sw > 0, sw, 1.0), np.nan) \
-        if Q else np.zeros(0)
-    return OffsetSolution(moves, circle, residual)
+    return OffsetSolution(moves, circle, per_point(A @ x - b))
 
 
 def _vertex_normals(pb: OffsetProblem) -> tuple[np.ndarray, np.ndarray]:
@@ -501,35 +518,11 @@ class OffsetEdit:
         """Largest vertex move [mm]."""
         return float(np.linalg.norm(self.moves, axis=1).max(initial=0.0))
 
-    def settled_to(self, other: "OffsetEdit", tol_mm: float) -> "OffsetEdit":
-        """This edit with ``other``'s moves (and full circles' changes) wherever they
-        differ from these by at most ``tol_mm`` [mm] (each component): the units' ends,
-        and the split points of the units split at the same fractions in both; itself
-        where the two are not edits of the same units (another path)."""
-        def units(e: "OffsetEdit") -> int:
-            return e.n_vertices - 1 - sum(len(v) for v in e.split_vertices.values())
 
-        n = units(self)
-        if (n != units(other) or self.circles.keys() != other.circles.keys()
-                or not np.array_equal(self.vertices[:n + 1], other.vertices[:n + 1])):
-            return self
-        mine, theirs = [np.arange(n + 1)], [np.arange(n + 1)]
-        for u, fr in self.split_fractions.items():
-            o = other.split_fractions.get(u)
-            if o is not None and np.array_equal(fr, o):
-                mine.append(np.asarray(self.split_vertices[u]))
-                theirs.append(np.asarray(other.split_vertices[u]))
-        a, b = np.concatenate(mine), np.concatenate(theirs)
-        close = np.all(np.abs(self.moves[a] - other.moves[b]) <= tol_mm, axis=1)
-        moves = self.moves.copy()
-        moves[a[close]] = other.moves[b[close]]
-        circles = {}
-        for u, (shift, dr) in self.circles.items():
-            o_shift, o_dr = other.circles[u]
-            near = bool(np.all(np.abs(np.asarray(shift) - o_shift) <= tol_mm)
-                        and abs(dr - o_dr) <= tol_mm)
-            circles[u] = (o_shift, o_dr) if near else (shift, dr)
-        return replace(self, moves=moves, circles=circles)
+def _same_units(hold: OffsetEdit, verts: np.ndarray, n: int) -> bool:
+    """Whether ``hold`` is an edit of the same ``n`` units (the same ends and start)."""
+    units = hold.n_vertices - 1 - sum(len(v) for v in hold.split_vertices.values())
+    return units == n and np.array_equal(hold.vertices[:n + 1], verts[:n + 1])
 
 
 def split_fractions(length_mm: float, t: np.ndarray, target: np.ndarray,
@@ -581,7 +574,8 @@ def feed_chains(feed: np.ndarray, cut: np.ndarray, sticky: np.ndarray | None = N
 
 def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
               target: np.ndarray, normal: np.ndarray, *, weight: np.ndarray | None = None,
-              split: bool = True) -> OffsetEdit:
+              split: bool = True, hold: OffsetEdit | None = None,
+              free: np.ndarray | None = None) -> OffsetEdit:
     """The correction of a path of ``units`` for points asking for moves.
 
     Parameters
@@ -599,6 +593,14 @@ def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
         a correction made the surface worse, the original coordinates there.
     split : bool
         Split straight units whose points ask for more than a straight move.
+    hold : OffsetEdit, optional
+        A fit of the same units to keep everywhere but near the points ``free`` (q,)
+        bool (a fallback's refit: the points whose weight changed): the vertices more
+        than ``FALLBACK_FREE_VERTICES`` vertices along their chain from a unit with a
+        free point (or a unit split otherwise than in ``hold``) keep ``hold``'s moves
+        exactly and the rest is fitted to them, so the refit changes the path there
+        only (and its dense prediction recomputes there only, errpred.repredict).
+        Ignored (a whole fit) when ``hold`` is not of the same units.
     """
     n = len(units)
     held = np.zeros(unit.size, bool)
@@ -611,10 +613,11 @@ def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
     split_vtx: dict[int, np.ndarray] = {}
     movable = np.zeros(n + 1, bool)
     seg_v0, seg_v1, seg_unit, seg_lo, seg_hi = [], [], [], [], []
-    chain_vertices = []
+    chain_vertices, chain_units = [], []
     for chain in chains:
         first = chain[0]
         cv = [first - 1 if first > 0 else n]
+        cu = [first]                            # the unit each chain vertex belongs to
         movable[cv[0]] = cv[0] < n
         for u in chain:
             movable[u] = True
@@ -645,10 +648,37 @@ def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
                 seg_lo.append(pieces[j])
                 seg_hi.append(pieces[j + 1])
             cv += vs[1:]
+            cu += [u] * (len(vs) - 1)
         chain_vertices.append(np.asarray(cv, np.int64))
+        chain_units.append(np.asarray(cu, np.int64))
     verts = np.vstack(vertices)
     mov = np.ones(V, bool)
     mov[:n + 1] = movable
+    fixed_moves = None
+    if hold is not None and _same_units(hold, verts, n):
+        free_units = np.zeros(n + 1, bool)
+        if free is not None:
+            free_units[np.asarray(unit)[np.asarray(free, bool)]] = True
+        fixed_moves = np.zeros((V, 3))
+        for u, fr in split_frac.items():
+            o = hold.split_fractions.get(u)
+            if o is None or not np.array_equal(fr, o):
+                free_units[u] = True            # split otherwise: its vertices are new
+            else:
+                fixed_moves[split_vtx[u]] = hold.moves[hold.split_vertices[u]]
+        for u in hold.split_fractions:
+            if u not in split_frac:
+                free_units[u] = True
+        fixed_moves[:n + 1] = hold.moves[:n + 1]
+        keep_free = np.zeros(V, bool)
+        for cv, cu in zip(chain_vertices, chain_units, strict=True):
+            near = free_units[cu].astype(np.int64)
+            if near.any():
+                # within FALLBACK_FREE_VERTICES of a free unit's vertex along the chain
+                k = FALLBACK_FREE_VERTICES
+                near = np.convolve(near, np.ones(2 * k + 1, np.int64))[k:k + near.size] > 0
+                keep_free[cv[near]] = True
+        mov &= keep_free
     seg_unit = np.asarray(seg_unit, np.int64)
     seg_lo, seg_hi = np.asarray(seg_lo), np.asarray(seg_hi)
     # each point on its piece
@@ -683,8 +713,11 @@ def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
         seg_centre=units.centre[seg_unit].reshape(-1, 3), chains=chain_vertices,
         pt_seg=q_seg[keep], pt_t=q_t[keep], pt_w=q_w[keep], pt_theta=q_th[keep],
         pt_normal=normal[keep], pt_target=np.where(held[keep], 0.0, target[keep]),
-        pt_weight=np.where(held[keep], OFFSET_HOLD, 1.0))
+        pt_weight=np.where(held[keep], OFFSET_HOLD, 1.0), fixed_moves=fixed_moves)
     sol = solve_offsets(pb)
+    if fixed_moves is not None:
+        mov = np.ones(V, bool)
+        mov[:n + 1] = movable
     circles = {int(seg_unit[s_]): v for s_, v in sol.circle.items()}
     return OffsetEdit(moves=sol.moves, split_fractions=split_frac, split_vertices=split_vtx,
                       circles=circles, movable=mov, vertices=verts)

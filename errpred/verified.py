@@ -16,8 +16,10 @@ what may be written (shared by a program's correction, :mod:`errpred.correct`, a
    the share that brings the worse point's error back inside its allowed band with
    half the tolerance to spare (linear in the move; at most ``FALLBACK_SCALE_MAX``),
    then those points are held where they are (their original coordinates), the
-   moves fitted again each time (so the correction stays smooth) and the candidate
-   predicted again.
+   moves fitted again each time near the points whose weight changed only (the
+   rejected candidate's moves kept beyond ``FALLBACK_FREE_VERTICES`` vertices along
+   each chain; between, the fit joins them smoothly) and the candidate predicted
+   again (which recomputes stage 1 near the change only, errpred.repredict).
 4. A candidate is accepted only when it is no worse than the original anywhere
    and better than the best so far (RMS, or the largest |E| at no higher RMS):
    acceptance is monotone, so iterating cannot wander off. The original is the
@@ -36,7 +38,6 @@ import numpy as np
 
 from .constants import (
     FALLBACK_SCALE_MAX,
-    FALLBACK_SETTLE_MM,
     FALLBACK_SCALINGS,
     RELAXATION,
     SECANT_MIN_SHIFT_UM,
@@ -257,15 +258,15 @@ def correct_verified(original: Any,
     predict : callable
         ``predict(candidate) -> (ErrorField against the original, prediction)``, dense.
     fit : callable
-        ``fit(candidate, field, slope, weight) -> edit``: ``slope`` (one per point of
-        the field, or None) is the measured ``dE/dshift`` between the last two accepted
-        candidates (NaN: not measured; use the model's); ``weight`` (one per point)
-        scales each point's wanted move (1; less near the places where a candidate
-        was worse; 0 at last: those points are held where they are). The edit has
-        ``largest_mm`` (largest vertex move [mm]) and ``settled_to(edit, tol_mm)``
-        (:meth:`errpred.offset.OffsetEdit.settled_to`: a fallback's refit keeps the
-        rejected candidate's moves where they differ by at most
-        ``FALLBACK_SETTLE_MM``).
+        ``fit(candidate, field, slope, weight, hold=None, free=None) -> edit``:
+        ``slope`` (one per point of the field, or None) is the measured ``dE/dshift``
+        between the last two accepted candidates (NaN: not measured; use the model's);
+        ``weight`` (one per point) scales each point's wanted move (1; less near the
+        places where a candidate was worse; 0 at last: those points are held where they
+        are). A fallback's refit passes ``hold`` (the rejected candidate's edit) and
+        ``free`` (the points whose weight changed): the refit keeps ``hold``'s moves
+        away from those points (:func:`errpred.offset.fit_units`). The edit has
+        ``largest_mm`` (largest vertex move [mm]).
     apply : callable
         ``apply(candidate, edit, factor) -> new candidate``: the edit's moves times
         ``factor`` (the relaxation).
@@ -310,12 +311,14 @@ def correct_verified(original: Any,
         if edit.largest_mm * omega < tolerance_mm:
             break
         largest = float(edit.largest_mm)
+        fitted_with = weight
         for attempt in range(FALLBACK_SCALINGS + 2):
             say(f"pass {k}" + (f", fallback {attempt}" if attempt else ""))
             if attempt:
-                # the refit, but the rejected candidate's moves where they hardly differ
-                # (FALLBACK_SETTLE_MM): the fallback changes only near the worse points
-                edit = fit(current, Fc, slope, weight).settled_to(edit, FALLBACK_SETTLE_MM)
+                # refitted near the points whose weight changed only; the rejected
+                # candidate's moves everywhere else (FALLBACK_FREE_VERTICES)
+                edit = fit(current, Fc, slope, weight, hold=edit, free=weight != fitted_with)
+                fitted_with = weight
             cand = apply(current, edit, omega)
             Fk, Pk = predict(cand)
             out.predictions.append(Pk)

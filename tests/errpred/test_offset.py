@@ -4,6 +4,7 @@ full circles stay full circles, air pulls nothing."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -137,44 +138,85 @@ def test_a_block_leaving_the_material_does_not_pull_the_wall():
     assert last in edit.split_fractions
 
 
-def test_a_settled_edit_takes_the_other_moves_only_where_they_hardly_differ():
-    """OffsetEdit.settled_to: the other edit's moves (and circle changes) where every
-    component is within the tolerance, its own elsewhere; itself for edits of other
-    vertices (other splits)."""
+def _raster_units(n: int = 200, pitch: float = 0.25):
+    """``n`` straight units along X, one joined chain, two points a unit asking for a
+    smooth move along Z with noise, and a kink (a unit that needs a split) at x 30."""
+    from errpred.offset import Units
+
+    x = np.arange(n + 1) * pitch
+    zero = np.zeros(n)
+    units = Units(start=np.c_[x[:-1], zero, zero], end=np.c_[x[1:], zero, zero],
+                  kind=np.full(n, LINE), plane=np.tile([0, 1, 2], (n, 1)),
+                  centre=np.zeros((n, 3)), radius=np.zeros((n, 2)), sweep=zero,
+                  splittable=np.ones(n, bool), joined=np.r_[False, np.ones(n - 1, bool)])
+    unit = np.repeat(np.arange(n), 3)
+    t = np.tile([0.2, 0.5, 0.9], n)
+    px = x[unit] + t * pitch
+    rng = np.random.default_rng(3)
+    target = 5e-3 * np.sin(px / 6.0) + 2e-4 * rng.normal(size=px.size)
+    target += np.where(np.abs(px - 30.1) < 0.05, 3e-3, 0.0)            # a kink: a split
+    return units, [list(range(n))], unit, t, target, np.tile([0.0, 0.0, 1.0], (px.size, 1)), px
+
+
+def test_a_fallback_refit_moves_the_path_near_the_changed_points_only():
+    """fit_units(hold=, free=): where the weights changed (points held near x 25, the
+    kinked unit near x 30 scaled), the refit is the whole refit's within a small share of
+    the change; every vertex farther than FALLBACK_FREE_VERTICES along the chain keeps the
+    held edit's move exactly (the units' ends and the split points); the moves stay as
+    smooth as the whole refit's; an edit of other units is not held."""
     import dataclasses
 
-    from errpred.offset import OffsetEdit
+    from errpred.constants import FALLBACK_FREE_VERTICES as K
+    from errpred.offset import fit_units
 
-    rng = np.random.default_rng(7)
-    base = rng.normal(scale=1e-3, size=(6, 3))
-    verts = rng.normal(size=(6, 3))
-    # 5 units (vertices 0-4 their ends, 5 the fixed start), none split
-    a = OffsetEdit(moves=base, split_fractions={}, split_vertices={},
-                   circles={2: (np.array([1e-3, 0.0, 0.0]), 2e-3)},
-                   movable=np.ones(6, bool), vertices=verts)
-    moved = base.copy()
-    moved[1] += 4e-6                     # within 1e-5: settles to a's
-    moved[4, 2] += 3e-5                  # one component beyond: keeps its own
-    b = dataclasses.replace(a, moves=moved,
-                            circles={2: (np.array([1e-3 + 2e-6, 0.0, 0.0]), 2e-3 + 5e-5)})
-    s = b.settled_to(a, 1e-5)
-    np.testing.assert_array_equal(s.moves[[0, 1, 2, 3, 5]], base[[0, 1, 2, 3, 5]])
-    np.testing.assert_array_equal(s.moves[4], moved[4])
-    assert s.circles[2][1] == 2e-3 + 5e-5          # the radius change is beyond
-    np.testing.assert_array_equal(s.circles[2][0], b.circles[2][0])
-    near = dataclasses.replace(b, circles={2: (np.array([1e-3 + 2e-6, 0.0, 0.0]), 2e-3)})
-    np.testing.assert_array_equal(near.settled_to(a, 1e-5).circles[2][0], [1e-3, 0.0, 0.0])
-    # unit 3 split in one edit only (a vertex added): the units' ends still settle, the
-    # split point keeps its own move
-    split = OffsetEdit(moves=np.vstack([moved, [[4e-3, 0.0, 0.0]]]),
-                       split_fractions={3: np.array([0.5])},
-                       split_vertices={3: np.array([6])}, circles=b.circles,
-                       movable=np.ones(7, bool), vertices=np.vstack([verts, [[0, 0, 0]]]))
-    s2 = split.settled_to(a, 1e-5)
-    np.testing.assert_array_equal(s2.moves[[0, 1, 2, 3, 5]], base[[0, 1, 2, 3, 5]])
-    np.testing.assert_array_equal(s2.moves[[4, 6]], split.moves[[4, 6]])
-    # the same split in both: the split point settles too
-    both = dataclasses.replace(split, moves=split.moves + 1e-6)
-    np.testing.assert_array_equal(both.settled_to(split, 1e-5).moves, split.moves)
-    other = dataclasses.replace(b, vertices=verts + 1.0)
-    assert other.settled_to(a, 1e-5) is other
+    units, chains, unit, t, target, normal, px = _raster_units()
+    n = len(units)
+    first = fit_units(units, chains, unit, t, target, normal)
+    assert first.split_fractions, "the kink splits a unit"
+    w = np.ones(px.size)
+    w[np.abs(px - 25.0) < 0.8] = 0.0
+    w[np.abs(px - 30.1) < 0.3] = 0.5
+    free = w != 1.0
+    whole = fit_units(units, chains, unit, t, target, normal, weight=w)
+    local = fit_units(units, chains, unit, t, target, normal, weight=w, hold=first, free=free)
+    change = np.abs(whole.moves[:n] - first.moves[:n]).max()
+    assert change > 1e-3                              # the refit does move the path
+    assert np.abs(local.moves[:n] - whole.moves[:n]).max() <= 1e-3 * change
+    # far from the changed units: exactly the held moves
+    changed_units = np.unique(unit[free])
+    far = np.array([np.abs(changed_units - u).min() > K + 1 for u in range(n)])
+    np.testing.assert_array_equal(local.moves[:n][far], first.moves[:n][far])
+    assert np.any(local.moves[:n][~far] != first.moves[:n][~far])
+    for u, fr in local.split_fractions.items():
+        if far[u] and u in first.split_fractions:
+            np.testing.assert_array_equal(local.moves[local.split_vertices[u]],
+                                          first.moves[first.split_vertices[u]])
+    # as smooth as the whole refit (no step where the held moves begin)
+    pos = np.r_[units.start[:1], units.end]
+    chain = np.r_[n, np.arange(n)]
+    rough = lambda e: np.abs(second_difference(e.moves[chain], pos)).max()  # noqa: E731
+    assert rough(local) <= rough(whole) + 1e-5
+    # not an edit of these units: a whole refit
+    other = dataclasses.replace(first, vertices=first.vertices + 1.0)
+    again = fit_units(units, chains, unit, t, target, normal, weight=w, hold=other, free=free)
+    np.testing.assert_array_equal(again.moves, whole.moves)
+
+
+def test_given_moves_of_fixed_vertices_are_honoured_by_the_solver():
+    """solve_offsets with fixed_moves: the vertices that may not move move by the given
+    amounts, and the free ones are the least-squares fit to them: a uniform wanted move
+    with the ends given at it is followed exactly; with the ends given at zero the middle
+    still reaches it (the smoothing bends, the points' equations win)."""
+    pb = _chain_problem(np.full(40, 5.0))
+    mov = np.ones(40, bool)
+    mov[[0, 1, 38, 39]] = False
+    fixed = np.zeros((40, 3))
+    fixed[~mov] = (0.0, 5e-3, 0.0)
+    sol = solve_offsets(dataclasses.replace(pb, movable=mov, fixed_moves=fixed))
+    # within the ridge's pull (OFFSET_RIDGE: 1e-6 of the move)
+    np.testing.assert_allclose(sol.moves[:, 1], 5e-3, atol=2e-8)
+    np.testing.assert_array_equal(sol.moves[~mov], fixed[~mov])
+    zero = solve_offsets(dataclasses.replace(pb, movable=mov))
+    np.testing.assert_array_equal(zero.moves[~mov], 0.0)
+    assert abs(zero.moves[20, 1] - 5e-3) < 1e-4
+    assert zero.moves[2, 1] < sol.moves[2, 1]
