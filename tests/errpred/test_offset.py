@@ -220,3 +220,89 @@ def test_given_moves_of_fixed_vertices_are_honoured_by_the_solver():
     np.testing.assert_array_equal(zero.moves[~mov], 0.0)
     assert abs(zero.moves[20, 1] - 5e-3) < 1e-4
     assert zero.moves[2, 1] < sol.moves[2, 1]
+
+
+def test_a_fallback_refit_keeps_a_far_split_block_exactly():
+    """A unit split in the held edit far from the changed points (a second kink, at
+    x 45.1) is split at the same fractions in the refit and its split points keep the
+    held moves exactly, though their vertex numbers differ (a nearer unit is newly
+    split, so the ids shift)."""
+    from errpred.constants import FALLBACK_FREE_VERTICES as K
+    from errpred.offset import fit_units
+
+    units, chains, unit, t, target, normal, px = _raster_units()
+    target = target + np.where(np.abs(px - 45.1) < 0.05, 3e-3, 0.0)
+    first = fit_units(units, chains, unit, t, target, normal)
+    far_unit = int(unit[np.argmin(np.abs(px - 45.1))])
+    assert far_unit in first.split_fractions
+    w = np.ones(px.size)
+    w[np.abs(px - 30.1) < 0.3] = 0.0          # the nearer kink held: split otherwise
+    free = w != 1.0
+    assert np.abs(unit[free] - far_unit).min() > K + 2
+    local = fit_units(units, chains, unit, t, target, normal, weight=w, hold=first,
+                      free=free)
+    np.testing.assert_array_equal(local.split_fractions[far_unit],
+                                  first.split_fractions[far_unit])
+    np.testing.assert_array_equal(local.moves[local.split_vertices[far_unit]],
+                                  first.moves[first.split_vertices[far_unit]])
+    assert local.movable[local.split_vertices[far_unit]].all()
+
+
+def _program_with_arcs_and_circles():
+    """A wall along X (1 mm blocks, a kink at x 30.75 that splits its block), a quarter
+    arc, a wall along Y, a full circle inside the chain and its continuation; then a
+    pass of one full circle alone. Normals radial / outward and continuous."""
+    lines = ["G21 G90 G17", "G0 X-5 Y0 Z5", "G1 Z-1 F1000", "G1 X-3", "G1 X0"]
+    lines += [f"G1 X{x}" for x in range(1, 41)]
+    lines += ["G3 X50 Y10 I0 J10"] + [f"G1 Y{y}" for y in range(11, 41)]
+    lines += ["G2 X50 Y40 I-5 J0"] + [f"G1 Y{y}" for y in range(41, 46)]
+    lines += ["G1 X60", "G0 Z5", "G0 X100 Y-5", "G1 Z-1", "G1 Y0", "G2 X100 Y0 I10 J0",
+              "G1 X95", "G0 Z5", "M30"]
+    prog = parse_program("\n".join(lines) + "\n")
+    air = {"G1 Z-1 F1000", "G1 X-3", "G1 X60", "G1 Z-1", "G1 Y0", "G1 X95", "G1 X0"}
+    pts, nrm, blk, E = [], [], [], []
+    for b in range(len(prog)):
+        if prog.motion[b] == 0 or lines[int(prog.line[b]) - 1] in air:
+            continue
+        a, e = prog.start[b, :3], prog.end[b, :3]
+        k = int(prog.arc_index[b])
+        for t in (0.25, 0.5, 0.75, 1.0):
+            if k >= 0:
+                c = prog.arc_centre[k]
+                ang = math.atan2(a[1] - c[1], a[0] - c[0]) + t * prog.arc_sweep[k]
+                u = np.array([math.cos(ang), math.sin(ang), 0.0])
+                p = np.array([c[0], c[1], -1.0]) + prog.arc_radius[k, 0] * u
+            else:
+                p = a + t * (e - a)
+                d = (e - a) / np.linalg.norm(e - a)
+                u = np.array([d[1], -d[0], 0.0])
+            kink = abs(p[0] - 30.75) < 1e-9 and abs(p[1]) < 1e-9
+            pts.append(p)
+            nrm.append(u)
+            blk.append(b)
+            E.append(20.0 + 5.0 * math.sin((p[0] + p[1]) / 8.0) + (8.0 if kink else 0.0))
+    return prog, np.array(pts), _field(prog, pts, nrm, E, blk)
+
+
+def test_a_fallback_refit_of_a_program_rewrites_only_the_blocks_near_the_change():
+    """fit_program(hold=, free=) and apply_edit (half the moves, as the verified loop's
+    relaxation): with the weights changed near x 5 only, the refit program's text is the
+    held edit's byte for byte from the block ending at x 20 on (a split block, a quarter
+    arc, two full circles) and before the wall; it differs near x 5."""
+    prog, pts, field = _program_with_arcs_and_circles()
+    first = fit_program(prog, field)
+    assert first.split_fractions and first.circles
+    w = np.ones(len(pts))
+    w[(np.abs(pts[:, 0] - 5.0) < 1.6) & (np.abs(pts[:, 1]) < 1e-9)] = 0.0
+    local = fit_program(prog, field, None, w, hold=first, free=w != 1.0)
+    held, _ = apply_edit(prog, first, np.full(first.n_vertices, 0.5))
+    refit, _ = apply_edit(prog, local, np.full(local.n_vertices, 0.5))
+    held, refit = held.splitlines(), refit.splitlines()
+    assert held != refit
+
+    def at(text, word):
+        return next(k for k, s in enumerate(text) if (s + " ").startswith(f"G1 {word} "))
+
+    assert held[:at(held, "X1")] == refit[:at(refit, "X1")]
+    assert held[at(held, "X20"):] == refit[at(refit, "X20"):]
+    assert any(s.startswith("G2 X100.") for s in refit)        # the circle was rewritten
