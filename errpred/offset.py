@@ -200,7 +200,7 @@ def solve_offsets(pb: OffsetProblem, *, smooth: float = OFFSET_SMOOTH,
     rhs: list[float] = []
     r = 0
     # a vertex that may not move has columns -2 - (3 v + axis): known, its given move
-    # (pt.fixed_moves) goes to the right-hand side
+    # (pb.fixed_moves) goes to the right-hand side
     known = (np.zeros(3 * V) if pb.fixed_moves is None
              else np.asarray(pb.fixed_moves, float).reshape(-1))
 
@@ -603,6 +603,8 @@ def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
         Ignored (a whole fit) when ``hold`` is not of the same units.
     """
     n = len(units)
+    if hold is not None and free is None:
+        raise ValueError("fit_units: hold= needs free= (the points whose weight changed)")
     held = np.zeros(unit.size, bool)
     if weight is not None:
         target = target * np.asarray(weight, float)
@@ -715,9 +717,14 @@ def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
         pt_normal=normal[keep], pt_target=np.where(held[keep], 0.0, target[keep]),
         pt_weight=np.where(held[keep], OFFSET_HOLD, 1.0), fixed_moves=fixed_moves)
     sol = solve_offsets(pb)
+    circles = {int(seg_unit[s_]): v for s_, v in sol.circle.items()}
     if fixed_moves is not None:
+        # a full circle between held vertices keeps the held change exactly (the solve
+        # gives it back within rounding only)
+        for u in circles:
+            if u in hold.circles and not (mov[u] or mov[u - 1 if u > 0 else n]):
+                circles[u] = hold.circles[u]
         mov = np.ones(V, bool)
         mov[:n + 1] = movable
-    circles = {int(seg_unit[s_]): v for s_, v in sol.circle.items()}
     return OffsetEdit(moves=sol.moves, split_fractions=split_frac, split_vertices=split_vtx,
                       circles=circles, movable=mov, vertices=verts)

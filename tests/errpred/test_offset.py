@@ -306,3 +306,9 @@ def test_a_fallback_refit_of_a_program_rewrites_only_the_blocks_near_the_change(
     assert held[:at(held, "X1")] == refit[:at(refit, "X1")]
     assert held[at(held, "X20"):] == refit[at(refit, "X20"):]
     assert any(s.startswith("G2 X100.") for s in refit)        # the circle was rewritten
+    # the full circles far from the change keep the held centre shift and radius change
+    # exactly (not the solve's value within rounding)
+    for u, (shift, dr) in first.circles.items():
+        if prog.end[u, 0] > 20.0:
+            assert local.circles[u][1] == dr
+            np.testing.assert_array_equal(local.circles[u][0], shift)
