@@ -167,25 +167,41 @@ class PointGeometry:
 
     def __getstate__(self) -> dict:
         # the per-revolution arrays are almost all zero: shipped packed, exactly
-        # (errpred.geometry_pack; workers -> stage 2)
+        # (errpred.geometry_pack; workers -> stage 2); a point that came packed (from a
+        # worker) goes on packed as it came (the results' store, errpred.repredict):
+        # its arrays are read only, so the packing still holds
         state = dict(self.__dict__)
-        state["engagement"] = pack_engagement(state.pop("cutting0"), state.pop("weight0"),
-                                              state.pop("shift0"))
+        packed = state.pop("_packed", None)
+        cutting0, weight0, shift0 = (state.pop(k) for k in ("cutting0", "weight0", "shift0"))
         sens = state.pop("sensitivity")
+        clpr = state.pop("cl_per_rev")
+        if packed is not None:
+            state.update(packed)
+            return state
+        state["engagement"] = pack_engagement(cutting0, weight0, shift0)
         if sens is not None:
             state["sensitivity_packed"] = (sens[0], pack_engagement(*sens[1:]))
         else:
             state["sensitivity"] = None
-        state["cl_per_rev"] = pack_sparse(state["cl_per_rev"])
+        state["cl_per_rev"] = pack_sparse(clpr)
         return state
 
     def __setstate__(self, state: dict) -> None:
+        packed = {k: state[k] for k in ("engagement", "sensitivity_packed", "sensitivity",
+                                        "cl_per_rev") if k in state}
         state["cutting0"], state["weight0"], state["shift0"] = unpack_engagement(
             state.pop("engagement"))
         if "sensitivity_packed" in state:
-            delta, packed = state.pop("sensitivity_packed")
-            state["sensitivity"] = (delta, *unpack_engagement(packed))
+            delta, pk = state.pop("sensitivity_packed")
+            state["sensitivity"] = (delta, *unpack_engagement(pk))
         state["cl_per_rev"] = unpack_sparse(state["cl_per_rev"])
+        arrays = [state["cutting0"], state["weight0"], state["shift0"], state["cl_per_rev"]]
+        if state["sensitivity"] is not None:
+            arrays += list(state["sensitivity"][1:])
+        for a in arrays:
+            if isinstance(a, np.ndarray):
+                a.flags.writeable = False
+        state["_packed"] = packed
         self.__dict__.update(state)
 
     @property

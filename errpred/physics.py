@@ -53,6 +53,7 @@ tolerance (:func:`errpred.report.tool_change`).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -63,6 +64,7 @@ from .dynamics import Compliance
 from .engagement import expand_flutes
 from .force import chip_thickness, tool_forces
 from .geometry import PointGeometry
+from .spindle import tooth_frequency
 from .tool import MicroEdges, Tool
 
 __all__ = ["PointResult", "ShapeErrorModel", "WearState", "bending_basis", "evaluate",
@@ -240,6 +242,24 @@ def workpiece_deflection(modes, force_N: np.ndarray, spindle_rpm: float) -> np.n
     return out
 
 
+@functools.lru_cache(maxsize=16)
+def _harmonic_response(compliance: Compliance, spindle_rpm: float, n: int) -> np.ndarray:
+    """The tool's ``G(omega_m)`` [m/N] at harmonics ``m = 0 .. n/2`` of the spindle
+    frequency, (n/2 + 1, ndir), read only: the same for every point at one speed."""
+    omega = 2.0 * math.pi * tooth_frequency(spindle_rpm) * np.arange(n // 2 + 1)
+    out = compliance.response(omega)
+    out.flags.writeable = False
+    return out
+
+
+def _point_modes(workpiece, g: PointGeometry) -> list:
+    """The workpiece's modes at the point's generation point (none: rigid, or no
+    generation point)."""
+    if workpiece is None or g.gen is None:
+        return []
+    return list(workpiece(g.gen.point_world))
+
+
 def _engagement(tool: Tool, edges: MicroEdges, g: PointGeometry) -> tuple:
     """The micro edges that cut at a point, over one revolution of every flute.
 
@@ -271,22 +291,28 @@ def _engagement(tool: Tool, edges: MicroEdges, g: PointGeometry) -> tuple:
 
 
 def _deflection(compliance: Compliance, g: PointGeometry, force: np.ndarray,
-                workpiece=None) -> np.ndarray:
+                modes: list) -> np.ndarray:
     """Deflection over a revolution from forces on the tool, world frame [mm].
 
-    ``force`` has shape (..., n, 3) [N]; the result the same shape [mm]. With
-    ``workpiece`` and a generation point the deflection is tool minus workpiece.
+    ``force`` has shape (..., n, 3) [N]; the result the same shape [mm]. With the
+    workpiece's ``modes`` at the point (:func:`_point_modes`) it is tool minus
+    workpiece. One transform of the force for both: ``D = irfft(sum of the
+    compliances' responses to rfft(F)) * 1000``, the tool's in its bending directions
+    (:func:`bending_basis`, :meth:`Compliance.deflection`), each workpiece mode's along
+    its direction (:func:`workpiece_deflection`); the same sums as those, once.
     """
     basis = bending_basis(g.axis)
-    dirs = compliance.directions
-    comp = np.stack([force @ basis[d] for d in dirs], axis=-1)
-    defl = compliance.deflection(comp, g.spindle_rpm)  # (..., n, ndir) [mm]
-    deflection = defl @ np.stack([basis[d] for d in dirs])
-    if workpiece is not None and g.gen is not None:
-        modes = workpiece(g.gen.point_world)
-        if modes:
-            deflection = deflection + workpiece_deflection(modes, force, g.spindle_rpm)
-    return deflection
+    B = np.stack([basis[d] for d in compliance.directions])            # (ndir, 3)
+    n = force.shape[-2]
+    spec = np.fft.rfft(force, axis=-2)                                  # (..., n/2+1, 3)
+    out = ((spec @ B.T) * _harmonic_response(compliance, float(g.spindle_rpm), n)) @ B
+    if modes:
+        omega = 2.0 * math.pi * tooth_frequency(g.spindle_rpm) * np.arange(n // 2 + 1)
+        for mode, d in modes:
+            d = np.asarray(d, dtype=float)
+            G = 1.0 / (mode.k_N_m - mode.m_kg * omega * omega + 1j * mode.c_Ns_m * omega)
+            out = out + ((spec @ d) * G)[..., None] * d
+    return np.fft.irfft(out, n=n, axis=-2) * 1000.0
 
 
 def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
@@ -304,11 +330,13 @@ def revolution(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     force_N : ndarray, shape (n, 3)
     deflection_mm : ndarray, shape (n, 3)
     """
-    return _revolution(tool, edges, coeffs, compliance, g, cl_mm, workpiece)[:3]
+    return _revolution(tool, edges, coeffs, compliance, g, cl_mm,
+                       _point_modes(workpiece, g))[:3]
 
 
-def _revolution(tool, edges, coeffs, compliance, g, cl_mm, workpiece=None) -> tuple:
-    """:func:`revolution`, and the engagement it used (:func:`_engagement`) last."""
+def _revolution(tool, edges, coeffs, compliance, g, cl_mm, modes) -> tuple:
+    """:func:`revolution` with the workpiece's modes at the point given, and the
+    engagement it used (:func:`_engagement`) last."""
     eng = _engagement(tool, edges, g)
     theta, cols, edges, phi, cutting, weight = eng
     cl_mm = np.asarray(cl_mm)[..., cols]
@@ -316,7 +344,7 @@ def _revolution(tool, edges, coeffs, compliance, g, cl_mm, workpiece=None) -> tu
     h = np.where(cutting, chip_thickness(edges, phi, f_tool), 0.0)
     f_tool_frame = tool_forces(edges, coeffs, phi, h, cutting, cl_mm, weight=weight)
     force = f_tool_frame @ g.frame  # rows: tool frame -> world
-    return theta, force, _deflection(compliance, g, force, workpiece), eng
+    return theta, force, _deflection(compliance, g, force, modes), eng
 
 
 def wear_influence(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
@@ -348,6 +376,12 @@ def wear_influence(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     a : ndarray, shape (c,) [mm per mm]
         ``dE_d / dcl_j``.
     """
+    return _wear_influence(tool, edges, coeffs, compliance, g, _point_modes(workpiece, g),
+                           engagement)
+
+
+def _wear_influence(tool, edges, coeffs, compliance, g, modes, engagement=None) -> tuple:
+    """:func:`wear_influence` with the workpiece's modes at the point given."""
     theta, cols, e, phi, cutting, weight = engagement or _engagement(tool, edges, g)
     n, c = theta.shape[0], cols.shape[0]
     i, k, j = np.nonzero(cutting)
@@ -361,7 +395,7 @@ def wear_influence(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     at = j * n + i
     f = np.stack([np.bincount(at, v, minlength=c * n) for v in parts], axis=-1)
     force = f.reshape(c, n, 3) @ g.frame                              # (c, n, 3) world [N/mm]
-    defl = _deflection(compliance, g, force, workpiece)               # (c, n, 3) [mm/mm]
+    defl = _deflection(compliance, g, force, modes)                   # (c, n, 3) [mm/mm]
     gen = g.gen
     series = np.moveaxis(defl, 1, 0)                                  # (n, c, 3)
     if gen.samples_theta is None or not gen.samples_theta.size:
@@ -429,8 +463,8 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     revs = g.spindle_rpm * g.cut_length_mm / g.feed_mm_min if g.feed_mm_min > 0 else 0.0
     increment = g.cl_per_rev * revs
     cl_mid = wear.cl_mm + 0.5 * increment
-    theta, force, defl, eng = _revolution(tool, edges, coeffs, compliance, g, cl_mid,
-                                          workpiece=workpiece)
+    modes = _point_modes(workpiece, g)      # once for the point's three revolutions
+    theta, force, defl, eng = _revolution(tool, edges, coeffs, compliance, g, cl_mid, modes)
     gen = g.gen
     nan = math.nan
     E_d = E_p = nan
@@ -465,8 +499,8 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
         influence[np.searchsorted(wear_edges, idx)] += shape.wear_rate * count / js.size
         W_d = 0.0
         if _edge_wear(coeffs):
-            cols, a_d = wear_influence(tool, edges, coeffs, compliance, g, workpiece=workpiece,
-                                       engagement=eng)
+            cols, a_d = _wear_influence(tool, edges, coeffs, compliance, g, modes,
+                                        engagement=eng)
             W_d = float(a_d @ cl_mid[cols])
             influence[np.searchsorted(wear_edges, cols)] += a_d
         j_w = int(wear_edges[np.argmax(cl_mid[wear_edges])])
@@ -475,8 +509,8 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
         if g.sensitivity is not None:
             delta, c_b, w_b, s_b = g.sensitivity
             g_b = dataclasses.replace(g, cutting0=c_b, weight0=w_b, shift0=s_b)
-            th_b, _, defl_b = revolution(tool, edges, coeffs, compliance, g_b, cl_mm=cl_mid,
-                                         workpiece=workpiece)
+            th_b, _, defl_b, _ = _revolution(tool, edges, coeffs, compliance, g_b, cl_mid,
+                                             modes)
             gain = (_strip_error(gen, defl_b, th_b) - E_d) / delta
     result = PointResult(
         peak_force_N=float(np.linalg.norm(force, axis=1).max()),

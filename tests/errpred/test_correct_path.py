@@ -138,3 +138,52 @@ def test_workpiece_deflection_static_limit():
     D = workpiece_deflection([(mode, d)], F, 9000.0)
     np.testing.assert_allclose(D, np.tile([0.0, 40.0 / 2.0e7 * 1e3, 0.0], (64, 1)), rtol=1e-6,
                                atol=1e-12)
+
+
+def test_relative_deflection_in_one_transform_is_the_sum_of_its_parts():
+    """errpred.physics._deflection (one FFT for the tool and the workpiece modes) equals
+    the tool's Compliance.deflection in its bending directions plus workpiece_deflection,
+    for a tilted tool, two workpiece modes and a batch of force series."""
+    from errpred.dynamics import Compliance
+    from errpred.physics import _deflection, bending_basis
+
+    rng = np.random.default_rng(11)
+    comp = Compliance.from_modes({"x": (Mode.from_frequency(900.0, 0.03, 4.0e6),
+                                        Mode.from_frequency(2400.0, 0.02, 9.0e6)),
+                                  "y": (Mode.from_frequency(950.0, 0.03, 5.0e6),)})
+    axis = np.array([0.2, -0.3, 1.0]) / np.linalg.norm([0.2, -0.3, 1.0])
+    g = SimpleNamespace(axis=axis, spindle_rpm=9000.0, gen=SimpleNamespace())
+    modes = [(Mode.from_frequency(1800.0, 0.01, 2.0e6), np.array([0.0, 1.0, 0.0])),
+             (Mode.from_frequency(4100.0, 0.01, 7.0e6), np.array([0.6, 0.8, 0.0]))]
+    F = rng.normal(scale=50.0, size=(4, 64, 3))
+    basis = bending_basis(axis)
+    B = np.stack([basis[d] for d in comp.directions])
+    want = comp.deflection(F @ B.T, 9000.0) @ B + workpiece_deflection(modes, F, 9000.0)
+    got = _deflection(comp, g, F, modes)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(_deflection(comp, g, F, []), comp.deflection(F @ B.T, 9000.0) @ B,
+                               rtol=1e-12, atol=1e-15)
+    assert np.abs(want - comp.deflection(F @ B.T, 9000.0) @ B).max() > 1e-4   # modes count
+
+
+def test_the_workpiece_modes_are_asked_once_a_point():
+    """A prediction with a flexible workpiece asks for its modes once per point with a
+    generation point (the main, the sensitivity and the wear revolutions share them)."""
+    import dataclasses
+
+    from errpred.pipeline import blocks_in_scope, build_predictor, load
+    from errpred.scenario import bundled_scenario
+
+    scn = dataclasses.replace(load(bundled_scenario("wall-radius")), lines=(38, 53))
+    asked = []
+    mode = (Mode.from_frequency(1800.0, 0.01, 2.0e6), np.array([0.0, 1.0, 0.0]))
+
+    def workpiece(point):
+        asked.append(np.asarray(point).copy())
+        return [mode]
+
+    pred = build_predictor(scn, workpiece=workpiece)
+    out = pred.run(blocks_in_scope(scn, pred.program))
+    with_gen = [p for p in out.points if p.result is not None and p.geometry.gen is not None]
+    assert len(with_gen) >= 5 and any(p.result.gain != 0.0 for p in with_gen)
+    assert len(asked) == len(with_gen)

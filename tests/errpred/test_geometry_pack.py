@@ -211,3 +211,32 @@ def test_real_points_pickle_back_field_by_field(wall_points):
         assert state["sensitivity_packed"][1][1][0] == "counts"
         raw = sum(a.nbytes for a in (g.cutting0, g.weight0, g.shift0, *g.sensitivity[1:]))
         assert len(pickle.dumps(g)) < raw / 10
+
+
+def test_a_point_that_came_packed_goes_on_packed_as_it_came(wall_points):
+    """A point read back from a pickle (a worker's result) pickles again to the same
+    bytes without packing again (the results' store), equal field by field after a
+    second trip; its arrays are read only (so the packing it keeps still holds), and a
+    point made from it by replacing a field packs afresh."""
+    import errpred.geometry as geometry
+
+    for g in wall_points:
+        once = pickle.dumps(g, protocol=5)
+        back = pickle.loads(once)
+        calls = []
+        real = geometry.pack_engagement
+        geometry.pack_engagement = lambda *a: calls.append(1) or real(*a)
+        try:
+            twice = pickle.dumps(back, protocol=5)
+        finally:
+            geometry.pack_engagement = real
+        assert not calls and twice == once, g.block
+        assert same(g, pickle.loads(twice)), g.block
+        for a in (back.cutting0, back.weight0, back.shift0, back.cl_per_rev):
+            if isinstance(a, np.ndarray):
+                assert not a.flags.writeable
+        if back.cutting0 is not None:
+            with pytest.raises(ValueError):
+                back.cutting0[...] = False
+            fresh = dataclasses.replace(back, cutting0=~back.cutting0)
+            assert not same(g, pickle.loads(pickle.dumps(fresh, protocol=5)))
