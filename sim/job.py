@@ -266,13 +266,17 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     seconds: dict[str, float] = {}
     t0 = t_start = time.perf_counter()
     # a worker compiles what later stages need (numba caches it on disk for every
-    # process): one task that does the parts in turn, behind the planner's (priority), so
-    # that the other worker is free for the planner's first task (the speed's sample of
-    # gains, which compiles the gain kernel). As three tasks, both workers took a part
-    # before the planner had submitted anything, and the sample waited behind them (on a
-    # fresh cache: 52 s of compiling, then its own 57 s)
+    # process): one task that does the planner's and the prediction's parts in turn,
+    # behind the planner's (priority), so that the other worker is free for the planner's
+    # first task (the speed's sample of gains, which compiles the gain kernel). As three
+    # tasks, both workers took a part before the planner had submitted anything, and the
+    # sample waited behind them (on a fresh cache: 52 s of compiling, then its own 57 s).
+    # The simulation's part is submitted after the plan and waited for before the
+    # verification only: with the kernels cached it still took 35 s of running (its
+    # finite elements, lobes and a few cutter locations), which the prediction waited for
     warm = [] if client is None else [client.submit(
-        _warm_kernels, scn, ("margins", "simulate", "predict"), pure=False, priority=-1)]
+        _warm_kernels, scn, ("margins", "predict"), pure=False, priority=-1)]
+    warm_sim: list = []
 
     def lap(name: str) -> None:
         nonlocal t0
@@ -325,6 +329,8 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     if warm:        # the prediction's kernels: compiled (and cached) before it starts
         from distributed import wait
 
+        warm_sim.append(client.submit(_warm_kernels, scn, ("simulate",), pure=False,
+                                      priority=-1))
         wait(warm)
         del warm
     # at most JOB_CORRECTION_PASSES, fewer where the scenario's [correction] says so (a
@@ -376,6 +382,11 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
 
     verified = []
     if client is not None:
+        if warm_sim:    # the simulation's kernels: compiled (and cached) before it starts
+            from distributed import wait
+
+            wait(warm_sim)
+            warm_sim.clear()
         wp_f = client.scatter(wp, broadcast=True)
         futures = [client.submit(verify_program, s, points=p, workpiece=wp_f, pure=False)
                    for s, p in runs]
