@@ -101,7 +101,10 @@ class VerifiedCorrection:
         The best candidate against the original (None when it is the original).
     passes : list of PassRecord
     predictions : list
-        The prediction of the original, then of every candidate, in order.
+        The prediction of the original, then of every candidate, in order; None for a
+        candidate that is not the best (dropped before the next one is predicted: a
+        program's dense prediction is large, and only the original's and the best's
+        are read).
     """
 
     best: Any
@@ -157,7 +160,8 @@ class VerifiedResult:
 
     @property
     def predictions(self) -> list:
-        """The dense prediction of the original, then of every candidate."""
+        """The dense prediction of the original, then of every candidate (None but for the
+        best one: :attr:`VerifiedCorrection.predictions`)."""
         return self.verified.predictions
 
     @property
@@ -320,6 +324,9 @@ def correct_verified(original: Any,
                 edit = fit(current, Fc, slope, weight, hold=edit, free=weight != fitted_with)
                 fitted_with = weight
             cand = apply(current, edit, omega)
+            for i in range(1, len(out.predictions)):   # before the next one is made
+                if i != out.best_pass + 1:
+                    out.predictions[i] = None
             Fk, Pk = predict(cand)
             out.predictions.append(Pk)
             cmp = compare(F0, Fk, tolerance_um=tolerance_um, spacing_mm=spacing_mm,
@@ -347,4 +354,7 @@ def correct_verified(original: Any,
             omega *= 0.5
             if omega < _MIN_RELAXATION:
                 break
+    for i in range(1, len(out.predictions)):
+        if i != out.best_pass + 1:
+            out.predictions[i] = None
     return out

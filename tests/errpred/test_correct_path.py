@@ -187,3 +187,40 @@ def test_the_workpiece_modes_are_asked_once_a_point():
     with_gen = [p for p in out.points if p.result is not None and p.geometry.gen is not None]
     assert len(with_gen) >= 5 and any(p.result.gain != 0.0 for p in with_gen)
     assert len(asked) == len(with_gen)
+
+
+def test_only_the_original_and_the_best_prediction_are_kept():
+    """compensate_path keeps the dense predictions of the original and of the accepted
+    candidate; the others are dropped (None) before the next is predicted, so memory
+    holds the original's, the best's and the one being made, not one per candidate."""
+    cl = _line()
+    alive = []
+
+    def predict(c):
+        pred = _prediction(c, lambda tip, ax: 4.0 + 2.0 * math.sin(tip[0]))
+        alive.append(sum(p is not None for p in comp_preds()))
+        return pred
+
+    holder = {}
+
+    def comp_preds():
+        return holder.get("preds", [])
+
+    import errpred.verified as verified
+
+    real = verified.VerifiedCorrection.__init__
+
+    def spy(self, *a, **k):
+        real(self, *a, **k)
+        holder["preds"] = self.predictions
+
+    verified.VerifiedCorrection.__init__ = spy
+    try:
+        comp = compensate_path(cl, predict, max_iterations=4)
+    finally:
+        verified.VerifiedCorrection.__init__ = real
+    preds = comp.predictions
+    assert len(preds) >= 3                           # the original and two candidates
+    kept = [i for i, p in enumerate(preds) if p is not None]
+    assert kept == sorted({0, comp.best})
+    assert max(alive) <= 2                           # before each prediction: at most 2
