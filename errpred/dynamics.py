@@ -36,9 +36,17 @@ from nc.checks import real_number as _real
 from .frf_files import DIRECTIONS, FRFDataError, read_frf_csv, read_frf_cutpro, read_uff_record
 from .spindle import tooth_frequency
 
-__all__ = ["DIRECTIONS", "Compliance", "FRFDataError", "Mode"]
+__all__ = ["DIRECTIONS", "Compliance", "FRFDataError", "Mode", "receptance"]
 
 _UFF_DIR = {"x": 1, "y": 2, "z": 3}
+
+
+def receptance(k_N_m, m_kg, c_Ns_m, omega_rad_s):
+    """A single-DOF mode's ``1 / (k - m omega^2 + i c omega)`` [m/N], broadcast over
+    its arguments (the modal sum of :meth:`Compliance.response`; stage 2's workpiece
+    modes, :func:`errpred.physics._deflection`)."""
+    w = omega_rad_s
+    return 1.0 / (k_N_m - m_kg * w * w + 1j * c_Ns_m * w)
 
 
 @dataclass(frozen=True)
@@ -382,8 +390,7 @@ class Compliance:
                 continue
             m = np.array([m.m_kg for m in self._modes[d]])
             c = np.array([m.c_Ns_m for m in self._modes[d]])
-            ww = w[..., None]
-            out[..., j] = np.sum(1.0 / (k - m * ww * ww + 1j * c * ww), axis=-1)
+            out[..., j] = np.sum(receptance(k, m, c, w[..., None]), axis=-1)
         return out
 
     def _interp(self, d: str, f: np.ndarray) -> np.ndarray:

@@ -659,8 +659,7 @@ def fit_units(units: Units, chains: list, unit: np.ndarray, t: np.ndarray,
     fixed_moves = None
     if hold is not None and _same_units(hold, verts, n):
         free_units = np.zeros(n + 1, bool)
-        if free is not None:
-            free_units[np.asarray(unit)[np.asarray(free, bool)]] = True
+        free_units[np.asarray(unit)[np.asarray(free, bool)]] = True
         fixed_moves = np.zeros((V, 3))
         for u, fr in split_frac.items():
             o = hold.split_fractions.get(u)

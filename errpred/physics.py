@@ -60,7 +60,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .coefficients import WEAR_NAMES, CuttingCoefficients
-from .dynamics import Compliance
+from .dynamics import Compliance, receptance
 from .engagement import expand_flutes
 from .force import chip_thickness, tool_forces
 from .geometry import PointGeometry
@@ -243,11 +243,19 @@ def workpiece_deflection(modes, force_N: np.ndarray, spindle_rpm: float) -> np.n
 
 
 @functools.lru_cache(maxsize=16)
-def _harmonic_response(compliance: Compliance, spindle_rpm: float, n: int) -> np.ndarray:
-    """The tool's ``G(omega_m)`` [m/N] at harmonics ``m = 0 .. n/2`` of the spindle
-    frequency, (n/2 + 1, ndir), read only: the same for every point at one speed."""
+def _harmonics(spindle_rpm: float, n: int) -> np.ndarray:
+    """``omega_m`` [rad/s] of harmonics ``m = 0 .. n/2`` of the spindle frequency, read
+    only (as :meth:`Compliance.deflection` takes them)."""
     omega = 2.0 * math.pi * tooth_frequency(spindle_rpm) * np.arange(n // 2 + 1)
-    out = compliance.response(omega)
+    omega.flags.writeable = False
+    return omega
+
+
+@functools.lru_cache(maxsize=16)
+def _harmonic_response(compliance: Compliance, spindle_rpm: float, n: int) -> np.ndarray:
+    """The tool's ``G(omega_m)`` [m/N] at :func:`_harmonics`, (n/2 + 1, ndir), read
+    only: the same for every point at one speed."""
+    out = compliance.response(_harmonics(spindle_rpm, n))
     out.flags.writeable = False
     return out
 
@@ -305,12 +313,13 @@ def _deflection(compliance: Compliance, g: PointGeometry, force: np.ndarray,
     B = np.stack([basis[d] for d in compliance.directions])            # (ndir, 3)
     n = force.shape[-2]
     spec = np.fft.rfft(force, axis=-2)                                  # (..., n/2+1, 3)
-    out = ((spec @ B.T) * _harmonic_response(compliance, float(g.spindle_rpm), n)) @ B
+    rpm = float(g.spindle_rpm)
+    out = ((spec @ B.T) * _harmonic_response(compliance, rpm, n)) @ B
     if modes:
-        omega = 2.0 * math.pi * tooth_frequency(g.spindle_rpm) * np.arange(n // 2 + 1)
+        omega = _harmonics(rpm, n)
         for mode, d in modes:
             d = np.asarray(d, dtype=float)
-            G = 1.0 / (mode.k_N_m - mode.m_kg * omega * omega + 1j * mode.c_Ns_m * omega)
+            G = receptance(mode.k_N_m, mode.m_kg, mode.c_Ns_m, omega)
             out = out + ((spec @ d) * G)[..., None] * d
     return np.fft.irfft(out, n=n, axis=-2) * 1000.0
 

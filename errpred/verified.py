@@ -195,6 +195,14 @@ def _improved(after: ErrorStats, best: ErrorStats) -> bool:
             and after.rms_um <= best.rms_um + _IMPROVEMENT_UM)
 
 
+def _drop_rejected(out: VerifiedCorrection) -> None:
+    """Drop the dense predictions of the candidates that are not the best (None): only
+    the original's and the best's are read, and each is a program's worth."""
+    for i in range(1, len(out.predictions)):
+        if i != out.best_pass + 1:
+            out.predictions[i] = None
+
+
 def _secant_slope(prev: ErrorField | None, cur: ErrorField, spacing_mm: float
                   ) -> np.ndarray | None:
     """``dE/dshift`` at each point of ``cur`` measured between two predicted candidates
@@ -324,9 +332,7 @@ def correct_verified(original: Any,
                 edit = fit(current, Fc, slope, weight, hold=edit, free=weight != fitted_with)
                 fitted_with = weight
             cand = apply(current, edit, omega)
-            for i in range(1, len(out.predictions)):   # before the next one is made
-                if i != out.best_pass + 1:
-                    out.predictions[i] = None
+            _drop_rejected(out)                       # before the next one is made
             Fk, Pk = predict(cand)
             out.predictions.append(Pk)
             cmp = compare(F0, Fk, tolerance_um=tolerance_um, spacing_mm=spacing_mm,
@@ -354,7 +360,5 @@ def correct_verified(original: Any,
             omega *= 0.5
             if omega < _MIN_RELAXATION:
                 break
-    for i in range(1, len(out.predictions)):
-        if i != out.best_pass + 1:
-            out.predictions[i] = None
+    _drop_rejected(out)
     return out
