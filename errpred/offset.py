@@ -55,6 +55,7 @@ from .constants import (
     FALLBACK_FREE_VERTICES,
     OFFSET_EDGE_ITERATIONS,
     OFFSET_EDGE_UM,
+    OFFSET_END_PIN,
     OFFSET_HOLD,
     OFFSET_NORMAL,
     OFFSET_RIDGE,
@@ -305,11 +306,12 @@ def solve_offsets(pb: OffsetProblem, *, smooth: float = OFFSET_SMOOTH,
         h = np.maximum(np.linalg.norm(np.diff(pos, axis=0), axis=1), 1e-9)
         data = np.array([pair_has.get((int(a), int(b)), False)
                          for a, b in zip(chain[:-1], chain[1:], strict=True)])
-        # a chain's end vertex that no point weighs on (the corner where a lead-in
-        # without points ends) follows its neighbour instead of extending the slope
-        if on_vertex[chain[0]] <= 1e-9:
+        # a chain's end vertex that its points barely weigh on (the corner where a
+        # lead-in without points ends; a point a few per cent into the last segment)
+        # follows its neighbour instead of extending the slope (OFFSET_END_PIN)
+        if on_vertex[chain[0]] < OFFSET_END_PIN:
             data[0] = False
-        if on_vertex[chain[-1]] <= 1e-9:
+        if on_vertex[chain[-1]] < OFFSET_END_PIN:
             data[-1] = False
         for i in range(chain.size - 1):
             if not data[i]:
