@@ -216,12 +216,17 @@ OFFSET_HOLD = 100.0
 OFFSET_RIDGE = 1.0e-6
 #: ... and of the rows holding a full circle's start on the moved circle [-].
 OFFSET_STIFF = 1.0e3
-#: A chain's end vertex on which its points weigh less than this many points (a point at
-#: share t of the last segment weighs t on its end) follows its neighbour instead of
-#: being fitted: its only equation would be a point barely on the segment, whose move
-#: m_end = residual / t runs away (on the whole mold core, a point at t = 0.045 of a
-#: chain's last segment asking 6.4 um moved the end vertex 143.9 um) [-].
-OFFSET_END_PIN = 0.5
+#: A vertex on which the points weigh less than this many points (a point at share t of
+#: a segment weighs 1 - t on its start and t on its end) is interpolated from its
+#: neighbours along the chain (first differences on both its segments) instead of
+#: being fitted: its only equation would be a point barely on a segment, whose move
+#: m = residual / t runs away (on the whole mold core, a point at t = 0.045 of a
+#: chain's last segment asking 6.4 um moved the chain's end 143.9 um); or nothing at
+#: all would tie it to one side (the last vertex of a stretch without points before a
+#: point at the far end of the next segment: on the mold core such vertices kept a
+#: neighbouring stretch's 18.9 um beside points asking 8 um, and the candidate cut
+#: 9.6 um too deep where the pass began to finish the surface) [-].
+OFFSET_PIN = 0.5
 #: A line block is split (points inserted) where the moves its points ask for depart
 #: from a straight line in the path length by more than this [mm]: two end points
 #: cannot follow an error that changes inside the block (a wall's end).

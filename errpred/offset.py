@@ -55,8 +55,8 @@ from .constants import (
     FALLBACK_FREE_VERTICES,
     OFFSET_EDGE_ITERATIONS,
     OFFSET_EDGE_UM,
-    OFFSET_END_PIN,
     OFFSET_HOLD,
+    OFFSET_PIN,
     OFFSET_NORMAL,
     OFFSET_RIDGE,
     OFFSET_SMOOTH,
@@ -306,13 +306,13 @@ def solve_offsets(pb: OffsetProblem, *, smooth: float = OFFSET_SMOOTH,
         h = np.maximum(np.linalg.norm(np.diff(pos, axis=0), axis=1), 1e-9)
         data = np.array([pair_has.get((int(a), int(b)), False)
                          for a, b in zip(chain[:-1], chain[1:], strict=True)])
-        # a chain's end vertex that its points barely weigh on (the corner where a
-        # lead-in without points ends; a point a few per cent into the last segment)
-        # follows its neighbour instead of extending the slope (OFFSET_END_PIN)
-        if on_vertex[chain[0]] < OFFSET_END_PIN:
-            data[0] = False
-        if on_vertex[chain[-1]] < OFFSET_END_PIN:
-            data[-1] = False
+        # a vertex that the points barely weigh on (a chain's end where a lead-in
+        # without points ends, or a point a few per cent into the last segment; the
+        # last vertex before a stretch without points, the next point sitting at the
+        # segment's far end) is interpolated from its neighbours, not left to follow
+        # one side only or to extend a slope (OFFSET_PIN)
+        weak = on_vertex[chain] < OFFSET_PIN
+        data &= ~(weak[:-1] | weak[1:])
         for i in range(chain.size - 1):
             if not data[i]:
                 for a in range(3):

@@ -45,7 +45,7 @@ def test_a_chain_end_barely_reached_by_a_point_does_not_run_away():
     asked for a few: the chain's last segment carried one point, 4.5 % along it, and the
     segment before none, so that point's equation alone set the end vertex,
     m_end = residual / t. An end vertex its points weigh on less than half a point
-    (OFFSET_END_PIN) follows its neighbour: no move beyond the wanted range."""
+    (OFFSET_PIN) follows its neighbour: no move beyond the wanted range."""
     n = 20
     verts = np.c_[np.arange(n) * 0.5, np.zeros(n), np.zeros(n)]
     seg_v0, seg_v1 = np.arange(n - 1), np.arange(1, n)
@@ -64,6 +64,37 @@ def test_a_chain_end_barely_reached_by_a_point_does_not_run_away():
         pt_weight=np.ones(q))
     m = solve_offsets(pb).moves[:, 1] * 1e3
     assert np.abs(m).max() <= wanted.max() + 0.05       # 135.7 um at the end without
+
+
+def test_a_stretch_without_points_is_interpolated_to_the_next_point():
+    """The mold core's fit kept a stretch without points (where another pass finished
+    the surface) at the 18.9 um of the points before it up to its last vertex, beside
+    points asking 8 um: the next point sat at the far end of the following segment, so
+    nothing tied that vertex to it, and the candidate cut 9.6 um too deep where the
+    pass began to finish. The stretch's moves now go linearly from the last point
+    before it to the first after it (without the change, here, the stretch's last
+    vertex kept 12.1 um, 1.2 um above the line, and the step to 9.1 um fell on the
+    segment whose point is at its far end)."""
+    n = 24
+    verts = np.c_[np.arange(n) * 0.6, np.zeros(n), np.zeros(n)]
+    seg_v0, seg_v1 = np.arange(n - 1), np.arange(1, n)
+    # points at the ends of segments 0..7 (and the start) asking 19 um; none on 8..11;
+    # points at the ends of segments 12..22 asking 8 um
+    q_seg = np.r_[0, np.arange(8), np.arange(12, n - 1)]
+    q_t = np.r_[0.0, np.ones(q_seg.size - 1)]
+    wanted = np.where(q_seg < 8, 19.0, 8.0)
+    q = q_seg.size
+    pb = OffsetProblem(
+        vertices=verts, movable=np.ones(n, bool), seg_v0=seg_v0, seg_v1=seg_v1,
+        seg_kind=np.full(n - 1, LINE), seg_plane=np.tile([0, 1, 2], (n - 1, 1)),
+        seg_centre=np.zeros((n - 1, 3)), chains=[np.arange(n)], pt_seg=q_seg, pt_t=q_t,
+        pt_w=np.c_[q_t, np.zeros(q)], pt_theta=np.zeros(q),
+        pt_normal=np.tile([0.0, 1.0, 0.0], (q, 1)), pt_target=wanted * 1e-3,
+        pt_weight=np.ones(q))
+    m = solve_offsets(pb).moves[:, 1] * 1e3
+    a, b = 8, 13                      # the last vertex with a point before, the first after
+    lin = m[a] + (m[b] - m[a]) * (np.arange(a, b + 1) - a) / (b - a)
+    np.testing.assert_allclose(m[a:b + 1], lin, atol=0.1)
 
 
 def test_the_correction_is_no_rougher_than_the_error():
