@@ -257,7 +257,7 @@ class _Candidate:
 def compensate(program: Program, predict: Callable[[Program, np.ndarray], Prediction], *,
                path: Callable[[Program], CutterLocations] | None = None,
                iterate: bool = False, tolerance_mm: float = 1e-4, max_iterations: int = 5,
-               min_decimals: int | None = 4, tolerance_um: float = VERIFY_TOLERANCE_UM,
+               relaxation: float | None = None, min_decimals: int | None = 4, tolerance_um: float = VERIFY_TOLERANCE_UM,
                spacing_mm: float = VERIFY_SPACING_MM, reach_mm: float = 0.0,
                progress: Callable[[str], None] | None = None) -> Compensation:
     """Correct ``program``, verified (see the module docstring and :mod:`errpred.verified`).
@@ -279,6 +279,8 @@ def compensate(program: Program, predict: Callable[[Program, np.ndarray], Predic
         One pass (False) or up to ``max_iterations``.
     tolerance_mm : float [mm]
         Stop when a pass's largest move is below this.
+    relaxation : float, optional [-]
+        Share of the first pass's fit applied (:func:`errpred.verified.correct_verified`).
     min_decimals : int, optional
         Decimals for changed words (the correction is micrometres).
     tolerance_um : float [um]
@@ -317,9 +319,10 @@ def compensate(program: Program, predict: Callable[[Program, np.ndarray], Predic
         return _Candidate(new, np.repeat(c.origin, added + 1))
 
     res = correct_verified(first, predict_field, fit, apply, iterate=iterate,
-                           max_iterations=max_iterations, tolerance_mm=tolerance_mm,
-                           tolerance_um=tolerance_um, spacing_mm=spacing_mm,
-                           reach_mm=reach_mm, lines=lines, progress=progress)
+                           max_iterations=max_iterations, relaxation=relaxation,
+                           tolerance_mm=tolerance_mm, tolerance_um=tolerance_um,
+                           spacing_mm=spacing_mm, reach_mm=reach_mm, lines=lines,
+                           progress=progress)
     best, origin = res.best.program, res.best.origin
     res.best = best
     text = best.newline.join(best.lines) + best.newline

@@ -151,6 +151,7 @@ class PathCompensation(VerifiedResult):
 
 def compensate_path(cl: CutterLocations, predict: Callable[[CutterLocations], Prediction], *,
                     iterate: bool = True, tolerance_mm: float = 1e-4, max_iterations: int = 3,
+                    relaxation: float | None = None,
                     tolerance_um: float = VERIFY_TOLERANCE_UM,
                     spacing_mm: float = VERIFY_SPACING_MM, reach_mm: float = 0.0,
                     progress: Callable[[int, CutterLocations], None] | None = None
@@ -165,6 +166,8 @@ def compensate_path(cl: CutterLocations, predict: Callable[[CutterLocations], Pr
         ``predict(path) -> Prediction`` of the program written from ``path``, dense
         (:meth:`errpred.geometry.Resolution.dense`).
     iterate : bool
+    relaxation : float, optional [-]
+        Share of the first pass's fit applied (:func:`errpred.verified.correct_verified`).
     tolerance_mm : float [mm]
         Stop when a pass's largest move is below this.
     max_iterations : int
@@ -192,7 +195,8 @@ def compensate_path(cl: CutterLocations, predict: Callable[[CutterLocations], Pr
         return apply_path_edit(c, edit, np.full(edit.n_vertices, factor))[0]
 
     res = correct_verified(cl, predict_field, fit_path, apply, iterate=iterate,
-                           max_iterations=max_iterations, tolerance_mm=tolerance_mm,
+                           max_iterations=max_iterations, relaxation=relaxation,
+                           tolerance_mm=tolerance_mm,
                            tolerance_um=tolerance_um, spacing_mm=spacing_mm,
                            reach_mm=reach_mm)
     best = 0 if res.best_pass < 0 else res.best_pass + 1

@@ -231,6 +231,7 @@ def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, work
         comp = compensate(program, run, path=path, iterate=it,
                           tolerance_mm=opts.tolerance_um * 1e-3,
                           max_iterations=opts.max_iterations,
+                          relaxation=opts.relaxation,
                           tolerance_um=opts.verify_tolerance_um,
                           reach_mm=K.FALLBACK_REACH_RADII * scenario.tool.radius_mm,
                           progress=progress)

@@ -188,6 +188,9 @@ class CorrectionOptions:
     tolerance_um: float = 1.0
     max_iterations: int = 5
     verify_tolerance_um: float = K.VERIFY_TOLERANCE_UM
+    #: Share of the first pass's fit applied (0 < share <= 1; None: RELAXATION when
+    #: iterating, the whole fit for one pass) [-] (``[correction] relaxation``).
+    relaxation: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -608,15 +611,18 @@ def _resolution(r: TableReader, d: dict, tool: Tool) -> Resolution:
 
 def _correction(r: TableReader, d: dict) -> CorrectionOptions:
     p = "correction"
-    r.keys(d, p, (), ("iterate", "tolerance_um", "max_iterations", "verify_tolerance_um"))
+    r.keys(d, p, (), ("iterate", "tolerance_um", "max_iterations", "verify_tolerance_um",
+                      "relaxation"))
     it = d.get("iterate", False)
     if not isinstance(it, bool):
         raise r.fail("correction.iterate", f"expected true or false, got {value_kind(it)}")
+    relax = r.number(d, "relaxation", p, default=None, sign=">0", maximum=1.0)
     return CorrectionOptions(it, r.number(d, "tolerance_um", p, default=1.0, sign=">0"),
                              r.integer(d, "max_iterations", p, default=5,
                                        **_limit("MAX_CORRECTION_ITERATIONS")),
                              r.number(d, "verify_tolerance_um", p,
-                                      default=K.VERIFY_TOLERANCE_UM, sign=">=0"))
+                                      default=K.VERIFY_TOLERANCE_UM, sign=">=0"),
+                             relax)
 
 
 # --------------------------------------------------------------------------- entry point

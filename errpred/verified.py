@@ -257,6 +257,7 @@ def correct_verified(original: Any,
                      fit: Callable[..., Any],
                      apply: Callable[[Any, Any, float], Any],
                      *, iterate: bool = True, max_iterations: int = 5,
+                     relaxation: float | None = None,
                      tolerance_mm: float = 1e-4, tolerance_um: float = VERIFY_TOLERANCE_UM,
                      spacing_mm: float = VERIFY_SPACING_MM, reach_mm: float = 0.0,
                      lines: dict | None = None,
@@ -284,6 +285,10 @@ def correct_verified(original: Any,
         ``factor`` (the relaxation).
     iterate : bool
         One pass (False) or up to ``max_iterations``.
+    relaxation : float, optional [-]
+        Share of the first pass's fit applied, in (0, 1] (default ``RELAXATION`` when
+        iterating, 1 for one pass). Below 1 where passes share the finished surface
+        (a raster's picks: the first-order gain overshoots there).
     tolerance_mm : float [mm]
         Stop when a pass's largest move is below this.
     tolerance_um : float [um]
@@ -313,7 +318,11 @@ def correct_verified(original: Any,
         return out
     best_stats = error_stats(F0.E_um)
     current, Fc = original, F0
-    omega = RELAXATION if iterate else 1.0   # one pass: the whole fit (the fallback guards)
+    if relaxation is not None and not (math.isfinite(relaxation) and 0 < relaxation <= 1):
+        raise ValueError(f"relaxation: expected a share in (0, 1], got {relaxation!r}")
+    # the first pass's share: one pass applies the whole fit unless told (the fallback
+    # guards it), an iteration starts under-relaxed
+    omega = relaxation if relaxation is not None else (RELAXATION if iterate else 1.0)
     passes = max_iterations if iterate else 1
     F_prev = None
     for k in range(1, passes + 1):

@@ -339,6 +339,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     passes = min(JOB_CORRECTION_PASSES, base.correction.max_iterations)
     try:
         comp = compensate_path(res.cl, predict, iterate=passes > 1,
+                               relaxation=base.correction.relaxation,
                                tolerance_mm=base.correction.tolerance_um * 1e-3,
                                max_iterations=passes, progress=on_pass,
                                tolerance_um=base.correction.verify_tolerance_um,
