@@ -78,6 +78,30 @@ def test_iterating_against_a_plant_that_follows_the_path_converges():
     assert xyz.shape == (len(ref) - 1, 3) and np.all(np.abs(e) < 0.05)
 
 
+def test_a_single_pass_applies_the_share_it_is_given():
+    """One pass against the plant above (8 um less 0.3 times the depth moved): the
+    whole fit by default leaves 8 - 1.3 x 8 = -2.4 um, deeper than the 2 um overcut
+    allowed, so it is not accepted as it stands; ``relaxation=0.5`` applies half the
+    fit and leaves 8 - 1.3 x 4 = 2.8 um, accepted. A share outside (0, 1] is refused."""
+    ref = _line()
+
+    def predict(cl):
+        return _prediction(cl, lambda tip, _axis: 8.0 + 0.3 * tip[2] * 1e3)
+
+    whole = compensate_path(ref, predict, iterate=False)
+    assert whole.verified.passes[0].relaxation == 1.0
+    assert whole.verified.passes[0].comparison.after.max_um == pytest.approx(-2.4, abs=1e-3)
+    assert not whole.verified.passes[0].comparison.ok
+    half = compensate_path(ref, predict, iterate=False, relaxation=0.5)
+    first = half.verified.passes[0]
+    assert first.relaxation == 0.5 and first.accepted and half.corrected
+    assert first.comparison.after.max_um == pytest.approx(8.0 - 1.3 * 4.0, abs=1e-3)
+    np.testing.assert_allclose(half.cl.tip[:, 2], -4e-3, atol=1e-7)
+    for bad in (0.0, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="relaxation"):
+            compensate_path(ref, predict, iterate=False, relaxation=bad)
+
+
 def test_a_correction_worse_than_the_original_is_never_accepted():
     """A plant whose error grows with any move of the path (5 um per um moved, either
     way): no candidate is no worse than the reference, so the reference is kept."""

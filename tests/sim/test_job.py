@@ -161,22 +161,23 @@ def test_bad_scenario_ends_in_one_line_and_writes_nothing(tmp_path, capsys, what
 
 
 def test_one_correction_pass_where_the_scenario_asks_for_it(tmp_path):
-    """``[correction] max_iterations = 1``: the job makes one pass, its fit applied whole
-    (no under-relaxation), at most the fallbacks' predictions after it, and the result is
-    still verified nowhere worse than the planned path."""
+    """``[correction] max_iterations = 1``: the job makes one pass, the share of its fit
+    the scenario's ``relaxation`` says (as the mold core's), at most the fallbacks'
+    predictions after it, and the result is still verified nowhere worse than the
+    planned path."""
     from errpred.constants import FALLBACK_SCALINGS
     from orient.scenario import load_plan_scenario
     from sim.job import run_job
 
     scn = load_plan_scenario(light_scenario(
-        tmp_path / "scn", {"[orient]\n": "[correction]\nmax_iterations = 1\n\n[orient]\n"}))
+        tmp_path / "scn", {"[orient]\n": "[correction]\nmax_iterations = 1\nrelaxation = 0.8\n\n[orient]\n"}))
     assert scn.base.correction.max_iterations == 1
     out = tmp_path / "out"
     out.mkdir()
     res = run_job(scn, out)
     v = res.compensation.verified
     assert {p.index for p in v.passes} == {1}
-    assert all(p.relaxation == 1.0 for p in v.passes)
+    assert all(p.relaxation == 0.8 for p in v.passes)
     assert 2 <= len(res.compensation.predictions) <= 1 + 1 + FALLBACK_SCALINGS + 1
     assert v.corrected and v.comparison.ok
     assert v.comparison.after.rms_um < v.before_stats.rms_um
