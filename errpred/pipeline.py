@@ -191,14 +191,19 @@ def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, work
     ------
     nc.command.Refused
         The original program has an error-level finding (a rapid move into material).
+    nc.rewrite.RewriteError
+        The program cannot be rewritten (``#`` parameters, O-words, canned cycles...:
+        :func:`nc.rewrite.check_rewritable`), before anything is predicted.
     """
     from nc.command import Refused
     from nc.path import cutter_locations
+    from nc.rewrite import check_rewritable
 
     from .findings import error_findings, findings_line
 
-    stock = scenario.stock.load()
     program = scenario.read_program()
+    check_rewritable(program)       # before any prediction, not after the first one
+    stock = scenario.stock.load()
     opts = scenario.correction
     it = opts.iterate if iterate is None else iterate
     res = scenario.resolution.dense()

@@ -17,9 +17,9 @@ import re
 
 from .errors import NCParseError
 from .expressions import LINUXCNC, ExprError, compile_expression
-from .lexer import foreign_syntax
+from .lexer import blank_comments, foreign_syntax
 
-__all__ = ["needs_expansion", "expand_parameters"]
+__all__ = ["needs_expansion", "expand_parameters", "expression_line"]
 
 _CONTROL = re.compile(r"(?im)^[\s/]*(?:N\s*\d+\s*)?O\s*(?:<|\d+\s*[A-Z])")
 _END = re.compile(r"M\s*0*(?:2|30)(?![\d.])")
@@ -30,6 +30,20 @@ _PREFIX = "parameters and expressions: "
 def needs_expansion(text: str) -> bool:
     """True for a program with ``#`` or ``[`` and no O-word control flow."""
     return ("#" in text or "[" in text) and _CONTROL.search(text) is None
+
+
+def expression_line(lines) -> int | None:
+    """The first line (1-based) with ``#`` or ``[`` outside its comments, else None.
+
+    A program whose only ``#`` or ``[`` are in comments (a post's ``(Set units to
+    inches [G21 for mm])``, ``(TOOL #3)``) has plain numbers in every word.
+    """
+    for k, raw in enumerate(lines):
+        if "#" in raw or "[" in raw:
+            s = blank_comments(raw)
+            if "#" in s or "[" in s:
+                return k + 1
+    return None
 
 
 class _Store:

@@ -25,7 +25,7 @@ from .atomic import atomic_write
 from .errors import InputError
 from .gcode import parse_program
 from .lexer import words_with_spans
-from .macro import needs_expansion
+from .macro import expression_line, needs_expansion
 from .macro_b import needs_macro_b
 from .owords import has_owords
 from .program import PLANE_AXES, TCP_VECTOR, Program
@@ -64,6 +64,52 @@ def _format_like(original: str | None, value: float, decimals: int) -> str:
     if decimals == 0 and body.endswith("."):
         s += "."
     return s
+
+
+def check_rewritable(program: Program) -> None:
+    """Refuse, before any work, a program :func:`rewrite_coordinates` cannot rewrite.
+
+    Raises
+    ------
+    RewriteError
+        For a Heidenhain or Siemens program, ``#`` parameters or ``[ ]`` expressions
+        outside comments, Fanuc macro B, O-word control flow, frame changes or
+        machine-coordinate moves, canned drilling cycles or rotated coordinates.
+    """
+    if program.metadata.get("dialect") == "heidenhain":
+        raise RewriteError(f"{program.file}: rewriting Heidenhain (Klartext) programs is not "
+                           "supported; expected a G-code program (post the corrected path "
+                           "with nc.heidenhain_writer instead)")
+    if program.metadata.get("dialect") == "siemens":
+        raise RewriteError(f"{program.file}: rewriting Siemens Sinumerik programs is not "
+                           "supported; expected a G-code program (post the corrected path "
+                           "with nc.siemens_writer instead)")
+    text = "\n".join(program.lines)
+    k = expression_line(program.lines) if needs_expansion(text) else None
+    if k is not None:
+        raise RewriteError(f"{program.file}:{k}: rewriting programs with '#' parameters or "
+                           "'[ ]' expressions is not supported; expected plain numbers in "
+                           "every word (the program reads and predicts; to correct it, "
+                           "write it with the values in place of the parameters)")
+    if needs_macro_b(text):
+        raise RewriteError(f"{program.file}: rewriting Fanuc macro B programs and "
+                           "subprograms (M98/G65 calls, loops: one source line, many moves) "
+                           "is not supported; expected a straight-line program")
+    if has_owords(text):
+        raise RewriteError(f"{program.file}: rewriting programs with O-word control flow "
+                           "(subroutines, loops) is not supported; expected a straight-line "
+                           "program (one block, one move)")
+    if len(program.reframed) or len(program.machine_moves):
+        i = int((list(program.reframed) + list(program.machine_moves))[0])
+        raise RewriteError(f"line {program.line[i]}: the program changes its frame or moves "
+                           "in machine coordinates (G92, G52, G10, G28/G30, G53, a work "
+                           "offset switch); rewriting such programs is not supported yet")
+    for rows, what in ((program.drilling, "canned drilling cycles (one block, many moves)"),
+                       (program.rotated, "coordinates in a rotated frame (G68, G68.2, "
+                                         "G53.1)")):
+        if len(rows):
+            raise RewriteError(f"line {program.line[int(rows[0])]}: the program has {what}; "
+                               "rewriting such programs is not supported yet")
 
 
 def rewrite_coordinates(
@@ -106,39 +152,8 @@ def rewrite_coordinates(
         For an unknown block index, non-finite coordinates, a rotary change
         under G43.5, or when the result does not read back as requested.
     """
-    if program.metadata.get("dialect") == "heidenhain":
-        raise RewriteError(f"{program.file}: rewriting Heidenhain (Klartext) programs is not "
-                           "supported; expected a G-code program (post the corrected path "
-                           "with nc.heidenhain_writer instead)")
-    if program.metadata.get("dialect") == "siemens":
-        raise RewriteError(f"{program.file}: rewriting Siemens Sinumerik programs is not "
-                           "supported; expected a G-code program (post the corrected path "
-                           "with nc.siemens_writer instead)")
-    text = "\n".join(program.lines)
-    if needs_expansion(text):
-        raise RewriteError(f"{program.file}: rewriting programs with '#' parameters or '[ ]' "
-                           "expressions is not supported; expected plain numbers in every "
-                           "word")
-    if needs_macro_b(text):
-        raise RewriteError(f"{program.file}: rewriting Fanuc macro B programs and "
-                           "subprograms (M98/G65 calls, loops: one source line, many moves) "
-                           "is not supported; expected a straight-line program")
-    if has_owords(text):
-        raise RewriteError(f"{program.file}: rewriting programs with O-word control flow "
-                           "(subroutines, loops) is not supported; expected a straight-line "
-                           "program (one block, one move)")
+    check_rewritable(program)
     n = len(program)
-    if len(program.reframed) or len(program.machine_moves):
-        i = int((list(program.reframed) + list(program.machine_moves))[0])
-        raise RewriteError(f"line {program.line[i]}: the program changes its frame or moves "
-                           "in machine coordinates (G92, G52, G10, G28/G30, G53, a work "
-                           "offset switch); rewriting such programs is not supported yet")
-    for rows, what in ((program.drilling, "canned drilling cycles (one block, many moves)"),
-                       (program.rotated, "coordinates in a rotated frame (G68, G68.2, "
-                                         "G53.1)")):
-        if len(rows):
-            raise RewriteError(f"line {program.line[int(rows[0])]}: the program has {what}; "
-                               "rewriting such programs is not supported yet")
     target = program.end.copy()
     for i, e in (ends or {}).items():
         if not 0 <= i < n:

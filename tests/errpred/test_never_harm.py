@@ -149,3 +149,22 @@ def test_compensate_writes_nothing_when_no_correction_is_verified(tmp_path, caps
     page = html.unescape((tmp_path / "corrected.html").read_text())
     why = err[0].split("nothing written to ")[1].split(": ", 1)[1]
     assert f'<p class="verdict bad">Nothing written: {why}' in page
+
+
+def test_compensate_refuses_a_program_it_cannot_rewrite_before_predicting(tmp_path):
+    """A program with '#' parameters reads and predicts, but its words cannot be
+    rewritten: compensate says so before the first dense prediction. It used to
+    predict the whole original first and refuse at the first rewrite (31 s on a
+    68-block public program), or write this one unchanged (nothing to correct)."""
+    from errpred.pipeline import compensate_scenario
+    from errpred.scenario import load_scenario
+    from nc.rewrite import RewriteError
+    from tests.errpred.test_scenario import VALID, _write
+
+    path = _write(tmp_path, VALID)
+    (tmp_path / "p.nc").write_text("G21 G90 G17 (finish [ball])\nG0 X5 Y5 Z25\n"
+                                   "G1 Z19.5 F500\n#1=40\nG1 X#1 F1000\nM30\n")
+    stages = []
+    with pytest.raises(RewriteError, match=r"p\.nc:4: rewriting programs with '#'"):
+        compensate_scenario(load_scenario(path), progress=stages.append)
+    assert stages == []

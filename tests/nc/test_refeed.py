@@ -85,3 +85,12 @@ def test_feeds_a_unit_apart_get_their_own_words():
     out = rewrite_feeds(p, {2: 2599.0, 3: 2600.0, 4: 2600.0})
     back = parse_program(out, file="t.nc")
     assert back.feed[2] == 2599.0 and back.feed[3] == back.feed[4] == 2600.0
+
+
+def test_hash_and_brackets_in_comments_do_not_stop_a_refeed():
+    text = "(T1 #2 ball)\nG21 G90 (units [G20 inch])\nG0 X0 Y0 Z5\nG1 Z0 F100\nG1 X10\n"
+    out = rewrite_feeds(_prog(text), {2: 150.0})
+    assert out.splitlines()[:4] == text.splitlines()[:4]
+    np.testing.assert_allclose(_prog(out).feed[1:3], [100.0, 150.0])
+    with pytest.raises(RewriteError, match=r"^t\.nc:5: rewriting programs with '#'"):
+        rewrite_feeds(_prog(text.replace("G1 X10", "#1=10\nG1 X#1")), {2: 150.0})

@@ -149,3 +149,34 @@ def test_only_straight_feed_blocks_split():
         rewrite_coordinates(prog, {}, splits={4: [[8.0, 8.0, -1.0]]})      # the G3
     with pytest.raises(RewriteError, match="not a straight feed"):
         rewrite_coordinates(prog, {}, splits={0: [[0.0, 0.0, 1.0]]})       # the G0
+
+
+# A post's header comments may hold '#' and '[ ]' ("(Set units to inches [G21 for
+# mm])", "(TOOL #3)"): the words are plain numbers and the program is rewritten.
+COMMENTED = """(T1 D=6 CR=3 - ball end mill #1)
+G21 G90 G17 (Set units to millimetres [G20 for inches])
+G0 X0 Y0 Z5
+G1 Z-0.5 F300 ; pass #1 [finish]
+G1 X20 F1000
+M30
+"""
+
+
+def test_hash_and_brackets_in_comments_do_not_stop_a_rewrite():
+    prog = parse_program(COMMENTED)
+    out = rewrite_coordinates(prog, {2: [20.0, 0.0, -0.502]})
+    old, new = COMMENTED.splitlines(), out.splitlines()
+    assert [i for i, (a, b) in enumerate(zip(old, new)) if a != b] == [4]
+    assert new[4] == "G1 X20 Z-0.502 F1000"
+    np.testing.assert_allclose(parse_program(out).end[2, :3], [20.0, 0.0, -0.502])
+
+
+def test_a_parameter_outside_comments_is_refused_naming_its_line():
+    from nc.rewrite import check_rewritable
+
+    prog = parse_program(COMMENTED.replace("G1 X20 F1000", "#1=20\nG1 X#1 F1000"),
+                         file="p.nc")
+    with pytest.raises(RewriteError, match=r"^p\.nc:5: rewriting programs with '#'"):
+        check_rewritable(prog)
+    with pytest.raises(RewriteError, match="'#' parameters"):
+        rewrite_coordinates(prog, {2: [20.0, 0.0, -0.502]})
