@@ -421,6 +421,17 @@ MIN_PIXELS_PER_DIAMETER = 8.0
 #: Largest shape-error deviation of the effective radius [um] (1 mm: a broken tool).
 MAX_RADIUS_DEVIATION_UM = 1.0e3
 
+# --- cutting conditions of a program (errpred/conditions.py; checked before predicting) --
+#: Largest feed per tooth the prediction accepts, as a share of the tool's radius [-].
+#: The chip thickness fz sin(phi) (docs/method.md §4) is the first term of the
+#: trochoidal tooth path's; the next, about fz^2 cos^2(phi) / (2 R), is a quarter of fz
+#: at fz = R / 2, beyond which the force model is no longer the cut's. Real programs
+#: stay far below (finishing a mold with a D10 ball: 0.05-0.2 mm a tooth, 0.01-0.04 R;
+#: a high-feed mill roughing: about 0.1 R); a program beyond is refused at its first such
+#: block (a feed scaled by mistake: LinuxCNC's 3D_Chips.ngc as installed feeds 10,000
+#: times its intended feed, 312 mm a tooth on a D10 ball, and was predicted at 1.6 m).
+MAX_FEED_PER_TOOTH_RADII = 0.5
+
 # --- tool libraries (errpred/toollib.py) ------------------------------------------
 #: Millimetres per inch (exact, by the 1959 definition) [mm/in]: inch tool
 #: libraries are converted at the reader, nothing beyond it sees inches.

@@ -27,6 +27,7 @@ from nc.program import Program
 
 from . import constants as K
 from .coefficients import CuttingCoefficients
+from .conditions import refuse_feed_beyond_model
 from .dynamics import Compliance
 from .geometry import STATUS, GeometryModel, PointGeometry, Resolution
 from .physics import PointResult, ShapeErrorModel, WearState, evaluate
@@ -263,6 +264,7 @@ class Predictor:
         self.resolution = resolution or Resolution.default(tool)
         self.cl = cl if cl is not None else cutter_locations(
             program, machine, chord_tol_mm=self.resolution.chord_tol_mm)
+        refuse_feed_beyond_model(program, self.cl, tool)   # before any geometry
         self.model = GeometryModel(tool, stock, self.cl, self.resolution, sensitivity)
         self.initial_wear_mm = WearState.start(self.edges, initial_wear_mm).cl_mm
 

@@ -101,15 +101,15 @@ def check_rewritable(program: Program) -> None:
                            "program (one block, one move)")
     if len(program.reframed) or len(program.machine_moves):
         i = int((list(program.reframed) + list(program.machine_moves))[0])
-        raise RewriteError(f"line {program.line[i]}: the program changes its frame or moves "
-                           "in machine coordinates (G92, G52, G10, G28/G30, G53, a work "
-                           "offset switch); rewriting such programs is not supported yet")
+        raise RewriteError(f"{program.file}:{program.line[i]}: the program changes its frame "
+                           "or moves in machine coordinates (G92, G52, G10, G28/G30, G53, a "
+                           "work offset switch); rewriting such programs is not supported yet")
     for rows, what in ((program.drilling, "canned drilling cycles (one block, many moves)"),
                        (program.rotated, "coordinates in a rotated frame (G68, G68.2, "
                                          "G53.1)")):
         if len(rows):
-            raise RewriteError(f"line {program.line[int(rows[0])]}: the program has {what}; "
-                               "rewriting such programs is not supported yet")
+            raise RewriteError(f"{program.file}:{program.line[int(rows[0])]}: the program "
+                               f"has {what}; rewriting such programs is not supported yet")
 
 
 def rewrite_coordinates(

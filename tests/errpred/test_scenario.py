@@ -562,3 +562,34 @@ def test_a_siemens_program_reads_as_the_same_path_in_g_code(tmp_path):
         np.testing.assert_array_equal(p.modal_column("spindle_rpm"),
                                       ref.modal_column("spindle_rpm"))
         np.testing.assert_array_equal(p.modal_column("tcp"), ref.modal_column("tcp"))
+
+
+@pytest.mark.parametrize("feed, refused", [
+    (1000.0, False),                 # 0.05 mm a tooth: a finishing feed
+    (49_900.0, False),               # 2.495 mm: just inside 0.5 of the 5 mm radius
+    (50_100.0, True),                # 2.505 mm: just beyond
+    (10_000_000.0, True),            # a feed scaled by 10,000 (LinuxCNC's 3D_Chips.ngc)
+])
+def test_a_feed_per_tooth_beyond_the_force_model_is_refused_before_any_work(feed, refused):
+    """``MAX_FEED_PER_TOOTH_RADII``: a feed move whose feed per tooth exceeds half the
+    tool's radius (D10, 2 flutes, 10,000 rev/min: 50,000 mm/min) is refused by the
+    Predictor at its line, before any geometry, naming the feed per tooth and the limit;
+    rapids (G0, at any speed) are not feeds."""
+    from nc import NCParseError, parse_program
+    from nc.path import cutter_locations
+    from errpred.conditions import feed_per_tooth_mm
+    from errpred.predict import Predictor
+    from errpred.tool import Tool
+
+    tool = Tool("ball", 10.0, flutes=2, flute_length_mm=20.0, overhang_mm=40.0)
+    prog = parse_program(f"G21 G90 S10000 M3\nG0 X0 Y0 Z10\nG1 Z-1 F1000\n"
+                         f"G1 X20 F{feed:.1f}\nG0 Z10\nM2\n", file="f.nc")
+    fz = feed_per_tooth_mm(cutter_locations(prog), tool.flutes)
+    assert np.nanmax(fz) == pytest.approx(max(feed, 1000.0) / 20_000.0)
+    if refused:
+        with pytest.raises(NCParseError, match=r"^f\.nc:4: feed .* is 2\.5\d* mm a tooth|"
+                           r"^f\.nc:4: feed .* is 500 mm a tooth") as exc:
+            Predictor(tool, None, prog, None, None)
+        assert "expected at most 2.5 mm (0.5 of the tool's radius" in str(exc.value)
+    else:
+        assert len(Predictor(tool, None, prog, None, None).cl) == len(fz)

@@ -233,7 +233,7 @@ def test_rewrite_refuses_rotated_and_drilling_programs(source, line, what):
 
     prog = parse_program(HEAD + source + "\nM30\n")
     assert len(prog.rotated) + len(prog.drilling) > 0
-    with pytest.raises(RewriteError, match=f"line {line}: the program has .*{what}"):
+    with pytest.raises(RewriteError, match=f"^<string>:{line}: the program has .*{what}"):
         rewrite_coordinates(prog, ends={len(prog) - 1: (3.0, 0.0, 5.0)})
 
 
