@@ -231,6 +231,11 @@ OFFSET_PIN = 0.5
 #: from a straight line in the path length by more than this [mm]: two end points
 #: cannot follow an error that changes inside the block (a wall's end).
 SPLIT_TOL_MM = 1.0e-3
+#: Decimals of the corrected program's changed words, per unit mode (G21 mm, G20 inch)
+#: [-]: a tenth of a micrometre in mm (4), a quarter in inch (5: 0.00001 in = 0.254 um).
+#: Four in an inch program, the correction moved in steps of 2.54 um (tried as a new
+#: user on a public inch raster program: a +2.00 um error was corrected to -1.81 um).
+CORRECTION_DECIMALS = {21: 4, 20: 5}
 #: Iteration of the correction: each pass adds this share of the new fit's moves
 #: (under-relaxation: halved after a pass that did not improve, doubled after one that
 #: did, up to 1) [-]. Below 1 at first: the first pass knows the error's response to a

@@ -28,7 +28,7 @@ measured against the *original* program's surface.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,7 +38,7 @@ from nc.path import CutterLocations, cutter_locations
 from nc.program import LINEAR, PLANE_AXES, RAPID, TCP_OFF, Program
 from nc.rewrite import rewrite_coordinates
 
-from .constants import MAX_GAIN, VERIFY_SPACING_MM, VERIFY_TOLERANCE_UM
+from .constants import CORRECTION_DECIMALS, MAX_GAIN, VERIFY_SPACING_MM, VERIFY_TOLERANCE_UM
 from .offset import ARC, CIRCLE, LINE, OffsetEdit, Units, feed_chains, fit_units
 from .predict import Prediction
 from .verification import ErrorField, error_field
@@ -162,7 +162,7 @@ def fit_program(program: Program, field_: ErrorField, slope: np.ndarray | None =
 
 
 def apply_edit(program: Program, edit: ProgramEdit, scale: np.ndarray | None = None, *,
-               min_decimals: int | None = 4) -> tuple[str, np.ndarray]:
+               min_decimals: int | Mapping[int, int] | None = None) -> tuple[str, np.ndarray]:
     """The program text with ``edit``'s moves (times ``scale`` per vertex) applied.
 
     Returns
@@ -212,7 +212,8 @@ def apply_edit(program: Program, edit: ProgramEdit, scale: np.ndarray | None = N
         base = starts[b] + fr[:, None] * (program.end[b, :3] - starts[b])
         splits[b] = base + moves[ids]
     text = rewrite_coordinates(program, ends, centres=centres, splits=splits,
-                               min_decimals=min_decimals)
+                               min_decimals=(CORRECTION_DECIMALS if min_decimals is None
+                                             else min_decimals))
     owner = []
     for b in range(n):
         v0 = b - 1 if b > 0 else n
@@ -257,7 +258,9 @@ class _Candidate:
 def compensate(program: Program, predict: Callable[[Program, np.ndarray], Prediction], *,
                path: Callable[[Program], CutterLocations] | None = None,
                iterate: bool = False, tolerance_mm: float = 1e-4, max_iterations: int = 5,
-               relaxation: float | None = None, min_decimals: int | None = 4, tolerance_um: float = VERIFY_TOLERANCE_UM,
+               relaxation: float | None = None,
+               min_decimals: int | Mapping[int, int] | None = None,
+               tolerance_um: float = VERIFY_TOLERANCE_UM,
                spacing_mm: float = VERIFY_SPACING_MM, reach_mm: float = 0.0,
                progress: Callable[[str], None] | None = None) -> Compensation:
     """Correct ``program``, verified (see the module docstring and :mod:`errpred.verified`).
@@ -281,8 +284,9 @@ def compensate(program: Program, predict: Callable[[Program, np.ndarray], Predic
         Stop when a pass's largest move is below this.
     relaxation : float, optional [-]
         Share of the first pass's fit applied (:func:`errpred.verified.correct_verified`).
-    min_decimals : int, optional
-        Decimals for changed words (the correction is micrometres).
+    min_decimals : int or dict of int -> int, optional
+        Decimals for changed words, or per unit mode (default ``CORRECTION_DECIMALS``:
+        a tenth of a micrometre in mm, a quarter in inch; the correction is micrometres).
     tolerance_um : float [um]
         How much worse than the original a point of the corrected program may be.
     spacing_mm : float [mm]

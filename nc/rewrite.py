@@ -118,7 +118,7 @@ def rewrite_coordinates(
     *,
     centres: Mapping[int, np.ndarray] | None = None,
     splits: Mapping[int, np.ndarray] | None = None,
-    min_decimals: int | None = None,
+    min_decimals: int | Mapping[int, int] | None = None,
 ) -> str:
     """New program text with changed end points and arc centres.
 
@@ -137,9 +137,10 @@ def rewrite_coordinates(
         and one line per further point and for the block's end follows it
         (``G1`` and the coordinates only; the block's other words stay on its own
         line). Only for ``G1`` blocks that do not move rotary axes.
-    min_decimals : int, optional
+    min_decimals : int or dict of int -> int, optional
         Decimals for changed or inserted linear words when the original has
-        fewer (default 3 in mm, 4 in inch programs). Rotary words: 4.
+        fewer (default 3 in mm, 4 in inch programs), or per unit mode of the block
+        (``{21: 4, 20: 5}``: G21 mm, G20 inch). Rotary words: 4.
 
     Returns
     -------
@@ -193,7 +194,9 @@ def rewrite_coordinates(
     for i in range(n):
         m = program.modals[int(modal_index[i])]
         scale = K.MM_PER_INCH if m.units == 20 else 1.0
-        lin_dec = min_decimals if min_decimals is not None else _MIN_DECIMALS[m.units]
+        lin_dec = (_MIN_DECIMALS[m.units] if min_decimals is None
+                   else int(min_decimals[m.units]) if isinstance(min_decimals, Mapping)
+                   else min_decimals)
         res_lin = 0.5 * 10.0 ** -lin_dec * scale
         li = int(program.line[i]) - 1
         raw = lines[li]

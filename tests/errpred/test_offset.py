@@ -357,3 +357,31 @@ def test_a_fallback_refit_of_a_program_rewrites_only_the_blocks_near_the_change(
         if prog.end[u, 0] > 20.0:
             assert local.circles[u][1] == dr
             np.testing.assert_array_equal(local.circles[u][0], shift)
+
+
+def test_an_inch_program_is_corrected_in_quarter_micrometre_steps():
+    """CORRECTION_DECIMALS: an inch program's changed words get five decimals (0.254 um),
+    a millimetre program's four (0.1 um); with four in inch the correction moved in
+    steps of 2.54 um (a 2 um move written as 2.54 um)."""
+    for units, scale, decimals in (("G20", 25.4, 5), ("G21", 1.0, 4)):
+        text = "\n".join([f"{units} G90 G17", "G0 X-0.6 Y-0.4 Z0.2", "G1 Z0 F40"]
+                         + [f"G1 X{x / 10:.1f}" for x in range(0, 31, 5)] + ["M30"]) + "\n"
+        prog = parse_program(text)
+        wall = [b for b in range(len(prog)) if prog.motion[b] == 1 and prog.start[b, 2] == 0
+                and prog.end[b, 0] > prog.start[b, 0]]
+        pts, blk = [], []
+        for b in wall:
+            for t in (0.5, 1.0):
+                pts.append(prog.start[b, :3] + t * (prog.end[b, :3] - prog.start[b, :3]))
+                blk.append(b)
+        field = _field(prog, pts, np.tile([0.0, -1.0, 0.0], (len(pts), 1)),
+                       np.full(len(pts), 2.0), blk)
+        out, _ = apply_edit(prog, fit_program(prog, field))
+        back = parse_program(out)
+        dy_um = (back.end[wall, 1] - prog.end[wall, 1]) * 1e3
+        np.testing.assert_allclose(np.abs(dy_um), 2.0, atol=0.5 * 10.0 ** -decimals * scale
+                                   * 1e3 + 1e-6)
+        ys = [ln for ln, was in zip(out.splitlines(), text.splitlines(), strict=True)
+              if ln != was]
+        assert ys and all(len(ln.split("Y")[1].split()[0].split(".")[1]) == decimals
+                          for ln in ys), ys
