@@ -78,6 +78,31 @@ def test_iterating_against_a_plant_that_follows_the_path_converges():
     assert xyz.shape == (len(ref) - 1, 3) and np.all(np.abs(e) < 0.05)
 
 
+def test_a_point_the_path_hardly_governs_does_not_ask_for_four_times_its_error():
+    """Where the error hardly follows the path (here 0.1 um per um moved beyond x = 10:
+    a point another pass finishes, a slot's full-width end), the measured slope is
+    clipped at ``1 - MAX_GAIN`` (``SECANT_SLOPE_RANGE``, the model's own bound): the
+    second pass asks for at most twice the error there (15.3 um for 7.4 um; with 0.25,
+    32.3 um; tried on a public slot program, 242 um for a 77 um error, every such
+    candidate rejected). A response truly this weak is corrected more slowly (the price),
+    and the passes are still verified and improve."""
+    from errpred.constants import MAX_GAIN, SECANT_SLOPE_RANGE
+
+    assert SECANT_SLOPE_RANGE[0] == pytest.approx(1.0 - MAX_GAIN)
+    ref = _line(21)
+
+    def predict(cl):
+        return _prediction(cl, lambda tip, _axis: 8.0 - (0.0 if tip[0] < 10.0
+                                                         else 0.9 * tip[2] * 1e3))
+
+    comp = compensate_path(ref, predict, iterate=True, max_iterations=2)
+    first = comp.verified.passes[0]
+    assert first.accepted and first.comparison.after.max_um == pytest.approx(7.44, abs=0.01)
+    second = [p for p in comp.verified.passes if p.index == 2]
+    assert second[0].largest_move_mm * 1e3 <= 2.0 * 7.44 + 0.5
+    assert comp.corrected and comp.rms_error_um[comp.best] < first.comparison.after.rms_um
+
+
 def test_a_single_pass_applies_the_share_it_is_given():
     """One pass against the plant above (8 um less 0.3 times the depth moved): the
     whole fit by default leaves 8 - 1.3 x 8 = -2.4 um, deeper than the 2 um overcut
