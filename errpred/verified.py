@@ -309,6 +309,8 @@ def correct_verified(original: Any,
         raise ValueError(f"tolerance_mm: expected a finite value > 0, got {tolerance_mm!r}")
     if not (isinstance(max_iterations, int) and max_iterations >= 1):
         raise ValueError(f"max_iterations: expected an integer >= 1, got {max_iterations!r}")
+    if relaxation is not None and not (math.isfinite(relaxation) and 0 < relaxation <= 1):
+        raise ValueError(f"relaxation: expected a share in (0, 1], got {relaxation!r}")
     say = progress or (lambda stage: None)
     say("original")
     F0, P0 = predict(original)
@@ -318,8 +320,6 @@ def correct_verified(original: Any,
         return out
     best_stats = error_stats(F0.E_um)
     current, Fc = original, F0
-    if relaxation is not None and not (math.isfinite(relaxation) and 0 < relaxation <= 1):
-        raise ValueError(f"relaxation: expected a share in (0, 1], got {relaxation!r}")
     # the first pass's share: one pass applies the whole fit unless told (the fallback
     # guards it), an iteration starts under-relaxed
     omega = relaxation if relaxation is not None else (RELAXATION if iterate else 1.0)

@@ -107,7 +107,8 @@ def test_a_single_pass_applies_the_share_it_is_given():
     """One pass against the plant above (8 um less 0.3 times the depth moved): the
     whole fit by default leaves 8 - 1.3 x 8 = -2.4 um, deeper than the 2 um overcut
     allowed, so it is not accepted as it stands; ``relaxation=0.5`` applies half the
-    fit and leaves 8 - 1.3 x 4 = 2.8 um, accepted. A share outside (0, 1] is refused."""
+    fit and leaves 8 - 1.3 x 4 = 2.8 um, accepted. A share outside (0, 1] is refused
+    before anything is predicted."""
     ref = _line()
 
     def predict(cl):
@@ -122,9 +123,11 @@ def test_a_single_pass_applies_the_share_it_is_given():
     assert first.relaxation == 0.5 and first.accepted and half.corrected
     assert first.comparison.after.max_um == pytest.approx(8.0 - 1.3 * 4.0, abs=1e-3)
     np.testing.assert_allclose(half.cl.tip[:, 2], -4e-3, atol=1e-7)
+    calls = []
     for bad in (0.0, 1.5, float("nan")):
         with pytest.raises(ValueError, match="relaxation"):
-            compensate_path(ref, predict, iterate=False, relaxation=bad)
+            compensate_path(ref, lambda c: calls.append(c), iterate=False, relaxation=bad)
+    assert not calls                                   # refused before any prediction
 
 
 def test_a_correction_worse_than_the_original_is_never_accepted():
