@@ -17,7 +17,12 @@ from nc.errors import InputError
 from nc.path import cutter_locations
 from nc.program import RAPID
 
-from .constants import DEFAULT_MAX_FEED_FACTOR, DEFAULT_MIN_FEED_FACTOR, MAX_FEED_STEP
+from .constants import (
+    DEFAULT_MAX_FEED_FACTOR,
+    DEFAULT_MIN_FEED_FACTOR,
+    MAX_FEED_PER_TOOTH_RADII,
+    MAX_FEED_STEP,
+)
 from .pipeline import blocks_in_scope, build_predictor
 from .scenario import Scenario
 from .schedule import CycleTime, FeedLimits, Schedule, block_lengths, cycle_time, schedule_feeds
@@ -82,6 +87,19 @@ def feed_limits(scenario: Scenario, program, blocks: np.ndarray, min_feed: float
         DEFAULT_MIN_FEED_FACTOR * float(f.min()) if f.size else 1.0)
     hi = max_feed if max_feed is not None else (
         DEFAULT_MAX_FEED_FACTOR * float(f.max()) if f.size else lo)
+    # the force model's bound on the feed per tooth (errpred.conditions) at the slowest
+    # spindle speed in scope: the default is kept within it, a --max-feed beyond refused
+    rpm = np.abs(program.modal_column("spindle_rpm")[feed]) if feed.size else np.zeros(0)
+    rpm = rpm[rpm > 0]
+    if rpm.size:
+        tool = scenario.tool
+        bound = MAX_FEED_PER_TOOTH_RADII * tool.radius_mm * tool.flutes * float(rpm.min())
+        if max_feed is not None and max_feed > bound:
+            raise InputError(f"--max-feed: {max_feed:g} mm/min is {max_feed / bound:.3g} times "
+                             f"the feed at which a tooth takes {MAX_FEED_PER_TOOTH_RADII:g} of "
+                             f"the tool's radius at {rpm.min():g} rev/min ({bound:g} mm/min, "
+                             "errpred.constants.MAX_FEED_PER_TOOTH_RADII); expected at most that")
+        hi = min(hi, bound)
     if hi < lo:
         raise InputError(f"--max-feed: {hi:g} mm/min is below the min feed {lo:g} mm/min")
     step = MAX_FEED_STEP if max_step_pct is None else max_step_pct / 100.0

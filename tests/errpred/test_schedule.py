@@ -353,3 +353,24 @@ def test_cycle_time_refuses_per_revolution_without_spindle_speed():
     with pytest.raises(InputError, match=r"^r\.nc: line 4: feed per revolution \(G95\) "
                                          r"with no spindle speed"):
         cycle_time(prog, block_lengths(prog))
+
+
+def test_the_feed_limits_keep_the_force_models_feed_per_tooth():
+    """The schedule's largest feed keeps a tooth within MAX_FEED_PER_TOOTH_RADII of the
+    radius at the slowest spindle speed in scope (the Predictor refuses beyond it): the
+    default (twice the programmed 4,000 mm/min) is cut to 5,000 mm/min for the D10
+    two-flute ball at 1,000 rev/min; a --max-feed beyond it is refused, named."""
+    from errpred.scenario import bundled_scenario, load_scenario
+    from errpred.schedule_run import feed_limits
+    from nc import parse_program
+    from nc.errors import InputError
+
+    s = load_scenario(bundled_scenario("mold-ball"))
+    assert s.tool.diameter_mm == 10.0 and s.tool.flutes == 2
+    prog = parse_program("G21 G90 S1000 M3\nG0 X0 Y0 Z5\nG1 Z0 F4000\nG1 X20\nM2\n")
+    blocks = np.arange(len(prog))
+    assert feed_limits(s, prog, blocks, None, None, None).max_mm_min == pytest.approx(5000.0)
+    assert feed_limits(s, prog, blocks, None, 4500.0, None).max_mm_min == 4500.0
+    with pytest.raises(InputError, match=r"^--max-feed: 6000 mm/min is 1\.2 times .* "
+                       r"\(5000 mm/min, errpred\.constants\.MAX_FEED_PER_TOOTH_RADII\)"):
+        feed_limits(s, prog, blocks, None, 6000.0, None)
