@@ -18,9 +18,8 @@ import numpy as np
 from . import constants as K
 from .gcode import parse_program
 from .lexer import words_with_spans
-from .macro import expression_line, needs_expansion
 from .program import RAPID, Program
-from .rewrite import RewriteError
+from .rewrite import RewriteError, refuse_expressions
 
 __all__ = ["rewrite_feeds"]
 
@@ -61,12 +60,7 @@ def rewrite_feeds(program: Program, feeds: Mapping[int, float]) -> str:
     if dialect in ("heidenhain", "siemens"):
         raise RewriteError(f"{program.file}: rewriting the feeds of {dialect} programs is "
                            "not supported; expected a G-code program")
-    k = (expression_line(program.lines) if needs_expansion("\n".join(program.lines))
-         else None)
-    if k is not None:
-        raise RewriteError(f"{program.file}:{k}: rewriting programs with '#' parameters or "
-                           "'[ ]' expressions is not supported; expected plain numbers in "
-                           "every word")
+    refuse_expressions(program)
     n = len(program)
     feed_mode = program.modal_column("feed_mode") if n else np.zeros(0)
     units = program.modal_column("units") if n else np.zeros(0)

@@ -30,7 +30,8 @@ from .macro_b import needs_macro_b
 from .owords import has_owords
 from .program import PLANE_AXES, TCP_VECTOR, Program
 
-__all__ = ["rewrite_coordinates", "write_rewritten", "RewriteError"]
+__all__ = ["rewrite_coordinates", "write_rewritten", "RewriteError", "check_rewritable",
+           "refuse_expressions"]
 
 _AXES = "XYZABC"
 #: Decimals for words the rewrite inserts or must extend, by units.
@@ -66,6 +67,19 @@ def _format_like(original: str | None, value: float, decimals: int) -> str:
     return s
 
 
+def refuse_expressions(program: Program) -> None:
+    """Refuse a program with ``#`` parameters or ``[ ]`` expressions outside its
+    comments, naming its first such line: a rewrite (of its coordinates, of its feeds)
+    would write over words the source computes."""
+    k = (expression_line(program.lines) if needs_expansion("\n".join(program.lines))
+         else None)
+    if k is not None:
+        raise RewriteError(f"{program.file}:{k}: rewriting programs with '#' parameters or "
+                           "'[ ]' expressions is not supported; expected plain numbers in "
+                           "every word (the program reads and predicts; to rewrite it, "
+                           "write it with the values in place of the parameters)")
+
+
 def check_rewritable(program: Program) -> None:
     """Refuse, before any work, a program :func:`rewrite_coordinates` cannot rewrite.
 
@@ -84,13 +98,8 @@ def check_rewritable(program: Program) -> None:
         raise RewriteError(f"{program.file}: rewriting Siemens Sinumerik programs is not "
                            "supported; expected a G-code program (post the corrected path "
                            "with nc.siemens_writer instead)")
+    refuse_expressions(program)
     text = "\n".join(program.lines)
-    k = expression_line(program.lines) if needs_expansion(text) else None
-    if k is not None:
-        raise RewriteError(f"{program.file}:{k}: rewriting programs with '#' parameters or "
-                           "'[ ]' expressions is not supported; expected plain numbers in "
-                           "every word (the program reads and predicts; to correct it, "
-                           "write it with the values in place of the parameters)")
     if needs_macro_b(text):
         raise RewriteError(f"{program.file}: rewriting Fanuc macro B programs and "
                            "subprograms (M98/G65 calls, loops: one source line, many moves) "
