@@ -19,7 +19,7 @@ from nc.program import Program
 from . import constants as K
 from .tool import Tool
 
-__all__ = ["feed_per_tooth_mm", "refuse_feed_beyond_model"]
+__all__ = ["feed_per_tooth_mm", "largest_feed_per_tooth_mm", "refuse_feed_beyond_model"]
 
 
 def feed_per_tooth_mm(cl: CutterLocations, flutes: int) -> np.ndarray:
@@ -31,6 +31,12 @@ def feed_per_tooth_mm(cl: CutterLocations, flutes: int) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         fz = feed / (rpm * flutes)
     return np.where(cl.rapid | ~(rpm > 0) | ~np.isfinite(fz), np.nan, fz)
+
+
+def largest_feed_per_tooth_mm(tool: Tool) -> float:
+    """The largest feed per tooth the force model accepts for ``tool`` [mm]:
+    ``MAX_FEED_PER_TOOTH_RADII`` of its radius."""
+    return K.MAX_FEED_PER_TOOTH_RADII * tool.radius_mm
 
 
 def refuse_feed_beyond_model(program: Program, cl: CutterLocations, tool: Tool) -> None:
@@ -52,7 +58,7 @@ def refuse_feed_beyond_model(program: Program, cl: CutterLocations, tool: Tool) 
         the largest the model accepts.
     """
     fz = feed_per_tooth_mm(cl, tool.flutes)
-    limit = K.MAX_FEED_PER_TOOTH_RADII * tool.radius_mm
+    limit = largest_feed_per_tooth_mm(tool)
     over = np.flatnonzero(fz > limit)
     if not over.size:
         return

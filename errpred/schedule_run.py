@@ -23,6 +23,7 @@ from .constants import (
     MAX_FEED_PER_TOOTH_RADII,
     MAX_FEED_STEP,
 )
+from .conditions import largest_feed_per_tooth_mm
 from .pipeline import blocks_in_scope, build_predictor
 from .scenario import Scenario
 from .schedule import CycleTime, FeedLimits, Schedule, block_lengths, cycle_time, schedule_feeds
@@ -93,7 +94,7 @@ def feed_limits(scenario: Scenario, program, blocks: np.ndarray, min_feed: float
     rpm = rpm[rpm > 0]
     if rpm.size:
         tool = scenario.tool
-        bound = MAX_FEED_PER_TOOTH_RADII * tool.radius_mm * tool.flutes * float(rpm.min())
+        bound = largest_feed_per_tooth_mm(tool) * tool.flutes * float(rpm.min())
         if max_feed is not None and max_feed > bound:
             raise InputError(f"--max-feed: {max_feed:g} mm/min is {max_feed / bound:.3g} times "
                              f"the feed at which a tooth takes {MAX_FEED_PER_TOOTH_RADII:g} of "
