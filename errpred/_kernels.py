@@ -150,9 +150,14 @@ def _golden(x, y, z, p0, d, w, c, r, top, lim):
     return f1 if f1 < f2 else f2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def sweep_distance(x, y, z, p0, d, w, c, r, top):
     """Distance from a point to the swept core of one sweep [mm].
+
+    Inlined where a kernel calls it (numba's ``inline="always"``): a ball end mill's
+    closed form costs less than the call (measured, the exact tests of a 5-axis
+    prediction: 8 times faster inlined); other tools' search stays one call
+    (:func:`_search_distance`).
 
     Parameters
     ----------
@@ -168,6 +173,13 @@ def sweep_distance(x, y, z, p0, d, w, c, r, top):
         return _dist_half_strip(x - (p0[0] + r * w[0]), y - (p0[1] + r * w[1]),
                                 z - (p0[2] + r * w[2]), d[0], d[1], d[2], w[0], w[1], w[2],
                                 top - r)
+    return _search_distance(x, y, z, p0, d, w, c, r, top)
+
+
+@njit(cache=True)
+def _search_distance(x, y, z, p0, d, w, c, r, top):
+    """:func:`sweep_distance` of a tool with ``c > 0``: golden-section search and the
+    two ends."""
     best = _golden(x, y, z, p0, d, w, c, r, top, -math.inf)
     # the ends are candidates too (the minimum may sit at s = 0 or 1)
     e0 = _core_dist(x, y, z, p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r, top)
@@ -246,7 +258,7 @@ def sweep_lower_bound(x, y, z, p0, d, w, c, r, top):
     return lb
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def sweep_within(x, y, z, p0, d, w, c, r, top, lim):
     """``sweep_distance(...) <= lim``, with early answers.
 
@@ -264,6 +276,12 @@ def sweep_within(x, y, z, p0, d, w, c, r, top, lim):
     """
     if c == 0.0:
         return sweep_distance(x, y, z, p0, d, w, c, r, top) <= lim
+    return _search_within(x, y, z, p0, d, w, c, r, top, lim)
+
+
+@njit(cache=True)
+def _search_within(x, y, z, p0, d, w, c, r, top, lim):
+    """:func:`sweep_within` of a tool with ``c > 0``."""
     if _core_dist(x, y, z, p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r, top) <= lim:
         return True
     if _core_dist(x - d[0], y - d[1], z - d[2], p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r,
