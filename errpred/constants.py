@@ -158,6 +158,11 @@ PRECHECK_BISECTIONS = 3
 #: The pre-check tests flute 0's micro-edge samples at every this-many rotation
 #: steps (a coarse engagement: 4 deg at the default 2 deg step) [-].
 PRECHECK_ROTATION_STRIDE = 2
+#: Stage 2's carried state (wear, the largest error) is kept every this many blocks of
+#: a prediction, so that the next program of a correction, the same up to a block,
+#: takes its points up to the last such state before it (errpred.repredict): a state
+#: is one wear array (a few kB) [-].
+STAGE2_STATE_BLOCKS = 64
 #: The pre-check tests the tool shrunk by this much (toward its axis and up) [mm]:
 #: samples on an earlier sweep's boundary (a slot's walls and floor) are no cut
 #: whatever the rounding of the membership tests (~1e-5 mm for non-ball tools).

@@ -34,7 +34,7 @@ from .physics import PointResult, ShapeErrorModel, WearState, evaluate
 from .tool import Tool
 from .zmap import SweepMap
 
-__all__ = ["PointPrediction", "Prediction", "Predictor", "predict_points"]
+__all__ = ["PointPrediction", "Prediction", "Predictor", "Stage2State", "predict_points"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -216,6 +216,33 @@ def _worker_chunk(blocks: list[int]) -> list[list[PointGeometry]]:
     return [_WORKER_MODEL.geometry(b) for b in blocks]
 
 
+@dataclass(frozen=True, eq=False)
+class Stage2State:
+    """What stage 2 carries along a run after its first :attr:`blocks` blocks: enough to
+    go on from there (:meth:`Predictor.run`'s ``resume``) with the same answers as a
+    run from the start.
+
+    Attributes
+    ----------
+    blocks : int
+        Blocks of the run done (its first ``blocks`` blocks).
+    points : int
+        Points predicted in them.
+    wear_mm : ndarray, shape (m,) [mm]
+        Each micro edge's actual cutting distance after them.
+    worst : float [um]
+        The largest |E| of a predicted point so far (-1: none).
+    kept : dict
+        The force and deflection series kept so far (:attr:`Prediction.series`).
+    """
+
+    blocks: int
+    points: int
+    wear_mm: np.ndarray
+    worst: float
+    kept: dict
+
+
 class Predictor:
     """Holds the models; :meth:`run` predicts.
 
@@ -317,7 +344,9 @@ class Predictor:
             progress: Callable[[int], None] | None = None,
             series_lines: Iterable[int] = (), client=None,
             given: Mapping[int, list[PointGeometry]] | None = None,
-            keep: Callable[[int, list[PointGeometry]], None] | None = None) -> Prediction:
+            keep: Callable[[int, list[PointGeometry]], None] | None = None,
+            resume: tuple[list[PointPrediction], Stage2State] | None = None,
+            states: Callable[[Stage2State], None] | None = None) -> Prediction:
         """Predict the error of ``blocks`` (default: every block of the program).
 
         Parameters
@@ -341,6 +370,16 @@ class Predictor:
         keep : callable, optional
             ``keep(block, points)`` with each block's stage 1 as it arrives (the whole
             :class:`PointGeometry`, before stage 2).
+        resume : (points, Stage2State), optional
+            Go on from a run of the same predictor's inputs (a program whose first
+            ``state.blocks`` blocks, the same as these, have the same stage 1 and the
+            same lines; the same stage 2 models and ``series_lines``): its first
+            ``state.points`` points are taken as they are and stage 2 starts from the
+            state (:class:`errpred.repredict.Repredictor`). ``keep`` is not called for
+            those blocks.
+        states : callable, optional
+            ``states(Stage2State)`` every ``STAGE2_STATE_BLOCKS`` blocks (for a later
+            ``resume``).
 
         The wear starts from :attr:`initial_wear_mm` (a fresh tool unless the
         predictor was given a used tool's state).
@@ -352,8 +391,16 @@ class Predictor:
         kept: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
         worst = -1.0
         done = 0
-        for block, geoms in zip(blocks, self.geometries(blocks, workers=workers,
-                                                        client=client, given=given),
+        if resume is not None:
+            done_points, st = resume
+            out = list(done_points[:st.points])
+            wear = WearState(st.wear_mm.copy())
+            kept, worst, done = dict(st.kept), st.worst, st.blocks
+            if progress is not None:
+                progress(done)
+        every = K.STAGE2_STATE_BLOCKS
+        for block, geoms in zip(blocks[done:], self.geometries(blocks[done:], workers=workers,
+                                                               client=client, given=given),
                                 strict=True):
             if keep is not None:
                 keep(block, geoms)
@@ -372,6 +419,8 @@ class Predictor:
                         worst = abs(res.E_um)
                         kept[-1] = (*item, line)
             done += 1
+            if states is not None and done % every == 0:
+                states(Stage2State(done, len(out), wear.cl_mm.copy(), worst, dict(kept)))
             if progress is not None:
                 progress(done)
         return Prediction(points=out, wear_mm=wear.cl_mm, edges_kappa_rad=self.edges.kappa,

@@ -30,6 +30,16 @@ blocks' starts (rounding: ~1e-12 mm on a path of metres; the T1/T2 split of the
 sweeps is the same, as every sweep near the block keeps its order). Stage 1
 of every other block is computed. ``tests/errpred/test_repredict.py`` compares
 the result with a whole prediction of the new program.
+
+Stage 2 carries the wear along the program, so a block's stage 2 depends on every
+block before it. Where the new program's first blocks are those of the last one
+(the same keys at the same places, the same lines, no changed sweep near them: their
+stage 1 taken as it was, not shifted) and stage 2's models are the same, the last
+run's points up to its last kept state (``STAGE2_STATE_BLOCKS``) before the first
+other block are taken as they are, and stage 2 goes on from that state
+(:meth:`errpred.predict.Predictor.run`'s ``resume``): the same answers, without
+reading those blocks' stage 1 back or running their stage 2 (a fallback candidate of
+the mold core changes blocks near its end: most of its 28,000 blocks are before).
 """
 
 from __future__ import annotations
@@ -45,7 +55,7 @@ import numpy as np
 
 from . import constants as K
 from .geometry import GeometryModel, PointGeometry
-from .predict import Prediction, Predictor
+from .predict import PointPrediction, Prediction, Predictor, Stage2State
 from .sweeps import _build_grid, _query
 
 __all__ = ["Repredictor", "block_keys"]
@@ -109,9 +119,19 @@ class _Store:
         return block in self._at
 
     def get(self, block: int) -> list[PointGeometry]:
+        return pickle.loads(self._raw(block))
+
+    def _raw(self, block: int) -> bytes:
         offset, size = self._at[block]
         self._file.seek(offset)
-        return pickle.loads(self._file.read(size))
+        return self._file.read(size)
+
+    def copy_from(self, other: "_Store", block: int) -> None:
+        """Block ``block``'s stage 1 as ``other`` holds it (the bytes, not unpickled)."""
+        data = other._raw(block)
+        self._file.seek(0, 2)
+        self._at[block] = (self._file.tell(), len(data))
+        self._file.write(data)
 
     def close(self) -> None:
         self._file.close()
@@ -130,6 +150,11 @@ class _Run:
     starts: np.ndarray           # path length at each block's start [mm] (nan: none)
     boxes: np.ndarray            # (n_blocks, 2, 3) look-up box (nan: none, or no look-up)
     store: _Store
+    blocks: list[int]            # the run's blocks, in order
+    lines: np.ndarray            # each program block's source line
+    stage2: tuple                # stage 2's models (:func:`_stage2_same`)
+    points: list[PointPrediction]  # the run's points
+    states: list[Stage2State]    # stage 2's state every STAGE2_STATE_BLOCKS blocks
 
 
 class _Given(Mapping):
@@ -162,6 +187,18 @@ def _sweep_blocks(model: GeometryModel) -> np.ndarray:
 
 def _same(model: GeometryModel) -> tuple:
     return (model.tool, model.stock, model.res, model.sensitivity)
+
+
+def _stage2_same(predictor: Predictor, series_lines) -> tuple:
+    """What stage 2 reads besides stage 1 (compared by value: each candidate's predictor
+    is built anew from the same scenario): a digest of the models' pickle, the workpiece
+    (compared with ``==``: a bound method is equal for the same object) and the series
+    lines asked for."""
+    h = hashlib.blake2b(digest_size=20)
+    h.update(pickle.dumps((predictor.tool, predictor.coefficients, predictor.compliance,
+                           predictor.shape, predictor.theta, predictor.edges,
+                           predictor.initial_wear_mm), protocol=pickle.HIGHEST_PROTOCOL))
+    return (h.digest(), predictor.workpiece, tuple(sorted(int(x) for x in series_lines)))
 
 
 class Repredictor:
@@ -203,8 +240,19 @@ class Repredictor:
         keys, starts = _block_table(model, n_blocks)
         sweep_block = _sweep_blocks(model)
         given = self._reusable(model, keys, starts, sweep_block, blocks)
+        lines = np.asarray(predictor.program.line)
+        stage2 = _stage2_same(predictor, kwargs.get("series_lines", ()))
+        resume = self._resume(given, blocks, keys, lines, stage2)
         store = _Store()
         boxes = np.full((n_blocks, 2, 3), np.nan)
+        states: list[Stage2State] = []
+        if resume is not None:
+            last = self._last
+            for b in blocks[:resume[1].blocks]:
+                if b in last.store:
+                    store.copy_from(last.store, b)
+                boxes[b] = last.boxes[b]
+            states = [st for st in last.states if st.blocks <= resume[1].blocks]
 
         def keep(block: int, points: list[PointGeometry]) -> None:
             store.put(block, points)
@@ -212,18 +260,45 @@ class Repredictor:
                 boxes[block] = points[0].lookup_box
 
         try:
-            out = predictor.run(blocks, given=given, keep=keep, **kwargs)
+            out = predictor.run(blocks, given=given, keep=keep, resume=resume,
+                                states=states.append, **kwargs)
         except BaseException:
             store.close()
             raise
         self.close()
         sw = model.sweeps
         self._last = _Run(_same(model), sw.lo, sw.hi, sweep_block, keys, starts, boxes,
-                          store)
+                          store, blocks, lines, stage2, out.points, states)
         self.reused = frozenset(given)
+        resumed = 0 if resume is None else resume[1].blocks
         self.stats.append(dict(blocks=len(blocks), reused=len(given),
-                               computed=len(blocks) - len(given)))
+                               computed=len(blocks) - len(given), resumed=resumed))
         return out
+
+    def _resume(self, given: "_Given", blocks: list[int], keys: list, lines: np.ndarray,
+                stage2: tuple) -> tuple[list[PointPrediction], Stage2State] | None:
+        """The last run's points and stage 2 state to go on from (see the module
+        docstring), or None: its last kept state before the first block that is not
+        the same as the last run's at the same place, its stage 1 taken unshifted."""
+        last = self._last
+        if last is None or not last.states or last.stage2 != stage2:
+            return None
+        n = min(len(blocks), len(last.blocks))
+        first = 0
+        while first < n:
+            b = blocks[first]
+            if b != last.blocks[first] or b >= len(keys) or b >= len(last.keys):
+                break
+            if keys[b] is None:
+                if last.keys[b] is not None:
+                    break
+            elif given._pairs.get(b) != b or given._shift.get(b) != 0.0:
+                break
+            if lines[b] != last.lines[b]:
+                break
+            first += 1
+        fit = [st for st in last.states if st.blocks <= first]
+        return (last.points, fit[-1]) if fit else None
 
     def _reusable(self, model: GeometryModel, keys: list, starts: np.ndarray,
                   sweep_block: np.ndarray, blocks: list[int]) -> _Given:

@@ -13,6 +13,7 @@ import pytest
 
 from errpred.geometry import Resolution
 from errpred.predict import Predictor
+from errpred import constants as K
 from errpred.repredict import Repredictor, block_keys
 from errpred.tool import Tool
 from nc import parse_program
@@ -58,6 +59,27 @@ def _edited(text: str) -> tuple[str, list[int]]:
     vec = lines[b][lines[b].index(" I"):]
     lines.insert(b, f"G1 X{mid[0]:.5f} Y{mid[1]:.5f} Z{mid[2]:.5f}{vec}")
     return "\n".join(lines) + "\n", [a, a + 1, b, b + 1]
+
+
+@pytest.fixture(scope="module")
+def long_case(case):
+    """Ten passes 1.2 mm apart: the first four beyond the tool's reach of the last."""
+    tool, stock, _, res = case
+    return tool, stock, plane_raster(SLOPE, R, passes=10, pick=1.2, length=24.0, step=1.0,
+                                     axis=AXIS), res
+
+
+def _deeper_near_end(text: str, passes: int) -> str:
+    """The program with two moves of the last pass, four fifths along it, 3 um deeper (a
+    fallback's change near a program's end)."""
+    lines = text.splitlines()
+    cut = [i for i, s in enumerate(lines) if s.startswith("G1 X")]
+    per_pass = len(cut) // passes
+    a = cut[(passes - 1) * per_pass + (4 * per_pass) // 5]
+    for i in (a, a + 1):
+        lines[i] = re.sub(r"Z(-?\d+\.\d+)", lambda m: f"Z{float(m.group(1)) - 0.003:.5f}",
+                          lines[i])
+    return "\n".join(lines) + "\n"
 
 
 def _same(got, want):
@@ -182,3 +204,59 @@ def test_block_keys_change_with_the_block_and_its_neighbours_only(case):
     # first's start moved, the second's corner check reads the move before it); the
     # third after at most (the tip's feed of the move after the edit changes by rounding)
     assert {b - 1, b, b + 1, b + 2} <= differ <= {b - 1, b, b + 1, b + 2, b + 3}, (b, differ)
+
+
+def test_a_change_near_the_end_takes_the_points_before_it_and_goes_on_from_there(long_case):
+    """Stage 2 carries the wear: the blocks before the first changed one keep their points
+    and stage 2 goes on from the last kept state before it; the prediction is that of the
+    whole program."""
+    case = long_case
+    text = case[2]
+    edited = _deeper_near_end(text, 10)
+    rp = Repredictor()
+    first = rp.run(_predictor(case, text))
+    got = rp.run(_predictor(case, edited))
+    want = _predictor(case, edited).run()
+    _same(got, want)
+    st = rp.stats[-1]
+    assert st["resumed"] >= K.STAGE2_STATE_BLOCKS and st["resumed"] % K.STAGE2_STATE_BLOCKS == 0
+    assert st["resumed"] < st["blocks"] - st["computed"], st
+    n = sum(p.block < st["resumed"] for p in got.points)
+    assert n > 0 and all(p is q for p, q in zip(got.points[:n], first.points[:n]))
+    # and a third program from that one (its states were carried over)
+    _same(rp.run(_predictor(case, text)), first)
+    assert rp.stats[-1]["resumed"] >= st["resumed"]
+    rp.close()
+
+
+def test_nothing_is_resumed_with_other_stage2_models(case):
+    """Other cutting coefficients (stage 1 the same): every block's stage 2 runs again."""
+    tool, stock, text, res = case
+    rp = Repredictor()
+    rp.run(_predictor(case, text))
+    harder = STEEL.replace(Ktc_N_mm2=1.5 * STEEL.Ktc_N_mm2)
+    other = Predictor(tool, stock, parse_program(text), harder, stiff_tool(), resolution=res)
+    got = rp.run(other)
+    assert rp.stats[-1]["resumed"] == 0 and rp.stats[-1]["computed"] == 0
+    _same(got, Predictor(tool, stock, parse_program(text), harder, stiff_tool(),
+                         resolution=res).run())
+    rp.close()
+
+
+def test_run_resumed_from_a_kept_state_is_the_run_from_the_start(case):
+    """Predictor.run(resume=...): bit for bit the same points, wear and largest-error
+    series as the run from the start."""
+    text = case[2]
+    states = []
+    whole = _predictor(case, text).run(states=states.append)
+    assert [s.blocks for s in states] == list(range(K.STAGE2_STATE_BLOCKS, len(
+        _predictor(case, text).program) + 1, K.STAGE2_STATE_BLOCKS))
+    st = states[1]
+    got = _predictor(case, text).run(resume=(whole.points, st))
+    assert len(got.points) == len(whole.points)
+    for p, q in zip(got.points, whole.points, strict=True):
+        assert p.status == q.status and (p.E_um == q.E_um or (math.isnan(p.E_um)
+                                                              and math.isnan(q.E_um)))
+    np.testing.assert_array_equal(got.wear_mm, whole.wear_mm)
+    assert got.series.keys() == whole.series.keys()
+    assert got.series[-1][-1] == whole.series[-1][-1]
