@@ -186,9 +186,38 @@ def _list_pass(points, idx, order, s, e, lst, k, recent, nrec, p0, d, w, c, r, t
     return nrec
 
 
+@njit(cache=True, inline="always")
+def _point_margin(x, y, z, lst, g_lo, k, delta, p0, d, w, lo, hi, c, r, top, reach):
+    """``min_j dist_j - r`` over the sweeps ``lst[:k]`` for one point, clipped to
+    ``[-reach, reach]``, stopping at the first sweep it lies ``reach`` deep in. ``g_lo``:
+    lower bounds of each sweep's distance at a centre ``delta`` from the point (a sweep
+    whose bound minus ``delta`` clears ``r + reach`` cannot lower the clipped value)."""
+    lim = r + reach
+    best = 1e300
+    for q in range(k):
+        if g_lo[q] - delta > lim + _LIP_SLACK:
+            continue
+        j = lst[q]
+        if not _in_box(j, x, y, z, reach, lo, hi):
+            continue
+        if c != 0.0 and (sweep_lower_bound(x, y, z, p0[j], d[j], w[j], c, r, top) - r
+                         >= min(best, reach)):
+            continue
+        v = sweep_distance(x, y, z, p0[j], d[j], w[j], c, r, top) - r
+        if v < best:
+            best = v
+            if best <= -reach:
+                break
+    if best < -reach:
+        best = -reach
+    elif best > reach:
+        best = reach
+    return best
+
+
 @njit(cache=True)
 def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach, out,
-                decide):
+                decide, margins):
     """Per bin: (start, end, sweeps that may reach it), as flat arrays.
 
     Sweeps that cannot come within ``reach`` of any point are dropped first
@@ -202,6 +231,13 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach,
     The distance bound of a sweep at a level's centre is kept (as an interval)
     for the next level, so most picks need no closed form: the lists are those
     the tests give, at a fraction of the cost where hundreds of sweeps are near.
+
+    With ``margins`` (one float per point; empty otherwise), a bin of one point gets
+    its margin (:func:`_point_margin`, clipped to ``[-reach, reach]``) from its coarse
+    cube's list and bounds directly, and its list comes back empty: its own list would
+    cost as many closed forms as the margin (a ball's bound is its distance), and the
+    margin would compute them again (the finished surface's pixels lie one to a bin).
+    The same values: a sweep left out of a bin's list lies farther than ``reach``.
 
     With ``decide``, membership is decided here and the lists are not kept (every
     bin's comes back empty): each bin's points go first against the sweeps that
@@ -251,6 +287,7 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach,
     g_hi = np.empty((3, size))
     recent = np.empty(CLUSTER_RECENT, dtype=np.int64)
     nrec = 0
+    direct = margins.shape[0] > 0
     b0 = 0
     while b0 < nb:
         # the bins of one super cube
@@ -274,6 +311,14 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach,
             nc = _level(lists[0], g_lo[0], g_hi[0], ns, delta, gx, gy, gz, grad, p0, d, w,
                         lo, hi, c, r, top, reach, lists[1], g_lo[1], g_hi[1])
             for b in range(c0, c1):
+                if direct and bstart[b + 1] - bstart[b] == 1:
+                    i = idx[order[bstart[b]]]
+                    x, y, z = points[i, 0], points[i, 1], points[i, 2]
+                    db = math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2)
+                    margins[i] = _point_margin(x, y, z, lists[1], g_lo[1], nc, db, p0, d, w,
+                                               lo, hi, c, r, top, reach)
+                    offsets[b + 1] = total
+                    continue
                 if decide and nrec > 0 and _recent_pass(points, idx, order, bstart[b],
                                                         bstart[b + 1], recent, nrec, p0, d, w,
                                                         lo, hi, c, r, top, r + reach,
@@ -352,7 +397,8 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
     idx, order, keys, m = _bins(points, rest, cell)
     if m == 0:
         return out
-    _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, eps, out, True)
+    _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, eps, out, True,
+                np.zeros(0))
     return out
 
 
@@ -385,8 +431,10 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
         return out
     starts, offsets, lists, nb = _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi,
                                              c, r, top, -floor, np.zeros(0, dtype=np.bool_),
-                                             False)
+                                             False, out)
     for b in range(nb):
+        if starts[b + 1] - starts[b] == 1:
+            continue  # its margin came with the lists
         for t in range(starts[b], starts[b + 1]):
             i = idx[order[t]]
             x, y, z = points[i, 0], points[i, 1], points[i, 2]
