@@ -159,9 +159,9 @@ PRECHECK_BISECTIONS = 3
 #: steps (a coarse engagement: 4 deg at the default 2 deg step) [-].
 PRECHECK_ROTATION_STRIDE = 2
 #: Stage 2's carried state (wear, the largest error) is kept every this many blocks of
-#: a prediction, so that the next program of a correction, the same up to a block,
-#: takes its points up to the last such state before it (errpred.repredict): a state
-#: is one wear array (a few kB) [-].
+#: a prediction, so that the next program of a correction takes its points window by
+#: window while its blocks are the same (errpred.repredict, predict.Follow): a state is
+#: one wear array (a few kB); a window that differs runs stage 2 for all its blocks [-].
 STAGE2_STATE_BLOCKS = 64
 #: The pre-check tests the tool shrunk by this much (toward its axis and up) [mm]:
 #: samples on an earlier sweep's boundary (a slot's walls and floor) are no cut

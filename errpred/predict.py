@@ -34,7 +34,8 @@ from .physics import PointResult, ShapeErrorModel, WearState, evaluate
 from .tool import Tool
 from .zmap import SweepMap
 
-__all__ = ["PointPrediction", "Prediction", "Predictor", "Stage2State", "predict_points"]
+__all__ = ["Follow", "PointPrediction", "Prediction", "Predictor", "Stage2State",
+           "predict_points"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -219,8 +220,7 @@ def _worker_chunk(blocks: list[int]) -> list[list[PointGeometry]]:
 @dataclass(frozen=True, eq=False)
 class Stage2State:
     """What stage 2 carries along a run after its first :attr:`blocks` blocks: enough to
-    go on from there (:meth:`Predictor.run`'s ``resume``) with the same answers as a
-    run from the start.
+    go on from there with the same answers as the run (:class:`Follow`).
 
     Attributes
     ----------
@@ -241,6 +241,33 @@ class Stage2State:
     wear_mm: np.ndarray
     worst: float
     kept: dict
+
+
+@dataclass(frozen=True, eq=False)
+class Follow:
+    """A run of the same predictor's inputs to follow (:meth:`Predictor.run`'s
+    ``follow``): while this run's blocks are that run's, window by window of
+    ``STAGE2_STATE_BLOCKS`` blocks, its points are taken and stage 2 goes on from its
+    kept state at the window's end instead of running (the same answers: the same
+    stage 1 from the same state).
+
+    Attributes
+    ----------
+    points : list of PointPrediction
+        That run's points.
+    states : mapping of int to Stage2State
+        Its kept states by blocks done (:attr:`Stage2State.blocks`).
+    same : callable
+        ``same(position, block)``: whether this run's block at that position (in the
+        run's order) is that run's at the same position, with the same stage 1 (asked
+        after the block's stage 1 has been handed to ``keep``) and the same line. The
+        stage 2 models, series lines and start state must be that run's (the caller's
+        part: :class:`errpred.repredict.Repredictor` compares them).
+    """
+
+    points: list
+    states: Mapping[int, Stage2State]
+    same: Callable[[int, int], bool]
 
 
 class Predictor:
@@ -345,7 +372,7 @@ class Predictor:
             series_lines: Iterable[int] = (), client=None,
             given: Mapping[int, list[PointGeometry]] | None = None,
             keep: Callable[[int, list[PointGeometry]], None] | None = None,
-            resume: tuple[list[PointPrediction], Stage2State] | None = None,
+            follow: Follow | None = None,
             states: Callable[[Stage2State], None] | None = None) -> Prediction:
         """Predict the error of ``blocks`` (default: every block of the program).
 
@@ -370,16 +397,13 @@ class Predictor:
         keep : callable, optional
             ``keep(block, points)`` with each block's stage 1 as it arrives (the whole
             :class:`PointGeometry`, before stage 2).
-        resume : (points, Stage2State), optional
-            Go on from a run of the same predictor's inputs (a program whose first
-            ``state.blocks`` blocks, the same as these, have the same stage 1 and the
-            same lines; the same stage 2 models and ``series_lines``): its first
-            ``state.points`` points are taken as they are and stage 2 starts from the
-            state (:class:`errpred.repredict.Repredictor`). ``keep`` is not called for
-            those blocks.
+        follow : Follow, optional
+            A run to follow while this one's blocks are the same (:class:`Follow`;
+            :class:`errpred.repredict.Repredictor`): its points and states are taken
+            window by window instead of running stage 2.
         states : callable, optional
             ``states(Stage2State)`` every ``STAGE2_STATE_BLOCKS`` blocks (for a later
-            ``resume``).
+            ``follow``).
 
         The wear starts from :attr:`initial_wear_mm` (a fresh tool unless the
         predictor was given a used tool's state).
@@ -391,19 +415,12 @@ class Predictor:
         kept: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
         worst = -1.0
         done = 0
-        if resume is not None:
-            done_points, st = resume
-            out = list(done_points[:st.points])
-            wear = WearState(st.wear_mm.copy())
-            kept, worst, done = dict(st.kept), st.worst, st.blocks
-            if progress is not None:
-                progress(done)
         every = K.STAGE2_STATE_BLOCKS
-        for block, geoms in zip(blocks[done:], self.geometries(blocks[done:], workers=workers,
-                                                               client=client, given=given),
-                                strict=True):
-            if keep is not None:
-                keep(block, geoms)
+        syncing = follow is not None
+        window: list[list[PointGeometry]] = []   # following: the window's stage 1 so far
+
+        def stage2(geoms: list[PointGeometry]) -> None:
+            nonlocal worst
             for g in geoms:
                 buf: list = []
                 res = evaluate(self.tool, self.edges, self.coefficients, self.compliance,
@@ -418,11 +435,40 @@ class Predictor:
                     if g.status == "predicted" and abs(res.E_um) > worst:
                         worst = abs(res.E_um)
                         kept[-1] = (*item, line)
+
+        for block, geoms in zip(blocks, self.geometries(blocks, workers=workers,
+                                                        client=client, given=given),
+                                strict=True):
+            if keep is not None:
+                keep(block, geoms)
+            state = None
+            if syncing:
+                window.append(geoms)
+                if not follow.same(done, block):
+                    syncing = False
+                elif (done + 1) % every == 0:
+                    state = follow.states.get(done + 1)
+                    syncing = state is not None
+            if state is not None:               # the window is that run's: take it
+                out.extend(follow.points[len(out):state.points])
+                wear = WearState(state.wear_mm.copy())
+                kept, worst = dict(state.kept), state.worst
+                window = []
+            elif not syncing:
+                if window:      # no longer following: the window, this block last, from its start
+                    for gs in window:
+                        stage2(gs)
+                    window = []
+                else:
+                    stage2(geoms)
             done += 1
             if states is not None and done % every == 0:
-                states(Stage2State(done, len(out), wear.cl_mm.copy(), worst, dict(kept)))
+                states(state if state is not None else
+                       Stage2State(done, len(out), wear.cl_mm.copy(), worst, dict(kept)))
             if progress is not None:
                 progress(done)
+        for gs in window:               # the end, within a window that was followed
+            stage2(gs)
         return Prediction(points=out, wear_mm=wear.cl_mm, edges_kappa_rad=self.edges.kappa,
                           edges_z_mm=self.edges.z, theta=self.theta, series=kept,
                           initial_wear_mm=self.initial_wear_mm.copy())

@@ -32,14 +32,15 @@ of every other block is computed. ``tests/errpred/test_repredict.py`` compares
 the result with a whole prediction of the new program.
 
 Stage 2 carries the wear along the program, so a block's stage 2 depends on every
-block before it. Where the new program's first blocks are those of the last one
-(the same keys at the same places, the same lines, no changed sweep near them: their
-stage 1 taken as it was, not shifted) and stage 2's models are the same, the last
-run's points up to its last kept state (``STAGE2_STATE_BLOCKS``) before the first
-other block are taken as they are, and stage 2 goes on from that state
-(:meth:`errpred.predict.Predictor.run`'s ``resume``): the same answers, without
-reading those blocks' stage 1 back or running their stage 2 (a fallback candidate of
-the mold core changes blocks near its end: most of its 28,000 blocks are before).
+block before it. While the new program's blocks are the last one's (at the same
+places, with the same lines, their points pickling to the same bytes: taken from the
+last run unshifted, or computed again where a changed sweep came within their look-up
+box, a long rapid's box holds much of the part, and found the same) and stage 2's
+models are the same, the last run's points are taken window by window of
+``STAGE2_STATE_BLOCKS`` blocks and stage 2 goes on from its kept state
+(:class:`errpred.predict.Follow`): the same answers, without running stage 2 up to the
+first window that differs (a fallback candidate of the mold core changes blocks near
+its end: most of its 28,000 blocks are before).
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ import numpy as np
 
 from . import constants as K
 from .geometry import GeometryModel, PointGeometry
-from .predict import PointPrediction, Prediction, Predictor, Stage2State
+from .predict import Follow, PointPrediction, Prediction, Predictor, Stage2State
 from .sweeps import _build_grid, _query
 
 __all__ = ["Repredictor", "block_keys"]
@@ -103,35 +104,34 @@ def _block_table(model: GeometryModel, n_blocks: int
 
 class _Store:
     """Stage 1 of a run's blocks, pickled into a temporary file (memory stays flat in
-    program length), read back by block."""
+    program length), read back by block. Each point is pickled on its own: a point
+    pickles to the same bytes however it came (computed here, read back from a worker,
+    taken from the last run), which a block's list does not (objects its points share)."""
 
     def __init__(self) -> None:
         self._file = tempfile.TemporaryFile()
         self._at: dict[int, tuple[int, int]] = {}
 
-    def put(self, block: int, points: list[PointGeometry]) -> None:
-        data = pickle.dumps(points, protocol=pickle.HIGHEST_PROTOCOL)
+    def put(self, block: int, points: list[PointGeometry]) -> tuple[bytes, ...]:
+        """Store the block's stage 1; returns its points' pickles."""
+        parts = tuple(pickle.dumps(g, protocol=pickle.HIGHEST_PROTOCOL) for g in points)
+        data = pickle.dumps(parts, protocol=pickle.HIGHEST_PROTOCOL)
         self._file.seek(0, 2)
         self._at[block] = (self._file.tell(), len(data))
         self._file.write(data)
+        return parts
 
     def __contains__(self, block: int) -> bool:
         return block in self._at
 
     def get(self, block: int) -> list[PointGeometry]:
-        return pickle.loads(self._raw(block))
+        return [pickle.loads(p) for p in self.parts(block)]
 
-    def _raw(self, block: int) -> bytes:
+    def parts(self, block: int) -> tuple[bytes, ...]:
+        """The block's points as pickled."""
         offset, size = self._at[block]
         self._file.seek(offset)
-        return self._file.read(size)
-
-    def copy_from(self, other: "_Store", block: int) -> None:
-        """Block ``block``'s stage 1 as ``other`` holds it (the bytes, not unpickled)."""
-        data = other._raw(block)
-        self._file.seek(0, 2)
-        self._at[block] = (self._file.tell(), len(data))
-        self._file.write(data)
+        return pickle.loads(self._file.read(size))
 
     def close(self) -> None:
         self._file.close()
@@ -189,6 +189,13 @@ def _same(model: GeometryModel) -> tuple:
     return (model.tool, model.stock, model.res, model.sensitivity)
 
 
+def _same_model(last: _Run, model: GeometryModel) -> bool:
+    """Stage 1 of ``model`` may be taken from the last run's where the path is the same."""
+    tool, stock, res, sens = last.same
+    return (model.tool is tool and model.stock is stock and model.res == res
+            and model.sensitivity == sens)
+
+
 def _stage2_same(predictor: Predictor, series_lines) -> tuple:
     """What stage 2 reads besides stage 1 (compared by value: each candidate's predictor
     is built anew from the same scenario): a digest of the models' pickle, the workpiece
@@ -242,72 +249,52 @@ class Repredictor:
         given = self._reusable(model, keys, starts, sweep_block, blocks)
         lines = np.asarray(predictor.program.line)
         stage2 = _stage2_same(predictor, kwargs.get("series_lines", ()))
-        resume = self._resume(given, blocks, keys, lines, stage2)
         store = _Store()
         boxes = np.full((n_blocks, 2, 3), np.nan)
-        states: list[Stage2State] = []
-        if resume is not None:
-            last = self._last
-            for b in blocks[:resume[1].blocks]:
-                if b in last.store:
-                    store.copy_from(last.store, b)
-                boxes[b] = last.boxes[b]
-            states = [st for st in last.states if st.blocks <= resume[1].blocks]
+        last = self._last
+        following = (last is not None and bool(last.states) and last.stage2 == stage2
+                     and _same_model(last, model))
+        same_at: dict[int, bool] = {}          # position in the run -> the last run's
 
         def keep(block: int, points: list[PointGeometry]) -> None:
-            store.put(block, points)
+            parts = store.put(block, points)
             if points and points[0].lookup_box is not None:
                 boxes[block] = points[0].lookup_box
+            if following:
+                pos = len(same_at)
+                same_at[pos] = (pos < len(last.blocks) and last.blocks[pos] == block
+                                and block in last.store and lines[block] == last.lines[block]
+                                and parts == last.store.parts(block))
 
+        follow = None
+        if following:
+            follow = Follow(last.points, {st.blocks: st for st in last.states},
+                            lambda pos, block: same_at.get(pos, False))
+        states: list[Stage2State] = []
         try:
-            out = predictor.run(blocks, given=given, keep=keep, resume=resume,
+            out = predictor.run(blocks, given=given, keep=keep, follow=follow,
                                 states=states.append, **kwargs)
         except BaseException:
             store.close()
             raise
+        # the windows taken from the last run: its own states, handed on (a prefix)
+        prev = {id(st) for st in last.states} if following else set()
+        followed = max((st.blocks for st in states if id(st) in prev), default=0)
         self.close()
         sw = model.sweeps
         self._last = _Run(_same(model), sw.lo, sw.hi, sweep_block, keys, starts, boxes,
                           store, blocks, lines, stage2, out.points, states)
         self.reused = frozenset(given)
-        resumed = 0 if resume is None else resume[1].blocks
         self.stats.append(dict(blocks=len(blocks), reused=len(given),
-                               computed=len(blocks) - len(given), resumed=resumed))
+                               computed=len(blocks) - len(given), followed=followed))
         return out
-
-    def _resume(self, given: "_Given", blocks: list[int], keys: list, lines: np.ndarray,
-                stage2: tuple) -> tuple[list[PointPrediction], Stage2State] | None:
-        """The last run's points and stage 2 state to go on from (see the module
-        docstring), or None: its last kept state before the first block that is not
-        the same as the last run's at the same place, its stage 1 taken unshifted."""
-        last = self._last
-        if last is None or not last.states or last.stage2 != stage2:
-            return None
-        n = min(len(blocks), len(last.blocks))
-        first = 0
-        while first < n:
-            b = blocks[first]
-            if b != last.blocks[first] or b >= len(keys) or b >= len(last.keys):
-                break
-            if keys[b] is None:
-                if last.keys[b] is not None:
-                    break
-            elif given._pairs.get(b) != b or given._shift.get(b) != 0.0:
-                break
-            if lines[b] != last.lines[b]:
-                break
-            first += 1
-        fit = [st for st in last.states if st.blocks <= first]
-        return (last.points, fit[-1]) if fit else None
 
     def _reusable(self, model: GeometryModel, keys: list, starts: np.ndarray,
                   sweep_block: np.ndarray, blocks: list[int]) -> _Given:
         last = self._last
         if last is None:
             return _Given(last, {}, {})
-        tool, stock, res, sens = last.same
-        if not (model.tool is tool and model.stock is stock and model.res == res
-                and model.sensitivity == sens):
+        if not _same_model(last, model):
             return _Given(last, {}, {})
         # align the programs (in order) by their blocks' keys; blocks without cutter
         # locations never pair

@@ -258,8 +258,10 @@ def strip_samples(tool: Tool, phi: np.ndarray, kappa: np.ndarray, z: np.ndarray,
     sk, ck = np.sin(kappa), np.cos(kappa)
     n_tool = np.column_stack([-sk * np.sin(phi), -sk * np.cos(phi), ck])
     theta = (phi + tool.helix_lag(z)) % (2 * math.pi)
-    return dict(samples_theta=theta, samples_kappa=kappa, samples_z=z,
-                samples_normal=n_tool @ frame)
+    # contiguous (a column of the caller's array otherwise): a point pickles to the same
+    # bytes before and after a round trip (errpred.repredict compares them)
+    return dict(samples_theta=theta, samples_kappa=np.ascontiguousarray(kappa),
+                samples_z=np.ascontiguousarray(z), samples_normal=n_tool @ frame)
 
 
 def generation_point(tool: Tool, region: Region, frame: np.ndarray,

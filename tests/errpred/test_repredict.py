@@ -5,14 +5,16 @@ scratch, with the blocks near the change (and only some of the others) computed.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import pickle
 import re
 
 import numpy as np
 import pytest
 
 from errpred.geometry import Resolution
-from errpred.predict import Predictor
+from errpred.predict import Follow, Predictor
 from errpred import constants as K
 from errpred.repredict import Repredictor, block_keys
 from errpred.tool import Tool
@@ -206,30 +208,54 @@ def test_block_keys_change_with_the_block_and_its_neighbours_only(case):
     assert {b - 1, b, b + 1, b + 2} <= differ <= {b - 1, b, b + 1, b + 2, b + 3}, (b, differ)
 
 
-def test_a_change_near_the_end_takes_the_points_before_it_and_goes_on_from_there(long_case):
-    """Stage 2 carries the wear: the blocks before the first changed one keep their points
-    and stage 2 goes on from the last kept state before it; the prediction is that of the
-    whole program."""
+def test_stage1_pickles_to_the_same_bytes_after_a_round_trip(case):
+    """The follow compares stage 1 point by point by its pickle: a point computed here,
+    read back from a worker, and taken from the last run (read back and its block and
+    path length replaced) pickles to the same bytes."""
+    H = pickle.HIGHEST_PROTOCOL
+    pred = _predictor(case, case[2])
+    n = 0
+    for geoms in pred.geometries(range(len(pred.program))):
+        for g in geoms:
+            a = pickle.dumps(g, protocol=H)
+            back = pickle.loads(a)
+            assert pickle.dumps(back, protocol=H) == a
+            moved = dataclasses.replace(back, block=g.block, path_mm=g.path_mm + 0.0)
+            assert pickle.dumps(moved, protocol=H) == a
+            n += g.gen is not None
+    assert n > 40
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_change_near_the_end_takes_the_points_before_it_and_goes_on_from_there(long_case,
+                                                                                  workers):
+    """Stage 2 carries the wear: while the blocks are the last run's (their stage 1 the
+    same bytes), its points are taken window by window and stage 2 goes on from its kept
+    states; the prediction is that of the whole program (stage 1 in this process, or in
+    two workers: read back from them)."""
     case = long_case
     text = case[2]
     edited = _deeper_near_end(text, 10)
     rp = Repredictor()
-    first = rp.run(_predictor(case, text))
-    got = rp.run(_predictor(case, edited))
+    first = rp.run(_predictor(case, text), workers=workers)
+    assert rp.stats[-1]["followed"] == 0
+    got = rp.run(_predictor(case, edited), workers=workers)
     want = _predictor(case, edited).run()
     _same(got, want)
     st = rp.stats[-1]
-    assert st["resumed"] >= K.STAGE2_STATE_BLOCKS and st["resumed"] % K.STAGE2_STATE_BLOCKS == 0
-    assert st["resumed"] < st["blocks"] - st["computed"], st
-    n = sum(p.block < st["resumed"] for p in got.points)
+    assert st["followed"] >= K.STAGE2_STATE_BLOCKS and st["followed"] % K.STAGE2_STATE_BLOCKS == 0
+    # followed past blocks whose stage 1 was computed again (found the same)
+    n = sum(p.block < st["followed"] for p in got.points)
     assert n > 0 and all(p is q for p, q in zip(got.points[:n], first.points[:n]))
-    # and a third program from that one (its states were carried over)
-    _same(rp.run(_predictor(case, text)), first)
-    assert rp.stats[-1]["resumed"] >= st["resumed"]
+    assert any(b not in rp.reused for b in range(st["followed"])), st
+    assert not any(p is q for p, q in zip(got.points[n:], first.points[n:]))
+    # and a third program from that one, the first again
+    _same(rp.run(_predictor(case, text), workers=workers), first)
+    assert rp.stats[-1]["followed"] >= st["followed"]
     rp.close()
 
 
-def test_nothing_is_resumed_with_other_stage2_models(case):
+def test_nothing_is_followed_with_other_stage2_models(case):
     """Other cutting coefficients (stage 1 the same): every block's stage 2 runs again."""
     tool, stock, text, res = case
     rp = Repredictor()
@@ -237,26 +263,36 @@ def test_nothing_is_resumed_with_other_stage2_models(case):
     harder = STEEL.replace(Ktc_N_mm2=1.5 * STEEL.Ktc_N_mm2)
     other = Predictor(tool, stock, parse_program(text), harder, stiff_tool(), resolution=res)
     got = rp.run(other)
-    assert rp.stats[-1]["resumed"] == 0 and rp.stats[-1]["computed"] == 0
+    assert rp.stats[-1]["followed"] == 0 and rp.stats[-1]["computed"] == 0
     _same(got, Predictor(tool, stock, parse_program(text), harder, stiff_tool(),
                          resolution=res).run())
     rp.close()
 
 
-def test_run_resumed_from_a_kept_state_is_the_run_from_the_start(case):
-    """Predictor.run(resume=...): bit for bit the same points, wear and largest-error
-    series as the run from the start."""
+@pytest.mark.parametrize("differ_at", [None, 0, 70, 130, 150])
+def test_a_followed_run_is_the_run_from_the_start(case, differ_at):
+    """Predictor.run(follow=...): bit for bit the same points, wear and largest-error
+    series as the run from the start, whether it follows to the end, from the start
+    on never, or up to a block in a window (that window's stage 2 runs from its start)."""
     text = case[2]
     states = []
     whole = _predictor(case, text).run(states=states.append)
-    assert [s.blocks for s in states] == list(range(K.STAGE2_STATE_BLOCKS, len(
-        _predictor(case, text).program) + 1, K.STAGE2_STATE_BLOCKS))
-    st = states[1]
-    got = _predictor(case, text).run(resume=(whole.points, st))
+    n = len(_predictor(case, text).program)
+    assert [s.blocks for s in states] == list(range(K.STAGE2_STATE_BLOCKS, n + 1,
+                                                    K.STAGE2_STATE_BLOCKS))
+    stop = n if differ_at is None else differ_at
+    follow = Follow(whole.points, {s.blocks: s for s in states}, lambda pos, b: pos < stop)
+    got_states = []
+    got = _predictor(case, text).run(follow=follow, states=got_states.append)
     assert len(got.points) == len(whole.points)
+    taken = (stop // K.STAGE2_STATE_BLOCKS) * K.STAGE2_STATE_BLOCKS
     for p, q in zip(got.points, whole.points, strict=True):
+        assert (p is q) == (p.block < taken)
         assert p.status == q.status and (p.E_um == q.E_um or (math.isnan(p.E_um)
                                                               and math.isnan(q.E_um)))
     np.testing.assert_array_equal(got.wear_mm, whole.wear_mm)
     assert got.series.keys() == whole.series.keys()
     assert got.series[-1][-1] == whole.series[-1][-1]
+    assert [s.blocks for s in got_states] == [s.blocks for s in states]
+    for a, b in zip(got_states, states, strict=True):
+        np.testing.assert_array_equal(a.wear_mm, b.wear_mm)
