@@ -50,7 +50,7 @@ import difflib
 import hashlib
 import pickle
 import tempfile
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -115,10 +115,7 @@ class _Store:
     def put(self, block: int, points: list[PointGeometry]) -> tuple[bytes, ...]:
         """Store the block's stage 1; returns its points' pickles."""
         parts = tuple(pickle.dumps(g, protocol=pickle.HIGHEST_PROTOCOL) for g in points)
-        data = pickle.dumps(parts, protocol=pickle.HIGHEST_PROTOCOL)
-        self._file.seek(0, 2)
-        self._at[block] = (self._file.tell(), len(data))
-        self._file.write(data)
+        self.put_parts(block, parts)
         return parts
 
     def __contains__(self, block: int) -> bool:
@@ -126,6 +123,13 @@ class _Store:
 
     def get(self, block: int) -> list[PointGeometry]:
         return [pickle.loads(p) for p in self.parts(block)]
+
+    def put_parts(self, block: int, parts: tuple[bytes, ...]) -> None:
+        """Store a block's points as pickled already (:meth:`parts` of another store)."""
+        data = pickle.dumps(parts, protocol=pickle.HIGHEST_PROTOCOL)
+        self._file.seek(0, 2)
+        self._at[block] = (self._file.tell(), len(data))
+        self._file.write(data)
 
     def parts(self, block: int) -> tuple[bytes, ...]:
         """The block's points as pickled."""
@@ -157,6 +161,28 @@ class _Run:
     states: list[Stage2State]    # stage 2's state every STAGE2_STATE_BLOCKS blocks
 
 
+class _Taken(Sequence):
+    """A block's stage 1 taken from the last run as it was (the same block, its path
+    lengths not shifted), read from the last run's store when first looked at: while a
+    re-prediction follows the last run, its points are neither read back nor pickled
+    again (the new store copies their bytes)."""
+
+    def __init__(self, store: _Store, block: int) -> None:
+        self.store, self.block = store, block
+        self._points: list[PointGeometry] | None = None
+
+    def _get(self) -> list[PointGeometry]:
+        if self._points is None:
+            self._points = self.store.get(self.block)
+        return self._points
+
+    def __getitem__(self, i):
+        return self._get()[i]
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+
 class _Given(Mapping):
     """The reused blocks' stage 1, read from the last run's store as asked for, with the
     new program's block index and path lengths."""
@@ -164,9 +190,11 @@ class _Given(Mapping):
     def __init__(self, last: _Run, pairs: dict[int, int], shift: dict[int, float]) -> None:
         self._last, self._pairs, self._shift = last, pairs, shift
 
-    def __getitem__(self, block: int) -> list[PointGeometry]:
+    def __getitem__(self, block: int) -> Sequence[PointGeometry]:
         a = self._pairs[block]
         dL = self._shift[block]
+        if a == block and dL == 0.0:
+            return _Taken(self._last.store, a)
         return [dataclasses.replace(g, block=block, path_mm=g.path_mm + dL)
                 for g in self._last.store.get(a)]
 
@@ -256,15 +284,21 @@ class Repredictor:
                      and _same_model(last, model))
         same_at: dict[int, bool] = {}          # position in the run -> the last run's
 
-        def keep(block: int, points: list[PointGeometry]) -> None:
-            parts = store.put(block, points)
-            if points and points[0].lookup_box is not None:
-                boxes[block] = points[0].lookup_box
+        def keep(block: int, points: Sequence[PointGeometry]) -> None:
+            if isinstance(points, _Taken):          # the last run's, as it was
+                parts = points.store.parts(points.block)
+                store.put_parts(block, parts)
+                boxes[block] = last.boxes[points.block]
+            else:
+                parts = store.put(block, points)
+                if points and points[0].lookup_box is not None:
+                    boxes[block] = points[0].lookup_box
             if following:
                 pos = len(same_at)
                 same_at[pos] = (pos < len(last.blocks) and last.blocks[pos] == block
                                 and block in last.store and lines[block] == last.lines[block]
-                                and parts == last.store.parts(block))
+                                and ((isinstance(points, _Taken) and points.block == block)
+                                     or parts == last.store.parts(block)))
 
         follow = None
         if following:

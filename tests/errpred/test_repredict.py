@@ -166,12 +166,23 @@ def test_blocks_the_old_programs_moves_reached_are_computed_again(case):
     rp.close()
 
 
-def test_the_same_program_again_is_all_reused_and_the_same(case):
+def test_the_same_program_again_is_all_reused_and_the_same(case, monkeypatch):
+    """... and followed: its points are taken from the last run, none read back (the
+    store copies their bytes) but the last window's, which has no kept state."""
+    import errpred.repredict as R
+
     text = case[2]
     rp = Repredictor()
     a = rp.run(_predictor(case, text))
+    read: list[int] = []
+    get = R._Store.get
+    monkeypatch.setattr(R._Store, "get", lambda self, block: read.append(block) or get(self, block))
     b = rp.run(_predictor(case, text))
-    assert rp.stats[-1]["computed"] == 0
+    st = rp.stats[-1]
+    assert st["computed"] == 0
+    n = len(_predictor(case, text).program)
+    assert st["followed"] == (n // K.STAGE2_STATE_BLOCKS) * K.STAGE2_STATE_BLOCKS
+    assert read and min(read) >= st["followed"]
     _same(b, a)
     rp.close()
 
