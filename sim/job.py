@@ -27,7 +27,6 @@ same as in one process (the physics is deterministic).
 
 from __future__ import annotations
 
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -272,11 +271,12 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     # first task (the speed's sample of gains, which compiles the gain kernel). As three
     # tasks, both workers took a part before the planner had submitted anything, and the
     # sample waited behind them (on a fresh cache: 52 s of compiling, then its own 57 s).
-    # The simulation's kernels are compiled by the planned program's own run, submitted
-    # after the plan (below; a warm-up of its own took 35 s of running with the kernels
-    # cached, which the prediction waited for)
+    # The simulation's part is submitted after the plan and waited for before the
+    # verification only: with the kernels cached it still took 35 s of running (its
+    # finite elements, lobes and a few cutter locations), which the prediction waited for
     warm = [] if client is None else [client.submit(
         _warm_kernels, scn, ("margins", "predict"), pure=False, priority=-1)]
+    warm_sim: list = []
 
     def lap(name: str) -> None:
         nonlocal t0
@@ -297,23 +297,6 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     lap("plan")
     opts = PostOptions(dialect=scn.options.dialect, spindle_rpm=res.spindle_rpm,
                        source=f"firstcut job on {scn.name}: planned lead/tilt, error corrected")
-    planned_post = post(res.cl, machine, opts)
-    # the planned program's run in the simulated machine does not depend on the
-    # correction: on the workers it starts now, behind the prediction's chunks (priority),
-    # from a temporary copy (nothing is written to the output folder before the
-    # correction is verified); it takes up the workers' idle time between the
-    # predictions, and at the end the corrected program's run is left (the mold core:
-    # the verification 81 s after the correction, the three runs together)
-    early = tmp = wp_f = None
-    if client is not None:
-        tmp = tempfile.TemporaryDirectory(prefix="firstcut-job-")
-        early_path = Path(tmp.name) / f"{scn.name}-planned.nc"
-        early_path.write_text(planned_post.text)
-        # a key of its own (the planner scattered the same model, and that future's
-        # release may reach the scheduler after this scatter: 'lost dependencies')
-        wp_f = client.scatter(wp, broadcast=True, hash=False)
-        early = client.submit(verify_program, scenario_with_program(scn, early_path),
-                              points=None, workpiece=wp_f, pure=False, priority=-1)
 
     # 3: predict and correct, iterated
     stock = base.stock.load()
@@ -346,6 +329,8 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     if warm:        # the prediction's kernels: compiled (and cached) before it starts
         from distributed import wait
 
+        warm_sim.append(client.submit(_warm_kernels, scn, ("simulate",), pure=False,
+                                      priority=-1))
         wait(warm)
         del warm
     # at most JOB_CORRECTION_PASSES, fewer where the scenario's [correction] says so (a
@@ -360,17 +345,13 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
                                tolerance_um=base.correction.verify_tolerance_um,
                                spacing_mm=dense.point_spacing_mm,
                                reach_mm=FALLBACK_REACH_RADII * base.tool.radius_mm)
-    except BaseException:
-        if early is not None:               # the planned program's run is not wanted
-            early.cancel()
-            tmp.cleanup()
-        raise
     finally:
         repro.close()
     lap("predict_and_correct")
 
     # 4: write both programs and read the final one back
     say("write", 0, 1)
+    planned_post = post(res.cl, machine, opts)
     final_post = post(comp.cl, machine, opts)
     planned_path = work / f"{scn.name}-planned.nc"
     final_path = work / f"{scn.name}.nc"
@@ -402,15 +383,20 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
 
     verified = []
     if client is not None:
-        futures = [early] + [client.submit(verify_program, s, points=p, workpiece=wp_f,
-                                           pure=False) for s, p in runs[1:]]
+        if warm_sim:    # the simulation's kernels: compiled (and cached) before it starts
+            from distributed import wait
+
+            wait(warm_sim)
+            warm_sim.clear()
+        wp_f = client.scatter(wp, broadcast=True)
+        futures = [client.submit(verify_program, s, points=p, workpiece=wp_f, pure=False)
+                   for s, p in runs]
         t_lobes = time.perf_counter()
         lobes = lobes_stage()                       # while the workers verify
         seconds["lobes"] = round(time.perf_counter() - t_lobes, 2)
         for k, f in enumerate(futures):
             verified.append(f.result())
             say("verify", k + 1, len(runs))
-        tmp.cleanup()
         lap("verify")
     else:
         for k, (s, p) in enumerate(runs):
