@@ -187,12 +187,17 @@ class _Given(Mapping):
     """The reused blocks' stage 1, read from the last run's store as asked for, with the
     new program's block index and path lengths."""
 
-    def __init__(self, last: _Run, pairs: dict[int, int], shift: dict[int, float]) -> None:
-        self._last, self._pairs, self._shift = last, pairs, shift
+    def __init__(self, last: _Run, pairs: dict[int, int], shift: dict[int, float],
+                 strip: bool = False) -> None:
+        self._last, self._pairs, self._shift, self._strip = last, pairs, shift, strip
 
     def __getitem__(self, block: int) -> Sequence[PointGeometry]:
         a = self._pairs[block]
         dL = self._shift[block]
+        if self._strip:             # the last run had the sensitivity pass, this one not
+            return [dataclasses.replace(g, block=block, path_mm=g.path_mm + dL,
+                                        sensitivity=None)
+                    for g in self._last.store.get(a)]
         if a == block and dL == 0.0:
             return _Taken(self._last.store, a)
         return [dataclasses.replace(g, block=block, path_mm=g.path_mm + dL)
@@ -218,10 +223,15 @@ def _same(model: GeometryModel) -> tuple:
 
 
 def _same_model(last: _Run, model: GeometryModel) -> bool:
-    """Stage 1 of ``model`` may be taken from the last run's where the path is the same."""
+    """Stage 1 of ``model`` may be taken from the last run's where the path is the same:
+    the same tool, stock and resolution, and the sensitivity pass as there or, without
+    it, from a run with it (the point without its sensitivity is the one computed
+    without: the pass runs after the point's own engagement and changes nothing of it,
+    tested)."""
     tool, stock, res, sens = last.same
     return (model.tool is tool and model.stock is stock and model.res == res
-            and model.sensitivity == sens)
+            and (model.sensitivity == sens or sens))
+
 
 
 def _stage2_same(predictor: Predictor, series_lines) -> tuple:
@@ -362,4 +372,4 @@ class Repredictor:
                     continue
             pairs[b] = a
             shift[b] = float(starts[b] - last.starts[a])
-        return _Given(last, pairs, shift)
+        return _Given(last, pairs, shift, strip=last.same[3] and not model.sensitivity)

@@ -310,8 +310,13 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     def predict(cl: CutterLocations) -> Prediction:
         text = post(cl, machine, opts).text
         prog = parse_program(text, file=f"<{scn.name}: correction pass {state['pass']}>")
+        # the error's sensitivity to a move (a second engagement a point) only where a
+        # fit reads it: the plan's prediction and the candidates of a pass another may
+        # follow (the last pass's are compared, not fitted; its fallbacks refit the
+        # field of the candidate before: the plan's, or an accepted one's)
+        k = state["pass"]
         pred = build_predictor(base, prog, dense, stock, workpiece=wp.modes_at,
-                               machine=machine)
+                               machine=machine, sensitivity=k == 0 or k < passes)
         blocks = list(range(len(prog)))
         stage = f"predict {state['pass']}"
         out = repro.run(pred, blocks, client=client,

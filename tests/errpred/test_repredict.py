@@ -307,3 +307,27 @@ def test_a_followed_run_is_the_run_from_the_start(case, differ_at):
     assert [s.blocks for s in got_states] == [s.blocks for s in states]
     for a, b in zip(got_states, states, strict=True):
         np.testing.assert_array_equal(a.wear_mm, b.wear_mm)
+
+
+def test_a_run_without_the_sensitivity_pass_takes_stage_1_from_one_with_it(case):
+    """A candidate no fit will read is predicted without the sensitivity pass: it takes
+    stage 1 from a run with the pass (the points without it are those computed without
+    it) and predicts as a whole prediction without it would (gain 0); the other way
+    round nothing is taken (the pass is missing there)."""
+    tool, stock, text, res = case
+
+    def pred(sens):
+        return Predictor(tool, stock, parse_program(text), STEEL, stiff_tool(),
+                         resolution=res, sensitivity=sens)
+
+    rp = Repredictor()
+    rp.run(pred(True))
+    got = rp.run(pred(False))
+    assert rp.stats[-1]["computed"] == 0
+    want = pred(False).run()
+    _same(got, want)
+    assert all(p.result.gain == 0.0 for p in got.points if p.result is not None)
+    assert all(p.geometry.sensitivity is None for p in got.points)
+    rp.run(pred(True))
+    assert rp.stats[-1]["reused"] == 0
+    rp.close()
