@@ -194,13 +194,11 @@ class _Given(Mapping):
     def __getitem__(self, block: int) -> Sequence[PointGeometry]:
         a = self._pairs[block]
         dL = self._shift[block]
-        if self._strip:             # the last run had the sensitivity pass, this one not
-            return [dataclasses.replace(g, block=block, path_mm=g.path_mm + dL,
-                                        sensitivity=None)
-                    for g in self._last.store.get(a)]
-        if a == block and dL == 0.0:
+        if a == block and dL == 0.0 and not self._strip:
             return _Taken(self._last.store, a)
-        return [dataclasses.replace(g, block=block, path_mm=g.path_mm + dL)
+        # the last run had the sensitivity pass and this one not: its points without it
+        extra = {"sensitivity": None} if self._strip else {}
+        return [dataclasses.replace(g, block=block, path_mm=g.path_mm + dL, **extra)
                 for g in self._last.store.get(a)]
 
     def __contains__(self, block: object) -> bool:
@@ -231,7 +229,6 @@ def _same_model(last: _Run, model: GeometryModel) -> bool:
     tool, stock, res, sens = last.same
     return (model.tool is tool and model.stock is stock and model.res == res
             and (model.sensitivity == sens or sens))
-
 
 
 def _stage2_same(predictor: Predictor, series_lines) -> tuple:
@@ -290,8 +287,9 @@ class Repredictor:
         store = _Store()
         boxes = np.full((n_blocks, 2, 3), np.nan)
         last = self._last
+        # followed only with the same sensitivity pass (without it the points' gain differs)
         following = (last is not None and bool(last.states) and last.stage2 == stage2
-                     and _same_model(last, model))
+                     and _same_model(last, model) and last.same[3] == model.sensitivity)
         same_at: dict[int, bool] = {}          # position in the run -> the last run's
 
         def keep(block: int, points: Sequence[PointGeometry]) -> None:
@@ -305,7 +303,9 @@ class Repredictor:
                     boxes[block] = points[0].lookup_box
             if following:
                 pos = len(same_at)
-                same_at[pos] = (pos < len(last.blocks) and last.blocks[pos] == block
+                # once a block differs the run no longer follows: no more reading back
+                same_at[pos] = ((pos == 0 or same_at[pos - 1])
+                                and pos < len(last.blocks) and last.blocks[pos] == block
                                 and block in last.store and lines[block] == last.lines[block]
                                 and ((isinstance(points, _Taken) and points.block == block)
                                      or parts == last.store.parts(block)))
