@@ -20,7 +20,18 @@ from ._kernels import (_in_box, _reach_bound, _sphere, sweep_distance, sweep_low
 from .constants import (CLUSTER_COARSE, CLUSTER_RECENT, CLUSTER_SUPER, HOT_SEED_POINTS,
                         HOT_SEED_SWEEPS)
 
-__all__ = ["inside_any_sweep_clustered", "sweep_margin_clustered"]
+__all__ = ["inside_any_sweep_clustered", "read_only", "sweep_margin_clustered"]
+
+
+def read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The sweep arrays (``p0, d, w, lo, hi``) flagged read-only, as T1 and T2 come from
+    :meth:`errpred.geometry.GeometryModel` (its kept last answer must not change).
+    Numba compiles a kernel once per argument type and a read-only array is another
+    type: a subset of T1 or T2 made writeable cost a second specialization of
+    :func:`inside_any_sweep_clustered`, 14 s of compiling on a fresh cache."""
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
 
 
 @njit(cache=True)

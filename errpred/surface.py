@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._cluster_kernels import inside_any_sweep_clustered
+from ._cluster_kernels import inside_any_sweep_clustered, read_only
 from ._side_kernels import side_stock_hits
 from .constants import CLUSTER_CELL_MM, MEMBERSHIP_EPS_MM, SIDE_T2_FIRST_SWEEPS
 from .tool import Tool
@@ -163,7 +163,7 @@ def _nearest_sweeps(sweeps, point: np.ndarray, k: int):
     if p0.shape[0] <= k:
         return sweeps
     pick = np.sort(np.argpartition(((p0 - point) ** 2).sum(axis=1), k - 1)[:k])
-    return tuple(np.ascontiguousarray(a[pick]) for a in sweeps)
+    return read_only(*(np.ascontiguousarray(a[pick]) for a in sweeps))
 
 
 def side_regions(tool: Tool, view, frame: np.ndarray, tip: np.ndarray, probe, t1, t2,

@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from . import constants as K
-from ._cluster_kernels import inside_any_sweep_clustered
+from ._cluster_kernels import inside_any_sweep_clustered, read_only
 from .tool import Tool
 from .zmap import SweepMap
 
@@ -65,7 +65,7 @@ class RemovedMemo:
             if self._rest is None:
                 # the parts of T1 the map does not hold yet (the current move)
                 late = np.flatnonzero(self._t1_ids >= zmap.time)
-                self._rest = tuple(np.ascontiguousarray(a[late]) for a in self._t1)
+                self._rest = read_only(*(np.ascontiguousarray(a[late]) for a in self._t1))
             if self._rest[0].shape[0]:
                 out |= inside_any_sweep_clustered(world, below, *self._rest, *self._tail)
         return out

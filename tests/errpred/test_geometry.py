@@ -305,3 +305,53 @@ def test_precheck_samples_are_the_inset_grid_samples_and_cached():
         assert eng.precheck_samples(ok.copy(), inset) is got
     rows = len(range(0, n, K.PRECHECK_ROTATION_STRIDE))
     assert eng.precheck_samples(~ok, K.PRECHECK_INSET_MM).shape == (rows * (~ok).sum(), 3)
+
+
+def test_sweep_kernels_are_given_read_only_sweeps(monkeypatch):
+    """Every call of the clustered sweep kernels gets T1 and T2 (or a subset of them)
+    read-only: numba compiles a kernel once per argument type, and a writeable subset
+    compiled a second copy of the largest kernel (14 s on a fresh cache). Covers a
+    3-axis raster (its height map's remaining sweeps), a tilted ball and a flat end
+    mill's side view (the nearest sweeps of T2 asked first)."""
+    import inspect
+
+    from errpred import bottomview, engagement, geometry, surface, t1memo
+
+    seen: list[tuple[str, int, tuple[bool, ...]]] = []
+
+    def recorder(name, real):
+        def call(*args):
+            caller = inspect.stack()[1]
+            seen.append((caller.filename.rsplit("/", 1)[-1], caller.lineno,
+                         tuple(a.flags.writeable for a in args[2:7])))
+            return real(*args)
+        return call
+
+    for mod in (bottomview, engagement, geometry, surface, t1memo):
+        for name in ("inside_any_sweep_clustered", "sweep_margin_clustered"):
+            if hasattr(mod, name):
+                monkeypatch.setattr(mod, name, recorder(name, getattr(mod, name)))
+    prog = parse_program(plane_raster(30.0, R, passes=4))
+    pred = Predictor(Tool("ball", D, flute_length_mm=15), plane_stock(30.0, 0.2), prog,
+                     STEEL, stiff_tool())
+    pred.model.use_sweep_map = True
+    pred.run([b for b in range(len(prog)) if 45 <= prog.line[b] <= 52])
+    u = np.array([math.sin(math.radians(45.0)), 0.0, math.cos(math.radians(45.0))])
+    prog = parse_program(plane_raster(20.0, R, passes=4, axis=u))
+    Predictor(Tool("ball", D, flute_length_mm=15), plane_stock(20.0, 0.2), prog, STEEL,
+              stiff_tool()).run([b for b in range(len(prog)) if 45 <= prog.line[b] <= 52])
+    # a wall with the path ahead in short moves: T2 has more sweeps than are asked first
+    tool = Tool("flat", D, flutes=3, helix_deg=0.0, flute_length_mm=6.0)
+    ahead = "".join(f"G1 X{x}\n" for x in range(3, 31, 3))
+    prog = parse_program(f"G21 G90 G94\nS6000 M3\nG0 X-30 Y0 Z0\nG1 X-2 F600\nG1 X2\n"
+                         f"{ahead}M30\n")
+    model = GeometryModel(tool, Stock.from_box([-20.0, R - 1.0, 0.001], [20.0, 30.0, 2.0]),
+                          cutter_locations(prog), Resolution(pixel_mm=D / 64))
+    (g,) = model.geometry(2)
+    assert g.view == "side"
+    sites = {(f, line) for f, line, _ in seen}
+    assert {f for f, _ in sites} >= {"t1memo.py", "bottomview.py", "surface.py"}, sites
+    # the memo's three calls: without the map, with it, and the sweeps it lacks
+    assert len({line for f, line in sites if f == "t1memo.py"}) == 3, sites
+    writeable = {(f, line) for f, line, flags in seen if any(flags)}
+    assert not writeable, writeable
