@@ -96,6 +96,7 @@ class Cutter:
         self._forced_cache: OrderedDict = OrderedDict()
         self._forced_parts: dict = {}            # forced_response's unchanging parts
         self._idle: tuple | None = None          # (system, dt_s, model) of the last idle
+        self._engaged_kept: list = []            # the last two cuts' models and places
 
     def switch(self, new: Cut | CuttingModel | None,
                carry: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
@@ -140,8 +141,15 @@ class Cutter:
         ``position * n_edges + edge`` of ``surface``'s first two axes, ascending (the
         order of :func:`sim.forced.engaged_cells`' mask's ``nonzero``; from the tables'
         few thousand entries instead of a mask of every place)."""
-        cells = [m.table[1] * self.n_edges + m.table[2] for m, _w in cut.parts()]
-        return np.unique(np.concatenate(cells)) if cells else np.zeros(0, np.int64)
+        models = tuple(m for m, _w in cut.parts())
+        for kept, cells in self._engaged_kept:      # a switch's old cut: the one before's new
+            if len(kept) == len(models) and all(a is b for a, b in zip(kept, models)):
+                return cells
+        parts = [m.table[1] * self.n_edges + m.table[2] for m in models]
+        cells = np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+        cells.flags.writeable = False
+        self._engaged_kept = [(models, cells)] + self._engaged_kept[:1]
+        return cells
 
     def _forced(self, cut: Cut) -> np.ndarray:
         """The forced response of ``cut``: the weighted sum of its models' (the same

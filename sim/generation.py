@@ -83,10 +83,12 @@ def generating_weights(table: tuple, steps_per_rev: int, flutes: int, normal: np
     xf, xb = np.meshgrid(s * cut.fz_mm / corner_radius_mm, s * cut.pick_mm / corner_radius_mm)
     target = -n + xf.reshape(-1, 1) * f + xb.reshape(-1, 1) * b
     target /= np.linalg.norm(target, axis=1, keepdims=True)
-    dots = unit @ target.T                                   # (entries, points)
-    best = np.argmax(dots, axis=0)
+    # (points, entries): each point's argmax runs along a row (along a column of the
+    # (entries, points) product it took 0.29 ms a call, a twentieth of the simulation)
+    dots = target @ unit.T
+    best = np.argmax(dots, axis=1)
     reach = math.cos(STRIP_REACH * max(2.0 * math.pi / steps_per_rev, edge_step_rad))
-    ok = dots[best, np.arange(best.size)] >= reach
+    ok = dots[np.arange(best.size), best] >= reach
     if not ok.any():
         w[squarest] = 1.0
         return w

@@ -497,7 +497,10 @@ def test_the_step_map_is_the_exact_discretization(zeta):
 def test_cutter_switch_takes_the_places_the_cuts_engage():
     """Cutter.switch's places of the surface memory (flat indices from the tables) are
     those of :func:`sim.forced.engaged_cells`' masks, and the surface it leaves is the
-    one the masks give (bit for bit), for a change of cut and a blend."""
+    one the masks give (bit for bit), for a change of cut and a blend. The places of
+    the last cuts are kept (a switch asks for its old cut's, the one before's new):
+    asked again in another order, and for a blend whose other part has no share, they
+    are still the masks'."""
     from sim.cutter import Cut, Cutter
     from sim.forced import engaged_cells, forced_response, mid_step_displacement
 
@@ -505,7 +508,8 @@ def test_cutter_switch_takes_the_places_the_cuts_engage():
     b, _ = _ball_cut(30.0, 13.0, a.steps_per_rev)
     spr, m = a.steps_per_rev, a.n_edges
     c = Cutter(spr, m)
-    for cut in (Cut(a), Cut(b, a, 0.4), Cut(b)):
+    for cut in (Cut(a), Cut(b, a, 0.4), Cut(b), Cut(b, a, 0.4), Cut(a), Cut(b, a, 1.0),
+                Cut(b, a, 0.0), Cut(a, b, 0.7)):
         mask = np.zeros((spr, m), bool)
         for mod, _w in cut.parts():
             mask |= engaged_cells(mod, m)
