@@ -24,10 +24,11 @@ __all__ = ["inside_any_sweep_clustered", "read_only", "sweep_margin_clustered"]
 
 
 def read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The sweep arrays (``p0, d, w, lo, hi``) flagged read-only, as T1 and T2 come from
-    :meth:`errpred.geometry.GeometryModel` (its kept last answer must not change).
-    Numba compiles a kernel once per argument type and a read-only array is another
-    type: a subset of T1 or T2 made writeable cost a second specialization of
+    """The sweep arrays (``p0, d, w, lo, hi``, and T1's sweep ids) flagged read-only:
+    T1 and T2 as :meth:`errpred.geometry.GeometryModel` keeps its last answer (which
+    must not change), and every subset of them handed to the kernels. Numba compiles
+    a kernel once per argument type and a read-only array is another type: a subset of
+    T1 or T2 made writeable cost a second specialization of
     :func:`inside_any_sweep_clustered`, 14 s of compiling on a fresh cache."""
     for a in arrays:
         a.flags.writeable = False

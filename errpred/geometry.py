@@ -22,7 +22,7 @@ import numpy as np
 from nc.path import CutterLocations
 
 from . import constants as K
-from ._cluster_kernels import inside_any_sweep_clustered
+from ._cluster_kernels import inside_any_sweep_clustered, read_only
 from .bottomview import BottomTemplate, StockView, stock_view
 from .engagement import revolution_angles
 from .frames import tool_frame
@@ -625,8 +625,7 @@ class GeometryModel:
             out, box = last[1]
         else:
             out, box = self._near_sweeps_new(tip, u, L, fz, z_top)
-            for part in (*out[0], *out[1], out[2]):
-                part.flags.writeable = False
+            read_only(*out[0], *out[1], out[2])
             self._last_near = (key, (out, box))
         # the block's look-ups so far, in one box (PointGeometry.lookup_box)
         have = self._lookup_box
