@@ -67,7 +67,8 @@ def _print_summary(rep: dict, elapsed: float, blocks: int) -> None:
                   f"({', '.join(f'{v:.3f}' for v in at['point_mm'])} mm)")
         t.add_row("mean error", f"{s['mean_error_um']:+.2f} um (mean |E| "
                   f"{s['mean_abs_error_um']:.2f} um; + = material left)")
-        t.add_row("range", f"{s['max_overcut_um']:+.2f} .. {s['max_undercut_um']:+.2f} um")
+        lo, hi = s["error_range_um"]
+        t.add_row("range", f"{lo:+.2f} .. {hi:+.2f} um")
     if "against_design" in s:
         t.add_row("against design", f"largest |deviation| {s['against_design']['max_abs_um']:.2f}"
                   " um")

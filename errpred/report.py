@@ -247,8 +247,11 @@ def summary(prediction: Prediction, tool_change_um: float | None = None) -> dict
                              "point_mm": _vec(worst.geometry.tip, 4)},
             "mean_error_um": _r(float(E.mean())),
             "mean_abs_error_um": _r(float(np.abs(E).mean())),
-            "max_undercut_um": _r(float(E.max())),
-            "max_overcut_um": _r(float(E.min())),
+            "error_range_um": [_r(float(E.min())), _r(float(E.max()))],
+            # E > 0 leaves material (undercut), E < 0 cuts into the part (overcut):
+            # each the largest of its kind, 0 where there is none.
+            "max_undercut_um": _r(max(float(E.max()), 0.0)),
+            "max_overcut_um": _r(max(-float(E.min()), 0.0)),
         })
     start = prediction.initial_wear_mm
     out["wear"] = {"max_cutting_distance_mm": _r(float(prediction.wear_mm.max(initial=0.0)), 3),

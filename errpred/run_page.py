@@ -276,8 +276,8 @@ def predict_page(scenario: Scenario, prediction: Prediction, rep: dict[str, Any]
     elif "max_abs_error_um" in s:
         at = s["max_error_at"]
         verdict = (f"Largest predicted |error| {s['max_abs_error_um']:.2f} um at line "
-                   f"{at['line']}; range {s['max_overcut_um']:+.2f} .. "
-                   f"{s['max_undercut_um']:+.2f} um (+ material left).")
+                   f"{at['line']}; range {s['error_range_um'][0]:+.2f} .. "
+                   f"{s['error_range_um'][1]:+.2f} um (+ material left).")
         good = True
     else:
         verdict, good = "No point was predicted (nothing of the program cuts).", True

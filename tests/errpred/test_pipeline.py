@@ -160,6 +160,11 @@ def test_tool_change_suggestion_is_the_first_block_whose_wear_part_is_over_toler
     assert no["line"] is None and no["remaining_cutting_distance_mm"] > 0
     s = summary(pred, tol)
     assert s["max_abs_error_um"] == pytest.approx(np.abs(E).max(), abs=1e-3)
+    # material is left everywhere (E > 0): no overcut, and the range stays signed
+    assert E.min() > 0
+    assert s["max_overcut_um"] == 0.0
+    assert s["max_undercut_um"] == pytest.approx(E.max(), abs=1e-3)
+    assert s["error_range_um"] == pytest.approx([E.min(), E.max()], abs=1e-3)
     assert s["tool_change"]["max_wear_error_um"] == pytest.approx(W.max(), abs=1e-3)
     assert s["wear"]["start_max_cutting_distance_mm"] == 40e3
 
