@@ -170,6 +170,15 @@ PRECHECK_INSET_MM = 1.0e-3
 #: A rapid move counts as "into material" only where the tool shrunk by this much
 #: still meets the stock [mm]: positioning onto the stock's surface is no crash.
 RAPID_TOUCH_MM = 0.01
+#: Above the flutes (errpred.geometry.PointGeometry.above_flutes): the shank is
+#: tested at this many angles on a ring a pixel above the flutes' end [-] (10 degrees
+#: apart: a D10 shank's ring samples 0.87 mm apart, finer than any step-over that
+#: leaves a wall the shank could rub) ...
+ABOVE_FLUTES_SAMPLES = 36
+#: ... the ring's radius smaller than the shank's (or the tool's, if smaller) by
+#: this much [mm]: a shank running along a wall an earlier pass's flutes cut is
+#: no contact whatever the rounding (as RAPID_TOUCH_MM for a rapid).
+ABOVE_FLUTES_INSET_MM = 0.01
 #: The pre-check's sample sets kept (one per set of micro edges under the stock's
 #: top and inset, each ~10k x 3 floats at the default resolution) before the cache
 #: is emptied [-]: a block's stations mostly share one set.

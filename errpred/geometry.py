@@ -141,6 +141,11 @@ class PointGeometry:
         A box holding every box in which the block's stage 1 looked up sweeps (the
         same for each point of the block; None: it looked up none). Sweeps whose
         bounds miss it cannot change the block's stage 1 (:mod:`errpred.repredict`).
+    above_flutes : bool
+        The shank meets material: the moves before (to one feed per tooth behind the
+        point) left material inside the shank, a pixel above the flutes' end (an
+        error in the program, :func:`errpred.findings.error_findings`). Tested only
+        where the stock under the tool reaches that high.
     """
 
     block: int
@@ -164,6 +169,7 @@ class PointGeometry:
     finished_pixels: int = 0
     notes: tuple[str, ...] = field(default_factory=tuple)
     lookup_box: np.ndarray | None = None
+    above_flutes: bool = False
 
     def __getstate__(self) -> dict:
         # the per-revolution arrays are almost all zero: shipped packed, exactly
@@ -505,6 +511,7 @@ class GeometryModel:
         if z_top < -tool.radius_mm:
             return PointGeometry(status="no-cut", **base)
         t1, t2, t1_ids = self._near_sweeps(tip, u, L, fz, z_top)
+        base["above_flutes"] = self._above_flutes(tip, frame, interval, t1, z_top)
         # engagement of flute 0 over one revolution
         removed = _RemovedMemo(self.tool, t1, self._sweep_map(), L - fz, t1_ids)
         eng = self.engager.engagement(tip, frame, interval, removed, f_tooth, z_top)
@@ -548,6 +555,38 @@ class GeometryModel:
                              cutting_pixels=fin.cutting_pixels, finished_pixels=gen.pixels,
                              notes=tuple(notes), **base)
 
+    def _above_flutes(self, tip, frame, interval, t1, z_top: float) -> bool:
+        """Does material the moves before left lie inside the shank, just above the
+        flutes' end (:attr:`PointGeometry.above_flutes`)?
+
+        A ring of ``ABOVE_FLUTES_SAMPLES`` points of the shank's radius (the tool's
+        where smaller) less ``ABOVE_FLUTES_INSET_MM``, a pixel above the sweeps' tool
+        solid at that radius (the flutes and the corner radius's cap on them): any of
+        them in the stock and outside T1 (the flutes of the moves before: an earlier
+        pass higher up removes what lies above this one's flutes). Only where the
+        stock's top under the tool is that high.
+        """
+        tool = self.tool
+        r = min(tool.shank_diameter_mm, tool.diameter_mm) / 2 - K.ABOVE_FLUTES_INSET_MM
+        # the sweeps' tool solid ends in a cap of the corner radius above the flutes
+        # (errpred/_kernels.py): the ring goes a pixel above the cap at its radius
+        rc, c = tool.corner_radius_mm, tool.core_radius_mm
+        h = (tool.flute_length_mm + math.sqrt(max(rc * rc - max(r - c, 0.0) ** 2, 0.0))
+             + self.res.pixel_mm)
+        if not z_top > h:
+            return False
+        ang = np.arange(K.ABOVE_FLUTES_SAMPLES) * (2 * math.pi / K.ABOVE_FLUTES_SAMPLES)
+        local = np.column_stack([r * np.cos(ang), r * np.sin(ang), np.full(ang.size, h)])
+        inside = self.bottom.in_stock_local(self.stock, interval, tip, frame, local)
+        if not inside.any():
+            return False
+        world = tip + local[inside] @ frame
+        removed = inside_any_sweep_clustered(world, np.ones(world.shape[0], dtype=np.bool_),
+                                             *t1, tool.core_radius_mm, tool.corner_radius_mm,
+                                             tool.flute_length_mm, K.MEMBERSHIP_EPS_MM,
+                                             K.CLUSTER_CELL_MM)
+        return bool((~removed).any())
+
     def _stock_top(self, tip, frame, interval) -> float:
         """Height above the tip of the highest stock under the tool [mm]."""
         if interval is None:
@@ -556,7 +595,7 @@ class GeometryModel:
                                 for zz in (lo[2], hi[2])])
             return float(((corners - tip) @ frame[2]).max())
         fin = interval.top[np.isfinite(interval.top)]
-        if np.isposinf(interval.top).any() and not np.isinf(interval.bottom).all():
+        if (np.isposinf(interval.top) & (interval.bottom < math.inf)).any():
             return math.inf  # material without a top in view: everything counts
         return (float(fin.max()) - self.bottom.depth_offset_mm) if fin.size else -math.inf
 

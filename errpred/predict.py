@@ -80,6 +80,9 @@ class Prediction:
     initial_wear_mm : ndarray, shape (m,) or None
         Actual cutting distance of each micro edge at the start [mm] (None:
         a fresh tool).
+    flute_length_mm : float [mm]
+        The tool's flute length the points were judged with
+        (:attr:`errpred.geometry.PointGeometry.above_flutes`; NaN: not known).
     """
 
     points: list[PointPrediction]
@@ -90,6 +93,7 @@ class Prediction:
     series: dict[int, tuple[np.ndarray, np.ndarray, float]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     initial_wear_mm: np.ndarray | None = None
+    flute_length_mm: float = math.nan
 
     def errors_um(self) -> np.ndarray:
         return np.array([p.E_um for p in self.points])
@@ -471,7 +475,8 @@ class Predictor:
             stage2(gs)
         return Prediction(points=out, wear_mm=wear.cl_mm, edges_kappa_rad=self.edges.kappa,
                           edges_z_mm=self.edges.z, theta=self.theta, series=kept,
-                          initial_wear_mm=self.initial_wear_mm.copy())
+                          initial_wear_mm=self.initial_wear_mm.copy(),
+                          flute_length_mm=float(self.model.tool.flute_length_mm))
 
 
 def predict_points(predictor: Predictor, blocks=None, **kwargs) -> Prediction:

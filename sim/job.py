@@ -139,7 +139,7 @@ class JobResult:
         return {
             "margin_above_1_where_cutting": bool(np.all(self.plan.margin[idx] > 1.0)),
             "no_collisions": self.collisions == 0 and self.plan.infeasible.size == 0,
-            "no_rapid_into_material": not self.findings,
+            "no_program_errors": not self.findings,
             "correction_verified_nowhere_worse": bool(self.compensation.corrected
                                                       and v.comparison is not None
                                                       and v.comparison.ok),

@@ -27,7 +27,8 @@ _CHECK_TEXT = {
     "margin_above_1_where_cutting": "stability margin above 1 at every cutting point (plan)",
     "no_collisions": "no collision or gouge of the final program (FCL), and a feasible "
                      "posture at every point of the plan",
-    "no_rapid_into_material": "no rapid move (G0) into material in the planned program",
+    "no_program_errors": ("no rapid move (G0) into material and no cut deeper than the "
+                          "flutes in the planned program"),
     "correction_verified_nowhere_worse": "the corrected program, re-predicted at points "
                                          "2 mm apart (block ends included), is nowhere "
                                          "worse than the planned one",
@@ -61,7 +62,7 @@ def _why_not(res: JobResult, rep: dict[str, Any]) -> dict[str, str]:
         "no_collisions": (f"{res.collisions} colliding cutter location(s) on the final path, "
                           f"{p.infeasible.size} point(s) without a feasible posture (the CAM "
                           f"posture kept there)"),
-        "no_rapid_into_material": findings_line(res.findings),
+        "no_program_errors": findings_line(res.findings),
         "correction_verified_nowhere_worse": rep["correction"]["reason"],
         "round_trip_within_1um": (f"read back {rep['program']['round_trip_tip_mm']} mm from the "
                                   f"corrected path"),

@@ -174,7 +174,8 @@ def box_interval(origin, basis, pixel, lo, hi, dmin, dmax, bottom, top, mask, us
     """Analytic interval of the box [lo, hi] (slab method at each pixel centre).
 
     Same rules as the mesh path: the entry counts when in [dmin, dmax], so
-    does the exit; :func:`finish_interval` is applied. Buffers must be +inf.
+    does the exit; :func:`finish_interval` is applied; a ray inside the box over
+    the whole range gets ``-inf`` and ``+inf``. Buffers must be +inf.
     """
     ny, nx = bottom.shape
     d = basis[2]
@@ -204,7 +205,7 @@ def box_interval(origin, basis, pixel, lo, hi, dmin, dmax, bottom, top, mask, us
                 bottom[i, j] = tnear
             if dmin <= tfar <= dmax:
                 top[i, j] = tfar
-            if top[i, j] < bottom[i, j]:
+            if top[i, j] < bottom[i, j] or (tnear < dmin and tfar > dmax):
                 bottom[i, j] = -np.inf
 
 

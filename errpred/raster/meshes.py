@@ -13,10 +13,13 @@ back-facing surface (first exit), within the depth range ``[dmin, dmax]``.
 * ``top = +inf`` with a finite ``bottom`` where an entry has no exit in
   range (open mesh, or the exit lies beyond ``dmax``).
 
-Surfaces beyond ``dmax`` are not seen, so a ray inside the material over the
-whole range reads as a miss on meshes; keep ``dmax`` beyond the stock (the
-default is ``+inf``). The analytic box follows the same rules exactly, so a
-box and its triangle mesh give the same buffers.
+* ``bottom = -inf`` and ``top = +inf`` where the ray is inside the material over
+  the whole range (a tool buried deeper than its view reaches): with a finite
+  ``dmax``, a pixel that meets no surface in range is drawn again beyond ``dmax``,
+  and is inside where the first surface there is an exit.
+
+The analytic box follows the same rules exactly, so a box and its triangle mesh
+give the same buffers.
 
 Only the triangles near the view are drawn: a :class:`TriangleGrid` (uniform
 grid of triangle bounding boxes) is queried with the bounding box of the
@@ -301,7 +304,28 @@ class Stock:
         if self.is_box:
             return _box_interval(self.bounds, view, dmin, dmax, mask)
         ids = self.triangles_near(view, (dmin, dmax), mask)
-        return rasterize_interval(view, self.vertices, self.faces, ids, (dmin, dmax), mask)
+        bottom, top = rasterize_interval(view, self.vertices, self.faces, ids, (dmin, dmax),
+                                         mask)
+        if math.isfinite(dmax):
+            self._inside_throughout(view, dmax, bottom, top, mask)
+        return bottom, top
+
+    def _inside_throughout(self, view: View, dmax: float, bottom: np.ndarray,
+                           top: np.ndarray, mask) -> None:
+        """Mark the pixels whose ray met no surface up to ``dmax`` but is inside the
+        material all along (the first surface beyond ``dmax`` is an exit): ``bottom``
+        becomes ``-inf`` (``top`` stays ``+inf``), in place."""
+        miss = np.isposinf(bottom) & np.isposinf(top)
+        if mask is not None:
+            miss &= mask
+        if not miss.any():
+            return
+        ids = self.triangles_near(view, (dmax, math.inf), miss)
+        if ids.size == 0:
+            return
+        beyond, _ = rasterize_interval(view, self.vertices, self.faces, ids,
+                                       (dmax, math.inf), miss)
+        bottom[miss & np.isneginf(beyond)] = -np.inf
 
     def render(self, view: View, depth_range=(0.0, math.inf), mask=None) -> StockInterval:
         """:meth:`interval` wrapped with its view (for ``material_at``)."""

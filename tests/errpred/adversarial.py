@@ -14,6 +14,8 @@ softens the tool, as a longer overhang does); the geometry is what changes:
 * :func:`two_islands`: one G1 line from X10 to X90 across two islands of stock
   whose quarter points are all in air.
 * :func:`rapid_into_stock`: a ``G0`` that plunges into the stock.
+* :func:`deep_side_cut`: a side cut along a block 30 mm high, in one pass deeper
+  than the flutes (10 mm) or in levels no deeper than them.
 """
 
 from __future__ import annotations
@@ -225,3 +227,19 @@ def rapid_into_stock(folder: Path, *, feed: float = 1350.0, spindle: float = 270
     lines = ["%", "O1604 (RAPID INTO STOCK)", "G21 G90 G17 G94 G40 G49 G80", f"S{spindle:g} M3",
              "G0 X20 Y20 Z15", "G0 Z8", f"G1 X60 F{feed:g}", "G0 Z30", "M30", "%"]
     return _write(folder, "rapid-into-stock", stock, None, "\n".join(lines) + "\n", extra)
+
+
+def deep_side_cut(folder: Path, levels: tuple[float, ...], *, base_z: float = 0.0,
+                  feed: float = 1350.0, spindle: float = 2700.0) -> Path:
+    """Side cuts 2 mm wide along the front face (y = 0) of a block 40 x 40 mm from
+    ``base_z`` up to z = 30, one pass along +X at each tip height of ``levels``, in that
+    order; the tool's flutes are 10 mm long. Pass ``k``'s cutting move is on program line
+    ``7 + 4 k``. With the block's base well under the tip, the tool's bottom view lies
+    inside the material over all its depth."""
+    stock = trimesh.creation.box(bounds=[[0.0, 0.0, base_z], [40.0, 40.0, 30.0]])
+    lines = ["%", "O1605 (DEEP SIDE CUT)", "G21 G90 G17 G94 G40 G49 G80", f"S{spindle:g} M3"]
+    y = -10.0 + 2.0        # the D20 tool's axis: 2 mm into the face
+    for z in levels:
+        lines += [f"G0 X-15 Y{y:g} Z40", f"G0 Z{z:g}", f"G1 X55 F{feed:g}", "G0 Z40"]
+    lines += ["M30", "%"]
+    return _write(folder, "deep-side-cut", stock, None, "\n".join(lines) + "\n")

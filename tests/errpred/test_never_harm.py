@@ -116,6 +116,39 @@ def test_a_rapid_into_material_is_an_error_in_predict_and_compensate(tmp_path, c
     assert not out.exists()
 
 
+def test_a_cut_deeper_than_the_flutes_is_an_error_and_levels_within_them_are_not(tmp_path,
+                                                                                  capsys):
+    """One pass with its tip 25 mm under the block's top, the flutes 10 mm long: the shank
+    meets the material over the whole pass (the block reaches 30 mm under the tip, so
+    the tool's bottom view is inside the material over all its depth: it cuts). The same
+    depth in five levels 5 mm apart (each level's shank runs in what the levels above
+    cut): no finding."""
+    deep = adv.deep_side_cut(tmp_path / "deep", (5.0,), base_z=-25.0)
+    rep = tmp_path / "deep.json"
+    assert errpred_main(["predict", str(deep), "-q", "-o", str(rep)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "1 cut deeper than the flutes (10 mm" in err[0], err
+    assert "at line 7:" in err[0] and "must not be run" in err[0]
+    found = json.loads(rep.read_text())["summary"]["errors"]
+    assert found and {f["status"] for f in found} == {"above-flutes"}
+    assert {f["line"] for f in found} == {7} and found[0]["flute_length_mm"] == 10.0
+    out = tmp_path / "corrected.nc"
+    assert errpred_main(["compensate", str(deep), "-q", "-o", str(out)]) == 1
+    assert "deeper than the flutes" in capsys.readouterr().err and not out.exists()
+
+    levels = adv.deep_side_cut(tmp_path / "levels", (25.0, 20.0, 15.0, 10.0, 5.0))
+    s = load(levels)
+    pred = build_predictor(s, s.read_program()).run()
+    cutting = [p for p in pred.points if p.geometry.cuts]
+    assert {p.line for p in cutting} == {7 + 4 * k for k in range(5)}   # every level cuts
+    assert not any(p.geometry.above_flutes for p in pred.points)
+    # the same last level without the four above it: its shank is in the material
+    alone = adv.deep_side_cut(tmp_path / "alone", (25.0, 5.0))
+    s = load(alone)
+    pts = build_predictor(s, s.read_program()).run().points
+    assert [p.line for p in pts if p.geometry.above_flutes] == [11]
+
+
 def test_compensate_writes_nothing_when_no_correction_is_verified(tmp_path, capsys,
                                                                   monkeypatch):
     """The command's end of the contract: a correction the loop could not verify is not

@@ -10,7 +10,8 @@ import trimesh
 
 from errpred.frames import tool_frame
 from errpred.meshio import MeshFileError
-from errpred.raster import Stock, TriangleGrid, View, coverage, rasterize_interval
+from errpred.probe import StockProbe
+from errpred.raster import Stock, TriangleGrid, View, coverage, material_at, rasterize_interval
 from nc.errors import InputError
 
 TOL = 1e-9  # float rounding on depths of tens of mm
@@ -459,6 +460,47 @@ def test_box_stock_equals_box_mesh():
         b_mid = as_mesh.interval(view, (mid, math.inf))[0].ravel()
         assert start_in.sum() > 100 and np.all(np.isneginf(b_mid[start_in]))
     assert checked > 10000
+
+
+def test_a_ray_inside_the_material_over_its_whole_range_is_material():
+    """A view buried in a block (camera and range end both inside): every pixel in the
+    block's silhouette is material over the whole range, -inf..+inf, for the box and its
+    mesh alike; beside the block, a miss; with the range reaching the block's top, the
+    top is found. Drawn through an open-ended range the answer is the same."""
+    lo, hi = np.array([0.0, 0.0, -50.0]), np.array([40.0, 40.0, 0.0])
+    box = Stock.from_box(lo, hi)
+    as_mesh = Stock.from_mesh(trimesh.creation.box(bounds=np.stack([lo, hi])))
+    F = tool_frame(np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
+    view = View.along_axis(np.array([2.0, 20.0, -30.0]), F, 12.0, 12.0 / 64, 5.0)
+    x = view.pixel_centres_world(0.0)[..., 0]        # world x of each pixel centre
+    inside, outside = x > 1e-6, x < -1e-6
+    assert inside.sum() > 1000 and outside.sum() > 1000
+    for stock in (box, as_mesh):
+        b, t = stock.interval(view, (0.0, 25.0))     # camera at z -35, range end at -10
+        assert np.all(np.isneginf(b[inside])) and np.all(np.isposinf(t[inside]))
+        assert np.all(np.isposinf(b[outside])) and np.all(np.isposinf(t[outside]))
+        b, t = stock.interval(view, (0.0, 40.0))     # the range reaches the top (z 0)
+        assert np.all(np.isneginf(b[inside]))
+        np.testing.assert_allclose(t[inside], 35.0, atol=1e-9)
+        assert np.all(np.isposinf(t[outside]))
+        # the points of the buried range are in the material
+        pts = view.pixel_centres_world(10.0)
+        np.testing.assert_array_equal(
+            material_at(view, *stock.interval(view, (0.0, 25.0)), pts.reshape(-1, 3)),
+            inside.ravel())
+    # a side view from inside the block, as of a ball in a slot (errpred.probe): the probe
+    # answers as the exact membership test does
+    side = View.side(np.array([3.0, 20.0, -30.0]), F, 0.7, 12.0, 8.0, 12.0 / 64)
+    pts = np.random.default_rng(5).uniform([-9.0, 8.0, -32.0], [15.0, 32.0, -20.0], (8000, 3))
+    for stock in (box, as_mesh):
+        probe = StockProbe(stock, side, (0.0, 12.0))
+        # (away from the face x = 0 by a pixel: a point between pixel centres gets its
+        # pixel's answer)
+        seen = side.pixel_of(pts)[2] & (side.to_view(pts)[:, 2] >= 0.0) \
+            & (side.to_view(pts)[:, 2] <= 12.0) & (np.abs(pts[:, 0]) > 12.0 / 64)
+        exact = as_mesh.contains(pts[seen])
+        assert exact.sum() > 200 and (~exact).sum() > 200
+        np.testing.assert_array_equal(probe(pts[seen]), exact)
 
 
 # --- 5. spatial index ----------------------------------------------------------------
