@@ -343,6 +343,8 @@ class GeometryModel:
         points every so often along the block (and at its ends with
         ``point_ends``), each standing for its share of the block. A rapid move
         is checked the same way: one through material is ``rapid-into-material``.
+        A block that leaves the tool where it was (no length, the same axis) is
+        ``no-cut``.
         """
         rng = self.block_points(block)
         if rng is None:
@@ -363,6 +365,12 @@ class GeometryModel:
                     break
             return [PointGeometry(block, status, float(self.path[i1]), tip, cl.axis[i1],
                                   np.eye(3), math.nan, float(cl.spindle_rpm[i1]), np.zeros(3))]
+        k0 = max(i0 - 1, 0)
+        if length <= 0.0 and not np.any(cl.axis[k0:i1 + 1] != cl.axis[i1]):
+            # the tool stays where it is (a block repeating the position): no cut
+            return [PointGeometry(block, "no-cut", float(end), cl.tip[i1], cl.axis[i1],
+                                  np.eye(3), float(cl.feed_mm_min[i1]),
+                                  float(cl.spindle_rpm[i1]), np.zeros(3))]
         spacing = self.res.point_spacing_mm
         if math.isfinite(spacing):
             return self._spaced_points(block, i0, start, length, spacing)

@@ -179,6 +179,31 @@ def test_cutting_distance_of_a_straight_slot():
     assert np.all(out.wear_mm[~flank & (pred.edges.z > 2.0)] == 0.0)
 
 
+def test_a_block_that_repeats_the_position_is_no_cut_and_wears_nothing():
+    """A plunge, then a G1 to where the plunge ended (as LinuxCNC's arcspiral.ngc has),
+    then a slot: the repeated position removes nothing and adds no wear; the slot's
+    point is as without it."""
+    tool = Tool("flat", D, flutes=2, helix_deg=0.0, flute_length_mm=6.0)
+    stock = Stock.from_box([-40.0, -30.0, 0.001], [40.0, 30.0, 2.0])
+    res = Resolution(pixel_mm=D / 64, angle_step_rad=math.radians(2.0))
+    head = "G21 G90 G94\nS3000 M3\nG0 X-15 Y0 Z5\nG1 Z0 F300\n"
+
+    def run(extra):
+        prog = parse_program(head + extra + "G1 X15 F600\nM30\n")
+        return prog, Predictor(tool, stock, prog, STEEL, stiff_tool(), resolution=res).run()
+
+    prog, pred = run("G1 X-15 Y0\n")
+    (still,) = [p for p in pred.points if p.line == 5]
+    assert still.status == "no-cut" and still.result is None
+    assert np.allclose(still.geometry.tip, [-15.0, 0.0, 0.0])
+    _, ref = run("")
+    slot = [p for p in pred.points if p.line == 6]
+    slot_ref = [p for p in ref.points if p.line == 5]
+    assert [p.status for p in slot] == [p.status for p in slot_ref] == ["predicted"]
+    assert slot[0].E_um == slot_ref[0].E_um
+    np.testing.assert_array_equal(pred.wear_mm, ref.wear_mm)
+
+
 def test_point_geometry_ships_its_arrays_exactly_and_smaller():
     """Stage-1 results cross to stage 2 by pickle (worker processes): the packed
     per-revolution arrays come back identical, dtype included, and smaller."""
