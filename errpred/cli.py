@@ -202,15 +202,26 @@ def _cmd_compensate(args) -> int:
                                   tool_state_out=args.tool_state_out)
     v = res.verified
     if args.report:
+        # per block: the correction written, or where none is, the last candidate refused
+        # (the one the refusal's reason names)
+        shown, of = v.comparison, "the correction written"
+        if shown is None and v.passes:
+            last = v.passes[-1]
+            shown, of = last.comparison, (f"the last candidate, refused (pass {last.index}, "
+                                          f"attempt {last.attempt})")
         rep = {"scenario": scenario.name, "program": str(scenario.program_path),
                "corrected": res.corrected, "reason": res.reason(),
-               "verification": (v.comparison.as_dict() if v.comparison is not None
-                                else None),
+               "verification_of": of if shown is not None else None,
+               "verification": shown.as_dict() if shown is not None else None,
                "passes": [{"pass": p.index, "attempt": p.attempt, "relaxation": p.relaxation,
                            "largest_move_um": round(p.largest_move_mm * 1e3, 3),
                            "accepted": p.accepted, "ok": p.comparison.ok,
                            "before": p.comparison.before.as_dict(),
-                           "after": p.comparison.after.as_dict()} for p in v.passes]}
+                           "after": p.comparison.after.as_dict(),
+                           "worse_points": int(p.comparison.worse.sum()),
+                           "worse_lines": sorted({p.comparison.lines.get(int(b), -1)
+                                                  for b in p.comparison.worse_blocks})}
+                          for p in v.passes]}
         with atomic_write(args.report) as fh:
             json.dump(rep, fh, indent=1, allow_nan=False)
             fh.write("\n")
@@ -407,7 +418,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="how much worse than the original the corrected program may be "
                         "anywhere (default: [correction] verify_tolerance_um, 1 um)")
     p.add_argument("--report", metavar="JSON",
-                   help="write the verification (before/after per block, every pass)")
+                   help="write the verification: before and after per block for the "
+                        "correction written (where none is, for the last candidate, "
+                        "refused), and each pass's figures and worse lines")
     p.add_argument("--tool-state-out", metavar="FILE",
                    help=_TOOL_STATE_HELP + " (of the corrected program)")
     _page_options(p, "beside the corrected program (-o NAME.nc -> NAME.html); written also "

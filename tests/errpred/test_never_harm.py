@@ -174,7 +174,9 @@ def test_compensate_writes_nothing_when_no_correction_is_verified(tmp_path, caps
 
     monkeypatch.setattr(pipeline, "compensate_scenario", refused)
     out = tmp_path / "corrected.nc"
-    assert errpred_main(["compensate", str(scn), "-q", "-o", str(out)]) == 1
+    rep = tmp_path / "verification.json"
+    assert errpred_main(["compensate", str(scn), "-q", "-o", str(out),
+                         "--report", str(rep)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "nothing written" in err[0] and "worse" in err[0], err
     assert not out.exists()
@@ -182,6 +184,18 @@ def test_compensate_writes_nothing_when_no_correction_is_verified(tmp_path, caps
     page = html.unescape((tmp_path / "corrected.html").read_text())
     why = err[0].split("nothing written to ")[1].split(": ", 1)[1]
     assert f'<p class="verdict bad">Nothing written: {why}' in page
+    # the report holds the data behind the refusal: the last candidate (the one the
+    # reason names), per block, and each pass's worse points and lines
+    data = json.loads(rep.read_text())
+    assert not data["corrected"] and data["verification_of"].startswith("the last candidate")
+    ver, passes = data["verification"], data["passes"]
+    assert ver["reason"] in why and ver["after"] == passes[-1]["after"]
+    lines = {b["line"] for b in ver["per_block"]}
+    assert len(lines) >= 3 and ver["after"]["points"] == sum(
+        b["after"]["points"] for b in ver["per_block"])
+    first = passes[0]
+    assert not first["ok"] and first["worse_points"] > 0
+    assert first["worse_lines"] and set(first["worse_lines"]) <= lines
 
 
 def test_compensate_refuses_a_program_it_cannot_rewrite_before_predicting(tmp_path):
