@@ -69,6 +69,11 @@ def _print_summary(rep: dict, elapsed: float, blocks: int) -> None:
                   f"{s['mean_abs_error_um']:.2f} um; + = material left)")
         lo, hi = s["error_range_um"]
         t.add_row("range", f"{lo:+.2f} .. {hi:+.2f} um")
+    if "walls" in s:
+        w = s["walls"]
+        t.add_row("walls beside floors", f"largest |error| {w['max_abs_error_um']:.2f} um at line "
+                  f"{w['line']} ({w['points']:,} points; the flank's walls: predicted, "
+                  "not corrected)")
     if "against_design" in s:
         t.add_row("against design", f"largest |deviation| {s['against_design']['max_abs_um']:.2f}"
                   " um")

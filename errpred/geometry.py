@@ -141,6 +141,12 @@ class PointGeometry:
         A box holding every box in which the block's stage 1 looked up sweeps (the
         same for each point of the block; None: it looked up none). Sweeps whose
         bounds miss it cannot change the block's stage 1 (:mod:`errpred.repredict`).
+    wall : GenerationPoint or None
+        A flat or radius end mill whose ``gen`` lies on a floor (the bottom view,
+        ``kappa`` up to ``VIEW_CORRECTION_KAPPA_RAD``) while its flank cuts: the wall
+        the flank finishes at the same time, seen from the side (None: no such wall).
+        Its error is predicted (``PointResult.E_wall_um``) and reported, not
+        corrected: the correction fits ``gen``.
     above_flutes : bool
         The shank meets material: the moves before (to one feed per tooth behind the
         point) left material inside the shank, a pixel above the flutes' end (an
@@ -170,6 +176,7 @@ class PointGeometry:
     notes: tuple[str, ...] = field(default_factory=tuple)
     lookup_box: np.ndarray | None = None
     above_flutes: bool = False
+    wall: GenerationPoint | None = None
 
     def __getstate__(self) -> dict:
         # the per-revolution arrays are almost all zero: shipped packed, exactly
@@ -217,12 +224,9 @@ class PointGeometry:
 
     def light(self) -> "PointGeometry":
         """This point without the per-revolution arrays (kept in results)."""
-        gen = self.gen
-        if gen is not None and gen.samples_theta is not None:
-            gen = dataclasses.replace(gen, samples_theta=None, samples_kappa=None,
-                                      samples_z=None, samples_normal=None)
+        gen, wall = (_without_samples(x) for x in (self.gen, self.wall))
         return dataclasses.replace(self, cutting0=None, weight0=None, shift0=None,
-                                   sensitivity=None, cl_per_rev=None, gen=gen)
+                                   sensitivity=None, cl_per_rev=None, gen=gen, wall=wall)
 
 
 class GeometryModel:
@@ -536,11 +540,19 @@ class GeometryModel:
             gen = _generation(tool, fin.xyz, fin.phi, fin.kappa, frame, tip)
             if fin.refined_pixels:
                 used = "bottom-zoom"
+        wall = None
         if gen is None or gen.kappa_rad > K.VIEW_CORRECTION_KAPPA_RAD:
             sgen = self._side_view(tip, frame, fin, cutting0, t1, t2)
             if sgen is not None:
                 gen, used = sgen, "side"
                 notes.append("side view (steep contact)")
+        elif tool.corner_radius_mm < tool.radius_mm \
+                and cutting0[:, self.edges.segment == 2].any():
+            # a floor, and the flank cuts: the wall it may finish at the same time
+            sgen = self._side_view(tip, frame, fin, cutting0, t1, t2)
+            if sgen is not None and sgen.kappa_rad > K.VIEW_CORRECTION_KAPPA_RAD:
+                wall = sgen
+                notes.append("a wall finished by the flank too (side view)")
         if gen is None:
             return PointGeometry(status="no-finished-surface", cutting_pixels=fin.cutting_pixels,
                                  notes=tuple(notes), **base)
@@ -561,7 +573,7 @@ class GeometryModel:
         base["sensitivity"] = sens
         return PointGeometry(status=status, gen=gen, view=used,
                              cutting_pixels=fin.cutting_pixels, finished_pixels=gen.pixels,
-                             notes=tuple(notes), **base)
+                             notes=tuple(notes), wall=wall, **base)
 
     def _above_flutes(self, tip, frame, interval, t1, z_top: float) -> bool:
         """Does material the moves before left lie inside the shank, just above the
@@ -760,6 +772,14 @@ def _generation(tool: Tool, xyz, phi, kappa, frame, tip) -> GenerationPoint:
     return GenerationPoint(theta_rad=theta, phi_rad=phi_m, kappa_rad=kappa_m, point_tool=pt,
                            point_world=tip + pt @ frame, normal_world=n_tool @ frame,
                            pixels=int(xyz.shape[0]), **strip)
+
+
+def _without_samples(gen: GenerationPoint | None) -> GenerationPoint | None:
+    """A generation point without its strip's samples (kept in results)."""
+    if gen is None or gen.samples_theta is None:
+        return gen
+    return dataclasses.replace(gen, samples_theta=None, samples_kappa=None, samples_z=None,
+                               samples_normal=None)
 
 
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:

@@ -179,6 +179,11 @@ class PointResult:
     wear_edges : ndarray of int, shape (k,), or None
         The micro edges whose wear moves this point's surface (those that cut
         or generate it).
+    E_wall_um : float [um]
+        The error of the wall a flat or radius end mill's flank finishes beside the
+        floor ``E_um`` is for (:attr:`errpred.geometry.PointGeometry.wall`: deflection
+        and shape error there, as ``E_um``); NaN where there is none. Reported, not
+        corrected.
     wear_influence_um_mm : ndarray, shape (k,), or None [um per mm]
         The wear part is linear in their cutting distances:
         ``W = wear_influence_um_mm @ cl[wear_edges]`` (:meth:`wear_part_um`),
@@ -200,6 +205,7 @@ class PointResult:
     wear_edge: int = -1
     wear_edges: np.ndarray | None = None
     wear_influence_um_mm: np.ndarray | None = None
+    E_wall_um: float = math.nan
 
     @property
     def E_wear_um(self) -> float:
@@ -480,7 +486,7 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     d_gen = np.full(3, nan)
     gain = 0.0
     j = int(np.argmax(cl_mid)) if cl_mid.size else 0
-    W_d = W_p = cl_w = nan
+    W_d = W_p = cl_w = E_wall = nan
     j_w = -1
     infl = (None, None)
     if gen is not None and g.status in ("predicted", "axis-normal"):
@@ -488,16 +494,10 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
             series.append((theta, force, defl))
         d_gen = _at_angle(defl, theta, gen.theta_rad)
         E_d = _strip_error(gen, defl, theta)
-        if gen.samples_theta is not None and gen.samples_theta.size:
-            js = _nearest_edges(edges, gen.samples_kappa, gen.samples_z)
-            E_p = float(np.mean(shape.error_mm(gen.samples_kappa, gen.samples_z, cl_mid[js])))
-            E_p0 = float(np.mean(shape.error_mm(gen.samples_kappa, gen.samples_z, 0.0)))
-        else:
-            js = _nearest_edges(edges, np.array([gen.kappa_rad]),
-                                np.array([gen.point_tool[2]]))
-            E_p = float(shape.error_mm(gen.kappa_rad, float(gen.point_tool[2]),
-                                       float(cl_mid[js[0]])))
-            E_p0 = float(shape.error_mm(gen.kappa_rad, float(gen.point_tool[2]), 0.0))
+        E_p, E_p0, js = _shape_part(gen, edges, shape, cl_mid)
+        if g.wall is not None:
+            E_wall = _strip_error(g.wall, defl, theta) + _shape_part(g.wall, edges, shape,
+                                                                     cl_mid)[0]
         j = _nearest_edges(edges, np.array([gen.kappa_rad]), np.array([gen.point_tool[2]]))[0]
         # the wear part: E minus E of a fresh tool at the same point, linear in cl
         cols = np.flatnonzero(g.cutting0.any(axis=0))
@@ -528,9 +528,23 @@ def evaluate(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
         E_d_um=E_d * 1e3, E_p_um=E_p * 1e3, E_um=(E_d + E_p) * 1e3,
         cl_max_mm=float(cl_mid.max()), cl_gen_mm=float(cl_mid[j]), gain=gain,
         E_wear_d_um=W_d * 1e3, E_wear_p_um=W_p * 1e3, cl_wear_mm=cl_w, wear_edge=j_w,
-        wear_edges=infl[0], wear_influence_um_mm=infl[1])
+        wear_edges=infl[0], wear_influence_um_mm=infl[1], E_wall_um=E_wall * 1e3)
     wear.cl_mm = wear.cl_mm + increment
     return result
+
+
+def _shape_part(gen, edges: MicroEdges, shape: ShapeErrorModel, cl_mid: np.ndarray
+                ) -> tuple[float, float, np.ndarray]:
+    """The shape error at a generation point [mm] (over its strip's samples where it has
+    them), the same for a fresh tool, and the micro edges it is read from."""
+    if gen.samples_theta is not None and gen.samples_theta.size:
+        js = _nearest_edges(edges, gen.samples_kappa, gen.samples_z)
+        return (float(np.mean(shape.error_mm(gen.samples_kappa, gen.samples_z, cl_mid[js]))),
+                float(np.mean(shape.error_mm(gen.samples_kappa, gen.samples_z, 0.0))), js)
+    js = _nearest_edges(edges, np.array([gen.kappa_rad]), np.array([gen.point_tool[2]]))
+    return (float(shape.error_mm(gen.kappa_rad, float(gen.point_tool[2]),
+                                 float(cl_mid[js[0]]))),
+            float(shape.error_mm(gen.kappa_rad, float(gen.point_tool[2]), 0.0)), js)
 
 
 def _edge_wear(coeffs: CuttingCoefficients) -> bool:

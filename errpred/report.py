@@ -68,6 +68,10 @@ def point_record(p) -> dict[str, Any]:
                                     "generating_edge": _r(r.cl_gen_mm, 3),
                                     "most_worn_shaping_edge": _r(r.cl_wear_mm, 3)},
         })
+        if g.wall is not None and math.isfinite(r.E_wall_um):
+            rec["wall"] = {"E_um": _r(r.E_wall_um), "normal": _vec(g.wall.normal_world),
+                           "generation_point_mm": _vec(g.wall.point_world, 5),
+                           "theta_m_deg": _r(math.degrees(g.wall.theta_rad), 3)}
     if g.notes:
         rec["notes"] = list(g.notes)
     return rec
@@ -253,6 +257,16 @@ def summary(prediction: Prediction, tool_change_um: float | None = None) -> dict
             "max_undercut_um": _r(max(float(E.max()), 0.0)),
             "max_overcut_um": _r(max(-float(E.min()), 0.0)),
         })
+        walls = [p for p in pred if p.geometry.wall is not None
+                 and math.isfinite(p.result.E_wall_um)]
+        if walls:
+            # the walls a flat or radius end mill's flank finishes beside the floors above
+            # (PointGeometry.wall): predicted, not corrected
+            Ew = np.array([p.result.E_wall_um for p in walls])
+            kw = int(np.argmax(np.abs(Ew)))
+            out["walls"] = {"points": len(walls), "max_abs_error_um": _r(abs(Ew[kw])),
+                            "max_error_um": _r(Ew[kw]), "line": walls[kw].line,
+                            "error_range_um": [_r(float(Ew.min())), _r(float(Ew.max()))]}
     start = prediction.initial_wear_mm
     out["wear"] = {"max_cutting_distance_mm": _r(float(prediction.wear_mm.max(initial=0.0)), 3),
                    "mean_cutting_distance_mm": _r(float(prediction.wear_mm.mean()), 3)

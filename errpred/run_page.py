@@ -278,6 +278,11 @@ def predict_page(scenario: Scenario, prediction: Prediction, rep: dict[str, Any]
         verdict = (f"Largest predicted |error| {s['max_abs_error_um']:.2f} um at line "
                    f"{at['line']}; range {s['error_range_um'][0]:+.2f} .. "
                    f"{s['error_range_um'][1]:+.2f} um (+ material left).")
+        if "walls" in s:
+            w = s["walls"]
+            verdict += (f" The walls the flank finishes beside the floors: largest |error| "
+                        f"{w['max_abs_error_um']:.2f} um at line {w['line']} ({w['points']} "
+                        "points; predicted, not corrected).")
         good = True
     else:
         verdict, good = "No point was predicted (nothing of the program cuts).", True

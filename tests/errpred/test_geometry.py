@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -109,6 +110,64 @@ def test_flat_end_mill_wall_is_generated_where_the_flute_is_normal_to_it():
         d = (math.degrees(g.gen.theta_rad) - phi_expected) % pitch
         assert min(d, pitch - d) <= 2.0
         np.testing.assert_allclose(g.gen.normal_world, n_expected, atol=0.02)
+
+
+def test_a_wall_the_flank_finishes_beside_a_floor_is_predicted_too():
+    """A flat end mill ramping down along a shoulder (1 mm radial, material on +Y and
+    below): the bottom face finishes the floor and the flank the wall at once. The floor
+    stays the point's generation point (the correction's), and the wall gets its own:
+    kappa 90 deg, normal -Y, and its error is the one the point has with the wall as its
+    generation point; the tool is pushed away from the wall, so material is left. Level,
+    the floor is not finished and the wall is the generation point, as before."""
+    from errpred.physics import WearState, evaluate
+    from errpred.report import summary
+
+    tool = Tool("flat", D, flutes=3, helix_deg=0.0, flute_length_mm=6.0)
+    stock = Stock.from_box([-40.0, R - 1.0, -5.0], [40.0, 30.0, 2.0])
+    res = Resolution(pixel_mm=D / 64, angle_step_rad=math.radians(2.0))
+    ramp = parse_program("G21 G90 G94\nS6000 M3\nG0 X-30 Y0 Z0\nG1 X-2 Z-0.28 F600\n"
+                         "G1 X2 Z-0.32\nG1 X30 Z-0.6\nM30\n")
+    pred = Predictor(tool, stock, ramp, STEEL, stiff_tool(), resolution=res)
+    out = pred.run()
+    pts = [p for p in out.points if p.status == "predicted"]
+    assert len(pts) == 3
+    for p in pts:
+        g, r = p.geometry, p.result
+        assert g.view.startswith("bottom") and math.degrees(g.gen.kappa_rad) < 1.0
+        assert g.wall is not None and math.degrees(g.wall.kappa_rad) == pytest.approx(90.0,
+                                                                                     abs=1e-6)
+        np.testing.assert_allclose(g.wall.normal_world, (0, -1, 0), atol=0.02)
+        assert r.E_wall_um > 0.5                      # deflected away: material left
+    # stage 2 again, block by block: each point with the wall as its generation point
+    wear = WearState.new(pred.edges)
+    checked = 0
+    for b in range(len(ramp)):
+        for g in pred.model.geometry(b):
+            if g.cutting0 is None:
+                continue
+            before = WearState(wear.cl_mm.copy())
+            r = evaluate(tool, pred.edges, pred.coefficients, pred.compliance, pred.shape,
+                         pred.theta, g, wear)
+            if g.wall is None:
+                continue
+            alone = evaluate(tool, pred.edges, pred.coefficients, pred.compliance,
+                             pred.shape, pred.theta, dataclasses.replace(g, gen=g.wall,
+                                                                         wall=None), before)
+            assert alone.E_um == pytest.approx(r.E_wall_um, abs=1e-9)
+            assert r.E_wall_um == pytest.approx(
+                [p.result.E_wall_um for p in pts if p.block == b][0], abs=1e-9)
+            checked += 1
+    assert checked == 3
+    s = summary(out)
+    w = max(pts, key=lambda p: abs(p.result.E_wall_um))
+    assert s["walls"]["points"] == 3 and s["walls"]["line"] == w.line
+    assert s["walls"]["max_abs_error_um"] == pytest.approx(abs(w.result.E_wall_um), abs=1e-3)
+    level = parse_program("G21 G90 G94\nS6000 M3\nG0 X-30 Y0 Z0\nG1 X-2 F600\nG1 X2\n"
+                          "G1 X30\nM30\n")
+    flat_out = Predictor(tool, stock, level, STEEL, stiff_tool(), resolution=res).run()
+    got = [p for p in flat_out.points if p.status == "predicted"]
+    assert got and all(p.geometry.view == "side" and p.geometry.wall is None for p in got)
+    assert "walls" not in summary(flat_out)
 
 
 @pytest.mark.parametrize("slope", [15.0, 30.0, 45.0])
