@@ -287,9 +287,10 @@ def rewrite_coordinates(
         cur = reached
         if pieces is not None:
             extra = after.setdefault(li, [])
+            lower = _lower_case(raw, words)
             for p in list(pieces[1:]) + [final[:3]]:
                 text, cur = _g1_line(p, cur, inc, scale, lin_dec)
-                extra.append(text)
+                extra.append(text.lower() if lower else text)
             target[i] = final
 
     if after:
@@ -326,6 +327,7 @@ def _apply(raw: str, words, edits, inserts) -> str:
     order = "XYZABCIJK"
     spaced = any(raw[w[3]:w[3] + 1].isspace() for w in words[:-1]) or len(words) < 2
     sep = " " if spaced else ""
+    lower = _lower_case(raw, words)
     for letter, text in inserts:
         current = words_with_spans(out)
         rank = order.index(letter)
@@ -338,8 +340,15 @@ def _apply(raw: str, words, edits, inserts) -> str:
         else:  # after the last word that is not N, F, S or T
             others = [w for w in current if w[0] not in "NFST"] or current
             pos, word = others[-1][3], f"{sep}{letter}{text}"
-        out = out[:pos] + word + out[pos:]
+        out = out[:pos] + (word.lower() if lower else word) + out[pos:]
     return out
+
+
+def _lower_case(raw: str, words) -> bool:
+    """Whether a line writes its words' letters in lower case (all of them): words
+    added to it are then written so too."""
+    letters = [raw[w[2]] for w in words if raw[w[2]].isalpha()]
+    return bool(letters) and all(c.islower() for c in letters)
 
 
 def _verify(program: Program, text: str, target: np.ndarray,

@@ -39,6 +39,18 @@ def test_only_the_numbers_of_changed_words_change():
         [[0.012, 0, 0]] + [[0, 0, 0]] * (len(prog) - 3)), atol=1e-9)
 
 
+def test_words_added_to_a_lower_case_line_are_lower_case():
+    """LinuxCNC's arcspiral.ngc is written in lower case: a word the rewrite adds takes
+    the line's case (a mixed line is left upper case)."""
+    src = SRC.replace("N50 Y5.", "n50 y5.").replace("N40 X10.5", "n40 x10.5")
+    prog = parse_program(src)
+    new = rewrite_coordinates(prog, {2: [10.512, 0.0, -1.0]}).splitlines()
+    assert new[5] == "n40 x10.512" and new[6] == "n50 x10.500 y5."
+    mixed = rewrite_coordinates(parse_program(src.replace("n50 y5.", "n50 Y5.")),
+                                {2: [10.512, 0.0, -1.0]}).splitlines()
+    assert mixed[6] == "n50 X10.500 Y5."
+
+
 def test_incremental_successor_compensates():
     prog = parse_program(SRC)
     e = prog.end[4].copy()  # the arc end, before the G91 block
@@ -127,11 +139,14 @@ SPLITS = [
     ("G20 G90\nG1 X1. F10\nM2\n", 0, [[12.7, 0, 0]],
      ["G1 X0.5000 F10", "G1 X1.0000 Y0.0000 Z0.0000"],
      [[12.7, 0, 0], [25.4, 0, 0]]),
+    ("g21 g90\ng0 x0 y0 z0\ng1 x10 f100\nm2\n", 1, [[2.5, 0, 0]],
+     ["g1 x2.500 f100", "g1 x10.000 y0.000 z0.000", "m2"],
+     [[2.5, 0, 0], [10, 0, 0]]),
 ]
 
 
 @pytest.mark.parametrize("src,block,points,written,ends", SPLITS,
-                         ids=["absolute", "incremental", "inch"])
+                         ids=["absolute", "incremental", "inch", "lower-case"])
 def test_a_straight_block_is_split_into_g1_pieces(src, block, points, written, ends):
     prog = parse_program(src)
     out = rewrite_coordinates(prog, {}, splits={block: np.array(points, float)})
