@@ -224,8 +224,9 @@ def _cmd_compensate(args) -> int:
                            "before": p.comparison.before.as_dict(),
                            "after": p.comparison.after.as_dict(),
                            "worse_points": int(p.comparison.worse.sum()),
-                           "worse_lines": sorted({p.comparison.lines.get(int(b), -1)
-                                                  for b in p.comparison.worse_blocks})}
+                           "worse_lines": sorted({p.comparison.lines[int(b)]
+                                                  for b in p.comparison.worse_blocks
+                                                  if int(b) in p.comparison.lines})}
                           for p in v.passes]}
         with atomic_write(args.report) as fh:
             json.dump(rep, fh, indent=1, allow_nan=False)

@@ -16,6 +16,8 @@ refuse the program before correcting it.
 
 from __future__ import annotations
 
+import math
+
 from .geometry import ERROR_STATUSES, STATUS
 from .predict import Prediction
 
@@ -24,8 +26,8 @@ __all__ = ["FINDINGS", "error_findings", "findings_line"]
 #: The kinds of error finding, and what each means.
 FINDINGS = {
     **{s: STATUS[s] for s in ERROR_STATUSES},
-    "above-flutes": ("the cut reaches above the flutes: the shank or the holder meets "
-                     "material; the program must not be run with this tool"),
+    "above-flutes": ("the cut reaches above the flutes: the shank meets material; the "
+                     "program must not be run with this tool"),
 }
 
 
@@ -43,7 +45,7 @@ def error_findings(prediction: Prediction) -> list[dict]:
         rec = {"line": p.line, "block": p.block, "status": kind, "reason": FINDINGS[kind],
                "point_mm": [round(float(x), 4) for x in p.geometry.tip]}
         if kind == "above-flutes":
-            rec["flute_length_mm"] = flutes
+            rec["flute_length_mm"] = flutes if math.isfinite(flutes) else None
         out.append(rec)
     return out
 
@@ -61,8 +63,10 @@ def findings_line(findings: list[dict], file: str | None = None) -> str:
                      f"{_lines(rapid)}: a crash")
     if deep:
         n = len({f["line"] for f in deep})
+        flutes = deep[0].get("flute_length_mm")
+        long = f"{flutes:g} mm" if flutes is not None and math.isfinite(flutes) else "?"
         parts.append(f"{n} cut{'s' if n > 1 else ''} deeper than the flutes "
-                     f"({deep[0]['flute_length_mm']:g} mm, [tool] flute_length_mm) at "
+                     f"({long}, [tool] flute_length_mm) at "
                      f"{_lines(deep)}: the shank meets material")
     where = f"{file}: " if file else ""
     return f"{where}{'; '.join(parts)}; the program must not be run as it is"

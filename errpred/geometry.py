@@ -149,9 +149,12 @@ class PointGeometry:
         corrected: the correction fits ``gen``.
     above_flutes : bool
         The shank meets material: the moves before (to one feed per tooth behind the
-        point) left material inside the shank, a pixel above the flutes' end (an
-        error in the program, :func:`errpred.findings.error_findings`). Tested only
-        where the stock under the tool reaches that high.
+        point) left material inside the shank (its radius, or the tool's where smaller),
+        a pixel above the sweeps' tool solid (the flutes and the corner radius's cap
+        on them; shallower contact is not seen), at the point or at any pre-check
+        station of its block (an error in the program,
+        :func:`errpred.findings.error_findings`). Tested only where the stock under the
+        tool reaches that high; the holder is not tested.
     """
 
     block: int
@@ -267,6 +270,8 @@ class GeometryModel:
                                        resolution.pixel_mm)
         self._last_interval = self._last_near = None
         self._lookup_box: np.ndarray | None = None
+        #: the shank met material at a pre-check station of the block being placed
+        self._shank_hit = False
         #: the block :meth:`geometry` works on (CL range) and its shared sweep look-up
         self._block_span = self._block_near = None
         # how far outside the sweeps the finished-surface search measures margins [mm]
@@ -326,9 +331,14 @@ class GeometryModel:
 
     def geometry(self, block: int) -> list[PointGeometry]:
         """Prediction point(s) of one block, with their stage-1 geometry
-        (:meth:`_geometry`), each with the block's :attr:`PointGeometry.lookup_box`."""
+        (:meth:`_geometry`), each with the block's :attr:`PointGeometry.lookup_box`;
+        where the shank meets material at any of the block's pre-check stations, every
+        point of the block says so (:attr:`PointGeometry.above_flutes`)."""
         self._lookup_box = None
+        self._shank_hit = False
         out = self._geometry(block)
+        if self._shank_hit:
+            out = [dataclasses.replace(g, above_flutes=True) for g in out]
         box = self._lookup_box
         if box is None:
             return out
@@ -428,7 +438,9 @@ class GeometryModel:
         i1 = i0 + int(np.searchsorted(cl.block[i0:], block, side="right")) - 1
         before = i0 > 1 and not cl.rapid[i0 - 1] and cl.block[i0 - 1] != block
         after = i1 + 1 < len(cl) and not cl.rapid[i1 + 1]
-        if before and not self._plunge(i0 - 1):
+        # (the move before predicts the corner only if it moves: a block that leaves
+        # the tool where it was is no-cut and predicts nothing)
+        if before and self.path[i0 - 1] > self.path[i0 - 2] and not self._plunge(i0 - 1):
             frac = frac[1:]
         if after and self._plunge(i1) and frac.size > 1:
             frac = frac[:-1]
@@ -488,6 +500,9 @@ class GeometryModel:
             feed, spindle = float(self.cl.feed_mm_min[s]), float(self.cl.spindle_rpm[s])
             behind = feed / (spindle * tool.flutes) if spindle > 0 and feed > 0 else 0.0
         t1, _, _ = self._near_sweeps(tip, u, L, behind, z_top)
+        if not rapid and not self._shank_hit:
+            # the shank is tested at every station too, not only at the block's points
+            self._shank_hit = self._above_flutes(tip, frame, interval, t1, z_top)
         # the micro edges not above the stock's top, the tool shrunk a little
         local = self.engager.precheck_samples(self.edges.z <= z_top + self.res.pixel_mm,
                                               K.RAPID_TOUCH_MM if rapid else K.PRECHECK_INSET_MM)
@@ -650,6 +665,7 @@ class GeometryModel:
         state["_zmap"] = None  # per process, rebuilt where it is used
         state["_last_interval"] = state["_last_near"] = None
         state["_block_span"] = state["_block_near"] = None
+        state["_shank_hit"] = False
         return state
 
     def _bottom_interval(self, tip, frame) -> StockView | None:

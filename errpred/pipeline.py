@@ -190,7 +190,8 @@ def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, work
     Raises
     ------
     nc.command.Refused
-        The original program has an error-level finding (a rapid move into material).
+        The original program has an error-level finding (a rapid move into material, a
+        cut deeper than the flutes: :mod:`errpred.findings`).
     nc.rewrite.RewriteError
         The program cannot be rewritten (``#`` parameters, O-words, canned cycles...:
         :func:`nc.rewrite.check_rewritable`), before anything is predicted.

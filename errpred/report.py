@@ -72,6 +72,8 @@ def point_record(p) -> dict[str, Any]:
             rec["wall"] = {"E_um": _r(r.E_wall_um), "normal": _vec(g.wall.normal_world),
                            "generation_point_mm": _vec(g.wall.point_world, 5),
                            "theta_m_deg": _r(math.degrees(g.wall.theta_rad), 3)}
+    if g.above_flutes:
+        rec["above_flutes"] = True          # an error finding (errpred.findings)
     if g.notes:
         rec["notes"] = list(g.notes)
     return rec
@@ -254,8 +256,8 @@ def summary(prediction: Prediction, tool_change_um: float | None = None) -> dict
             "error_range_um": [_r(float(E.min())), _r(float(E.max()))],
             # E > 0 leaves material (undercut), E < 0 cuts into the part (overcut):
             # each the largest of its kind, 0 where there is none.
-            "max_undercut_um": _r(max(float(E.max()), 0.0)),
-            "max_overcut_um": _r(max(-float(E.min()), 0.0)),
+            "max_undercut_um": _r(max(float(E.max()), 0.0) + 0.0),
+            "max_overcut_um": _r(max(-float(E.min()), 0.0) + 0.0),
         })
         walls = [p for p in pred if p.geometry.wall is not None
                  and math.isfinite(p.result.E_wall_um)]

@@ -132,8 +132,9 @@ def schedule_scenario(scenario: Scenario, *, tolerance_um: float, force_limit_N:
     nc.errors.InputError
         Bad limits, a feed move without a feed, inverse-time feeds.
     nc.command.Refused
-        The original program has an error-level finding (a rapid move into material), or
-        with ``correct`` no correction was verified.
+        The original program has an error-level finding (a rapid move into material, a
+        cut deeper than the flutes: :mod:`errpred.findings`), or with ``correct`` no
+        correction was verified.
     """
     from .findings import error_findings, findings_line
     from .schedule import block_loads

@@ -85,7 +85,7 @@ class JobResult:
         Where they were written (the working folder).
     findings : list of dict
         Error-level findings of the planned program's prediction (rapid moves into
-        material, :func:`errpred.findings.error_findings`).
+        material, cuts deeper than the flutes: :func:`errpred.findings.error_findings`).
     round_trip : tuple (float [mm], float [rad])
         Largest tip and axis difference between the final path and the final program
         read back through nc's reader and the machine.

@@ -15,7 +15,7 @@ and the key, exit status 2. A run whose checks do not all hold writes its report
 and its programs renamed ``NAME.NOT-FOR-CUTTING.nc`` (with a comment at their top
 saying which checks failed) and ends with one line and exit status 1; so does a
 plan with points that have no feasible posture (unless ``--allow-fallback``) and a
-rapid move into material, which write nothing.
+rapid move into material or a cut deeper than the flutes, which write nothing.
 """
 
 from __future__ import annotations

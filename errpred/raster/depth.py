@@ -133,7 +133,8 @@ class StockInterval:
 
     @property
     def hit(self) -> np.ndarray:
-        """Pixels whose ray meets the stock in the range (material somewhere on it)."""
+        """Pixels whose ray meets a surface of the stock in the range (a ray inside the
+        material over the whole range, ``-inf`` to ``+inf``, meets none: not a hit)."""
         return np.isfinite(self.top) | np.isfinite(self.bottom)
 
     def material_at(self, points, eps: float | None = None) -> np.ndarray:

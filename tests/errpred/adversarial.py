@@ -230,16 +230,19 @@ def rapid_into_stock(folder: Path, *, feed: float = 1350.0, spindle: float = 270
 
 
 def deep_side_cut(folder: Path, levels: tuple[float, ...], *, base_z: float = 0.0,
-                  feed: float = 1350.0, spindle: float = 2700.0) -> Path:
+                  ramp_to: float | None = None, feed: float = 1350.0,
+                  spindle: float = 2700.0) -> Path:
     """Side cuts 2 mm wide along the front face (y = 0) of a block 40 x 40 mm from
     ``base_z`` up to z = 30, one pass along +X at each tip height of ``levels``, in that
     order; the tool's flutes are 10 mm long. Pass ``k``'s cutting move is on program line
     ``7 + 4 k``. With the block's base well under the tip, the tool's bottom view lies
-    inside the material over all its depth."""
+    inside the material over all its depth. With ``ramp_to``, each pass ramps down to
+    that tip height at its end (X55)."""
     stock = trimesh.creation.box(bounds=[[0.0, 0.0, base_z], [40.0, 40.0, 30.0]])
     lines = ["%", "O1605 (DEEP SIDE CUT)", "G21 G90 G17 G94 G40 G49 G80", f"S{spindle:g} M3"]
     y = -10.0 + 2.0        # the D20 tool's axis: 2 mm into the face
     for z in levels:
-        lines += [f"G0 X-15 Y{y:g} Z40", f"G0 Z{z:g}", f"G1 X55 F{feed:g}", "G0 Z40"]
+        end = "" if ramp_to is None else f" Z{ramp_to:g}"
+        lines += [f"G0 X-15 Y{y:g} Z40", f"G0 Z{z:g}", f"G1 X55{end} F{feed:g}", "G0 Z40"]
     lines += ["M30", "%"]
     return _write(folder, "deep-side-cut", stock, None, "\n".join(lines) + "\n")

@@ -261,6 +261,16 @@ def test_a_block_that_repeats_the_position_is_no_cut_and_wears_nothing():
     assert [p.status for p in slot] == [p.status for p in slot_ref] == ["predicted"]
     assert slot[0].E_um == slot_ref[0].E_um
     np.testing.assert_array_equal(pred.wear_mm, ref.wear_mm)
+    # densely (the verification's points, block ends included) the corner where the
+    # slot starts is still predicted, by the slot, as without the repeated position
+    dense = res.dense()
+    tips = []
+    for extra in ("G1 X-15 Y0\n", ""):
+        prog = parse_program(head + extra + "G1 X15 F600\nM30\n")
+        out = Predictor(tool, stock, prog, STEEL, stiff_tool(), resolution=dense).run()
+        tips.append([tuple(np.round(p.geometry.tip, 6)) for p in out.points
+                     if p.status == "predicted"])
+    assert (-15.0, 0.0, 0.0) in tips[1] and tips[0] == tips[1]
 
 
 def test_point_geometry_ships_its_arrays_exactly_and_smaller():

@@ -147,6 +147,16 @@ def test_a_cut_deeper_than_the_flutes_is_an_error_and_levels_within_them_are_not
     s = load(alone)
     pts = build_predictor(s, s.read_program()).run().points
     assert [p.line for p in pts if p.geometry.above_flutes] == [11]
+    # one block ramping from 2 to 16 mm deep: its point, in the middle of what it cuts
+    # (9 mm deep), has its shank clear; the pre-check's stations toward its end do not
+    ramp = adv.deep_side_cut(tmp_path / "ramp", (28.0,), ramp_to=14.0)
+    s = load(ramp)
+    pts = build_predictor(s, s.read_program()).run().points
+    (mid,) = [p for p in pts if p.line == 7]
+    assert mid.status == "predicted" and 8.0 < 30.0 - mid.geometry.tip[2] < 10.0
+    assert mid.geometry.above_flutes
+    assert errpred_main(["predict", str(ramp), "-q", "-o", str(tmp_path / "r.json")]) == 1
+    assert "deeper than the flutes" in capsys.readouterr().err
 
 
 def test_compensate_writes_nothing_when_no_correction_is_verified(tmp_path, capsys,

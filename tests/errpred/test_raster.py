@@ -466,7 +466,7 @@ def test_a_ray_inside_the_material_over_its_whole_range_is_material():
     """A view buried in a block (camera and range end both inside): every pixel in the
     block's silhouette is material over the whole range, -inf..+inf, for the box and its
     mesh alike; beside the block, a miss; with the range reaching the block's top, the
-    top is found. Drawn through an open-ended range the answer is the same."""
+    top is found, with the range ending there or open."""
     lo, hi = np.array([0.0, 0.0, -50.0]), np.array([40.0, 40.0, 0.0])
     box = Stock.from_box(lo, hi)
     as_mesh = Stock.from_mesh(trimesh.creation.box(bounds=np.stack([lo, hi])))
@@ -479,10 +479,11 @@ def test_a_ray_inside_the_material_over_its_whole_range_is_material():
         b, t = stock.interval(view, (0.0, 25.0))     # camera at z -35, range end at -10
         assert np.all(np.isneginf(b[inside])) and np.all(np.isposinf(t[inside]))
         assert np.all(np.isposinf(b[outside])) and np.all(np.isposinf(t[outside]))
-        b, t = stock.interval(view, (0.0, 40.0))     # the range reaches the top (z 0)
-        assert np.all(np.isneginf(b[inside]))
-        np.testing.assert_allclose(t[inside], 35.0, atol=1e-9)
-        assert np.all(np.isposinf(t[outside]))
+        for end in (40.0, math.inf):                  # the range reaches the top (z 0)
+            b, t = stock.interval(view, (0.0, end))
+            assert np.all(np.isneginf(b[inside]))
+            np.testing.assert_allclose(t[inside], 35.0, atol=1e-9)
+            assert np.all(np.isposinf(t[outside]))
         # the points of the buried range are in the material
         pts = view.pixel_centres_world(10.0)
         np.testing.assert_array_equal(
