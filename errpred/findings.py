@@ -6,8 +6,8 @@ Two kinds, each found in stage 1 (:mod:`errpred.geometry`):
   (:data:`errpred.geometry.ERROR_STATUSES`), found by the whole-block pre-check
   (:meth:`errpred.geometry.GeometryModel.geometry`): a crash.
 * ``above-flutes``: a cut deeper than the flutes are long
-  (:attr:`errpred.geometry.PointGeometry.above_flutes`): the shank or the holder
-  meets the material. The tool's ``flute_length_mm`` decides (2 D where the scenario
+  (:attr:`errpred.geometry.PointGeometry.above_flutes`): the shank meets the
+  material (the holder is not tested). The tool's ``flute_length_mm`` decides (2 D where the scenario
   does not give it), and the finding names it.
 
 ``predict`` reports them and ends with exit status 1; ``compensate`` and the main job

@@ -509,11 +509,7 @@ class GeometryModel:
         inside = self.bottom.in_stock_local(self.stock, interval, tip, frame, local)
         if not inside.any():
             return 0
-        world = tip + local[inside] @ frame
-        removed = inside_any_sweep_clustered(world, np.ones(world.shape[0], dtype=np.bool_),
-                                             *t1, tool.core_radius_mm, tool.corner_radius_mm,
-                                             tool.flute_length_mm, K.MEMBERSHIP_EPS_MM,
-                                             K.CLUSTER_CELL_MM)
+        removed = self._inside_sweeps(tip + local[inside] @ frame, t1)
         return int((~removed).sum())
 
     # --- one point ---------------------------------------------------------
@@ -615,12 +611,17 @@ class GeometryModel:
         inside = self.bottom.in_stock_local(self.stock, interval, tip, frame, local)
         if not inside.any():
             return False
-        world = tip + local[inside] @ frame
-        removed = inside_any_sweep_clustered(world, np.ones(world.shape[0], dtype=np.bool_),
-                                             *t1, tool.core_radius_mm, tool.corner_radius_mm,
-                                             tool.flute_length_mm, K.MEMBERSHIP_EPS_MM,
-                                             K.CLUSTER_CELL_MM)
+        removed = self._inside_sweeps(tip + local[inside] @ frame, t1)
         return bool((~removed).any())
+
+    def _inside_sweeps(self, world: np.ndarray, sweeps) -> np.ndarray:
+        """Which world points (k, 3) lie inside any of ``sweeps`` (T1 or a part of it),
+        every one tested exactly (no height map, no memo)."""
+        tool = self.tool
+        return inside_any_sweep_clustered(world, np.ones(world.shape[0], dtype=np.bool_),
+                                          *sweeps, tool.core_radius_mm, tool.corner_radius_mm,
+                                          tool.flute_length_mm, K.MEMBERSHIP_EPS_MM,
+                                          K.CLUSTER_CELL_MM)
 
     def _stock_top(self, tip, frame, interval) -> float:
         """Height above the tip of the highest stock under the tool [mm]."""
