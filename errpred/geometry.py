@@ -544,7 +544,7 @@ class GeometryModel:
         base.update(cut_length_mm=float(cut_length), cutting0=cutting0,
                     weight0=weight0, shift0=shift0,
                     cl_per_rev=cl_rev)
-        fin = bt.finished_surface(self.stock, interval, tip, frame, t1, t2)
+        fin = bt.finished_surface(self.stock, interval, tip, frame, t1, t2, removed.test)
         notes = []
         gen, used = None, "bottom"
         if fin.xyz.shape[0]:

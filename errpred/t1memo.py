@@ -50,7 +50,9 @@ class RemovedMemo:
         self._rest = None
         self._known: dict = {}
 
-    def _test(self, world: np.ndarray) -> np.ndarray:
+    def test(self, world: np.ndarray) -> np.ndarray:
+        """Inside T1? for world points (k, 3), not remembered (the same answer as
+        the exact test of every point against every part of T1)."""
         ones = np.ones(world.shape[0], dtype=np.bool_)
         zmap = self._zmap
         if zmap is None or world.shape[0] == 0:
@@ -83,7 +85,7 @@ class RemovedMemo:
             miss = ~hit
         if miss.any():
             w = np.ascontiguousarray(world[miss])
-            new = self._test(w)
+            new = self.test(w)
             out[miss] = new
             k_all = keys[miss] if k_known is None else np.concatenate([k_known, keys[miss]])
             v_all = new if v_known is None else np.concatenate([v_known, new])
