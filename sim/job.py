@@ -27,6 +27,11 @@ same as in one process (the physics is deterministic).
 
 from __future__ import annotations
 
+import logging
+import os
+import pickle
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -205,6 +210,27 @@ def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
             raise ValueError(f"parts: unknown part {part!r}")
 
 
+def _warm_apart(scn: PlanScenario, parts: tuple[str, ...]) -> int:
+    """:func:`_warm_kernels` in a child process (this interpreter, this process's
+    ``sys.path``), waited for: numba's compiler keeps the memory it took (about 290 MB
+    for the margins' and the prediction's kernels), so the process that compiles is one
+    that ends, not a worker that goes on to plan, predict or verify. Returns the child's
+    exit status (a failure only costs time: a later stage compiles what is missing;
+    its last line of error output is logged)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    code = ("import pickle, sys; from sim.job import _warm_kernels; "
+            "_warm_kernels(*pickle.load(sys.stdin.buffer))")
+    done = subprocess.run([sys.executable, "-c", code], input=pickle.dumps((scn, parts)),
+                          env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          check=False)
+    if done.returncode:
+        lines = done.stderr.decode(errors="replace").strip().splitlines()
+        logging.getLogger(__name__).warning(
+            "warming up %s in a child process failed (exit %d): %s", ", ".join(parts),
+            done.returncode, lines[-1] if lines else "no output")
+    return done.returncode
+
+
 def _lobes(scn: PlanScenario, res: PlanResult) -> list[dict]:
     """Lobes (zero-order) at the lowest-CAM-margin and the lowest-planned-margin points,
     for the CAM posture and for the planned one, at the planned speed. Both at the plan's
@@ -275,7 +301,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     # verification only: with the kernels cached it still took 35 s of running (its
     # finite elements, lobes and a few cutter locations), which the prediction waited for
     warm = [] if client is None else [client.submit(
-        _warm_kernels, scn, ("margins", "predict"), pure=False, priority=-1)]
+        _warm_apart, scn, ("margins", "predict"), pure=False, priority=-1)]
     warm_sim: list = []
 
     def lap(name: str) -> None:
@@ -334,7 +360,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     if warm:        # the prediction's kernels: compiled (and cached) before it starts
         from distributed import wait
 
-        warm_sim.append(client.submit(_warm_kernels, scn, ("simulate",), pure=False,
+        warm_sim.append(client.submit(_warm_apart, scn, ("simulate",), pure=False,
                                       priority=-1))
         wait(warm)
         del warm

@@ -181,3 +181,17 @@ def test_one_correction_pass_where_the_scenario_asks_for_it(tmp_path):
     assert 2 <= len(res.compensation.predictions) <= 1 + 1 + FALLBACK_SCALINGS + 1
     assert v.corrected and v.comparison.ok
     assert v.comparison.after.rms_um < v.before_stats.rms_um
+
+
+def test_the_warm_up_runs_apart_and_a_failure_is_logged(tmp_path, caplog):
+    # the warm-up compiles in a child process (its memory ends with it); it gets the
+    # scenario through a pipe and this process's sys.path; a failure there is logged
+    # with the child's last line of error output and its status returned
+    from orient.scenario import load_plan_scenario
+    from sim.job import _warm_apart
+
+    scn = load_plan_scenario(light_scenario(tmp_path / "scn"))
+    assert _warm_apart(scn, ()) == 0
+    with caplog.at_level("WARNING", logger="sim.job"):
+        assert _warm_apart(scn, ("no-such-part",)) != 0
+    assert "unknown part 'no-such-part'" in caplog.text
