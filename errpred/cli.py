@@ -7,6 +7,7 @@ Units at this edge: errors in um, forces in N, angles in degrees.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -226,7 +227,9 @@ def _cmd_compensate(args) -> int:
                            "worse_points": int(p.comparison.worse.sum()),
                            "worse_lines": sorted({p.comparison.lines[int(b)]
                                                   for b in p.comparison.worse_blocks
-                                                  if int(b) in p.comparison.lines})}
+                                                  if int(b) in p.comparison.lines}),
+                           "worse_wall_points": (0 if p.comparison.walls is None
+                                                 else int(p.comparison.walls.worse.sum()))}
                           for p in v.passes]}
         with atomic_write(args.report) as fh:
             json.dump(rep, fh, indent=1, allow_nan=False)
@@ -255,6 +258,15 @@ def _cmd_compensate(args) -> int:
               f"{b.min_um:+.2f} -> {a.min_um:+.2f} um, RMS {b.rms_um:.2f} -> "
               f"{a.rms_um:.2f} um; no point worse than the original by more than "
               f"{v.comparison.tolerance_um:g} um")
+        w = v.comparison.walls
+        if w is not None:
+            def um(x: float, sign: str = "") -> str:
+                return f"{x:{sign}.2f}" if math.isfinite(x) else "n/a"
+
+            print(f"  the walls beside the floors (not corrected), at {w.after.points} points "
+                  f"against the original's {w.before.points}: largest |E| "
+                  f"{um(w.before.max_abs_um)} -> {um(w.after.max_abs_um)} um, most negative "
+                  f"{um(w.before.min_um, '+')} -> {um(w.after.min_um, '+')} um; none worse")
         if args.tool_state_out:
             print(f"wrote {args.tool_state_out}: the tool's state after the corrected program")
         if page:

@@ -262,6 +262,7 @@ def compensate(program: Program, predict: Callable[[Program, np.ndarray], Predic
                min_decimals: int | Mapping[int, int] | None = None,
                tolerance_um: float = VERIFY_TOLERANCE_UM,
                spacing_mm: float = VERIFY_SPACING_MM, reach_mm: float = 0.0,
+               verify_walls: bool = True,
                progress: Callable[[str], None] | None = None) -> Compensation:
     """Correct ``program``, verified (see the module docstring and :mod:`errpred.verified`).
 
@@ -295,6 +296,8 @@ def compensate(program: Program, predict: Callable[[Program, np.ndarray], Predic
         Where a candidate is worse than the original, the wanted moves of the points
         within this distance (at least ``spacing_mm``) of the worse ones are scaled
         back (:func:`errpred.verified.correct_verified`).
+    verify_walls : bool
+        Compare the walls beside the floors too (:func:`errpred.verification.compare`).
     progress : callable, optional
         ``progress(stage)`` before each prediction.
     """
@@ -326,7 +329,7 @@ def compensate(program: Program, predict: Callable[[Program, np.ndarray], Predic
                            max_iterations=max_iterations, relaxation=relaxation,
                            tolerance_mm=tolerance_mm, tolerance_um=tolerance_um,
                            spacing_mm=spacing_mm, reach_mm=reach_mm, lines=lines,
-                           progress=progress)
+                           verify_walls=verify_walls, progress=progress)
     best, origin = res.best.program, res.best.origin
     res.best = best
     text = best.newline.join(best.lines) + best.newline

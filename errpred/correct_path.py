@@ -154,6 +154,7 @@ def compensate_path(cl: CutterLocations, predict: Callable[[CutterLocations], Pr
                     relaxation: float | None = None,
                     tolerance_um: float = VERIFY_TOLERANCE_UM,
                     spacing_mm: float = VERIFY_SPACING_MM, reach_mm: float = 0.0,
+                    enough_rms_um: float | None = None, verify_walls: bool = True,
                     progress: Callable[[int, CutterLocations], None] | None = None
                     ) -> PathCompensation:
     """Correct a path, verified (see the module docstring).
@@ -179,6 +180,10 @@ def compensate_path(cl: CutterLocations, predict: Callable[[CutterLocations], Pr
         Where a candidate is worse, the wanted moves of the points within this distance
         (at least ``spacing_mm``) of the worse points are scaled back
         (:func:`errpred.verified.correct_verified`).
+    enough_rms_um : float, optional [um]
+        Stop iterating once a verified candidate's dense RMS is at most this.
+    verify_walls : bool
+        Compare the walls beside the floors too (:func:`errpred.verification.compare`).
     progress : callable, optional
         ``progress(k, path)`` before predicting candidate ``k`` (0: the reference).
     """
@@ -198,7 +203,8 @@ def compensate_path(cl: CutterLocations, predict: Callable[[CutterLocations], Pr
                            max_iterations=max_iterations, relaxation=relaxation,
                            tolerance_mm=tolerance_mm,
                            tolerance_um=tolerance_um, spacing_mm=spacing_mm,
-                           reach_mm=reach_mm)
+                           reach_mm=reach_mm, enough_rms_um=enough_rms_um,
+                           verify_walls=verify_walls)
     best = 0 if res.best_pass < 0 else res.best_pass + 1
     return PathCompensation(cl=res.best, verified=res, best=best, paths=paths)
 

@@ -240,7 +240,7 @@ def compensate_scenario(scenario: Scenario, *, iterate: bool | None = None, work
                           relaxation=opts.relaxation,
                           tolerance_um=opts.verify_tolerance_um,
                           reach_mm=K.FALLBACK_REACH_RADII * scenario.tool.radius_mm,
-                          progress=progress)
+                          verify_walls=opts.verify_walls, progress=progress)
     finally:
         repro.close()
     if tool_state_out is not None and (comp.corrected or not comp.verified.passes):

@@ -191,6 +191,10 @@ class CorrectionOptions:
     #: Share of the first pass's fit applied (0 < share <= 1; None: RELAXATION when
     #: iterating, the whole fit for one pass) [-] (``[correction] relaxation``).
     relaxation: float | None = None
+    #: Compare the walls a flat or radius end mill's flank finishes beside its floors
+    #: too (``[correction] verify_walls``; false where they are not the part's surfaces,
+    #: e.g. the steps between a flat end mill's raster passes).
+    verify_walls: bool = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -612,17 +616,18 @@ def _resolution(r: TableReader, d: dict, tool: Tool) -> Resolution:
 def _correction(r: TableReader, d: dict) -> CorrectionOptions:
     p = "correction"
     r.keys(d, p, (), ("iterate", "tolerance_um", "max_iterations", "verify_tolerance_um",
-                      "relaxation"))
-    it = d.get("iterate", False)
-    if not isinstance(it, bool):
-        raise r.fail("correction.iterate", f"expected true or false, got {value_kind(it)}")
+                      "relaxation", "verify_walls"))
+    it, walls = d.get("iterate", False), d.get("verify_walls", True)
+    for key, v in (("iterate", it), ("verify_walls", walls)):
+        if not isinstance(v, bool):
+            raise r.fail(f"correction.{key}", f"expected true or false, got {value_kind(v)}")
     relax = r.number(d, "relaxation", p, default=None, sign=">0", maximum=1.0)
     return CorrectionOptions(it, r.number(d, "tolerance_um", p, default=1.0, sign=">0"),
                              r.integer(d, "max_iterations", p, default=5,
                                        **_limit("MAX_CORRECTION_ITERATIONS")),
                              r.number(d, "verify_tolerance_um", p,
                                       default=K.VERIFY_TOLERANCE_UM, sign=">=0"),
-                             relax)
+                             relax, walls)
 
 
 # --------------------------------------------------------------------------- entry point

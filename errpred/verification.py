@@ -21,10 +21,22 @@ nominal surface instead: worse when ``E`` is beyond the tolerance either way (th
 overcut limit below). The result carries max ``|E|``, most negative ``E``
 and RMS before and after, overall and per block of the original, the worse
 points and blocks, and a one-line reason.
+
+Walls are compared too. A flat or radius end mill's point on a floor may also
+finish the wall beside it with its flank (:attr:`errpred.physics.PointResult.E_wall_um`);
+the correction fits the floors only, and on a sloped floor its move has a part along
+the wall's normal. So the walls form a field of their own
+(:attr:`ErrorField.walls`: the wall's generation point and normal, its error plus the
+move along its normal), compared with the original's walls by the same rules
+(:attr:`Comparison.walls`), except that a wall point with no original wall near it
+is worse only where it cuts deeper than nominal by more than the overcut limit (the
+original's wall there was not predicted, so material left is not known to be worse).
+A candidate worse on a wall is worse.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -127,6 +139,10 @@ class ErrorField:
     shift_um : ndarray, shape (n,)
         How far the predicted program's path lies from the reference's, along the
         normal [um] (0 for the reference itself): ``E_um`` includes it.
+    walls : ErrorField or None
+        The walls the points' flanks finish beside their floors (a field of its own:
+        the wall's generation point, normal and error; ``gain`` NaN), or None where
+        not built.
     """
 
     point_mm: np.ndarray
@@ -142,6 +158,7 @@ class ErrorField:
     chain: np.ndarray
     s_mm: np.ndarray
     shift_um: np.ndarray
+    walls: ErrorField | None = None
 
     def __len__(self) -> int:
         return int(self.E_um.size)
@@ -163,16 +180,33 @@ def error_field(prediction: Prediction, reference: CutterLocations,
     moved : bool
         Add how far the predicted program's path moved from the reference along
         the normal (False when ``prediction`` is of the reference itself).
+
+    Its :attr:`~ErrorField.walls` holds the points' walls (their errors plus the move
+    along the wall's normal), as a field of their own.
     """
     pts = prediction.predicted()
-    n = len(pts)
-    tip = np.array([p.geometry.tip for p in pts]).reshape(n, 3)
-    axis = np.array([p.geometry.axis for p in pts]).reshape(n, 3)
-    normal = np.array([p.geometry.gen.normal_world for p in pts]).reshape(n, 3)
-    point = np.array([p.geometry.gen.point_world for p in pts]).reshape(n, 3)
-    E = np.array([p.result.E_um for p in pts], float)
-    gain = np.array([p.result.gain for p in pts], float)
-    block = np.array([p.block for p in pts], np.int64)
+    floor = _field(reference, reference_lines, moved,
+                   [(p.geometry.tip, p.geometry.axis, p.geometry.gen, p.result.E_um,
+                     p.result.gain, p.block) for p in pts])
+    walls = _field(reference, reference_lines, moved,
+                   [(p.geometry.tip, p.geometry.axis, p.geometry.wall, p.result.E_wall_um,
+                     math.nan, p.block) for p in pts
+                    if p.geometry.wall is not None and math.isfinite(p.result.E_wall_um)])
+    return dataclasses.replace(floor, walls=walls)
+
+
+def _field(reference: CutterLocations, reference_lines, moved: bool, rows: list
+           ) -> ErrorField:
+    """An :class:`ErrorField` of ``rows`` (tip, axis, generation point, E [um], gain,
+    block) on ``reference``."""
+    n = len(rows)
+    tip = np.array([r[0] for r in rows], float).reshape(n, 3)
+    axis = np.array([r[1] for r in rows], float).reshape(n, 3)
+    normal = np.array([r[2].normal_world for r in rows], float).reshape(n, 3)
+    point = np.array([r[2].point_world for r in rows], float).reshape(n, 3)
+    E = np.array([r[3] for r in rows], float)
+    gain = np.array([r[4] for r in rows], float)
+    block = np.array([r[5] for r in rows], np.int64)
     seg, frac = locate_on_path(reference, tip, axis)
     k = np.maximum(seg, 1)
     a, e = reference.tip[k - 1], reference.tip[k]
@@ -247,6 +281,13 @@ class Comparison:
     tolerance_um : float
     lines : dict of int -> int
         Block of the original -> its source line.
+    after_field : ErrorField or None
+        The corrected program's field compared.
+    walls : Comparison or None
+        The walls' comparison (``kind`` "wall"; :func:`compare`), or None where the
+        corrected program has no wall points.
+    kind : str
+        "floor" or "wall".
     """
 
     before: ErrorStats
@@ -260,31 +301,43 @@ class Comparison:
     lines: dict = field(default_factory=dict)
     after_field: ErrorField | None = None
     allowed_um: np.ndarray | None = None
+    walls: Comparison | None = None
+    kind: str = "floor"
 
     @property
     def ok(self) -> bool:
-        """No point worse than the original (within the tolerance)."""
-        return not bool(self.worse.any())
+        """No point worse than the original (within the tolerance), floors and walls."""
+        return not bool(self.worse.any()) and (self.walls is None or self.walls.ok)
 
     def reason(self) -> str:
         """One line: what the verification found."""
         b, a = self.before, self.after
         head = (f"max |E| {_f(b.max_abs_um)} -> {_f(a.max_abs_um)} um, most negative "
                 f"{_f(b.min_um)} -> {_f(a.min_um)} um, RMS {_f(b.rms_um)} -> {_f(a.rms_um)} um")
+        w = self.walls
         if self.ok:
-            return f"verified on {a.points} points: no worse anywhere ({head})"
+            walls = (f"; walls at {w.after.points} points no worse either"
+                     if w is not None and w.after.points else "")
+            return f"verified on {a.points} points: no worse anywhere ({head}){walls}"
+        if not self.worse.any():
+            return (f"the walls beside the floors: {w.reason()}; the floors: {head} (where "
+                    "those walls are not the part's surfaces: [correction] verify_walls = "
+                    "false)")
         f = self.after_field
         ref = np.nan_to_num(self.reference_um, nan=0.0)
         excess = np.where(self.worse, np.abs(ref - f.E_um), -np.inf)
         i = int(np.argmax(excess))
         said = (f"the original has {ref[i]:+.2f} um" if np.isfinite(self.reference_um[i])
-                else "the original does not cut")
+                else "the original does not cut" if self.kind == "floor"
+                else "no wall of the original is predicted")
         line = int(f.ref_line[i]) if f is not None and f.ref_line[i] >= 0 else None
         where = f"line {line}" if line is not None else f"block {int(f.ref_block[i])}"
         return (f"worse than the original at {int(self.worse.sum())} of {a.points} points "
                 f"on {self.worse_blocks.size} block(s), worst at {where}: E {f.E_um[i]:+.2f} um "
                 f"where {said} (tolerance "
-                f"{self.tolerance_um:g} um); {head}")
+                f"{self.tolerance_um:g} um); {head}"
+                + (f"; walls worse at {int(w.worse.sum())} points too"
+                   if w is not None and not w.ok else ""))
 
     def as_dict(self) -> dict:
         """JSON-ready summary (per block: the original's line, stats before and after)."""
@@ -299,6 +352,8 @@ class Comparison:
             "per_block": [{"block": int(k), "line": self.lines.get(int(k)),
                            "before": v[0].as_dict(), "after": v[1].as_dict()}
                           for k, v in sorted(self.per_block.items())],
+            "walls": None if self.walls is None else {
+                k: v for k, v in self.walls.as_dict().items() if k != "per_block"},
             "reason": self.reason(),
         }
 
@@ -353,7 +408,8 @@ def reference_at(before: ErrorField, after: ErrorField,
 
 def compare(before: ErrorField, after: ErrorField, *,
             tolerance_um: float = VERIFY_TOLERANCE_UM, spacing_mm: float = VERIFY_SPACING_MM,
-            overcut_um: float = VERIFY_OVERCUT_UM, lines: dict | None = None) -> Comparison:
+            overcut_um: float = VERIFY_OVERCUT_UM, lines: dict | None = None,
+            walls: bool = True) -> Comparison:
     """Compare a corrected program's dense errors with the original's (see the module).
 
     Parameters
@@ -371,9 +427,36 @@ def compare(before: ErrorField, after: ErrorField, *,
         ``tolerance_um``).
     lines : dict of int -> int, optional
         Block of the original -> source line (for the report).
+
+    walls : bool
+        Compare the walls too (:attr:`ErrorField.walls`, where ``after`` has any): into
+        :attr:`Comparison.walls`, which :attr:`Comparison.ok` includes. False (a
+        scenario's ``[correction] verify_walls = false``) where the flank's walls are
+        not the part's surfaces (a flat end mill's raster leaves steps between its
+        passes).
     """
     if not (math.isfinite(tolerance_um) and tolerance_um >= 0):
         raise ValueError(f"tolerance_um: expected a finite value >= 0, got {tolerance_um!r}")
+    out = _compare(before, after, tolerance_um, spacing_mm, overcut_um, lines, tolerance_um)
+    if not walls or after.walls is None or len(after.walls) == 0:
+        return out
+    walls = _compare(before.walls if before.walls is not None else _no_points(), after.walls,
+                     tolerance_um, spacing_mm, overcut_um, lines, math.inf)
+    return dataclasses.replace(out, walls=dataclasses.replace(walls, kind="wall"))
+
+
+def _no_points() -> ErrorField:
+    """An :class:`ErrorField` without points."""
+    v, i = np.zeros((0, 3)), np.zeros(0, np.int64)
+    return ErrorField(point_mm=v, tip_mm=v, axis=v, normal=v, E_um=np.zeros(0),
+                      gain=np.zeros(0), block=i, ref_segment=i, ref_block=i, ref_line=i,
+                      chain=i, s_mm=np.zeros(0), shift_um=np.zeros(0))
+
+
+def _compare(before: ErrorField, after: ErrorField, tolerance_um: float, spacing_mm: float,
+             overcut_um: float, lines: dict | None, unmatched_high_um: float) -> Comparison:
+    """:func:`compare` of one kind of point (floors or walls); a point without an
+    original one near it may lie in ``(-overcut, unmatched_high_um)``."""
     ref, lo, hi = reference_at(before, after, spacing_mm, envelope=True)
     Ea = after.E_um
     k = np.isfinite(ref)                      # points with a reference
@@ -382,7 +465,7 @@ def compare(before: ErrorField, after: ErrorField, *,
     band = np.full((len(after), 2), np.nan)
     band[k, 1] = largest + tolerance_um
     band[k, 0] = np.maximum(-band[k, 1], np.minimum(lo[k], 0.0) - over)
-    band[~k] = (-over, tolerance_um)          # cuts where the original did not: nominal
+    band[~k] = (-over, unmatched_high_um)     # cuts where the original did not: nominal
     worse = (Ea > band[:, 1]) | (Ea < band[:, 0])
     per_block: dict[int, tuple[ErrorStats, ErrorStats]] = {}
     blocks = np.union1d(before.ref_block[before.ref_block >= 0],

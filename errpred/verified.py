@@ -45,7 +45,15 @@ from .constants import (
     VERIFY_SPACING_MM,
     VERIFY_TOLERANCE_UM,
 )
-from .verification import Comparison, ErrorField, ErrorStats, compare, error_stats, reference_at
+from .verification import (
+    Comparison,
+    ErrorField,
+    ErrorStats,
+    _no_points,
+    compare,
+    error_stats,
+    reference_at,
+)
 
 __all__ = ["PassRecord", "VerifiedCorrection", "VerifiedResult", "correct_verified"]
 
@@ -228,27 +236,39 @@ def _fallback_scale(Fc: ErrorField, Fk: ErrorField, cmp: Comparison, spacing_mm:
     move to keep (1 away from the worse points of ``Fk``): at each worse point the
     error went from ``Ec`` to ``Ea`` outside its band; the share of that change that
     ends half a tolerance inside the band, assuming the error linear in the move,
-    clipped to [0, ``FALLBACK_SCALE_MAX``]; the smallest one within ``reach_mm``."""
+    clipped to [0, ``FALLBACK_SCALE_MAX``]; the smallest one within ``reach_mm``.
+    The worse wall points (:attr:`Comparison.walls`) count the same way, their ``Ec``
+    from ``Fc``'s walls (none there: share 0)."""
     from scipy.spatial import cKDTree
 
     scale = np.ones(len(Fc))
-    bad = np.flatnonzero(cmp.worse)
-    if bad.size == 0 or len(Fc) == 0:
+    if len(Fc) == 0:
         return scale
-    Ec = reference_at(Fc, Fk, spacing_mm, Fc.E_um)[bad]
-    Ea = Fk.E_um[bad]
-    low, high = cmp.allowed_um[bad, 0], cmp.allowed_um[bad, 1]
-    margin = 0.5 * cmp.tolerance_um
-    target = np.where(Ea > high, high - margin, low + margin)
-    change = Ea - Ec
-    with np.errstate(divide="ignore", invalid="ignore"):
-        share = (target - Ec) / change
-    share = np.where(np.isfinite(share) & (np.abs(change) > 0), share, 0.0)
-    share = np.clip(share, 0.0, FALLBACK_SCALE_MAX)
-    near = cKDTree(Fc.tip_mm).query_ball_point(Fk.tip_mm[bad], reach_mm)
-    for idx, f in zip(near, share, strict=True):
-        if idx:
-            scale[idx] = np.minimum(scale[idx], f)
+    parts = [(Fc, Fk, cmp)]
+    if cmp.walls is not None and Fk.walls is not None:
+        parts.append((Fc.walls if Fc.walls is not None else _no_points(), Fk.walls,
+                      cmp.walls))
+    tree = None
+    for fc, fk, c in parts:
+        bad = np.flatnonzero(c.worse)
+        if bad.size == 0:
+            continue
+        Ec = reference_at(fc, fk, spacing_mm, fc.E_um)[bad]
+        Ea = fk.E_um[bad]
+        low, high = c.allowed_um[bad, 0], c.allowed_um[bad, 1]
+        margin = 0.5 * c.tolerance_um
+        target = np.where(Ea > high, high - margin, low + margin)
+        change = Ea - Ec
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = (target - Ec) / change
+        share = np.where(np.isfinite(share) & (np.abs(change) > 0), share, 0.0)
+        share = np.clip(share, 0.0, FALLBACK_SCALE_MAX)
+        if tree is None:
+            tree = cKDTree(Fc.tip_mm)
+        near = tree.query_ball_point(fk.tip_mm[bad], reach_mm)
+        for idx, f in zip(near, share, strict=True):
+            if idx:
+                scale[idx] = np.minimum(scale[idx], f)
     return scale
 
 
@@ -260,7 +280,8 @@ def correct_verified(original: Any,
                      relaxation: float | None = None,
                      tolerance_mm: float = 1e-4, tolerance_um: float = VERIFY_TOLERANCE_UM,
                      spacing_mm: float = VERIFY_SPACING_MM, reach_mm: float = 0.0,
-                     lines: dict | None = None,
+                     lines: dict | None = None, enough_rms_um: float | None = None,
+                     verify_walls: bool = True,
                      progress: Callable[[str], None] | None = None) -> VerifiedCorrection:
     """The verified correction loop (see the module docstring).
 
@@ -302,6 +323,11 @@ def correct_verified(original: Any,
         pass's, can overcut a surface that its own point did not ask for).
     lines : dict, optional
         Block of the original -> source line, for the comparisons' reasons.
+    enough_rms_um : float, optional [um]
+        Stop iterating once an accepted candidate's dense RMS error is at most this
+        (default: go on to ``max_iterations`` or ``tolerance_mm``).
+    verify_walls : bool
+        Compare the walls beside the floors too (:func:`errpred.verification.compare`).
     progress : callable, optional
         ``progress(stage)`` before each prediction.
     """
@@ -311,6 +337,8 @@ def correct_verified(original: Any,
         raise ValueError(f"max_iterations: expected an integer >= 1, got {max_iterations!r}")
     if relaxation is not None and not (math.isfinite(relaxation) and 0 < relaxation <= 1):
         raise ValueError(f"relaxation: expected a share in (0, 1], got {relaxation!r}")
+    if enough_rms_um is not None and not (math.isfinite(enough_rms_um) and enough_rms_um >= 0):
+        raise ValueError(f"enough_rms_um: expected a finite value >= 0, got {enough_rms_um!r}")
     say = progress or (lambda stage: None)
     say("original")
     F0, P0 = predict(original)
@@ -345,7 +373,7 @@ def correct_verified(original: Any,
             Fk, Pk = predict(cand)
             out.predictions.append(Pk)
             cmp = compare(F0, Fk, tolerance_um=tolerance_um, spacing_mm=spacing_mm,
-                          lines=lines)
+                          lines=lines, walls=verify_walls)
             ok = cmp.ok and _improved(cmp.after, best_stats)
             out.passes.append(PassRecord(k, attempt, omega, largest, cmp, ok))
             if cmp.ok:
@@ -365,6 +393,8 @@ def correct_verified(original: Any,
             best_stats = cmp.after
             F_prev, current, Fc = Fc, cand, Fk
             omega = min(1.0, 2.0 * omega)
+            if enough_rms_um is not None and best_stats.rms_um <= enough_rms_um:
+                break
         else:
             omega *= 0.5
             if omega < _MIN_RELAXATION:

@@ -172,7 +172,9 @@ SPECTRUM_CHUNK_SEGMENTS = 64
 #: dense points: on the job's light copy of the thin wall the dense RMS goes 5.25 ->
 #: 1.69 -> 0.33 um in two (the second after three fallbacks), and the third finds
 #: nothing left above the 1 um move tolerance. A scenario's ``[correction]
-#: max_iterations`` below this is honoured (one pass: its fit applied whole).
+#: max_iterations`` below this is honoured (one pass: its fit applied whole). Passes
+#: stop earlier once a verified candidate's dense RMS is within ``[correction]
+#: verify_tolerance_um`` (sim/job.py).
 JOB_CORRECTION_PASSES = 3
 #: The Dask job's warm-up (``sim.job._warm_kernels``): blocks of the CAM program
 #: predicted and cutter locations simulated while the planner chooses the speed [-].

@@ -366,7 +366,12 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
         del warm
     # at most JOB_CORRECTION_PASSES, fewer where the scenario's [correction] says so (a
     # long program: each pass costs a dense prediction or more); one pass applies its
-    # fit whole, as errpred's single correction does (the fallback guards it)
+    # fit whole, as errpred's single correction does (the fallback guards it). Iterating
+    # stops once a verified candidate's dense RMS is within the verification's tolerance
+    # (the error the comparison does not tell from the prediction's own): on the bundled
+    # default the third pass took two of the seven dense predictions to lower the RMS from
+    # 0.692 to 0.589 um (largest |E| 14.5 -> 12.4 um); without it the correction's stage
+    # takes 60 s instead of 78 s (kernels cached) and the simulated ratio is 23.5 %
     passes = min(JOB_CORRECTION_PASSES, base.correction.max_iterations)
     try:
         comp = compensate_path(res.cl, predict, iterate=passes > 1,
@@ -375,7 +380,9 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
                                max_iterations=passes, progress=on_pass,
                                tolerance_um=base.correction.verify_tolerance_um,
                                spacing_mm=dense.point_spacing_mm,
-                               reach_mm=FALLBACK_REACH_RADII * base.tool.radius_mm)
+                               reach_mm=FALLBACK_REACH_RADII * base.tool.radius_mm,
+                               enough_rms_um=base.correction.verify_tolerance_um,
+                               verify_walls=base.correction.verify_walls)
     finally:
         repro.close()
     lap("predict_and_correct")

@@ -34,8 +34,10 @@ def _prediction(cl: CutterLocations, E_um) -> Prediction:
         e = float(E_um(tip, axis) if callable(E_um) else E_um)
         geom = SimpleNamespace(tip=tip, axis=axis, status="predicted", block=k,
                                gen=SimpleNamespace(normal_world=np.array([0.0, 0.0, 1.0]),
-                                                   point_world=tip - [0.0, 0.0, 0.0]))
-        pts.append(PointPrediction(geom, SimpleNamespace(E_um=e, gain=0.0), k))
+                                                   point_world=tip - [0.0, 0.0, 0.0]),
+                               wall=None)
+        pts.append(PointPrediction(geom, SimpleNamespace(E_um=e, gain=0.0,
+                                                         E_wall_um=float("nan")), k))
     return Prediction(points=pts, wear_mm=np.zeros(1), edges_kappa_rad=np.zeros(1),
                       edges_z_mm=np.zeros(1))
 

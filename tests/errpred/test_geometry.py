@@ -187,6 +187,36 @@ def test_ball_raster_on_inclined_plane_kappa_and_normal(slope):
         assert float(p.geometry.gen.normal_world @ n) > math.cos(math.radians(2.5))
 
 
+def test_the_verification_sees_a_move_into_the_wall():
+    """The shoulder ramp above, predicted again with the path moved 5 um toward the wall
+    (+Y): against the original path, each wall's error takes the move along its normal
+    (-Y: 5 um less material), the floors' (normal +Z) nothing; the comparison with the
+    original finds the walls worse (beyond the overcut limit) and refuses the program."""
+    from errpred.verification import compare, error_field
+
+    tool = Tool("flat", D, flutes=3, helix_deg=0.0, flute_length_mm=6.0)
+    stock = Stock.from_box([-40.0, R - 1.0, -5.0], [40.0, 30.0, 2.0])
+    res = Resolution(pixel_mm=D / 64, angle_step_rad=math.radians(2.0))
+    text = ("G21 G90 G94\nS6000 M3\nG0 X-30 Y{y} Z0\nG1 X-2 Z-0.28 F600\n"
+            "G1 X2 Z-0.32\nG1 X30 Z-0.6\nM30\n")
+    ref_prog = parse_program(text.format(y=0))
+    ref_cl = cutter_locations(ref_prog)
+    preds = [Predictor(tool, stock, parse_program(text.format(y=y)), STEEL, stiff_tool(),
+                       resolution=res).run() for y in (0, 0.005)]
+    before = error_field(preds[0], ref_cl, moved=False)
+    after = error_field(preds[1], ref_cl)
+    assert len(before.walls) == len(after.walls) == 3
+    np.testing.assert_allclose(after.walls.shift_um, -5.0, atol=0.1)
+    np.testing.assert_allclose(after.shift_um, 0.0, atol=0.1)
+    E_wall = [p.result.E_wall_um for p in preds[1].predicted()]
+    np.testing.assert_allclose(after.walls.E_um, np.add(E_wall, after.walls.shift_um))
+    c = compare(before, after)
+    assert not c.worse.any() and not c.walls.ok and not c.ok
+    assert c.reason().startswith("the walls beside the floors: worse than the original")
+    # the original against itself: the walls no worse
+    assert compare(before, error_field(preds[0], ref_cl)).ok
+
+
 def test_flat_floor_under_the_ball_tip_is_not_predicted():
     prog = parse_program(plane_raster(0.0, R, passes=4))
     pred = Predictor(Tool("ball", D, flute_length_mm=15), plane_stock(0.0, 0.2), prog,

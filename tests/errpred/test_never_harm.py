@@ -225,3 +225,31 @@ def test_compensate_refuses_a_program_it_cannot_rewrite_before_predicting(tmp_pa
     with pytest.raises(RewriteError, match=r"p\.nc:4: rewriting programs with '#'"):
         compensate_scenario(load_scenario(path), progress=stages.append)
     assert stages == []
+
+
+def test_the_walls_beside_the_floors_are_verified_too(tmp_path, capsys):
+    """A radius end mill ramping along the front face of a block, 2 mm into it: its
+    bottom finishes a floor while its flank finishes the wall. The correction fits the
+    floors; the walls are compared with the original's too (not corrected), said in the
+    command's output and in the report, and the written program, re-predicted here, has
+    every wall point matched and no worse."""
+    scn = adv.deep_side_cut(tmp_path / "ramp", (25.0,), base_z=0.0, ramp_to=24.0)
+    out = tmp_path / "corrected.nc"
+    assert errpred_main(["compensate", str(scn), "-o", str(out),
+                         "--report", str(tmp_path / "v.json")]) == 0
+    said = capsys.readouterr().out
+    assert "the walls beside the floors (not corrected), at " in said
+    walls = json.loads((tmp_path / "v.json").read_text())["verification"]["walls"]
+    assert walls["ok"] and walls["worse_points"] == 0 and walls["after"]["points"] >= 10
+    assert walls["before"]["max_abs_um"] > 5.0       # walls with an error worth seeing
+    orig, prog, before, after = _dense_fields(scn, out)
+    assert len(after.walls) == walls["after"]["points"]
+    c = compare(before, after)
+    assert c.ok and c.walls is not None and c.walls.unmatched == 0
+    # [correction] verify_walls = false: not compared, not said
+    off = adv.deep_side_cut(tmp_path / "off", (25.0,), base_z=0.0, ramp_to=24.0)
+    off.write_text(off.read_text() + "\n[correction]\nverify_walls = false\n")
+    assert errpred_main(["compensate", str(off), "-o", str(tmp_path / "off.nc"),
+                         "--report", str(tmp_path / "off.json")]) == 0
+    assert "the walls beside the floors" not in capsys.readouterr().out
+    assert json.loads((tmp_path / "off.json").read_text())["verification"]["walls"] is None

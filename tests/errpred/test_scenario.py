@@ -247,6 +247,7 @@ def test_valid_small_scenario_and_defaults(tmp_path):
     assert s.resolution.angle_step_rad == pytest.approx(EK.ANGLE_STEP_RAD)
     assert s.resolution.chord_tol_mm == pytest.approx(EK.CHORD_TOL_MM)
     assert not s.correction.iterate and s.correction.relaxation is None
+    assert s.correction.verify_walls is True
     assert s.compliance.modes["y"][0].m_kg == 0.03
 
 
@@ -284,6 +285,7 @@ def test_shape_error_interpolates_holds_ends_and_signs():
     ('allow = ["M8"]', 'allow = ["M8"]\nmachine = "xyzzy"', "program.machine"),
     ("= 0.1\n", '= 0.1\n[resolution]\npixel_mm = 0.0\n', "resolution.pixel_mm"),
     ("= 0.1\n", '= 0.1\n[correction]\niterate = "yes"\n', "correction.iterate"),
+    ("= 0.1\n", '= 0.1\n[correction]\nverify_walls = 0\n', "correction.verify_walls"),
     ("= 0.1\n", '= 0.1\n[correction]\nrelaxation = 0.0\n', "correction.relaxation"),
     ("= 0.1\n", '= 0.1\n[correction]\nrelaxation = 1.5\n', "correction.relaxation"),
     # bounds (errpred.constants): values that would run for hours or describe no tool

@@ -1,7 +1,10 @@
 """The verification's comparison (errpred.verification.compare) from a table of cases: each
-point of a corrected program against the original's error at the same place on the path."""
+point of a corrected program against the original's error at the same place on the path;
+the walls beside the floors by the same table."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -71,3 +74,130 @@ def test_passes_are_compared_with_their_own_pass():
     assert not c.ok and "the original does not cut" in c.reason()
     with pytest.raises(ValueError, match="tolerance_um"):
         compare(BEFORE, BEFORE, tolerance_um=float("nan"))
+
+
+# --- walls beside the floors (ErrorField.walls, Comparison.walls) ------------------------
+
+def _with_walls(floor: ErrorField, walls: ErrorField | None) -> ErrorField:
+    return dataclasses.replace(floor, walls=walls)
+
+
+#: The walls follow the floors' table, but for a wall with no original wall near it:
+#: only an overcut beyond the limit is worse there (material left is not known worse).
+WALL_CASES = [(s, E, worse if not (s == 12.0 and E > 0) else False) for s, E, worse in CASES]
+
+
+@pytest.mark.parametrize("s,E,worse", WALL_CASES)
+def test_a_wall_point_is_worse_by_the_same_rules(s, E, worse):
+    # the floors the same before and after: only the wall decides
+    floor = _field([2.0], [10.0])
+    c = compare(_with_walls(floor, BEFORE), _with_walls(floor, _field([s], [E])))
+    assert not c.worse.any()
+    assert c.walls is not None and c.walls.kind == "wall"
+    assert bool(c.walls.worse[0]) is worse
+    assert c.ok is not worse
+
+
+def test_a_worse_wall_refuses_and_says_so():
+    floor = _field([0, 2], [10.0, 10.0])
+    after = _with_walls(_field([0, 2], [0.2, 0.1]), _field([2.0], [14.0]))
+    c = compare(_with_walls(floor, BEFORE), after, lines={1: 11})
+    assert not c.ok and not c.worse.any()
+    text = c.reason()
+    assert text.startswith("the walls beside the floors: worse than the original at 1 of 1")
+    assert "E +14.00 um where the original has +10.00 um" in text
+    assert text.endswith("(where those walls are not the part's surfaces: [correction] "
+                         "verify_walls = false)")
+    # not compared where the scenario says they are not the part's surfaces
+    off = compare(_with_walls(floor, BEFORE), after, walls=False)
+    assert off.ok and off.walls is None
+    d = c.as_dict()
+    assert d["ok"] is False and d["worse_points"] == 0
+    assert d["walls"]["worse_points"] == 1 and "per_block" not in d["walls"]
+    # a wall of the candidate where the original has none predicted: an overcut is worse
+    c = compare(floor, _with_walls(floor, _field([2.0], [-5.0])))
+    assert not c.ok and "no wall of the original is predicted" in c.reason()
+    # floors worse too: the floor's reason, the walls named at its end
+    c = compare(_with_walls(floor, BEFORE), _with_walls(_field([0, 2], [30.0, 0.0]),
+                                                         _field([2.0], [14.0])))
+    assert not c.ok and c.reason().endswith("walls worse at 1 points too")
+    # walls no worse: said in the verified line
+    c = compare(_with_walls(floor, BEFORE), _with_walls(floor, _field([2.0], [10.5])))
+    assert c.ok and c.reason().endswith("walls at 1 points no worse either")
+    assert c.as_dict()["walls"]["ok"] is True
+
+
+def test_the_loop_refuses_a_candidate_worse_on_a_wall_and_falls_back_near_it():
+    """A toy path of five points 2 mm apart: moving a point's floor by d [mm] takes
+    1000 d um off its floor error and half of that off the wall beside it (a sloped
+    floor: the move has a part along the wall's normal). The whole fit corrects the
+    floors and overcuts the wall by 5 um; the loop refuses it, scales the moves back
+    near that wall, and accepts a correction whose wall stays within the overcut
+    limit."""
+    from types import SimpleNamespace
+
+    from errpred.verified import correct_verified
+
+    s = [0.0, 2.0, 4.0, 6.0, 8.0]
+    E0 = np.array([10.0, 10.0, 10.0, 10.0, 10.0])
+    wall_at = 4                      # the last point finishes a wall too, 0 um before
+
+    def predict(d):
+        floor = _field(s, E0 - 1000.0 * d)
+        wall = _field([s[wall_at]], [-500.0 * d[wall_at]])
+        return _with_walls(floor, wall), None
+
+    def fit(cand, field, slope, weight, hold=None, free=None):
+        moves = weight * field.E_um / 1000.0
+        if hold is not None:
+            moves = np.where(free, moves, hold.moves)
+        return SimpleNamespace(moves=moves, largest_mm=float(np.abs(moves).max()))
+
+    def apply(cand, edit, factor):
+        return cand + factor * edit.moves
+
+    out = correct_verified(np.zeros(5), predict, fit, apply, iterate=False,
+                           spacing_mm=2.0, reach_mm=0.0)
+    first = out.passes[0].comparison
+    assert not first.worse.any() and not first.walls.ok       # the walls refused it
+    assert out.best_pass >= 1                                  # a fallback was accepted
+    best = out.comparison
+    assert best.ok and best.walls.ok
+    wall_E = float(best.walls.after_field.E_um[0])
+    assert -3.0 <= wall_E < 0.0                    # within the 2 um overcut limit (+ 1)
+    # the floors far from the wall are corrected whole, the one beside it partly
+    assert np.allclose(best.after_field.E_um[:3], 0.0)
+    assert 0.0 < best.after_field.E_um[wall_at] < 10.0
+
+
+def test_iterating_stops_once_the_rms_is_small_enough():
+    """The toy path without walls, iterated: the first pass (under-relaxed, 0.7) leaves
+    3 um everywhere; with ``enough_rms_um`` 5 the loop stops there, without it a second
+    pass follows; a bad value is refused."""
+    from types import SimpleNamespace
+
+    from errpred.verified import correct_verified
+
+    s = [0.0, 2.0, 4.0, 6.0, 8.0]
+
+    def predict(d):
+        return _field(s, 10.0 - 1000.0 * d), None
+
+    def fit(cand, field, slope, weight, hold=None, free=None):
+        moves = weight * field.E_um / 1000.0
+        return SimpleNamespace(moves=moves, largest_mm=float(np.abs(moves).max()))
+
+    def apply(cand, edit, factor):
+        return cand + factor * edit.moves
+
+    def run(**kw):
+        return correct_verified(np.zeros(5), predict, fit, apply, iterate=True,
+                                max_iterations=5, spacing_mm=2.0, **kw)
+
+    enough = run(enough_rms_um=5.0)
+    assert len(enough.passes) == 1 and enough.best_pass == 0
+    assert enough.comparison.after.rms_um == pytest.approx(3.0)
+    full = run()
+    assert len(full.passes) >= 2 and full.comparison.after.rms_um < 1e-6
+    with pytest.raises(ValueError, match="enough_rms_um"):
+        run(enough_rms_um=float("nan"))
