@@ -371,8 +371,10 @@ def reference_at(before: ErrorField, after: ErrorField,
     ``VERIFY_BRACKET_SPACINGS`` spacings apart, else the nearest one within a spacing
     (or where ``after``'s point is at one of ``before``'s, that one's); NaN where there
     is none. With ``envelope``, also the smaller and the larger of the two values it
-    lies between (both the one value where there is one): the original's error between
-    two predicted points is known only to lie between them, a step included."""
+    lies between (both the one value where there is one; where several of ``before``'s
+    points are at that place, a block's end and the next one's start, the smallest and
+    the largest of theirs): the original's error between two predicted points is known
+    only to lie between them, a step included."""
     vals = before.E_um if values is None else np.asarray(values, float)
     out = np.full(len(after), np.nan)
     env_lo = np.full(len(after), np.nan)
@@ -399,9 +401,22 @@ def reference_at(before: ErrorField, after: ErrorField,
         single = (~inside & (near <= spacing_mm)) | (near <= VERIFY_SAME_PLACE * spacing_mm)
         val = np.where(single, Eb[nearest], val)
         out[ia] = val
-        env_lo[ia] = np.where(single, Eb[nearest],
+        one_lo = one_hi = Eb[nearest]
+        # several of the original's points at that place (a block's end and the next
+        # one's start): the original's error there lies between theirs
+        same = VERIFY_SAME_PLACE * spacing_mm
+        a0 = np.searchsorted(sb, sa - same, side="left")
+        a1 = np.searchsorted(sb, sa + same, side="right")
+        several = np.flatnonzero(single & (a1 - a0 > 1))
+        if several.size:
+            one_lo, one_hi = one_lo.copy(), one_hi.copy()
+            for q in several:
+                part = Eb[a0[q]:a1[q]]
+                one_lo[q] = min(one_lo[q], part.min())
+                one_hi[q] = max(one_hi[q], part.max())
+        env_lo[ia] = np.where(single, one_lo,
                               np.where(inside, np.minimum(Eb[lo], Eb[hi]), np.nan))
-        env_hi[ia] = np.where(single, Eb[nearest],
+        env_hi[ia] = np.where(single, one_hi,
                               np.where(inside, np.maximum(Eb[lo], Eb[hi]), np.nan))
     return (out, env_lo, env_hi) if envelope else out
 

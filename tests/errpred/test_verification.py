@@ -201,3 +201,17 @@ def test_iterating_stops_once_the_rms_is_small_enough():
     assert len(full.passes) >= 2 and full.comparison.after.rms_um < 1e-6
     with pytest.raises(ValueError, match="enough_rms_um"):
         run(enough_rms_um=float("nan"))
+
+
+def test_where_the_original_has_two_values_at_one_place_either_is_the_reference():
+    """A block's end and the next block's start are the same place; where the original's
+    error jumps there (-52 and -77 um: a step), a point of the corrected program at that
+    place is compared with the range of both, not with the nearer one alone."""
+    before = _field([0.0, 2.0, 2.0, 4.0], [-50.0, -52.0, -77.0, -75.0])
+    for s_after in (2.0, 2.0 + 1e-9, 2.0 - 1e-9):
+        c = compare(before, _field([s_after], [-72.0]))
+        assert c.ok, (s_after, c.reason())
+        assert c.allowed_um[0, 1] == pytest.approx(78.0)
+    # beyond both values it is still worse, and a single value stays a single value
+    assert not compare(before, _field([2.0], [-80.0])).ok
+    assert not compare(before, _field([0.0], [-55.0])).ok
