@@ -56,7 +56,7 @@ from orient.plan import PlanResult, plan
 from orient.pointwise import point_lobes, point_setup
 from orient.report import infeasible_summary
 from orient.scenario import PlanScenario
-from orient.stability import zoa_margin_batch
+from orient.stability import sdm_margin, zoa_margin_batch
 from orient.workpiece import WorkpieceModel
 
 from .constants import (
@@ -180,7 +180,8 @@ def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
     blocks of the CAM program), ``'simulate'`` the simulated machine's
     (``JOB_WARM_POINTS`` cutter locations from the first cut) and the point analyses'
     (lobes by both methods at two speeds, as in the plan's time-periodic check). Only
-    time depends on it: a stage compiles whatever is not cached yet."""
+    time depends on it: a stage compiles whatever is not cached yet. The margins' part
+    also runs the plan's time-periodic check's kernels (:func:`orient.stability.sdm_margin`)."""
     base = scn.base
     for part in parts:
         if part == "margins":
@@ -191,6 +192,10 @@ def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
                 zoa_margin_batch(P, ModalSystem.tool(base.compliance), [9000.0, 10000.0],
                                  base.tool.flutes, cap=scn.options.margin_target,
                                  parallel=parallel)
+            # the plan's time-periodic check (its main process compiled these: 6 s and
+            # the compiler's memory)
+            sdm_margin(P[:1].repeat(8, axis=0), ModalSystem.tool(base.compliance), 10000.0,
+                       base.tool.flutes)
         elif part == "predict":
             prog = base.read_program()
             build_predictor(base, prog).run(range(min(len(prog), JOB_WARM_BLOCKS)))
