@@ -266,7 +266,12 @@ def _cmd_compensate(args) -> int:
             print(f"  the walls beside the floors (not corrected), at {w.after.points} points "
                   f"against the original's {w.before.points}: largest |E| "
                   f"{um(w.before.max_abs_um)} -> {um(w.after.max_abs_um)} um, most negative "
-                  f"{um(w.before.min_um, '+')} -> {um(w.after.min_um, '+')} um; none worse")
+                  f"{um(w.before.min_um, '+')} -> {um(w.after.min_um, '+')} um; none worse"
+                  + (f"; {w.lost} of the original's have no wall of the corrected program "
+                     "near them (not compared)" if w.lost else ""))
+        elif not scenario.correction.verify_walls:
+            print("  walls beside the floors not compared ([correction] verify_walls = "
+                  "false)")
         if args.tool_state_out:
             print(f"wrote {args.tool_state_out}: the tool's state after the corrected program")
         if page:

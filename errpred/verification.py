@@ -30,8 +30,11 @@ the wall's normal. So the walls form a field of their own
 move along its normal), compared with the original's walls by the same rules
 (:attr:`Comparison.walls`), except that a wall point with no original wall near it
 is worse only where it cuts deeper than nominal by more than the overcut limit (the
-original's wall there was not predicted, so material left is not known to be worse).
-A candidate worse on a wall is worse.
+original's wall there was not predicted, so material left is not known to be worse),
+and where the original has two wall points at one place (a block's end and the next
+one's start: a flank's wall can step there by tens of um) the reference is the range of
+both. A candidate worse on a wall is worse. An original wall point with no wall of the
+candidate near it is counted (``Comparison.lost``) and said, not compared.
 """
 
 from __future__ import annotations
@@ -275,7 +278,7 @@ class Comparison:
         Blocks of the original holding a worse point.
     allowed_um : ndarray, shape (n_after, 2)
         The band of E each point of the corrected program had to stay in (low, high)
-        [um]; (-overcut, tolerance) where there is no reference.
+        [um]; (-overcut, tolerance) where there is no reference (walls: (-overcut, inf)).
     unmatched : int
         Points of the corrected program with no original point near them on their pass.
     tolerance_um : float
@@ -284,8 +287,11 @@ class Comparison:
     after_field : ErrorField or None
         The corrected program's field compared.
     walls : Comparison or None
-        The walls' comparison (``kind`` "wall"; :func:`compare`), or None where the
-        corrected program has no wall points.
+        The walls' comparison (``kind`` "wall"; :func:`compare`), or None where they
+        are not compared (``walls=False``) or neither program has wall points.
+    lost : int
+        (walls) Wall points of the original with no wall of the corrected program near
+        them on their pass: not compared (said in the report and the reason).
     kind : str
         "floor" or "wall".
     """
@@ -303,6 +309,7 @@ class Comparison:
     allowed_um: np.ndarray | None = None
     walls: Comparison | None = None
     kind: str = "floor"
+    lost: int = 0
 
     @property
     def ok(self) -> bool:
@@ -318,6 +325,9 @@ class Comparison:
         if self.ok:
             walls = (f"; walls at {w.after.points} points no worse either"
                      if w is not None and w.after.points else "")
+            if w is not None and w.lost:
+                walls += (f"; {w.lost} of the original's {w.before.points} wall points have "
+                          "no wall of the corrected program near them (not compared)")
             return f"verified on {a.points} points: no worse anywhere ({head}){walls}"
         if not self.worse.any():
             return (f"the walls beside the floors: {w.reason()}; the floors: {head} (where "
@@ -349,6 +359,7 @@ class Comparison:
             "worse_points": int(self.worse.sum()),
             "worse_blocks": [int(b) for b in self.worse_blocks],
             "unmatched_points": self.unmatched,
+            "lost_points": self.lost,
             "per_block": [{"block": int(k), "line": self.lines.get(int(k)),
                            "before": v[0].as_dict(), "after": v[1].as_dict()}
                           for k, v in sorted(self.per_block.items())],
@@ -364,17 +375,17 @@ def _f(v: float) -> str:
 
 def reference_at(before: ErrorField, after: ErrorField,
                  spacing_mm: float = VERIFY_SPACING_MM, values: np.ndarray | None = None,
-                 envelope: bool = False):
+                 envelope: bool = False, joints: bool = False):
     """The original's error (or ``values``, one per point of ``before``) at each point
     of ``after`` [um]: interpolated along the reference path between the two nearest
     points of ``before`` on the same pass when they are at most
     ``VERIFY_BRACKET_SPACINGS`` spacings apart, else the nearest one within a spacing
     (or where ``after``'s point is at one of ``before``'s, that one's); NaN where there
     is none. With ``envelope``, also the smaller and the larger of the two values it
-    lies between (both the one value where there is one; where several of ``before``'s
-    points are at that place, a block's end and the next one's start, the smallest and
-    the largest of theirs): the original's error between two predicted points is known
-    only to lie between them, a step included."""
+    lies between (both the one value where there is one; with ``joints``, where several
+    of ``before``'s points are at that place, a block's end and the next one's start,
+    the smallest and the largest of theirs): the original's error between two predicted
+    points is known only to lie between them, a step included."""
     vals = before.E_um if values is None else np.asarray(values, float)
     out = np.full(len(after), np.nan)
     env_lo = np.full(len(after), np.nan)
@@ -407,7 +418,7 @@ def reference_at(before: ErrorField, after: ErrorField,
         same = VERIFY_SAME_PLACE * spacing_mm
         a0 = np.searchsorted(sb, sa - same, side="left")
         a1 = np.searchsorted(sb, sa + same, side="right")
-        several = np.flatnonzero(single & (a1 - a0 > 1))
+        several = np.flatnonzero(single & (a1 - a0 > 1)) if joints else np.zeros(0, int)
         if several.size:
             one_lo, one_hi = one_lo.copy(), one_hi.copy()
             for q in several:
@@ -452,12 +463,16 @@ def compare(before: ErrorField, after: ErrorField, *,
     """
     if not (math.isfinite(tolerance_um) and tolerance_um >= 0):
         raise ValueError(f"tolerance_um: expected a finite value >= 0, got {tolerance_um!r}")
-    out = _compare(before, after, tolerance_um, spacing_mm, overcut_um, lines, tolerance_um)
-    if not walls or after.walls is None or len(after.walls) == 0:
+    out = _compare(before, after, tolerance_um, spacing_mm, overcut_um, lines, tolerance_um,
+                   False)
+    bw = before.walls if before.walls is not None else _no_points()
+    aw = after.walls if after.walls is not None else _no_points()
+    if not walls or len(aw) + len(bw) == 0:
         return out
-    walls = _compare(before.walls if before.walls is not None else _no_points(), after.walls,
-                     tolerance_um, spacing_mm, overcut_um, lines, math.inf)
-    return dataclasses.replace(out, walls=dataclasses.replace(walls, kind="wall"))
+    wc = _compare(bw, aw, tolerance_um, spacing_mm, overcut_um, lines, math.inf, True)
+    # the original's walls that the candidate no longer finishes there (not compared)
+    lost = int((~np.isfinite(reference_at(aw, bw, spacing_mm)) & (bw.chain >= 0)).sum())
+    return dataclasses.replace(out, walls=dataclasses.replace(wc, kind="wall", lost=lost))
 
 
 def _no_points() -> ErrorField:
@@ -469,10 +484,12 @@ def _no_points() -> ErrorField:
 
 
 def _compare(before: ErrorField, after: ErrorField, tolerance_um: float, spacing_mm: float,
-             overcut_um: float, lines: dict | None, unmatched_high_um: float) -> Comparison:
+             overcut_um: float, lines: dict | None, unmatched_high_um: float,
+             joints: bool) -> Comparison:
     """:func:`compare` of one kind of point (floors or walls); a point without an
-    original one near it may lie in ``(-overcut, unmatched_high_um)``."""
-    ref, lo, hi = reference_at(before, after, spacing_mm, envelope=True)
+    original one near it may lie in ``(-overcut, unmatched_high_um)``; ``joints``: see
+    :func:`reference_at`."""
+    ref, lo, hi = reference_at(before, after, spacing_mm, envelope=True, joints=joints)
     Ea = after.E_um
     k = np.isfinite(ref)                      # points with a reference
     over = max(tolerance_um, overcut_um)
