@@ -212,14 +212,14 @@ class BottomTemplate:
         return np.where(unknown, rigorous, est).ravel()
 
     # --- the finished surface ----------------------------------------------
-    def finished_surface(self, stock, interval, tip, frame, t1, t2,
-                         inside_t1=None) -> Finished:
+    def finished_surface(self, stock, interval, tip, frame, t1, t2, inside_t1) -> Finished:
         """The pixels and sub-pixels of the finished surface (the tool's envelope in
         the stock, outside T1 and T2) at one location.
 
-        ``inside_t1(world) -> bool`` answers the sub-pixels' T1 test where given (the
-        point's :class:`~errpred.t1memo.RemovedMemo`: the sweeps' height map first,
-        the same answers); else every one is tested exactly against ``t1``.
+        The pixels' margins are measured against ``t1``; ``inside_t1(world) -> bool``
+        answers the sub-pixels' T1 test (the point's
+        :meth:`~errpred.t1memo.RemovedMemo.test`: the sweeps' height map first, the
+        same answers as the exact test).
         """
         tool = self.tool
         c, r, top = tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm
@@ -252,11 +252,8 @@ class BottomTemplate:
         # surface is smooth at pixel scale; the strip lies well inside it)
         incand = self.in_stock_local(stock, interval, tip, frame, sub)
         sw = tip + sub @ frame
-        if inside_t1 is None:
-            in1 = inside_any_sweep_clustered(sw, incand, *t1, c, r, top, eps, cell)
-        else:
-            in1 = np.zeros(sw.shape[0], dtype=bool)
-            in1[incand] = inside_t1(np.ascontiguousarray(sw[incand]))
+        in1 = np.zeros(sw.shape[0], dtype=bool)
+        in1[incand] = inside_t1(np.ascontiguousarray(sw[incand]))
         cut = incand & ~in1
         in2 = inside_any_sweep_clustered(sw, cut, *t2, c, r, top, eps, cell)
         fin = cut & ~in2

@@ -453,7 +453,6 @@ def compare(before: ErrorField, after: ErrorField, *,
         ``tolerance_um``).
     lines : dict of int -> int, optional
         Block of the original -> source line (for the report).
-
     walls : bool
         Compare the walls too (:attr:`ErrorField.walls`, where ``after`` has any): into
         :attr:`Comparison.walls`, which :attr:`Comparison.ok` includes. False (a
