@@ -229,7 +229,7 @@ def _point_margin(x, y, z, lst, g_lo, k, delta, p0, d, w, lo, hi, c, r, top, rea
 
 @njit(cache=True)
 def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach, out,
-                decide, margins):
+                margins):
     """Per bin: (start, end, sweeps that may reach it), as flat arrays.
 
     Sweeps that cannot come within ``reach`` of any point are dropped first
@@ -251,13 +251,18 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach,
     margin would compute them again (the finished surface's pixels lie one to a bin).
     The same values: a sweep left out of a bin's list lies farther than ``reach``.
 
-    With ``decide``, membership is decided here and the lists are not kept (every
-    bin's comes back empty): each bin's points go first against the sweeps that
+    With ``out`` (bool, one per point; empty otherwise), membership is decided here
+    and the lists are not kept (every bin's comes back empty): each bin's points go first against the sweeps that
     held points of the bins before (``CLUSTER_RECENT`` of them, :func:`_recent_pass`),
     and only a bin with a point none of them holds gets its list and the exact
-    tests (:func:`_list_pass`); ``out`` (bool, one per point) is set where a
-    point lies inside a sweep (within ``r + reach`` of its core). The same
-    answers: a point is inside when a sweep holds it, whichever sweep that is.
+    tests (:func:`_list_pass`); ``out`` is set where a point lies inside a sweep
+    (within ``r + reach`` of its core). The same answers: a point is inside when a
+    sweep holds it, whichever sweep that is.
+
+    Which of the three a call does follows from its arrays' sizes, not from a flag: a
+    constant flag is a literal type to numba, and its two callers compiled this function
+    and everything under it twice (about 10 s of a fresh cache's 41 s for the
+    prediction's kernels).
     """
     n = p0.shape[0]
     cx, cy, cz, rad = _sphere(points, idx, order, 0, m)
@@ -300,6 +305,7 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach,
     recent = np.empty(CLUSTER_RECENT, dtype=np.int64)
     nrec = 0
     direct = margins.shape[0] > 0
+    decide = out.shape[0] > 0
     b0 = 0
     while b0 < nb:
         # the bins of one super cube
@@ -409,7 +415,7 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
     idx, order, keys, m = _bins(points, rest, cell)
     if m == 0:
         return out
-    _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, eps, out, True,
+    _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, eps, out,
                 np.zeros(0))
     return out
 
@@ -442,8 +448,7 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
     if m == 0:
         return out
     starts, offsets, lists, nb = _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi,
-                                             c, r, top, -floor, np.zeros(0, dtype=np.bool_),
-                                             False, out)
+                                             c, r, top, -floor, np.zeros(0, dtype=np.bool_), out)
     for b in range(nb):
         if starts[b + 1] - starts[b] == 1:
             continue  # its margin came with the lists

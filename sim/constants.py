@@ -176,7 +176,7 @@ SPECTRUM_CHUNK_SEGMENTS = 64
 #: stop earlier once a verified candidate's dense RMS is within ``[correction]
 #: verify_tolerance_um`` (sim/job.py).
 JOB_CORRECTION_PASSES = 3
-#: The Dask job's warm-up (``sim.job._warm_kernels``): blocks of the CAM program
+#: The Dask job's warm-up (``sim.warmup.run_part``): blocks of the CAM program
 #: predicted and cutter locations simulated while the planner chooses the speed [-].
 JOB_WARM_BLOCKS = 40
 JOB_WARM_POINTS = 30

@@ -27,11 +27,6 @@ same as in one process (the physics is deterministic).
 
 from __future__ import annotations
 
-import logging
-import os
-import pickle
-import subprocess
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -50,23 +45,18 @@ from nc.command import Refused
 from nc.gcode import parse_program
 from nc.path import CutterLocations, cutter_locations
 from nc.writer import PostOptions, PostResult, post, round_trip_error
-from orient.contacts import ball_contacts
-from orient.dynamics import ModalSystem
 from orient.plan import PlanResult, plan
 from orient.pointwise import point_lobes, point_setup
 from orient.report import infeasible_summary
 from orient.scenario import PlanScenario
-from orient.stability import sdm_margin, zoa_margin_batch
-from orient.workpiece import WorkpieceModel
 
 from .constants import (
     JOB_CORRECTION_PASSES,
     JOB_LOBE_SPEEDS,
     JOB_SURFACE_RATIO,
-    JOB_WARM_BLOCKS,
-    JOB_WARM_POINTS,
 )
 from .verify import Verification, scenario_with_program, verify_program
+from .warmup import warm_apart
 
 __all__ = ["JobResult", "run_job"]
 
@@ -172,70 +162,6 @@ def _worst_cam_pass(res: PlanResult) -> tuple[int, int]:
     return max(int(starts[k]) - 2, 0), min(int(ends[k]) + 2, len(res.cl) - 1)
 
 
-def _warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
-    """Run the kernels later stages need on small inputs, so that numba compiles them here
-    and caches them on disk for every process. Parts: ``'margins'`` the planner's
-    zero-order margins (which the main process's speed choice needs once a worker has
-    its sample of gains), ``'predict'`` the error prediction's (``JOB_WARM_BLOCKS``
-    blocks of the CAM program), ``'simulate'`` the simulated machine's
-    (``JOB_WARM_POINTS`` cutter locations from the first cut) and the point analyses'
-    (lobes by both methods at two speeds, as in the plan's time-periodic check). Only
-    time depends on it: a stage compiles whatever is not cached yet. The margins' part
-    also runs the plan's time-periodic check's kernels (:func:`orient.stability.sdm_margin`)."""
-    base = scn.base
-    for part in parts:
-        if part == "margins":
-            # both kernels: a cutter location's postures in one thread, the speed
-            # choice's and a rigid part's many postures over the threads
-            P = np.broadcast_to(np.diag([1e6, 1e6, 1e5]), (2, 3, 3)).copy()
-            for parallel in (False, True):
-                zoa_margin_batch(P, ModalSystem.tool(base.compliance), [9000.0, 10000.0],
-                                 base.tool.flutes, cap=scn.options.margin_target,
-                                 parallel=parallel)
-            # the plan's time-periodic check (its main process compiled these: 6 s and
-            # the compiler's memory)
-            sdm_margin(P[:1].repeat(8, axis=0), ModalSystem.tool(base.compliance), 10000.0,
-                       base.tool.flutes)
-        elif part == "predict":
-            prog = base.read_program()
-            build_predictor(base, prog).run(range(min(len(prog), JOB_WARM_BLOCKS)))
-        elif part == "simulate":
-            # one workpiece model at the first contact for both (its finite elements:
-            # each call built its own, the simulation's over the stretch's levels, and
-            # the task peaked at 1.17 GB; the kernels' types do not depend on it)
-            cam = cutter_locations(base.read_program(), scn.machine())
-            contacts = ball_contacts(cam, base.tool.radius_mm, base.stock.load_design())
-            first = int(np.flatnonzero(contacts.touching)[0])
-            wp = WorkpieceModel(scn.workpiece, contacts.point[first][None])
-            setup = point_setup(scn, first, workpiece=wp, contacts=contacts)
-            point_lobes(scn, setup, ("zoa", "sdm"), setup.spindle_rpm * np.array([0.9, 1.1]))
-            verify_program(scn, points=(setup.index, setup.index + JOB_WARM_POINTS),
-                           workpiece=wp)
-        else:
-            raise ValueError(f"parts: unknown part {part!r}")
-
-
-def _warm_apart(scn: PlanScenario, parts: tuple[str, ...]) -> int:
-    """:func:`_warm_kernels` in a child process (this interpreter, this process's
-    ``sys.path``), waited for: numba's compiler keeps the memory it took (about 290 MB
-    for the margins' and the prediction's kernels), so the process that compiles is one
-    that ends, not a worker that goes on to plan, predict or verify. Returns the child's
-    exit status (a failure only costs time: a later stage compiles what is missing;
-    its last line of error output is logged)."""
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
-    code = ("import pickle, sys; from sim.job import _warm_kernels; "
-            "_warm_kernels(*pickle.load(sys.stdin.buffer))")
-    done = subprocess.run([sys.executable, "-c", code], input=pickle.dumps((scn, parts)),
-                          env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                          check=False)
-    if done.returncode:
-        lines = done.stderr.decode(errors="replace").strip().splitlines()
-        logging.getLogger(__name__).warning(
-            "warming up %s in a child process failed (exit %d): %s", ", ".join(parts),
-            done.returncode, lines[-1] if lines else "no output")
-    return done.returncode
-
-
 def _lobes(scn: PlanScenario, res: PlanResult) -> list[dict]:
     """Lobes (zero-order) at the lowest-CAM-margin and the lowest-planned-margin points,
     for the CAM posture and for the planned one, at the planned speed. Both at the plan's
@@ -306,7 +232,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     # verification only: with the kernels cached it still took 35 s of running (its
     # finite elements, lobes and a few cutter locations), which the prediction waited for
     warm = [] if client is None else [client.submit(
-        _warm_apart, scn, ("margins", "predict"), pure=False, priority=-1)]
+        warm_apart, scn, ("margins", "predict"), pure=False, priority=-1)]
     warm_sim: list = []
 
     def lap(name: str) -> None:
@@ -365,7 +291,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     if warm:        # the prediction's kernels: compiled (and cached) before it starts
         from distributed import wait
 
-        warm_sim.append(client.submit(_warm_apart, scn, ("simulate",), pure=False,
+        warm_sim.append(client.submit(warm_apart, scn, ("simulate",), pure=False,
                                       priority=-1))
         wait(warm)
         del warm

@@ -317,7 +317,7 @@ def test_shortlists_are_each_bin_tested_alone():
             idx, order, keys, m = _bins(pts, np.ones(len(pts), dtype=np.bool_), cell)
             starts, offsets, lists, nb = _shortlists(pts, idx, order, keys, m, p0, d, w, lo,
                                                      hi, c, r, top, reach,
-                                                     np.zeros(0, dtype=np.bool_), False,
+                                                     np.zeros(0, dtype=np.bool_),
                                                      np.zeros(0))
             sizes = []
             for b in range(nb):

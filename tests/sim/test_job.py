@@ -188,10 +188,64 @@ def test_the_warm_up_runs_apart_and_a_failure_is_logged(tmp_path, caplog):
     # scenario through a pipe and this process's sys.path; a failure there is logged
     # with the child's last line of error output and its status returned
     from orient.scenario import load_plan_scenario
-    from sim.job import _warm_apart
+    from sim.warmup import warm_apart
 
     scn = load_plan_scenario(light_scenario(tmp_path / "scn"))
-    assert _warm_apart(scn, ()) == 0
-    with caplog.at_level("WARNING", logger="sim.job"):
-        assert _warm_apart(scn, ("no-such-part",)) != 0
+    assert warm_apart(scn, ()) == 0
+    with caplog.at_level("WARNING", logger="sim.warmup"):
+        assert warm_apart(scn, ("no-such-part",)) != 0
     assert "unknown part 'no-such-part'" in caplog.text
+
+
+def test_a_warm_up_part_runs_once_then_loads_its_manifest(tmp_path, monkeypatch, caplog):
+    # the first time a part runs its kernels and writes the signatures numba compiled,
+    # stamped with the sources; then, while the sources are the same, it only asks numba
+    # for them (no running); other sources, or a signature that no longer compiles, and
+    # it runs again
+    import pickle
+
+    import numba
+
+    from orient.scenario import load_plan_scenario
+    from sim import warmup
+
+    scn = load_plan_scenario(light_scenario(tmp_path / "scn"))
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "cache"))
+    ran: list[str] = []
+    real = warmup.run_part
+
+    def spy(s, part):
+        ran.append(part)
+        real(s, part)
+
+    monkeypatch.setattr(warmup, "run_part", spy)
+    warmup.warm_kernels(scn, ("margins",))
+    assert ran == ["margins"]
+    path = warmup.manifest_path("margins")
+    assert path.parent == tmp_path / "cache"
+    with open(path, "rb") as fh:
+        stamp, entries = pickle.load(fh)
+    assert stamp == warmup.sources_stamp()
+    names = {(m, a) for m, a, sigs in entries if sigs}
+    assert ("orient.stability._kernels", "margin_batch") in names
+    assert ("orient.stability._kernels", "margin_batch_serial") in names
+
+    warmup.warm_kernels(scn, ("margins",))
+    assert ran == ["margins"]                   # from the manifest: not run
+
+    monkeypatch.setattr(warmup, "sources_stamp", lambda: "other sources")
+    warmup.warm_kernels(scn, ("margins",))
+    assert ran == ["margins", "margins"]
+
+    with open(path, "rb") as fh:
+        stamp, entries = pickle.load(fh)
+    assert stamp == "other sources"
+    entries.append(("orient.stability._kernels", "no_such_kernel", ["int64"]))
+    with open(path, "wb") as fh:
+        pickle.dump((stamp, entries), fh)
+    with caplog.at_level("WARNING", logger="sim.warmup"):
+        warmup.warm_kernels(scn, ("margins",))
+    assert ran == ["margins"] * 3
+    assert "no_such_kernel" in caplog.text and "running the part" in caplog.text
+    with pytest.raises(ValueError, match="unknown part 'x'"):
+        warmup.warm_kernels(scn, ("x",))
