@@ -369,8 +369,8 @@ WALL_LEVELS = 3
 #: Threads that solve the levels side by side [-]: one. Two threads held two SuperLU
 #: factorizations at once: the bundled thin wall's model peaked at 717 MB against
 #: 491 MB one level after another (three levels, 50 contact heights), for no gain on a
-#: loaded 2-core machine (8.6 s against 7.7 s); in the main job the Dask workers keep
-#: both cores busy while the main process builds the model.
+#: loaded 2-core machine (8.6 s against 7.7 s). With a Dask client the levels but the
+#: first are offered to its workers instead (orient.workpiece._solve_shared).
 WALL_LEVEL_THREADS = 1
 #: A contact point this far outside the wall's material is taken at the
 #: nearest material point (the contact lies on the finished face) [mm].

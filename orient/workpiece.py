@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import ThreadPoolExecutor
+from functools import partial
 
 import numpy as np
 
@@ -34,23 +35,27 @@ class WorkpieceModel:
     Parameters
     ----------
     spec : WorkpieceSpec
-    heights_mm : ndarray, shape (n,) [mm], optional
-        Contact points' heights (workpiece Z) where the thin wall's levels
-        are spread; needed for ``thin_wall``.
+    points_mm : ndarray, shape (n, 3) [mm], optional
+        Contact points where the thin wall's levels are spread (their heights on
+        the wall); needed for ``thin_wall``.
+    client : dask.distributed.Client, optional
+        Offer the thin wall's levels but the first to its workers
+        (:func:`_solve_shared`); the same modes.
     """
 
-    def __init__(self, spec: WorkpieceSpec, points_mm: np.ndarray | None = None) -> None:
+    def __init__(self, spec: WorkpieceSpec, points_mm: np.ndarray | None = None, *,
+                 client=None) -> None:
         self.spec = spec
         self.levels: list = []
         self.level_z: np.ndarray = np.zeros(0)
         if spec.kind == "thin_wall":
-            self._build_wall(np.asarray(points_mm, dtype=float).reshape(-1, 3))
+            self._build_wall(np.asarray(points_mm, dtype=float).reshape(-1, 3), client)
 
     @property
     def rigid(self) -> bool:
         return self.spec.kind == "rigid"
 
-    def _build_wall(self, points: np.ndarray) -> None:
+    def _build_wall(self, points: np.ndarray, client=None) -> None:
         from .workpiece_fem import Material, ThinWall, wall_modes
 
         w = self.spec.thin_wall
@@ -72,11 +77,13 @@ class WorkpieceModel:
         # release the GIL: WALL_LEVEL_THREADS threads could solve them side by side (under
         # one BLAS limit, set here for all of them: orient.blas); one keeps a single
         # factorization in memory at a time
+        solve = partial(wall_modes, n_modes=w["modes"], elements=w["element_mm"])
+        if client is not None and len(shapes) > 1:
+            self.levels = _solve_shared(client, solve, shapes)
+            return
         threads = max(1, min(len(shapes), WALL_LEVEL_THREADS, os.cpu_count() or 1))
         with limited_blas(), ThreadPoolExecutor(max_workers=threads) as pool:
-            self.levels = list(pool.map(
-                lambda shape: wall_modes(shape, n_modes=w["modes"], elements=w["element_mm"]),
-                shapes))
+            self.levels = list(pool.map(solve, shapes))
 
     def _level(self, p: np.ndarray) -> int:
         """The solved in-process level nearest the point's height on the wall."""
@@ -123,3 +130,28 @@ class WorkpieceModel:
     def first_frequencies_hz(self) -> list[float]:
         """First natural frequency of each solved level [Hz] (thin wall only)."""
         return [float(m.frequencies_hz[0]) for m in self.levels]
+
+
+def _solve_shared(client, solve, shapes: list) -> list:
+    """``[solve(shape) for shape in shapes]``, the first here and the others offered to
+    the cluster's workers: each is taken from a worker that has finished it by the time
+    this process would start it, otherwise withdrawn and solved here.
+
+    In the main job the workers are idle while the planner builds the model once the
+    kernels are cached (the bundled thin wall's three levels: about 7-8 s in one
+    process; a cached job took one of its two offered levels from a worker, the other
+    was still being solved there when this process got to it), and busy compiling on
+    an empty cache: then this process solves every level, as it did alone. (A withdrawn level a worker
+    starts just before the withdrawal reaches it is solved there too, and dropped.)
+    """
+    offered = [client.submit(solve, shape, pure=False) for shape in shapes[1:]]
+    with limited_blas():
+        levels = [solve(shapes[0])]
+        for shape, future in zip(shapes[1:], offered):
+            if future.done() and future.status == "finished":
+                levels.append(future.result())
+            else:
+                future.cancel()
+                levels.append(solve(shape))
+
+    return levels

@@ -25,3 +25,47 @@ def test_local_cluster_plan_equals_one_process(planned):
     np.testing.assert_array_equal(one.grid_margin, dist.grid_margin)
     assert one.reason == dist.reason
     assert [c["sdm_margin"] for c in one.sdm_checks] == [c["sdm_margin"] for c in dist.sdm_checks]
+
+
+_STARTED = __import__("threading").Event()
+_RELEASE = __import__("threading").Event()
+
+
+def _busy() -> bool:
+    _STARTED.set()
+    return _RELEASE.wait(30)
+
+
+def _square_slowly(x: int) -> tuple[int, str]:
+    """x squared, and where: here (this process's main thread) or on a worker."""
+    import threading
+    import time
+
+    if x == 0:
+        time.sleep(1.0)         # meanwhile an idle worker solves the others
+    here = threading.current_thread() is threading.main_thread()
+    return x * x, "here" if here else "worker"
+
+
+def test_wall_levels_are_taken_from_idle_workers_and_withdrawn_from_busy_ones():
+    # the thin wall's levels but the first are offered to the workers: one a worker has
+    # finished when this process gets to it is taken; one still waiting for a busy
+    # worker is withdrawn and solved here (the answers are the same either way)
+    from orient.workpiece import _solve_shared
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        got = _solve_shared(client, _square_slowly, [0, 1, 2])
+        assert got == [(0, "here"), (1, "worker"), (4, "worker")]
+
+        _STARTED.clear()
+        _RELEASE.clear()
+        busy = client.submit(_busy, pure=False)
+        assert _STARTED.wait(30)            # the worker is busy from here on
+        try:
+            got = _solve_shared(client, _square_slowly, [0, 1, 2])
+        finally:
+            _RELEASE.set()
+        assert busy.result()
+        assert got == [(0, "here"), (1, "here"), (4, "here")]
