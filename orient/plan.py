@@ -171,7 +171,7 @@ def _off_pole(machine, axes: np.ndarray, floor_rad: float) -> np.ndarray:
 
 
 def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
-         progress=None, client=None, before_margins=None) -> PlanResult:
+         progress=None, client=None) -> PlanResult:
     """Plan lead and tilt along the scenario's CAM program.
 
     Parameters
@@ -188,10 +188,6 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     client : dask.distributed.Client, optional
         Compute the process gains and margins on its workers, chunks of cutter
         locations at a time (the result is the same as in one process).
-    before_margins : callable, optional
-        With ``client``: called (no arguments) before the first margins go to the
-        workers; it may block until something is ready (the main job waits there for
-        its warm-up to compile the margins' kernels, so that no worker compiles them).
 
     Returns
     -------
@@ -277,8 +273,6 @@ def plan(scn: PlanScenario, *, machine=None, spindle_rpm: float | None = None,
     cap = opt.margin_target
     cam_margin = None
     if client is not None:
-        if before_margins is not None:
-            before_margins()
         wp_f = client.scatter(wp, broadcast=True)
         if choose_speed:
             P_s = np.zeros(axes.shape[:2] + (3, 3))

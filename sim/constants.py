@@ -180,10 +180,6 @@ JOB_CORRECTION_PASSES = 3
 #: predicted and cutter locations simulated while the planner chooses the speed [-].
 JOB_WARM_BLOCKS = 40
 JOB_WARM_POINTS = 30
-#: The longest the plan's margins wait for the warm-up to have compiled their kernels
-#: [s]: far above that compile on this 2-core machine (17 s alone, about 25 s beside the
-#: plan); past it a worker compiles them itself (only time and its memory).
-JOB_WARM_WAIT_S = 180.0
 #: BLAS threads of the job's main process (threadpoolctl: numpy's and scipy's OpenBLAS) [-]: one, as Dask gives each of its
 #: workers. With OpenBLAS's default (one a core) on the 2 cores kept busy by other
 #: processes (as a cluster's workers keep them), the planner's time-periodic margins took

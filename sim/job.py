@@ -27,7 +27,6 @@ same as in one process (the physics is deterministic).
 
 from __future__ import annotations
 
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -55,10 +54,9 @@ from .constants import (
     JOB_CORRECTION_PASSES,
     JOB_LOBE_SPEEDS,
     JOB_SURFACE_RATIO,
-    JOB_WARM_WAIT_S,
 )
 from .verify import Verification, scenario_with_program, verify_program
-from .warmup import parts_done, warm_apart
+from .warmup import warm_apart
 
 __all__ = ["JobResult", "run_job"]
 
@@ -164,20 +162,6 @@ def _worst_cam_pass(res: PlanResult) -> tuple[int, int]:
     return max(int(starts[k]) - 2, 0), min(int(ends[k]) + 2, len(res.cl) - 1)
 
 
-def _workers_here(client) -> bool:
-    """Whether every worker of the Dask ``client`` runs on this machine (loopback or
-    in-process addresses: a local cluster)."""
-    from urllib.parse import urlsplit
-
-    workers = client.scheduler_info().get("workers", {})
-    for addr in workers:
-        if addr.startswith("inproc://"):
-            continue
-        if urlsplit(addr).hostname not in ("127.0.0.1", "localhost", "::1"):
-            return False
-    return bool(workers)
-
-
 def _lobes(scn: PlanScenario, res: PlanResult) -> list[dict]:
     """Lobes (zero-order) at the lowest-CAM-margin and the lowest-planned-margin points,
     for the CAM posture and for the planned one, at the planned speed. Both at the plan's
@@ -238,9 +222,6 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     work = Path(workdir)
     seconds: dict[str, float] = {}
     t0 = t_start = time.perf_counter()
-    # where the warm-up child notes each part it has finished (removed with this object)
-    warm_dir = tempfile.TemporaryDirectory(prefix="firstcut-warm-")
-    done_file = Path(warm_dir.name) / "parts-done.txt"
     # a worker compiles what later stages need (numba caches it on disk for every
     # process): one task that does the planner's and the prediction's parts in turn,
     # behind the planner's (priority), so that the other worker is free for the planner's
@@ -251,21 +232,8 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     # verification only: with the kernels cached it still took 35 s of running (its
     # finite elements, lobes and a few cutter locations), which the prediction waited for
     warm = [] if client is None else [client.submit(
-        warm_apart, scn, ("margins", "predict"), str(done_file), pure=False, priority=-1)]
+        warm_apart, scn, ("margins", "predict"), pure=False, priority=-1)]
     warm_sim: list = []
-
-    def margins_ready() -> None:
-        # the plan's margins wait for the warm-up's (a worker that compiled them kept the
-        # compiler's memory and peaked at 1.15 GB verifying later); on a fresh cache the
-        # plan's first task compiles the gain kernels meanwhile, on a full one the warm-up
-        # only loads; a failed warm-up, or one past JOB_WARM_WAIT_S, is not waited for
-        # (the child notes it in a file of this machine: a cluster elsewhere is not waited for)
-        if not warm or not _workers_here(client):
-            return
-        deadline = time.monotonic() + JOB_WARM_WAIT_S
-        while ("margins" not in parts_done(done_file) and not warm[0].done()
-               and time.monotonic() < deadline):
-            time.sleep(0.05)
 
     def lap(name: str) -> None:
         nonlocal t0
@@ -274,8 +242,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
 
     # 1-2: plan
     say("plan", 0, 1)
-    res = plan(scn, progress=lambda stage, d, t: say(f"plan: {stage}", d, t), client=client,
-               before_margins=margins_ready)
+    res = plan(scn, progress=lambda stage, d, t: say(f"plan: {stage}", d, t), client=client)
     say("plan", 1, 1)
     allow = scn.options.allow_fallback if allow_fallback is None else allow_fallback
     if res.infeasible.size and not allow:

@@ -40,8 +40,7 @@ from orient.workpiece import WorkpieceModel
 from .constants import JOB_WARM_BLOCKS, JOB_WARM_POINTS
 from .verify import verify_program
 
-__all__ = ["PARTS", "warm_kernels", "warm_apart", "manifest_path", "parts_done",
-           "sources_stamp"]
+__all__ = ["PARTS", "warm_kernels", "warm_apart", "manifest_path", "sources_stamp"]
 
 #: The warm-up's parts, in the order a job needs them.
 PARTS = ("margins", "predict", "simulate")
@@ -157,63 +156,43 @@ def _from_manifest(path: Path, stamp: str) -> bool:
     return True
 
 
-def warm_kernels(scn: PlanScenario, parts: tuple[str, ...], done_file: str | None = None
-                 ) -> None:
+def warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
     """Have numba compile (and cache on disk for every process) the kernels of ``parts``
     (:data:`PARTS`): from the part's manifest where one of these sources exists,
     otherwise by running the part (:func:`run_part`) and writing its manifest. Only
-    time depends on it. ``done_file``: each part's name is appended to it, a line each,
-    once its kernels are in the cache (:func:`parts_done` reads it)."""
+    time depends on it."""
     unknown = [p for p in parts if p not in PARTS]
     if unknown:
         raise ValueError(f"parts: unknown part {unknown[0]!r} (expected one of {PARTS})")
     stamp = sources_stamp()
     for part in parts:
         path = manifest_path(part)
-        if not _from_manifest(path, stamp):
-            _run_and_list(scn, part, path, stamp)
-        if done_file is not None:
-            with open(done_file, "a", encoding="utf-8") as fh:
-                fh.write(part + "\n")
+        if _from_manifest(path, stamp):
+            continue
+        run_part(scn, part)
+        # every kernel this process called so far, not only this part's: a later part's
+        # manifest holds an earlier one's too (cheap to load; complete on its own)
+        entries = _compiled_signatures()
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            with atomic_write(path, "wb") as fh:
+                pickle.dump((stamp, entries), fh)
+        except OSError as exc:      # a read-only cache: the part runs every time
+            log.info("%s: warm-up manifest not written (%s)", path, exc)
 
 
-def parts_done(done_file: str | os.PathLike) -> set[str]:
-    """The parts :func:`warm_kernels` has finished, from its ``done_file`` (none if the
-    file does not exist yet)."""
-    try:
-        with open(done_file, encoding="utf-8") as fh:
-            return {line.strip() for line in fh if line.strip()}
-    except FileNotFoundError:
-        return set()
-
-
-def _run_and_list(scn: PlanScenario, part: str, path: Path, stamp: str) -> None:
-    """Run the part and write its manifest (where the cache folder can be written)."""
-    run_part(scn, part)
-    # every kernel this process called so far, not only this part's: a later part's
-    # manifest holds an earlier one's too (cheap to load; complete on its own)
-    entries = _compiled_signatures()
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_write(path, "wb") as fh:
-            pickle.dump((stamp, entries), fh)
-    except OSError as exc:      # a read-only cache: the part runs every time
-        log.info("%s: warm-up manifest not written (%s)", path, exc)
-
-
-def warm_apart(scn: PlanScenario, parts: tuple[str, ...], done_file: str | None = None
-               ) -> int:
+def warm_apart(scn: PlanScenario, parts: tuple[str, ...]) -> int:
     """:func:`warm_kernels` in a child process (this interpreter, this process's
     ``sys.path``), waited for: numba's compiler keeps the memory it took (about 290 MB
     for the margins' and the prediction's kernels), so the process that compiles is one
     that ends, not a worker that goes on to plan, predict or verify. Returns the child's
     exit status (a failure only costs time: a later stage compiles what is missing;
-    its last line of error output is logged). ``done_file``: as :func:`warm_kernels`."""
+    its last line of error output is logged)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
     code = ("import pickle, sys; from sim.warmup import warm_kernels; "
             "warm_kernels(*pickle.load(sys.stdin.buffer))")
-    done = subprocess.run([sys.executable, "-c", code],
-                          input=pickle.dumps((scn, parts, done_file)), env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    done = subprocess.run([sys.executable, "-c", code], input=pickle.dumps((scn, parts)),
+                          env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                           check=False)
     if done.returncode:
         lines = done.stderr.decode(errors="replace").strip().splitlines()
