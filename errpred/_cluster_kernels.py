@@ -252,12 +252,12 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach,
     The same values: a sweep left out of a bin's list lies farther than ``reach``.
 
     With ``out`` (bool, one per point; empty otherwise), membership is decided here
-    and the lists are not kept (every bin's comes back empty): each bin's points go first against the sweeps that
-    held points of the bins before (``CLUSTER_RECENT`` of them, :func:`_recent_pass`),
-    and only a bin with a point none of them holds gets its list and the exact
-    tests (:func:`_list_pass`); ``out`` is set where a point lies inside a sweep
-    (within ``r + reach`` of its core). The same answers: a point is inside when a
-    sweep holds it, whichever sweep that is.
+    and the lists are not kept (every bin's comes back empty): each bin's points go
+    first against the sweeps that held points of the bins before (``CLUSTER_RECENT`` of
+    them, :func:`_recent_pass`), and only a bin with a point none of them holds gets its
+    list and the exact tests (:func:`_list_pass`); ``out`` is set where a point lies
+    inside a sweep (within ``r + reach`` of its core). The same answers: a point is
+    inside when a sweep holds it, whichever sweep that is.
 
     Which of the three a call does follows from its arrays' sizes, not from a flag: a
     constant is a literal type to numba, which compiles a callee once per literal it
@@ -453,7 +453,8 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
     if m == 0:
         return out
     starts, offsets, lists, nb = _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi,
-                                             c, r, top, -floor, np.zeros(0, dtype=np.bool_), out)
+                                             c, r, top, -floor, np.zeros(0, dtype=np.bool_),
+                                             out)
     for b in range(nb):
         if starts[b + 1] - starts[b] == 1:
             continue  # its margin came with the lists

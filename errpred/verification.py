@@ -413,18 +413,19 @@ def reference_at(before: ErrorField, after: ErrorField,
         val = np.where(single, Eb[nearest], val)
         out[ia] = val
         one_lo = one_hi = Eb[nearest]
-        # several of the original's points at that place (a block's end and the next
-        # one's start): the original's error there lies between theirs
-        same = VERIFY_SAME_PLACE * spacing_mm
-        a0 = np.searchsorted(sb, sa - same, side="left")
-        a1 = np.searchsorted(sb, sa + same, side="right")
-        several = np.flatnonzero(single & (a1 - a0 > 1)) if joints else np.zeros(0, int)
-        if several.size:
-            one_lo, one_hi = one_lo.copy(), one_hi.copy()
-            for q in several:
-                part = Eb[a0[q]:a1[q]]
-                one_lo[q] = min(one_lo[q], part.min())
-                one_hi[q] = max(one_hi[q], part.max())
+        if joints and envelope:
+            # several of the original's points at that place (a block's end and the
+            # next one's start): the original's error there lies between theirs
+            same = VERIFY_SAME_PLACE * spacing_mm
+            a0 = np.searchsorted(sb, sa - same, side="left")
+            a1 = np.searchsorted(sb, sa + same, side="right")
+            several = np.flatnonzero(single & (a1 - a0 > 1))
+            if several.size:
+                one_lo, one_hi = one_lo.copy(), one_hi.copy()
+                for q in several:
+                    part = Eb[a0[q]:a1[q]]
+                    one_lo[q] = min(one_lo[q], part.min())
+                    one_hi[q] = max(one_hi[q], part.max())
         env_lo[ia] = np.where(single, one_lo,
                               np.where(inside, np.minimum(Eb[lo], Eb[hi]), np.nan))
         env_hi[ia] = np.where(single, one_hi,

@@ -141,8 +141,9 @@ def _solve_shared(client, solve, shapes: list) -> list:
     kernels are cached (the bundled thin wall's three levels: about 7-8 s in one
     process; a cached job took one of its two offered levels from a worker, the other
     was still being solved there when this process got to it), and busy compiling on
-    an empty cache: then this process solves every level, as it did alone. (A withdrawn level a worker
-    starts just before the withdrawal reaches it is solved there too, and dropped.)
+    an empty cache: then this process solves every level, as it did alone. (A withdrawn
+    level a worker starts just before the withdrawal reaches it is solved there too, and
+    dropped.)
     """
     offered = [client.submit(solve, shape, pure=False) for shape in shapes[1:]]
     with limited_blas():
@@ -153,5 +154,4 @@ def _solve_shared(client, solve, shapes: list) -> list:
             else:
                 future.cancel()
                 levels.append(solve(shape))
-
     return levels

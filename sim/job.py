@@ -229,8 +229,9 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     # tasks, both workers took a part before the planner had submitted anything, and the
     # sample waited behind them (on a fresh cache: 52 s of compiling, then its own 57 s).
     # The simulation's part is submitted after the plan and waited for before the
-    # verification only: with the kernels cached it still took 35 s of running (its
-    # finite elements, lobes and a few cutter locations), which the prediction waited for
+    # verification only: run whole, it took 35 s even with the kernels cached (its finite
+    # elements, lobes and a few cutter locations), which the prediction waited for (with
+    # the kernels cached every part now only loads its manifest: sim/warmup.py)
     warm = [] if client is None else [client.submit(
         warm_apart, scn, ("margins", "predict"), pure=False, priority=-1)]
     warm_sim: list = []
