@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from errpred.cluster import restart_compiled_workers
 from errpred.constants import FALLBACK_REACH_RADII
 from errpred.correct_path import PathCompensation, compensate_path
 from errpred.findings import error_findings, findings_line
@@ -296,6 +297,9 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
                                       priority=-1))
         wait(warm)
         del warm
+        # a worker that compiled the planner's kernels (the warm-up child had not cached
+        # them yet) keeps the compiler's memory: started again, while it is idle
+        restart_compiled_workers(client)
     # at most JOB_CORRECTION_PASSES, fewer where the scenario's [correction] says so (a
     # long program: each pass costs a dense prediction or more); one pass applies its
     # fit whole, as errpred's single correction does (the fallback guards it). Iterating
@@ -358,6 +362,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
 
             wait(warm_sim)
             warm_sim.clear()
+        restart_compiled_workers(client)
         wp_f = client.scatter(wp, broadcast=True)
         futures = [client.submit(verify_program, s, points=p, workpiece=wp_f, pure=False)
                    for s, p in runs]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import time
 
 import numpy as np
 import pytest
@@ -91,6 +92,58 @@ def test_the_local_cluster_workers_keep_freed_memory_for_reuse():
     with dask_client(workers=1) as client:
         faults = list(client.run(_faults_per_alloc).values())
     assert faults[0] < 5
+
+
+def _compile_a_kernel() -> int:
+    """Compile a new numba function in this process (no cache: always a compilation)."""
+    import numba
+
+    @numba.njit(cache=False)
+    def plus_one(x):
+        return x + 1
+
+    return plus_one(1)
+
+
+def _pid() -> int:
+    import os
+
+    return os.getpid()
+
+
+def test_workers_that_compiled_are_started_again_and_only_those():
+    """errpred.cluster.restart_compiled_workers: numba's compiler keeps the memory it
+    took, so a worker of the local cluster that compiled a kernel is started again
+    (another process, its setup applied again: its malloc keeps freed memory), one that
+    did not is left, one holding data is left, and a client by address (a cluster this
+    process did not start) restarts nothing."""
+    from errpred._dask_worker import compiles
+    from errpred.cluster import dask_client, restart_compiled_workers
+
+    with dask_client(workers=2) as client:
+        pids = client.run(_pid)
+        a, b = sorted(pids)
+        assert set(client.run(compiles).values()) == {0}
+        assert restart_compiled_workers(client) == []        # nothing compiled
+        assert client.submit(_compile_a_kernel, pure=False, workers=[a]).result() == 2
+        assert client.run(compiles)[a] > 0 and client.run(compiles)[b] == 0
+        with distributed.Client(client.scheduler.address) as by_address:
+            assert restart_compiled_workers(by_address) == []
+        held = client.scatter(np.arange(3), workers=[a])
+        assert restart_compiled_workers(client) == []        # a holds data
+        del held
+        for _ in range(100):                                 # the release reaches it
+            if not client.has_what()[a]:
+                break
+            time.sleep(0.05)
+        assert restart_compiled_workers(client) == [a]
+        after = client.run(_pid)
+        assert len(after) == 2 and after[b] == pids[b]
+        (new,) = set(after) - {b}
+        assert after[new] not in pids.values()
+        assert client.run(compiles) == {new: 0, b: 0}
+        assert client.run(_faults_per_alloc)[new] < 5
+        assert restart_compiled_workers(client) == []
 
 
 class _FakeFuture:
