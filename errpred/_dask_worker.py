@@ -7,6 +7,8 @@ Imported only where a cluster is made (it imports ``distributed``).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from distributed import WorkerPlugin
 from numba.core import event
 
@@ -33,12 +35,15 @@ def compiles() -> int:
 
 
 class WorkerSetup(WorkerPlugin):
-    """Run in every worker when it starts (``Client.register_plugin``)."""
+    """Run in every worker when it starts (``Client.register_plugin``): ``malloc_setup``
+    (a function of no arguments: ``errpred.cluster.keep_freed_memory``), then the count of
+    numba's compilations."""
 
     name = "errpred-worker-setup"
 
-    def setup(self, worker) -> None:
-        from .cluster import keep_freed_memory
+    def __init__(self, malloc_setup: Callable[[], object]) -> None:
+        self.malloc_setup = malloc_setup
 
-        keep_freed_memory()
+    def setup(self, worker) -> None:
+        self.malloc_setup()
         event.register("numba:compile", _CompileCounter())

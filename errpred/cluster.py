@@ -43,7 +43,7 @@ def dask_client(scheduler: str | None = None, workers: int = 0) -> Iterator[Any]
             Client(cluster) as client:
         from ._dask_worker import WorkerSetup
 
-        client.register_plugin(WorkerSetup())       # restarted workers too
+        client.register_plugin(WorkerSetup(keep_freed_memory))       # restarted workers too
         yield client
 
 
