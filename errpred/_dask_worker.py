@@ -46,4 +46,8 @@ class WorkerSetup(WorkerPlugin):
 
     def setup(self, worker) -> None:
         self.malloc_setup()
-        event.register("numba:compile", _CompileCounter())
+        self._counter = _CompileCounter()
+        event.register("numba:compile", self._counter)
+
+    def teardown(self, worker) -> None:      # a plugin registered again: one listener
+        event.unregister("numba:compile", self._counter)

@@ -9,6 +9,8 @@ from typing import Any
 
 from nc.errors import InputError
 
+_log = logging.getLogger(__name__)
+
 __all__ = ["dask_client", "keep_freed_memory", "restart_compiled_workers"]
 
 
@@ -70,30 +72,49 @@ def keep_freed_memory() -> bool:
 
 def restart_compiled_workers(client) -> list[str]:
     """Start again the workers of this process's local cluster (:func:`dask_client`) in
-    which numba compiled a kernel, where they are idle and hold no data; returns their
-    addresses. Numba's compiler keeps the memory it took (150-290 MB for the main job's
-    kernels: its compiled code is in numba's cache on disk, which the new worker
-    loads): without it a worker that compiled a stage's kernels (the planner's gains
-    when the job's warm-up child had not yet cached them) peaked at 1.15 GB verifying.
-    Nothing is restarted on a cluster this process did not start (an address:
-    ``client.cluster`` is None), nor where no worker compiled (kernels cached).
+    which numba compiled a kernel, where they are idle and hold no data; returns the
+    addresses of those restarted. Numba's compiler keeps the memory it took (150-290 MB
+    for the main job's kernels: its compiled code is in numba's cache on disk, which
+    the new worker loads): without it a worker that compiled a stage's kernels (the
+    planner's gains when the job's warm-up child had not yet cached them) peaked at
+    1.15 GB verifying. Nothing is restarted on a cluster this process did not start (an
+    address: ``client.cluster`` is None), on a worker without a nanny, nor where no
+    worker compiled (kernels cached). Call it with no task submitted and no result held
+    that a worker still runs or keeps (the scheduler may not have seen a task just
+    submitted). A worker that does not come back within ``WORKER_RESTART_TIMEOUT_S`` is
+    logged, and the work goes on without it.
     """
     if client is None or getattr(client, "cluster", None) is None:
         return []
     from ._dask_worker import compiles
+    from .constants import WORKER_RESTART_TIMEOUT_S
 
     counts = client.run(compiles, on_error="return")
     busy = client.processing()
     held = client.has_what()
+    nannies = {a: w.get("nanny") for a, w in client.scheduler_info()["workers"].items()}
     todo = [addr for addr, n in counts.items()
-            if isinstance(n, int) and n > 0 and not busy.get(addr) and not held.get(addr)]
-    if todo:
-        # the nanny (in this process) logs each restart as a warning: planned here
-        nanny_log = logging.getLogger("distributed.nanny")
-        level = nanny_log.level
-        nanny_log.setLevel(logging.ERROR)
-        try:
-            client.restart_workers(todo, raise_for_error=False)
-        finally:
-            nanny_log.setLevel(level)
-    return todo
+            if isinstance(n, int) and n > 0 and nannies.get(addr)
+            and not busy.get(addr) and not held.get(addr)]
+    if not todo:
+        return []
+    quiet = _PlannedRestarts()
+    nanny_log = logging.getLogger("distributed.nanny")
+    nanny_log.addFilter(quiet)
+    try:
+        status = client.restart_workers(todo, timeout=WORKER_RESTART_TIMEOUT_S,
+                                        raise_for_error=False)
+    finally:
+        nanny_log.removeFilter(quiet)
+    for addr, what in status.items():
+        if what != "OK":
+            _log.warning("worker %s, started again after numba compiled there: %s",
+                         addr, what)
+    return [addr for addr in todo if status.get(addr) == "OK"]
+
+
+class _PlannedRestarts(logging.Filter):
+    """Drops the nanny's warning that it restarts a worker (planned here)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not record.getMessage().startswith("Restarting worker")

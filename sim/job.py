@@ -293,13 +293,14 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     if warm:        # the prediction's kernels: compiled (and cached) before it starts
         from distributed import wait
 
-        warm_sim.append(client.submit(warm_apart, scn, ("simulate",), pure=False,
-                                      priority=-1))
         wait(warm)
         del warm
         # a worker that compiled the planner's kernels (the warm-up child had not cached
-        # them yet) keeps the compiler's memory: started again, while it is idle
+        # them yet) keeps the compiler's memory: started again, while it is idle (before
+        # the next task: the scheduler may not yet list one just submitted)
         restart_compiled_workers(client)
+        warm_sim.append(client.submit(warm_apart, scn, ("simulate",), pure=False,
+                                      priority=-1))
     # at most JOB_CORRECTION_PASSES, fewer where the scenario's [correction] says so (a
     # long program: each pass costs a dense prediction or more); one pass applies its
     # fit whole, as errpred's single correction does (the fallback guards it). Iterating
