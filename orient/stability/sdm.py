@@ -176,30 +176,62 @@ def _monodromy(phi0, pa, pb, s, cmat, out):
     delayed difference at the step's start and end (``U`` integrated in), ``s``
     the scaling, ``cmat`` (m, 2m) = [I, R]: the modal displacement
     ``xi = eta + R eta'`` whose delay drives the cut; ``out`` (N, N), N = (k + 2) m.
+
+    One step is ``y_{i+1} = M_i y_i - N_i xi_{i-k} - P_i xi_{i+1-k}`` with ``L_i = I -
+    b_i C``, ``M_i = L_i^-1 (Phi0 + a_i C)``, ``N_i = L_i^-1 a_i``, ``P_i = L_i^-1 b_i``
+    (the numpy twin's step). Over one period the delayed terms are the initial history
+    (unit blocks: a subtraction, not a product) but for ``xi_0 = C y_0`` at the last
+    step. The map is carried on the columns of the initial state, kept as rows (the
+    state transposed, so that a run of leading columns is one contiguous block) in the
+    order ``[y_0, xi_{-k}, .., xi_{-1}]``, in which after step ``i`` only the first
+    ``2m + (i + 2) m`` are non-zero (the history enters one delay a step): each step
+    works on those, and the columns are put back in ``out``'s order at the end.
     """
     k, n2, m = pa.shape[0], pa.shape[1], pa.shape[2]
     nn = n2 + k * m
-    x = np.zeros((n2, nn))
-    for i in range(n2):
-        x[i, i] = 1.0
-    hist = np.zeros((2 * k, m, nn))               # xi_j at index j + k, j = -k .. k-1
-    for lag in range(1, k + 1):                   # xi_{-lag} = unit block
-        for a in range(m):
-            hist[k - lag, a, n2 + (lag - 1) * m + a] = 1.0
-    hist[k] = cmat @ x
+    xt = np.zeros((nn, n2))                       # y_i, transposed
+    for r in range(n2):
+        xt[r, r] = 1.0
+    cmatt = np.ascontiguousarray(cmat.T)
+    xs = np.empty((k, nn, m))                     # xi_j = C y_j, transposed, j = 0..k-1
+    width = np.empty(k, dtype=np.int64)           # ... non-zero in its first rows only
+    xs[0, :n2] = xt[:n2] @ cmatt
+    width[0] = n2
     eye = np.eye(n2)
+    rhs = np.empty((n2, n2 + 2 * m))
     for i in range(k):
+        w = min(nn, n2 + (i + 2) * m)             # the non-zero columns after this step
         ai = s * pa[i]
         bi = s * pb[i]
-        d = cmat @ x - hist[i]
-        rhs = phi0 @ x + ai @ d - bi @ hist[i + 1]
-        lmat = eye - bi @ cmat
-        x = np.ascontiguousarray(np.linalg.solve(lmat, rhs))
-        if i + 1 < k:
-            hist[i + 1 + k] = cmat @ x
-    out[:n2] = x
+        rhs[:, :n2] = phi0 + ai @ cmat
+        rhs[:, n2:n2 + m] = ai
+        rhs[:, n2 + m:] = bi
+        sol = np.linalg.solve(eye - bi @ cmat, rhs)           # [M_i, N_i, P_i]
+        xt[:w] = xt[:w] @ np.ascontiguousarray(sol[:, :n2].T)
+        c0 = n2 + i * m                                        # xi_{i-k}: column k - (k-i)
+        xt[c0:c0 + m] -= sol[:, n2:n2 + m].T
+        if i + 1 < k:                                          # xi_{i+1-k}: the next one
+            xt[c0 + m:c0 + 2 * m] -= sol[:, n2 + m:].T
+            xs[i + 1, :w] = xt[:w] @ cmatt
+            width[i + 1] = w
+        else:                                                  # xi_0 = C y_0
+            xt[:n2] -= (np.ascontiguousarray(sol[:, n2 + m:]) @ cmat).T
+    src = np.empty(nn, dtype=np.int64)            # out's column c is row src[c] here
+    for c in range(nn):
+        if c < n2:
+            src[c] = c
+        else:
+            lag = (c - n2) // m + 1
+            src[c] = n2 + (k - lag) * m + (c - n2) % m
+    for r in range(n2):
+        for c in range(nn):
+            out[r, c] = xt[src[c], r]
     for j in range(k):                            # rows: xi_{k-1}, ..., xi_0
-        out[n2 + j * m:n2 + (j + 1) * m] = hist[2 * k - 1 - j]
+        q = k - 1 - j
+        for a in range(m):
+            row = n2 + j * m + a
+            for c in range(nn):
+                out[row, c] = xs[q, src[c], a] if src[c] < width[q] else 0.0
 
 
 def _monodromy_numpy(phi0, pa, pb, s, cmat):

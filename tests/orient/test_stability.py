@@ -526,15 +526,26 @@ def test_table_limits_converge_at_second_order():
     assert s[2] + (s[2] - s[1]) / 3 == pytest.approx(float(row["limit_mm"]), rel=2e-4)
 
 
-def test_monodromy_kernel_matches_numpy_twin_and_remap_is_exact():
-    sys = _sys_asym(2)
+@pytest.mark.parametrize("modes, steps", [(2, 12), (3, 41), (1, 1), (1, 2)])
+def test_monodromy_kernel_matches_numpy_twin(modes, steps):
+    """The kernel (each step on the columns the history has reached, the history's unit
+    blocks subtracted, the columns put back in order) against the twin's product of
+    whole one-step block matrices."""
+    sys = _sys_asym(modes)
     tool = StraightEndMill2D(KT_AB, KR_AB * KT_AB, 4, 0.3, "up", depth_mm=1.0)
     h = tool.directional_samples(24)
-    f = _Fdm(h, sys, 60.0 / (9000.0 * 4), 12)
-    out = np.zeros((f.n, f.n))
+    f = _Fdm(h, sys, 60.0 / (9000.0 * 4), steps)
+    out = np.full((f.n, f.n), np.nan)
     _monodromy(f.phi0, f.pa, f.pb, 0.7, f.cmat, out)
     twin = _monodromy_numpy(f.phi0, f.pa, f.pb, 0.7, f.cmat)
     assert np.allclose(out, twin, rtol=1e-10, atol=1e-10 * np.abs(twin).max())
+    assert np.count_nonzero(twin) > f.n                  # not trivially zero
+
+
+def test_remap_is_exact():
+    sys = _sys_asym(2)
+    tool = StraightEndMill2D(KT_AB, KR_AB * KT_AB, 4, 0.3, "up", depth_mm=1.0)
+    h = tool.directional_samples(24)
     # the remap integrates the piecewise-constant samples exactly
     fine = _remap(h, 72)                                    # a multiple: repeated
     assert np.array_equal(fine[::3], h) and np.array_equal(fine[1::3], h)
