@@ -293,14 +293,17 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     if warm:        # the prediction's kernels: compiled (and cached) before it starts
         from distributed import wait
 
-        wait(warm)
-        del warm
         # a worker that compiled the planner's kernels (the warm-up child had not cached
         # them yet) keeps the compiler's memory: started again, while it is idle (before
-        # the next task: the scheduler may not yet list one just submitted)
+        # the next task: the scheduler may not yet list one just submitted; the worker
+        # that waits for the warm-up child is busy, and compiles nothing itself)
         restart_compiled_workers(client)
+        # the simulation's part beside the prediction's, not beside the prediction (on a
+        # fresh cache its 30 s of compiling slowed the prediction by 9-16 s)
         warm_sim.append(client.submit(warm_apart, scn, ("simulate",), pure=False,
                                       priority=-1))
+        wait(warm)
+        del warm
     # at most JOB_CORRECTION_PASSES, fewer where the scenario's [correction] says so (a
     # long program: each pass costs a dense prediction or more); one pass applies its
     # fit whole, as errpred's single correction does (the fallback guards it). Iterating
