@@ -345,7 +345,7 @@ WORKER_MALLOC_TRIM_BYTES = 128 << 20
 WORKER_MALLOC_MMAP_BYTES = 32 << 20
 #: How long the main job waits for a local worker it starts again to drop numba's
 #: compiler memory (``errpred.cluster.restart_compiled_workers``) [s]: one takes
-#: 0.6-2.6 s here; past this the work goes on without it (Dask's default: 120 s).
+#: 0.6-2.7 s here; past this the work goes on without it (Dask's default: 120 s).
 WORKER_RESTART_TIMEOUT_S = 30.0
 
 # --- tool wear (errpred/tool_state.py) -----------------------------------------
