@@ -169,26 +169,48 @@ def recommended_samples(cut_fraction: float) -> int:
 
 # ---------------------------------------------------------------------- kernel
 @njit(cache=True)
-def _monodromy(phi0, pa, pb, s, cmat, out):
-    """Monodromy matrix of the full-discretization map (see module docstring).
+def _monodromy(phi0, pa, pb, s, cmat, active, out):
+    """Monodromy matrix of the full-discretization map (see module docstring), on its
+    active states.
 
     ``phi0`` (2m, 2m), ``pa``/``pb`` (k, 2m, m) the per-step weights of the
     delayed difference at the step's start and end (``U`` integrated in), ``s``
     the scaling, ``cmat`` (m, 2m) = [I, R]: the modal displacement
-    ``xi = eta + R eta'`` whose delay drives the cut; ``out`` (N, N), N = (k + 2) m.
+    ``xi = eta + R eta'`` whose delay drives the cut; ``active`` the states whose
+    columns can be non-zero (:func:`_active_states`, ascending, in the order
+    ``[y; xi_{-1} .. xi_{-k}]`` of the whole state, N = (k + 2) m); ``out`` (a, a), a =
+    ``active.size``: the whole matrix's principal submatrix on them (every other column
+    of the whole matrix is zero).
 
     One step is ``y_{i+1} = M_i y_i - N_i xi_{i-k} - P_i xi_{i+1-k}`` with ``L_i = I -
     b_i C``, ``M_i = L_i^-1 (Phi0 + a_i C)``, ``N_i = L_i^-1 a_i``, ``P_i = L_i^-1 b_i``
     (the numpy twin's step). Over one period the delayed terms are the initial history
     (unit blocks: a subtraction, not a product) but for ``xi_0 = C y_0`` at the last
     step. The map is carried on the columns of the initial state, kept as rows (the
-    state transposed, so that a run of leading columns is one contiguous block) in the
-    order ``[y_0, xi_{-k}, .., xi_{-1}]``, in which after step ``i`` only the first
-    ``2m + (i + 2) m`` are non-zero (the history enters one delay a step): each step
-    works on those, and the columns are put back in ``out``'s order at the end.
+    state transposed, so that a run of leading columns is one contiguous block): ``y_0``,
+    then the active delays in the order the period reads them (``xi_{-k}`` first), so
+    that after step ``i`` only the rows of ``y_0`` and of the delays read so far are
+    non-zero: each step works on those, and the columns are put in ``out``'s order at the
+    end.
     """
     k, n2, m = pa.shape[0], pa.shape[1], pa.shape[2]
-    nn = n2 + k * m
+    na = active.shape[0]
+    h = (na - n2) // m                            # active delays
+    slot = np.full(k + 1, -1, dtype=np.int64)     # row block of delay xi_{-lag}, or -1
+    lag_of = np.empty(na, dtype=np.int64)         # out's column c: its delay (0: y)
+    for c in range(na):
+        lag_of[c] = 0 if c < n2 else (active[c] - n2) // m + 1
+    for j in range(h):                            # ascending lags; read descending
+        slot[lag_of[n2 + j * m]] = h - 1 - j
+    read = np.zeros(k, dtype=np.int64)            # delays read up to step i (rows in use)
+    for i in range(k):
+        lowest = max(k - i - 1, 1)
+        count = 0
+        for lag in range(lowest, k + 1):
+            if slot[lag] >= 0:
+                count += 1
+        read[i] = count
+    nn = n2 + h * m
     xt = np.zeros((nn, n2))                       # y_i, transposed
     for r in range(n2):
         xt[r, r] = 1.0
@@ -200,7 +222,7 @@ def _monodromy(phi0, pa, pb, s, cmat, out):
     eye = np.eye(n2)
     rhs = np.empty((n2, n2 + 2 * m))
     for i in range(k):
-        w = min(nn, n2 + (i + 2) * m)             # the non-zero columns after this step
+        w = n2 + read[i] * m                      # the non-zero rows after this step
         ai = s * pa[i]
         bi = s * pb[i]
         rhs[:, :n2] = phi0 + ai @ cmat
@@ -208,30 +230,30 @@ def _monodromy(phi0, pa, pb, s, cmat, out):
         rhs[:, n2 + m:] = bi
         sol = np.linalg.solve(eye - bi @ cmat, rhs)           # [M_i, N_i, P_i]
         xt[:w] = xt[:w] @ np.ascontiguousarray(sol[:, :n2].T)
-        c0 = n2 + i * m                                        # xi_{i-k}: column k - (k-i)
-        xt[c0:c0 + m] -= sol[:, n2:n2 + m].T
+        sa = slot[k - i]                                       # xi_{i-k} (N_i = 0 if not)
+        if sa >= 0:
+            c0 = n2 + sa * m
+            xt[c0:c0 + m] -= sol[:, n2:n2 + m].T
         if i + 1 < k:                                          # xi_{i+1-k}: the next one
-            xt[c0 + m:c0 + 2 * m] -= sol[:, n2 + m:].T
+            sb = slot[k - i - 1]
+            if sb >= 0:
+                c0 = n2 + sb * m
+                xt[c0:c0 + m] -= sol[:, n2 + m:].T
             xs[i + 1, :w] = xt[:w] @ cmatt
             width[i + 1] = w
         else:                                                  # xi_0 = C y_0
             xt[:n2] -= (np.ascontiguousarray(sol[:, n2 + m:]) @ cmat).T
-    src = np.empty(nn, dtype=np.int64)            # out's column c is row src[c] here
-    for c in range(nn):
-        if c < n2:
-            src[c] = c
-        else:
-            lag = (c - n2) // m + 1
-            src[c] = n2 + (k - lag) * m + (c - n2) % m
+    src = np.empty(na, dtype=np.int64)            # out's column c is row src[c] here
+    for c in range(na):
+        src[c] = c if c < n2 else n2 + slot[lag_of[c]] * m + (c - n2) % m
     for r in range(n2):
-        for c in range(nn):
+        for c in range(na):
             out[r, c] = xt[src[c], r]
-    for j in range(k):                            # rows: xi_{k-1}, ..., xi_0
-        q = k - 1 - j
-        for a in range(m):
-            row = n2 + j * m + a
-            for c in range(nn):
-                out[row, c] = xs[q, src[c], a] if src[c] < width[q] else 0.0
+    for r in range(n2, na):                       # row of xi_{-lag} after the period: xi_{k-lag}
+        q = k - lag_of[r]
+        a = (r - n2) % m
+        for c in range(na):
+            out[r, c] = xs[q, src[c], a] if src[c] < width[q] else 0.0
 
 
 def _monodromy_numpy(phi0, pa, pb, s, cmat):
@@ -371,20 +393,60 @@ class _Fdm:
         self.cmat = np.ascontiguousarray(np.hstack([np.eye(m), np.diag(system.velocity_s)]))
         self.steps = steps
         self.n = (steps + 2) * m
-        self._out = np.zeros((self.n, self.n))
+        self.active = _active_states(self.pa, self.pb)
+        self._out = np.zeros((self.active.size, self.active.size))
         self.evaluations = 0
 
     def matrix(self, s: float) -> np.ndarray:
-        _monodromy(self.phi0, self.pa, self.pb, float(s), self.cmat, self._out)
+        """The monodromy matrix on :attr:`active` (the principal submatrix; the whole
+        matrix's other columns are zero)."""
+        _monodromy(self.phi0, self.pa, self.pb, float(s), self.cmat, self.active, self._out)
         self.evaluations += 1
         return self._out
 
+    def _eigvals(self, s: float) -> np.ndarray:
+        """The monodromy matrix's non-trivial eigenvalues: those on its active states
+        (:func:`_active_states`; the others are exactly 0)."""
+        return scipy.linalg.eigvals(self.matrix(s), check_finite=False)
+
     def multipliers(self, s: float) -> np.ndarray:
-        mu = scipy.linalg.eigvals(self.matrix(s), check_finite=False, overwrite_a=False)
-        return mu[np.argsort(-np.abs(mu))]
+        mu = np.zeros(self.n, dtype=complex)
+        mu[:self.active.size] = self._eigvals(s)
+        return mu[np.argsort(-np.abs(mu), kind="stable")]
 
     def rho(self, s: float) -> float:
-        return float(np.max(np.abs(scipy.linalg.eigvals(self.matrix(s), check_finite=False))))
+        return float(np.max(np.abs(self._eigvals(s)), initial=0.0))
+
+
+def _active_states(pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
+    """The states of the monodromy matrix (:func:`_monodromy`'s ``out`` order) whose
+    columns can be non-zero: ``y`` and the delayed ``xi_{-l}`` that a step of the period
+    reads, ascending.
+
+    ``xi_{-l}`` enters the period only at step ``k - l`` (through ``a``) and at step
+    ``k - l - 1`` (through ``b``); where the cut's coefficient is zero over both (the
+    tooth out of the cut) its column is zero for every scaling. A matrix whose columns
+    ``Z`` are zero has the eigenvalues of its principal submatrix on the other states,
+    and ``|Z|`` zeros (its characteristic polynomial is ``lambda^|Z|`` times the
+    submatrix's): out of the cut most of the period, most of the matrix.
+
+    Parameters
+    ----------
+    pa, pb : ndarray, shape (k, 2m, m)
+        The per-step weights (:class:`_Fdm`).
+
+    Returns
+    -------
+    ndarray of int
+    """
+    k, n2, m = pa.shape
+    reads_a = np.any(pa != 0.0, axis=(1, 2))          # step i reads xi_{i-k}
+    reads_b = np.any(pb != 0.0, axis=(1, 2))          # step i reads xi_{i+1-k}
+    lag = np.arange(1, k + 1)
+    # through b: lag k would be step -1 (none; the last step's b reads xi_0 = C y_0, in y)
+    used = reads_a[k - lag] | np.concatenate([reads_b[k - lag[:-1] - 1], [False]])
+    cols = n2 + (lag - 1)[:, None] * m + np.arange(m)[None, :]
+    return np.concatenate([np.arange(n2), cols[used].ravel()]).astype(np.int64)
 
 
 def _prepare(H_samples: Any, system: Any, spindle_rpm: Any, teeth: Any,

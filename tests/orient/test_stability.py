@@ -527,19 +527,44 @@ def test_table_limits_converge_at_second_order():
 
 
 @pytest.mark.parametrize("modes, steps", [(2, 12), (3, 41), (1, 1), (1, 2)])
-def test_monodromy_kernel_matches_numpy_twin(modes, steps):
+@pytest.mark.parametrize("immersion", [0.3, 1.0])
+def test_monodromy_kernel_matches_numpy_twin(modes, steps, immersion):
     """The kernel (each step on the columns the history has reached, the history's unit
-    blocks subtracted, the columns put back in order) against the twin's product of
-    whole one-step block matrices."""
+    blocks subtracted, only the active delays, the columns put back in order) against
+    the twin's product of whole one-step block matrices: the twin's principal submatrix
+    on the active states, and the twin's other columns zero."""
     sys = _sys_asym(modes)
-    tool = StraightEndMill2D(KT_AB, KR_AB * KT_AB, 4, 0.3, "up", depth_mm=1.0)
+    tool = StraightEndMill2D(KT_AB, KR_AB * KT_AB, 4, immersion, "up", depth_mm=1.0)
     h = tool.directional_samples(24)
     f = _Fdm(h, sys, 60.0 / (9000.0 * 4), steps)
-    out = np.full((f.n, f.n), np.nan)
-    _monodromy(f.phi0, f.pa, f.pb, 0.7, f.cmat, out)
+    out = np.full((f.active.size, f.active.size), np.nan)
+    _monodromy(f.phi0, f.pa, f.pb, 0.7, f.cmat, f.active, out)
     twin = _monodromy_numpy(f.phi0, f.pa, f.pb, 0.7, f.cmat)
-    assert np.allclose(out, twin, rtol=1e-10, atol=1e-10 * np.abs(twin).max())
-    assert np.count_nonzero(twin) > f.n                  # not trivially zero
+    sub = twin[np.ix_(f.active, f.active)]
+    assert np.allclose(out, sub, rtol=1e-10, atol=1e-10 * np.abs(twin).max())
+    assert np.count_nonzero(sub) > f.active.size          # not trivially zero
+    others = np.setdiff1d(np.arange(f.n), f.active)
+    assert not np.any(twin[:, others])
+    # the active states are exactly the twin's non-zero columns (none kept needlessly)
+    assert np.array_equal(np.flatnonzero(np.any(twin != 0.0, axis=0)), f.active)
+
+
+def test_multipliers_on_the_active_states_are_the_whole_matrix_s():
+    """Out of the cut most of the period, most delayed states never enter: the
+    multipliers from the active states (padded with zeros) are the whole monodromy
+    matrix's (the twin's), and the spectral radius the same."""
+    sys = _sys_asym(2)
+    tool = StraightEndMill2D(KT_AB, KR_AB * KT_AB, 4, 0.05, "down", depth_mm=1.0)
+    h = tool.directional_samples(40)
+    f = _Fdm(h, sys, 60.0 / (9000.0 * 4), 40)
+    assert f.active.size < f.n // 2                     # the restriction does something
+    for s in (0.0, 0.3, 2.0):
+        whole = np.linalg.eigvals(_monodromy_numpy(f.phi0, f.pa, f.pb, s, f.cmat))
+        mu = f.multipliers(s)
+        assert mu.shape == (f.n,)
+        assert np.allclose(np.sort_complex(mu), np.sort_complex(whole), rtol=0,
+                           atol=1e-9 * max(1.0, np.abs(whole).max()))
+        assert f.rho(s) == pytest.approx(np.abs(whole).max(), rel=1e-9)
 
 
 def test_remap_is_exact():
