@@ -15,7 +15,7 @@ Per micro edge, while it cuts (units: ``h``, ``db`` [mm], forces [N])::
 
 with ``F`` the force per unit chip width of the scenario's force law
 (:mod:`errpred.laws`; the linear law: ``Fx = Kxe0 + Kxe1 cl + Kxc h``). The
-law is evaluated here, per micro edge and sample; the compiled sum
+law is evaluated here, per cutting entry (sample, flute, micro edge); the compiled sum
 (``errpred._force_kernels``) only turns the local forces to the tool frame.
 
 and the force **on the tool**, tool frame::
@@ -41,11 +41,12 @@ from typing import Any
 import numpy as np
 
 from . import laws
-from ._force_kernels import forces_kernel
+from ._force_kernels import entry_forces_kernel
 from .coefficients import LawCoefficients
 from .tool import MicroEdges
 
-__all__ = ["chip_thickness", "local_components", "to_tool_frame", "tool_forces"]
+__all__ = ["chip_thickness", "entry_forces", "local_components", "to_tool_frame",
+           "tool_forces"]
 
 
 def chip_thickness(edges: MicroEdges, phi: Any, f_tooth_tool: Any,
@@ -199,41 +200,99 @@ def tool_forces(edges: MicroEdges, coeffs: LawCoefficients, phi: Any, h: Any,
         weight = np.asarray(weight, dtype=float)
         if weight.shape != phi.shape:
             raise ValueError(f"weight: shape {weight.shape} differs from phi's {phi.shape}")
-    if forces_kernel is not None:
-        return _forces_numba(edges, coeffs, phi, h, cutting, cl, weight)
-    return _forces_numpy(edges, coeffs, phi, h, cutting, cl, weight)
+    i, k, j = np.nonzero(cutting)
+    return _entry_forces(edges, coeffs, phi.shape[0], i, j, phi[i, k, j], h[i, k, j],
+                         cl[k, j], weight[i, k, j], compiled=entry_forces_kernel is not None)
+
+
+def entry_forces(edges: MicroEdges, coeffs: LawCoefficients, n_ang: int, i: Any, k: Any,
+                 j: Any, phi: Any, h: Any, cl_mm: Any, weight: Any = None) -> np.ndarray:
+    """:func:`tool_forces` from the cutting entries alone, listed one by one (a point's
+    engagement is a few per cent of its revolution's (sample, flute, micro edge) block;
+    the block itself need not be made).
+
+    Parameters
+    ----------
+    edges : MicroEdges
+        ``m`` micro edges of one flute.
+    coeffs : LawCoefficients
+    n_ang : int
+        Angle samples of the revolution.
+    i, k, j : ndarray of int, shape (e,)
+        Each entry's angle sample, flute and micro edge; in the order of ``np.nonzero``
+        of the block's mask (samples, then flutes, then micro edges), the sums are
+        :func:`tool_forces`' own, in its order: the same numbers.
+    phi, h : ndarray, shape (e,) [rad], [mm]
+        Angular position and uncut chip thickness of each entry.
+    cl_mm : ndarray, shape (m,) or (n_fl, m) [mm]
+        Actual cutting distance, as :func:`tool_forces` takes it.
+    weight : ndarray, shape (e,), optional
+        Each entry's share of its rotation step spent cutting (default 1).
+
+    Returns
+    -------
+    ndarray, shape (n_ang, 3) [N]
+        ``(Fx', Fy', Fz')`` on the tool at each sample.
+    """
+    i, k, j = (np.asarray(a, dtype=np.int64).reshape(-1) for a in (i, k, j))
+    phi = np.asarray(phi, dtype=float).reshape(-1)
+    h = np.asarray(h, dtype=float).reshape(-1)
+    n = i.shape[0]
+    if not (k.shape[0] == j.shape[0] == phi.shape[0] == h.shape[0] == n):
+        raise ValueError(f"i, k, j, phi, h: expected one value per entry each, got "
+                         f"{[a.shape[0] for a in (i, k, j, phi, h)]}")
+    if n and (i.min() < 0 or i.max() >= n_ang or j.min() < 0 or j.max() >= len(edges)):
+        raise ValueError(f"i, j: expected samples in [0, {n_ang}) and micro edges in "
+                         f"[0, {len(edges)})")
+    cl = np.asarray(cl_mm, dtype=float)
+    if cl.ndim not in (1, 2) or cl.shape[-1] != len(edges):
+        raise ValueError(f"cl_mm: expected shape ({len(edges)},) or (n_fl, {len(edges)}), "
+                         f"got {cl.shape}")
+    cl_e = cl[j] if cl.ndim == 1 else cl[k, j]
+    w = np.ones(n) if weight is None else np.asarray(weight, dtype=float).reshape(-1)
+    if w.shape[0] != n:
+        raise ValueError(f"weight: expected {n} values, got {w.shape[0]}")
+    return _entry_forces(edges, coeffs, int(n_ang), i, j, phi, h, cl_e, w,
+                         compiled=entry_forces_kernel is not None)
+
+
+def _entry_forces(edges: MicroEdges, coeffs: LawCoefficients, n_ang: int, i: np.ndarray,
+                  j: np.ndarray, phi: np.ndarray, h: np.ndarray, cl: np.ndarray,
+                  weight: np.ndarray, compiled: bool) -> np.ndarray:
+    """The law at each entry, then the sum per sample: the compiled loop
+    (``errpred._force_kernels``) or its numpy twin (``compiled`` False)."""
+    kappa = np.asarray(edges.kappa, dtype=float)
+    ft, fr, fa = (np.ascontiguousarray(np.broadcast_to(f, phi.shape), dtype=float)
+                  for f in laws.force(coeffs, h, kappa[j], cl))
+    sk, ck = np.sin(kappa), np.cos(kappa)
+    db = np.ascontiguousarray(edges.db, dtype=float)
+    if compiled:
+        return entry_forces_kernel(n_ang, i, j, phi, db, sk, ck, ft, fr, fa,
+                                   np.ascontiguousarray(weight, dtype=float))
+    w = db[j] * weight
+    dft, dfr, dfa = ft * w, fr * w, fa * w
+    sp, cp = np.sin(phi), np.cos(phi)
+    a = dfr * sk[j] + dfa * ck[j]   # as in to_tool_frame, without the (n, 3) stack
+    out = np.empty((n_ang, 3))
+    out[:, 0] = np.bincount(i, -(dft * cp + a * sp), minlength=n_ang)
+    out[:, 1] = np.bincount(i, dft * sp - a * cp, minlength=n_ang)
+    out[:, 2] = np.bincount(i, dfr * ck[j] - dfa * sk[j], minlength=n_ang)
+    return out
 
 
 def _forces_numba(edges: MicroEdges, coeffs: LawCoefficients, phi: np.ndarray,
                   h: np.ndarray, cutting: np.ndarray, cl: np.ndarray,
                   weight: np.ndarray) -> np.ndarray:
-    """Compiled loop (``errpred._force_kernels``); ``cl`` already (n_fl, m).
-
-    The law is evaluated on the whole (n_ang, n_fl, m) block (NaN chips where
-    not cutting stay there: the kernel skips those entries)."""
-    kappa = np.asarray(edges.kappa, dtype=float)
-    ft, fr, fa = (np.ascontiguousarray(np.broadcast_to(f, phi.shape))
-                  for f in laws.force(coeffs, h, kappa, cl))
-    return forces_kernel(np.ascontiguousarray(phi), np.ascontiguousarray(cutting),
-                         np.ascontiguousarray(edges.db, dtype=float), np.sin(kappa),
-                         np.cos(kappa), ft, fr, fa, np.ascontiguousarray(weight))
+    """:func:`tool_forces`' compiled sum; ``cl`` already (n_fl, m)."""
+    i, k, j = np.nonzero(cutting)
+    return _entry_forces(edges, coeffs, phi.shape[0], i, j, phi[i, k, j], h[i, k, j],
+                         cl[k, j], weight[i, k, j], compiled=True)
 
 
 def _forces_numpy(edges: MicroEdges, coeffs: LawCoefficients, phi: np.ndarray,
                   h: np.ndarray, cutting: np.ndarray, cl: np.ndarray,
                   weight: np.ndarray) -> np.ndarray:
-    """Vectorized sum over the cutting entries only; ``cl`` already (n_fl, m)."""
+    """:func:`tool_forces`' numpy twin of the compiled sum; ``cl`` already (n_fl, m)."""
     i, k, j = np.nonzero(cutting)
-    n_ang = phi.shape[0]
-    kappa = np.asarray(edges.kappa, dtype=float)
-    sk, ck = np.sin(kappa)[j], np.cos(kappa)[j]
-    dft, dfr, dfa = local_components(coeffs, h[i, k, j], cl[k, j],
-                                     np.asarray(edges.db)[j] * weight[i, k, j], kappa[j])
-    p = phi[i, k, j]
-    sp, cp = np.sin(p), np.cos(p)
-    a = dfr * sk + dfa * ck   # as in to_tool_frame, without the (n, 3) stack
-    out = np.empty((n_ang, 3))
-    out[:, 0] = np.bincount(i, -(dft * cp + a * sp), minlength=n_ang)
-    out[:, 1] = np.bincount(i, dft * sp - a * cp, minlength=n_ang)
-    out[:, 2] = np.bincount(i, dfr * ck - dfa * sk, minlength=n_ang)
-    return out
+    return _entry_forces(edges, coeffs, phi.shape[0], i, j, phi[i, k, j], h[i, k, j],
+                         cl[k, j], weight[i, k, j], compiled=False)

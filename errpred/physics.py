@@ -61,8 +61,7 @@ import numpy as np
 
 from .coefficients import WEAR_NAMES, CuttingCoefficients
 from .dynamics import Compliance, receptance
-from .engagement import expand_flutes
-from .force import chip_thickness, tool_forces
+from .force import entry_forces
 from .geometry import PointGeometry
 from .spindle import tooth_frequency
 from .tool import MicroEdges, Tool
@@ -275,7 +274,11 @@ def _point_modes(workpiece, g: PointGeometry) -> list:
 
 
 def _engagement(tool: Tool, edges: MicroEdges, g: PointGeometry) -> tuple:
-    """The micro edges that cut at a point, over one revolution of every flute.
+    """The micro edges that cut at a point over one revolution of every flute, as a list
+    of cutting entries (sample, flute, micro edge), read from flute 0's engagement
+    without making the whole (n, flutes, c) block: flute ``k`` at step ``i`` is flute 0
+    at step ``i + k n / flutes`` (:func:`errpred.engagement.expand_flutes`, whose angles
+    and masks these entries are, in ``np.nonzero``'s order of its block).
 
     Returns
     -------
@@ -284,24 +287,36 @@ def _engagement(tool: Tool, edges: MicroEdges, g: PointGeometry) -> tuple:
         Indices of the micro edges that cut.
     edges : MicroEdges
         Those micro edges.
-    phi : ndarray, shape (n, flutes, c) [rad]
+    i, k, j : ndarray of int, shape (e,)
+        Each cutting entry's rotation step, flute and micro edge (of ``edges``), sorted.
+    phi : ndarray, shape (e,) [rad]
         Their angular positions (within-step shifts applied).
-    cutting : ndarray of bool, shape (n, flutes, c)
-    weight : ndarray, shape (n, flutes, c), or None
+    weight : ndarray, shape (e,), or None
         Share of each step spent cutting.
     """
     n = g.cutting0.shape[0]
+    flutes = tool.flutes
+    if n % flutes:
+        raise ValueError(f"{n} rotation steps are not a multiple of {flutes} flutes")
     theta = np.arange(n) * (2 * math.pi / n)
     cols = np.flatnonzero(g.cutting0.any(axis=0))  # only the micro edges that cut
     edges = edges.take(cols)
-    phi, cutting = expand_flutes(theta, g.cutting0[:, cols], edges, tool.flutes)
+    i0, j0 = np.nonzero(g.cutting0[:, cols])        # flute 0's entries
+    shift = n // flutes
+    k = np.repeat(np.arange(flutes), i0.size)
+    i = (np.tile(i0, flutes) - shift * k) % n       # flute k cuts there at step i
+    j = np.tile(j0, flutes)
+    order = np.lexsort((j, k, i))
+    i, k, j = i[order], k[order], j[order]
+    src = np.tile(np.arange(i0.size), flutes)[order]   # each entry's flute-0 entry
+    # as expand_flutes adds them: (theta + the flute's offset) - psi (+ the shift)
+    phi = (theta[i] + (2 * math.pi / flutes) * k) - edges.psi[j]
     weight = None
     if g.weight0 is not None:
-        _, weight = expand_flutes(theta, g.weight0[:, cols].astype(float), edges, tool.flutes)
+        weight = g.weight0[:, cols][i0, j0].astype(float)[src]
     if g.shift0 is not None:
-        _, shift = expand_flutes(theta, g.shift0[:, cols].astype(float), edges, tool.flutes)
-        phi = phi + shift
-    return theta, cols, edges, phi, cutting, weight
+        phi = phi + g.shift0[:, cols][i0, j0].astype(float)[src]
+    return theta, cols, edges, i, k, j, phi, weight
 
 
 def _deflection(compliance: Compliance, g: PointGeometry, force: np.ndarray,
@@ -353,11 +368,15 @@ def _revolution(tool, edges, coeffs, compliance, g, cl_mm, modes) -> tuple:
     """:func:`revolution` with the workpiece's modes at the point given, and the
     engagement it used (:func:`_engagement`) last."""
     eng = _engagement(tool, edges, g)
-    theta, cols, edges, phi, cutting, weight = eng
+    theta, cols, edges, i, k, j, phi, weight = eng
     cl_mm = np.asarray(cl_mm)[..., cols]
     f_tool = g.frame @ g.feed_per_tooth_world
-    h = np.where(cutting, chip_thickness(edges, phi, f_tool), 0.0)
-    f_tool_frame = tool_forces(edges, coeffs, phi, h, cutting, cl_mm, weight=weight)
+    # chip_thickness's arithmetic, per entry
+    sk, ck = np.sin(edges.kappa), np.cos(edges.kappa)
+    h = np.maximum((f_tool[0] * sk)[j] * np.sin(phi) + (f_tool[1] * sk)[j] * np.cos(phi)
+                   - (f_tool[2] * ck)[j], 0.0)
+    f_tool_frame = entry_forces(edges, coeffs, theta.shape[0], i, k, j, phi, h, cl_mm,
+                                weight=weight)
     force = f_tool_frame @ g.frame  # rows: tool frame -> world
     return theta, force, _deflection(compliance, g, force, modes), eng
 
@@ -397,11 +416,9 @@ def wear_influence(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
 
 def _wear_influence(tool, edges, coeffs, compliance, g, modes, engagement=None) -> tuple:
     """:func:`wear_influence` with the workpiece's modes at the point given."""
-    theta, cols, e, phi, cutting, weight = engagement or _engagement(tool, edges, g)
+    theta, cols, e, i, k, j, p, weight = engagement or _engagement(tool, edges, g)
     n, c = theta.shape[0], cols.shape[0]
-    i, k, j = np.nonzero(cutting)
-    w = e.db[j] * (weight[i, k, j] if weight is not None else 1.0)   # [mm]
-    p = phi[i, k, j]
+    w = e.db[j] * (weight if weight is not None else 1.0)            # [mm]
     sp, cp = np.sin(p), np.cos(p)
     sk, ck = np.sin(e.kappa)[j], np.cos(e.kappa)[j]
     kt, kr, ka = coeffs.Kte1_N_mm2, coeffs.Kre1_N_mm2, coeffs.Kae1_N_mm2

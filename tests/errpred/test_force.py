@@ -350,7 +350,7 @@ def test_tool_forces_is_sum_of_building_blocks_and_backends_agree():
     ones = np.ones(phi.shape)
     assert np.allclose(force._forces_numpy(e, COEF, phi, h, cutting, clb, ones), ref,
                        rtol=1e-12, atol=1e-9)
-    if force.forces_kernel is not None:
+    if force.entry_forces_kernel is not None:
         assert np.allclose(force._forces_numba(e, COEF, phi, h, cutting, clb, ones), ref,
                            rtol=1e-12, atol=1e-9)
     # a weight scales each micro edge's contribution (its share of the step)

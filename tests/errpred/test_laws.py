@@ -70,7 +70,7 @@ def test_linear_law_through_the_table_equals_the_closed_form_slot_force(path):
     h = np.where(cutting, force.chip_thickness(e, phi, (fz, 0.0, 0.0)), 0.0)
     cl = np.zeros((FLAT.flutes, len(e)))
     fn = force._forces_numba if path == "numba" else force._forces_numpy
-    if fn is force._forces_numba and force.forces_kernel is None:
+    if fn is force._forces_numba and force.entry_forces_kernel is None:
         pytest.skip("numba not installed")
     mean = fn(e, LIN, phi, h, cutting, cl, np.ones(phi.shape)).mean(axis=0)
     ref = slot_force_linear(LIN, fz, 2.0, FLAT.flutes)
@@ -94,13 +94,54 @@ def _random_block(seed):
 
 @pytest.mark.parametrize("c", [LIN, KZ, LA], ids=["linear", "kienzle", "lee-altintas"])
 def test_force_kernel_and_its_numpy_twin_agree_for_every_law(c):
-    if force.forces_kernel is None:
+    if force.entry_forces_kernel is None:
         pytest.skip("numba not installed")
     e, phi, h, cutting, cl, w = _random_block(3)
     a = force._forces_numba(e, c, phi, h, cutting, cl, w)
     b = force._forces_numpy(e, c, phi, h, cutting, cl, w)
     np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
     assert np.abs(b).max() > 1.0
+
+
+@pytest.mark.parametrize("c", [LIN, KZ, LA], ids=["linear", "kienzle", "lee-altintas"])
+def test_entry_forces_are_tool_forces_from_the_cutting_entries(c):
+    """The entries listed as ``np.nonzero`` lists the block's give tool_forces' numbers
+    bit for bit (the same law per entry, the same sums in the same order); listed in
+    another order, the same to round-off; the numpy twin the same to round-off."""
+    e, phi, h, cutting, cl, w = _random_block(4)
+    ref = force.tool_forces(e, c, phi, h, cutting, cl, weight=w)
+    i, k, j = np.nonzero(cutting)
+    got = force.entry_forces(e, c, phi.shape[0], i, k, j, phi[i, k, j], h[i, k, j], cl,
+                             weight=w[i, k, j])
+    assert np.array_equal(got, ref)
+    assert np.abs(ref).max() > 1.0
+    perm = np.random.default_rng(1).permutation(i.size)
+    shuffled = force.entry_forces(e, c, phi.shape[0], i[perm], k[perm], j[perm],
+                                  phi[i, k, j][perm], h[i, k, j][perm], cl,
+                                  weight=w[i, k, j][perm])
+    np.testing.assert_allclose(shuffled, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+    twin = force._entry_forces(e, c, phi.shape[0], i, j, phi[i, k, j], h[i, k, j], cl[k, j],
+                               w[i, k, j], compiled=False)
+    np.testing.assert_allclose(twin, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+    # one wear for every flute: cl (m,)
+    ref1 = force.tool_forces(e, c, phi, h, cutting, cl[0], weight=w)
+    got1 = force.entry_forces(e, c, phi.shape[0], i, k, j, phi[i, k, j], h[i, k, j], cl[0],
+                              weight=w[i, k, j])
+    assert np.array_equal(got1, ref1)
+
+
+def test_entry_forces_refuses_entries_that_do_not_fit():
+    e, phi, h, cutting, cl, w = _random_block(4)
+    i, k, j = np.nonzero(cutting)
+    args = (phi[i, k, j], h[i, k, j], cl)
+    with pytest.raises(ValueError, match="one value per entry"):
+        force.entry_forces(e, LIN, phi.shape[0], i[:-1], k, j, *args)
+    with pytest.raises(ValueError, match="samples in"):
+        force.entry_forces(e, LIN, 3, i, k, j, *args)
+    with pytest.raises(ValueError, match="cl_mm"):
+        force.entry_forces(e, LIN, phi.shape[0], i, k, j, phi[i, k, j], h[i, k, j], cl[:, :3])
+    with pytest.raises(ValueError, match="weight"):
+        force.entry_forces(e, LIN, phi.shape[0], i, k, j, *args, weight=w[0, 0, :3])
 
 
 # --- Kienzle ----------------------------------------------------------------------

@@ -1,0 +1,88 @@
+"""Stage 2's engagement as a list of cutting entries (``errpred.physics``) against the
+whole (sample, flute, micro edge) block it stands for (``errpred.engagement.expand_flutes``,
+``errpred.force.chip_thickness`` and ``tool_forces``)."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from errpred.coefficients import CuttingCoefficients
+from errpred.engagement import expand_flutes
+from errpred.force import chip_thickness, tool_forces
+from errpred.physics import _deflection, _engagement, _revolution
+from errpred.tool import Tool
+
+from .cases import stiff_tool
+
+COEF = CuttingCoefficients(Ktc_N_mm2=2000.0, Krc_N_mm2=700.0, Kac_N_mm2=300.0,
+                           Kte0_N_mm=15.0, Kre0_N_mm=20.0, Kae0_N_mm=5.0,
+                           Kte1_N_mm2=2e-3, Kre1_N_mm2=3e-3, Kae1_N_mm2=1e-3)
+
+
+def _point(tool: Tool, m: int, n: int, seed: int, *, weight: bool, shift: bool):
+    """A point's flute-0 engagement: a band of steps and micro edges cutting (few per
+    cent of the block, as at a finishing point), sub-step weights and shifts on them."""
+    rng = np.random.default_rng(seed)
+    c0 = np.zeros((n, m), bool)
+    c0[n // 5:n // 3, m // 2:m // 2 + 7] = True
+    c0 &= rng.random(c0.shape) < 0.8
+    w0 = np.where(c0, rng.integers(1, 9, c0.shape) / np.float32(8), 0).astype(np.float32)
+    s0 = np.where(c0 & (rng.random(c0.shape) < 0.3),
+                  rng.uniform(-0.01, 0.01, c0.shape), 0).astype(np.float32)
+    axis = np.array([0.3, -0.2, 1.0]) / math.hypot(0.3, 0.2, 1.0)
+    frame = np.linalg.qr(rng.normal(size=(3, 3)))[0].T
+    return SimpleNamespace(cutting0=c0, weight0=w0 if weight else None,
+                           shift0=s0 if shift else None, frame=frame,
+                           feed_per_tooth_world=np.array([0.04, 0.01, -0.005]), axis=axis,
+                           spindle_rpm=9000.0)
+
+
+@pytest.mark.parametrize("flutes", [2, 3])
+@pytest.mark.parametrize("weight, shift", [(True, True), (True, False), (False, False)])
+def test_cutting_entries_are_the_blocks_non_zero_entries(flutes, weight, shift):
+    tool = Tool("ball", 6.0, flutes=flutes, helix_deg=30.0, flute_length_mm=12.0)
+    edges = tool.micro_edges(40)
+    n = 60 * flutes
+    g = _point(tool, len(edges), n, 7 + flutes, weight=weight, shift=shift)
+    theta, cols, e, i, k, j, phi, w = _engagement(tool, edges, g)
+    assert np.array_equal(cols, np.flatnonzero(g.cutting0.any(axis=0)))
+    ph, cut = expand_flutes(theta, g.cutting0[:, cols], e, flutes)
+    if shift:
+        ph = ph + expand_flutes(theta, g.shift0[:, cols].astype(float), e, flutes)[1]
+    ii, kk, jj = np.nonzero(cut)
+    assert ii.size == flutes * np.count_nonzero(g.cutting0) > 0
+    for a, b in ((i, ii), (k, kk), (j, jj)):
+        assert np.array_equal(a, b)
+    assert np.array_equal(phi, ph[ii, kk, jj])              # bit for bit
+    if weight:
+        wb = expand_flutes(theta, g.weight0[:, cols].astype(float), e, flutes)[1]
+        assert np.array_equal(w, wb[ii, kk, jj])
+    else:
+        assert w is None
+
+
+@pytest.mark.parametrize("flutes", [2, 4])
+def test_revolution_from_the_entries_is_the_blocks_bit_for_bit(flutes):
+    """The force from the entries equals the one from the whole block (chip thickness
+    and tool forces on every sample, flute and micro edge), and the deflection follows."""
+    tool = Tool("ball", 6.0, flutes=flutes, helix_deg=30.0, flute_length_mm=12.0)
+    edges = tool.micro_edges(40)
+    n = 45 * flutes
+    g = _point(tool, len(edges), n, 3, weight=True, shift=True)
+    cl = np.random.default_rng(2).uniform(0, 300, len(edges))
+    theta, force, defl, _eng = _revolution(tool, edges, COEF, stiff_tool(), g, cl, [])
+    cols = np.flatnonzero(g.cutting0.any(axis=0))
+    e = edges.take(cols)
+    ph, cut = expand_flutes(theta, g.cutting0[:, cols], e, flutes)
+    ph = ph + expand_flutes(theta, g.shift0[:, cols].astype(float), e, flutes)[1]
+    wb = expand_flutes(theta, g.weight0[:, cols].astype(float), e, flutes)[1]
+    f_tool = g.frame @ g.feed_per_tooth_world
+    h = np.where(cut, chip_thickness(e, ph, f_tool), 0.0)
+    ref = tool_forces(e, COEF, ph, h, cut, cl[cols], weight=wb) @ g.frame
+    assert np.abs(ref).max() > 1.0
+    assert np.array_equal(force, ref)
+    assert np.array_equal(defl, _deflection(stiff_tool(), g, ref, []))
