@@ -145,8 +145,13 @@ class Cutter:
         for kept, cells in self._engaged_kept:      # a switch's old cut: the one before's new
             if len(kept) == len(models) and all(a is b for a, b in zip(kept, models)):
                 return cells
-        parts = [m.table[1] * self.n_edges + m.table[2] for m in models]
-        cells = np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+        # the places marked on a mask of the surface memory, read back in order: the sorted
+        # unique indices (np.unique sorted the tables' tens of thousands of entries, a
+        # twentieth of a verification run)
+        mask = np.zeros(self.steps_per_rev * self.n_edges, dtype=bool)
+        for m in models:
+            mask[m.table[1] * self.n_edges + m.table[2]] = True
+        cells = np.flatnonzero(mask)
         cells.flags.writeable = False
         self._engaged_kept = [(models, cells)] + self._engaged_kept[:1]
         return cells
