@@ -5,8 +5,8 @@ Optional: numba is not a declared dependency of the package. When it cannot
 be imported, :data:`entry_forces_kernel` is None and ``errpred.force`` uses its
 numpy path (same result to round-off; ``tests/errpred/test_force.py``
 compares them, and ``tests/errpred/test_laws.py`` for every force law).
-It loops over the cutting entries only (stage 2 lists them from the packed
-engagement, ``errpred.physics``); the loop over the whole (n_ang, n_fl, m) block it
+It loops over the cutting entries only (stage 2 lists them from flute 0's
+engagement arrays, ``errpred.physics``); the loop over the whole (n_ang, n_fl, m) block it
 replaced gave the same sums in the same order. First call compiles (~0.6 s, then
 cached on disk).
 """

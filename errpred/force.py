@@ -224,8 +224,9 @@ def entry_forces(edges: MicroEdges, coeffs: LawCoefficients, n_ang: int, i: Any,
         :func:`tool_forces`' own, in its order: the same numbers.
     phi, h : ndarray, shape (e,) [rad], [mm]
         Angular position and uncut chip thickness of each entry.
-    cl_mm : ndarray, shape (m,) or (n_fl, m) [mm]
-        Actual cutting distance, as :func:`tool_forces` takes it.
+    cl_mm : float or ndarray, shape (m,), (1, m) or (n_fl, m) [mm]
+        Actual cutting distance, as :func:`tool_forces` takes it: one for every flute, or
+        per flute (row ``k`` for the entries of flute ``k``).
     weight : ndarray, shape (e,), optional
         Each entry's share of its rotation step spent cutting (default 1).
 
@@ -233,21 +234,41 @@ def entry_forces(edges: MicroEdges, coeffs: LawCoefficients, n_ang: int, i: Any,
     -------
     ndarray, shape (n_ang, 3) [N]
         ``(Fx', Fy', Fz')`` on the tool at each sample.
+
+    Raises
+    ------
+    ValueError
+        Entries that do not fit: lengths that differ, non-integer indices, a sample, flute
+        or micro edge out of range, ``cl_mm`` or ``weight`` of another shape.
     """
-    i, k, j = (np.asarray(a, dtype=np.int64).reshape(-1) for a in (i, k, j))
+    if isinstance(n_ang, (bool, np.bool_)) or not isinstance(n_ang, (int, np.integer)) \
+            or n_ang < 0:
+        raise ValueError(f"n_ang: expected an integer >= 0 (angle samples), got {n_ang!r}")
+    idx = []
+    for name, a in (("i", i), ("k", k), ("j", j)):
+        a = np.asarray(a).reshape(-1)
+        if a.size and a.dtype.kind not in "iu":
+            raise ValueError(f"{name}: expected integer indices, got dtype {a.dtype}")
+        idx.append(a.astype(np.int64))
+    i, k, j = idx
     phi = np.asarray(phi, dtype=float).reshape(-1)
     h = np.asarray(h, dtype=float).reshape(-1)
     n = i.shape[0]
     if not (k.shape[0] == j.shape[0] == phi.shape[0] == h.shape[0] == n):
         raise ValueError(f"i, k, j, phi, h: expected one value per entry each, got "
                          f"{[a.shape[0] for a in (i, k, j, phi, h)]}")
-    if n and (i.min() < 0 or i.max() >= n_ang or j.min() < 0 or j.max() >= len(edges)):
-        raise ValueError(f"i, j: expected samples in [0, {n_ang}) and micro edges in "
-                         f"[0, {len(edges)})")
+    m = len(edges)
     cl = np.asarray(cl_mm, dtype=float)
-    if cl.ndim not in (1, 2) or cl.shape[-1] != len(edges):
-        raise ValueError(f"cl_mm: expected shape ({len(edges)},) or (n_fl, {len(edges)}), "
-                         f"got {cl.shape}")
+    if cl.ndim == 0 or (cl.ndim == 2 and cl.shape[0] == 1):
+        cl = np.broadcast_to(cl, (m,)) if cl.ndim == 0 else cl[0]  # one wear for all flutes
+    if cl.ndim not in (1, 2) or cl.shape[-1] != m:
+        raise ValueError(f"cl_mm: expected shape ({m},) or (n_fl, {m}), got {cl.shape}")
+    n_fl = cl.shape[0] if cl.ndim == 2 else None
+    if n and (i.min() < 0 or i.max() >= n_ang or j.min() < 0 or j.max() >= m
+              or k.min() < 0 or (n_fl is not None and k.max() >= n_fl)):
+        raise ValueError(f"i, k, j: expected samples in [0, {n_ang}), flutes >= 0"
+                         + (f" and < {n_fl} (cl_mm's rows)" if n_fl is not None else "")
+                         + f" and micro edges in [0, {m})")
     cl_e = cl[j] if cl.ndim == 1 else cl[k, j]
     w = np.ones(n) if weight is None else np.asarray(weight, dtype=float).reshape(-1)
     if w.shape[0] != n:

@@ -313,9 +313,9 @@ def _engagement(tool: Tool, edges: MicroEdges, g: PointGeometry) -> tuple:
     phi = (theta[i] + (2 * math.pi / flutes) * k) - edges.psi[j]
     weight = None
     if g.weight0 is not None:
-        weight = g.weight0[:, cols][i0, j0].astype(float)[src]
+        weight = g.weight0[i0, cols[j0]].astype(float)[src]
     if g.shift0 is not None:
-        phi = phi + g.shift0[:, cols][i0, j0].astype(float)[src]
+        phi = phi + g.shift0[i0, cols[j0]].astype(float)[src]
     return theta, cols, edges, i, k, j, phi, weight
 
 
@@ -401,7 +401,7 @@ def wear_influence(tool: Tool, edges: MicroEdges, coeffs: CuttingCoefficients,
     tool, edges, coeffs, compliance, g, workpiece
         As :func:`revolution`; ``g`` needs a generation point.
     engagement : tuple, optional
-        The point's engagement if already expanded (``_engagement``).
+        The point's cutting entries if already listed (``_engagement``).
 
     Returns
     -------

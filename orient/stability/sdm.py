@@ -195,6 +195,7 @@ def _monodromy(phi0, pa, pb, s, cmat, active, out):
     """
     k, n2, m = pa.shape[0], pa.shape[1], pa.shape[2]
     na = active.shape[0]
+    # active: y's 2m states, then whole m-blocks of delays (as _active_states makes it)
     h = (na - n2) // m                            # active delays
     slot = np.full(k + 1, -1, dtype=np.int64)     # row block of delay xi_{-lag}, or -1
     lag_of = np.empty(na, dtype=np.int64)         # out's column c: its delay (0: y)
@@ -257,8 +258,9 @@ def _monodromy(phi0, pa, pb, s, cmat, active, out):
 
 
 def _monodromy_numpy(phi0, pa, pb, s, cmat):
-    """Numpy twin of :func:`_monodromy` (tests): the one-step maps chained as
-    block matrices on the state ``[y; xi_{i-1} .. xi_{i-k}]``."""
+    """Numpy twin of :func:`_monodromy` (tests): the whole monodromy matrix, the one-step
+    maps chained as block matrices on the state ``[y; xi_{i-1} .. xi_{i-k}]`` (the
+    kernel's is its principal submatrix on the active states)."""
     k, n2, m = pa.shape
     nn = n2 + k * m
     total = np.eye(nn)

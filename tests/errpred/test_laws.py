@@ -123,11 +123,12 @@ def test_entry_forces_are_tool_forces_from_the_cutting_entries(c):
     twin = force._entry_forces(e, c, phi.shape[0], i, j, phi[i, k, j], h[i, k, j], cl[k, j],
                                w[i, k, j], compiled=False)
     np.testing.assert_allclose(twin, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
-    # one wear for every flute: cl (m,)
-    ref1 = force.tool_forces(e, c, phi, h, cutting, cl[0], weight=w)
-    got1 = force.entry_forces(e, c, phi.shape[0], i, k, j, phi[i, k, j], h[i, k, j], cl[0],
-                              weight=w[i, k, j])
-    assert np.array_equal(got1, ref1)
+    # one wear for every flute: cl (m,), (1, m) or a number, as tool_forces takes it
+    for one in (cl[0], cl[:1], 120.0):
+        ref1 = force.tool_forces(e, c, phi, h, cutting, one, weight=w)
+        got1 = force.entry_forces(e, c, phi.shape[0], i, k, j, phi[i, k, j], h[i, k, j],
+                                  one, weight=w[i, k, j])
+        assert np.array_equal(got1, ref1)
 
 
 def test_entry_forces_refuses_entries_that_do_not_fit():
@@ -142,6 +143,17 @@ def test_entry_forces_refuses_entries_that_do_not_fit():
         force.entry_forces(e, LIN, phi.shape[0], i, k, j, phi[i, k, j], h[i, k, j], cl[:, :3])
     with pytest.raises(ValueError, match="weight"):
         force.entry_forces(e, LIN, phi.shape[0], i, k, j, *args, weight=w[0, 0, :3])
+    with pytest.raises(ValueError, match="flutes >= 0 and < 2"):
+        force.entry_forces(e, LIN, phi.shape[0], i, k + 1, j, *args)
+    with pytest.raises(ValueError, match="flutes >= 0"):
+        force.entry_forces(e, LIN, phi.shape[0], i, k - 1, j, *args)
+    for bad in (25.9, None, -1, True):
+        with pytest.raises(ValueError, match="n_ang"):
+            force.entry_forces(e, LIN, bad, i, k, j, *args)
+    with pytest.raises(ValueError, match="i: expected integer indices"):
+        force.entry_forces(e, LIN, phi.shape[0], i + 0.5, k, j, *args)
+    empty = force.entry_forces(e, LIN, 7, [], [], [], [], [], cl)
+    assert empty.shape == (7, 3) and not empty.any()
 
 
 # --- Kienzle ----------------------------------------------------------------------

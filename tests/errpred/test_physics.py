@@ -13,7 +13,8 @@ import pytest
 from errpred.coefficients import CuttingCoefficients
 from errpred.engagement import expand_flutes
 from errpred.force import chip_thickness, tool_forces
-from errpred.physics import _deflection, _engagement, _revolution
+from errpred.physics import (_deflection, _engagement, _revolution, _strip_error,
+                             _wear_influence)
 from errpred.tool import Tool
 
 from .cases import stiff_tool
@@ -86,3 +87,69 @@ def test_revolution_from_the_entries_is_the_blocks_bit_for_bit(flutes):
     assert np.abs(ref).max() > 1.0
     assert np.array_equal(force, ref)
     assert np.array_equal(defl, _deflection(stiff_tool(), g, ref, []))
+
+
+def test_revolution_with_a_wear_per_flute_and_with_one_flute():
+    """A per-flute cutting distance (n_fl, m) reaches each flute's entries, and a single
+    flute is its own block: both against the whole block's force."""
+    for flutes, per_flute in ((3, True), (1, False)):
+        tool = Tool("ball", 6.0, flutes=flutes, helix_deg=30.0, flute_length_mm=12.0)
+        edges = tool.micro_edges(40)
+        n = 48 * flutes
+        g = _point(tool, len(edges), n, 11, weight=True, shift=False)
+        rng = np.random.default_rng(4)
+        cl = rng.uniform(0, 300, (flutes, len(edges)) if per_flute else len(edges))
+        theta, force, _defl, _eng = _revolution(tool, edges, COEF, stiff_tool(), g, cl, [])
+        cols = np.flatnonzero(g.cutting0.any(axis=0))
+        e = edges.take(cols)
+        ph, cut = expand_flutes(theta, g.cutting0[:, cols], e, flutes)
+        wb = expand_flutes(theta, g.weight0[:, cols].astype(float), e, flutes)[1]
+        h = np.where(cut, chip_thickness(e, ph, g.frame @ g.feed_per_tooth_world), 0.0)
+        ref = tool_forces(e, COEF, ph, h, cut, cl[..., cols], weight=wb) @ g.frame
+        assert np.abs(ref).max() > 1.0
+        np.testing.assert_allclose(force, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+        if per_flute:   # each flute's own wear counts: another flute's would differ
+            other = _revolution(tool, edges, COEF, stiff_tool(), g, cl[::-1], [])[1]
+            assert not np.allclose(other, force)
+
+
+def test_a_point_that_cuts_nothing_and_steps_that_do_not_split_into_flutes():
+    tool = Tool("ball", 6.0, flutes=2, helix_deg=30.0, flute_length_mm=12.0)
+    edges = tool.micro_edges(40)
+    g = _point(tool, len(edges), 90, 5, weight=True, shift=True)
+    g.cutting0 = np.zeros_like(g.cutting0)
+    g.weight0 = np.zeros_like(g.weight0)
+    g.shift0 = np.zeros_like(g.shift0)
+    theta, force, defl, eng = _revolution(tool, edges, COEF, stiff_tool(), g,
+                                          np.zeros(len(edges)), [])
+    assert eng[3].size == 0 and not force.any() and not defl.any()
+    odd = _point(tool, len(edges), 91, 5, weight=False, shift=False)
+    with pytest.raises(ValueError, match="not a multiple of 2 flutes"):
+        _engagement(tool, edges, odd)
+
+
+def test_wear_influence_is_the_error_s_derivative_in_each_edge_s_cutting_distance():
+    """The linear law's edge force grows by Kxe1 cl db, so the error at the generation
+    point is affine in each micro edge's cutting distance: the influence from the entries
+    equals the difference of two revolutions with one edge's distance changed."""
+    tool = Tool("ball", 6.0, flutes=2, helix_deg=30.0, flute_length_mm=12.0)
+    edges = tool.micro_edges(40)
+    g = _point(tool, len(edges), 120, 9, weight=True, shift=True)
+    g.gen = SimpleNamespace(samples_theta=None, theta_rad=1.1,
+                            normal_world=np.array([0.6, 0.0, 0.8]))
+    cl = np.random.default_rng(3).uniform(0, 300, len(edges))
+    comp = stiff_tool()
+    cols, a = _wear_influence(tool, edges, COEF, comp, g, [])
+    assert np.array_equal(cols, np.flatnonzero(g.cutting0.any(axis=0)))
+    theta, _f, defl, _e = _revolution(tool, edges, COEF, comp, g, cl, [])
+    base = _strip_error(g.gen, defl, theta)
+    delta = 50.0
+    checked = 0
+    for q in (0, cols.size // 2, cols.size - 1):
+        bumped = cl.copy()
+        bumped[cols[q]] += delta
+        th, _f, d2, _e = _revolution(tool, edges, COEF, comp, g, bumped, [])
+        slope = (_strip_error(g.gen, d2, th) - base) / delta
+        assert slope == pytest.approx(a[q], rel=1e-6, abs=1e-9 * np.abs(a).max())
+        checked += abs(a[q]) > 0
+    assert checked >= 2

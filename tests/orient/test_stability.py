@@ -67,7 +67,7 @@ from orient.stability import (
     zoa_margin,
     zoa_margin_batch,
 )
-from orient.stability.sdm import _Fdm, _monodromy, _monodromy_numpy, _remap
+from orient.stability.sdm import _active_states, _Fdm, _monodromy, _monodromy_numpy, _remap
 from orient.stability.zoa import zoa_margin_detail
 
 # --- benchmark data (sources in the module docstring) ----------------------
@@ -547,6 +547,59 @@ def test_monodromy_kernel_matches_numpy_twin(modes, steps, immersion):
     assert not np.any(twin[:, others])
     # the active states are exactly the twin's non-zero columns (none kept needlessly)
     assert np.array_equal(np.flatnonzero(np.any(twin != 0.0, axis=0)), f.active)
+
+
+@pytest.mark.parametrize("pattern", ["gaps", "gaps in a or b", "one step", "none", "whole",
+                                     "one mode"])
+def test_monodromy_kernel_on_any_pattern_of_steps_out_of_the_cut(pattern):
+    """Random maps (seeded) whose steps out of the cut leave gaps anywhere in the period
+    (the cut at its end, one step alone, none, every step, a mode that a step's weights
+    leave out), at scalings 0 to 2.5: the kernel is the twin's principal submatrix on the
+    active states, the twin's other columns are zero, and the spectral radii agree."""
+    rng = np.random.default_rng(["gaps", "gaps in a or b", "one step", "none", "whole",
+                                 "one mode"].index(pattern))
+    for _ in range(40):
+        m = int(rng.integers(1, 4))
+        k = int(rng.integers(1, 12))
+        n2 = 2 * m
+        phi0 = rng.normal(size=(n2, n2)) * 0.5
+        pa = rng.normal(size=(k, n2, m)) * 0.3
+        pb = rng.normal(size=(k, n2, m)) * 0.3
+        if pattern == "gaps":
+            out_of_cut = rng.random(k) < 0.6
+            pa[out_of_cut] = 0.0
+            pb[out_of_cut] = 0.0
+        elif pattern == "gaps in a or b":
+            pa[rng.random(k) < 0.5] = 0.0
+            pb[rng.random(k) < 0.5] = 0.0
+        elif pattern == "one step":
+            out_of_cut = np.ones(k, bool)
+            out_of_cut[rng.integers(k)] = False
+            pa[out_of_cut] = 0.0
+            pb[out_of_cut] = 0.0
+        elif pattern == "none":
+            pa[:] = 0.0
+            pb[:] = 0.0
+        elif pattern == "one mode":
+            pa[:, :, 0] = 0.0
+            pb[rng.random(k) < 0.5] = 0.0
+        r = rng.normal(size=m) * 0.1 if rng.random() < 0.5 else np.zeros(m)
+        cmat = np.ascontiguousarray(np.hstack([np.eye(m), np.diag(r)]))
+        active = _active_states(pa, pb)
+        for s in (0.0, 0.3, 2.5):
+            out = np.full((active.size, active.size), np.nan)
+            _monodromy(phi0, pa, pb, s, cmat, active, out)
+            twin = _monodromy_numpy(phi0, pa, pb, s, cmat)
+            scale = max(1.0, np.abs(twin).max())
+            assert np.allclose(out, twin[np.ix_(active, active)], rtol=0, atol=1e-10 * scale)
+            assert not np.any(twin[:, np.setdiff1d(np.arange(twin.shape[0]), active)])
+            rho = np.abs(np.linalg.eigvals(out)).max() if out.size else 0.0
+            assert rho == pytest.approx(np.abs(np.linalg.eigvals(twin)).max(), rel=1e-8,
+                                        abs=1e-12)
+        if pattern == "none":
+            assert active.size == n2                      # only y: nothing delayed enters
+        if pattern == "whole":
+            assert active.size == (k + 2) * m             # every delay enters
 
 
 def test_multipliers_on_the_active_states_are_the_whole_matrix_s():
