@@ -134,24 +134,60 @@ class WorkpieceModel:
 
 def _solve_shared(client, solve, shapes: list) -> list:
     """``[solve(shape) for shape in shapes]``, the first here and the others offered to
-    the cluster's workers: each is taken from a worker that has finished it by the time
-    this process would start it, otherwise withdrawn and solved here.
+    the cluster's workers: each is taken from a worker that has finished it; one a worker
+    is solving is waited for; one no worker has started by the time this process would
+    start it is withdrawn and solved here (the last of those first: a worker that gets
+    free takes the earlier ones).
 
     In the main job the workers are idle while the planner builds the model once the
     kernels are cached (the bundled thin wall's three levels: about 7-8 s in one
-    process; a cached job took one of its two offered levels from a worker, the other
-    was still being solved there when this process got to it), and busy compiling on
-    an empty cache: then this process solves every level, as it did alone. (A withdrawn
-    level a worker starts just before the withdrawal reaches it is solved there too, and
-    dropped.)
+    process), but one of them waits for the job's warm-up child at first, and every
+    process shares the two cores: a level still being solved on a worker when this
+    process finished its own was solved here again (the plan's set-up 8.6 s instead of
+    about 5 s). On an empty cache the workers are busy compiling: then this process
+    solves every level, as it did alone. (A withdrawn level a worker starts just before
+    the withdrawal reaches it is solved there too, and dropped.) Where the workers cannot
+    say what they run, every level not finished is treated as not started.
     """
+    from distributed import wait
+
     offered = [client.submit(solve, shape, pure=False) for shape in shapes[1:]]
+    levels: list = [None] * len(shapes)
     with limited_blas():
-        levels = [solve(shapes[0])]
-        for shape, future in zip(shapes[1:], offered):
-            if future.done() and future.status == "finished":
-                levels.append(future.result())
+        levels[0] = solve(shapes[0])
+        left = list(range(1, len(shapes)))
+        while left:
+            for q in list(left):
+                future = offered[q - 1]
+                if future.done():
+                    left.remove(q)
+                    levels[q] = (future.result() if future.status == "finished"
+                                 else solve(shapes[q]))
+            if not left:
+                break
+            running = _running_keys(client)
+            waiting = [q for q in left if offered[q - 1].key not in running]
+            if waiting:
+                q = waiting[-1]
+                offered[q - 1].cancel()
+                left.remove(q)
+                levels[q] = solve(shapes[q])
             else:
-                future.cancel()
-                levels.append(solve(shape))
+                wait([offered[q - 1] for q in left], return_when="FIRST_COMPLETED")
     return levels
+
+
+def _executing_keys(dask_worker=None) -> list:
+    """The keys of the tasks a Dask worker is running now (``client.run`` passes the
+    worker)."""
+    return [ts.key for ts in dask_worker.state.executing]
+
+
+def _running_keys(client) -> set:
+    """The keys of the tasks the cluster's workers are running now (empty where they
+    cannot say)."""
+    try:
+        per_worker = client.run(_executing_keys)
+    except Exception:                       # noqa: BLE001 -- only time depends on it
+        return set()
+    return {k for keys in per_worker.values() for k in keys}

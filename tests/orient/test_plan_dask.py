@@ -43,6 +43,8 @@ def _square_slowly(x: int) -> tuple[int, str]:
 
     if x == 0:
         time.sleep(1.0)         # meanwhile an idle worker solves the others
+    if x == 3:
+        time.sleep(3.0)         # a worker is still on it when this process is done
     here = threading.current_thread() is threading.main_thread()
     return x * x, "here" if here else "worker"
 
@@ -69,3 +71,15 @@ def test_wall_levels_are_taken_from_idle_workers_and_withdrawn_from_busy_ones():
             _RELEASE.set()
         assert busy.result()
         assert got == [(0, "here"), (1, "here"), (4, "here")]
+
+
+def test_a_wall_level_a_worker_is_solving_is_waited_for_not_solved_again():
+    # level 1 takes a worker 3 s, this process's own 1 s: this process waits for it
+    # instead of solving it a second time, and solves the level queued behind it
+    from orient.workpiece import _solve_shared
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        got = _solve_shared(client, _square_slowly, [0, 3, 2])
+    assert got == [(0, "here"), (9, "worker"), (4, "here")]
