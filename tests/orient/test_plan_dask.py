@@ -49,37 +49,40 @@ def _square_slowly(x: int) -> tuple[int, str]:
     return x * x, "here" if here else "worker"
 
 
-def test_wall_levels_are_taken_from_idle_workers_and_withdrawn_from_busy_ones():
+@pytest.fixture
+def one_worker():
+    """A client of a one-worker, one-thread cluster in this process."""
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        yield client
+
+
+def test_wall_levels_are_taken_from_idle_workers_and_withdrawn_from_busy_ones(one_worker):
     # the thin wall's levels but the first are offered to the workers: one a worker has
     # finished when this process gets to it is taken; one still waiting for a busy
     # worker is withdrawn and solved here (the answers are the same either way)
     from orient.workpiece import _solve_shared
 
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
-        got = _solve_shared(client, _square_slowly, [0, 1, 2])
-        assert got == [(0, "here"), (1, "worker"), (4, "worker")]
+    got = _solve_shared(one_worker, _square_slowly, [0, 1, 2])
+    assert got == [(0, "here"), (1, "worker"), (4, "worker")]
 
-        _STARTED.clear()
-        _RELEASE.clear()
-        busy = client.submit(_busy, pure=False)
-        assert _STARTED.wait(30)            # the worker is busy from here on
-        try:
-            got = _solve_shared(client, _square_slowly, [0, 1, 2])
-        finally:
-            _RELEASE.set()
-        assert busy.result()
-        assert got == [(0, "here"), (1, "here"), (4, "here")]
+    _STARTED.clear()
+    _RELEASE.clear()
+    busy = one_worker.submit(_busy, pure=False)
+    assert _STARTED.wait(30)            # the worker is busy from here on
+    try:
+        got = _solve_shared(one_worker, _square_slowly, [0, 1, 2])
+    finally:
+        _RELEASE.set()
+    assert busy.result()
+    assert got == [(0, "here"), (1, "here"), (4, "here")]
 
 
-def test_a_wall_level_a_worker_is_solving_is_waited_for_not_solved_again():
+def test_a_wall_level_a_worker_is_solving_is_waited_for_not_solved_again(one_worker):
     # level 1 takes a worker 3 s, this process's own 1 s: this process waits for it
     # instead of solving it a second time, and solves the level queued behind it
     from orient.workpiece import _solve_shared
 
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
-        got = _solve_shared(client, _square_slowly, [0, 3, 2])
+    got = _solve_shared(one_worker, _square_slowly, [0, 3, 2])
     assert got == [(0, "here"), (9, "worker"), (4, "here")]
