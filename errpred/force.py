@@ -80,10 +80,17 @@ def chip_thickness(edges: MicroEdges, phi: Any, f_tooth_tool: Any,
     m = len(edges)
     if phi.ndim == 0 or phi.shape[-1] != m:
         raise ValueError(f"phi: last axis must hold the {m} micro edges, got shape {phi.shape}")
-    sk, ck = np.sin(edges.kappa), np.cos(edges.kappa)
     sin_phi, cos_phi = (np.sin(phi), np.cos(phi)) if sin_cos is None else sin_cos
-    h = (f[..., 0] * sk) * sin_phi + (f[..., 1] * sk) * cos_phi - f[..., 2] * ck
-    return np.maximum(h, 0.0)
+    return _chip(f, np.sin(edges.kappa), np.cos(edges.kappa), sin_phi, cos_phi)
+
+
+def _chip(f: np.ndarray, sk: np.ndarray, ck: np.ndarray, sin_phi: np.ndarray,
+          cos_phi: np.ndarray) -> np.ndarray:
+    """:func:`chip_thickness`' ``max(f . n, 0)`` from the sines and cosines of the micro
+    edges' immersion (``sk``, ``ck``) and angular positions, broadcast (stage 2 passes
+    them per cutting entry, ``errpred.physics``)."""
+    return np.maximum((f[..., 0] * sk) * sin_phi + (f[..., 1] * sk) * cos_phi
+                      - f[..., 2] * ck, 0.0)
 
 
 def local_components(coeffs: LawCoefficients, h: Any, cl: Any, db: Any, kappa: Any
@@ -200,9 +207,8 @@ def tool_forces(edges: MicroEdges, coeffs: LawCoefficients, phi: Any, h: Any,
         weight = np.asarray(weight, dtype=float)
         if weight.shape != phi.shape:
             raise ValueError(f"weight: shape {weight.shape} differs from phi's {phi.shape}")
-    i, k, j = np.nonzero(cutting)
-    return _entry_forces(edges, coeffs, phi.shape[0], i, j, phi[i, k, j], h[i, k, j],
-                         cl[k, j], weight[i, k, j], compiled=entry_forces_kernel is not None)
+    return _block_forces(edges, coeffs, phi, h, cutting, cl, weight,
+                         compiled=entry_forces_kernel is not None)
 
 
 def entry_forces(edges: MicroEdges, coeffs: LawCoefficients, n_ang: int, i: Any, k: Any,
@@ -301,19 +307,11 @@ def _entry_forces(edges: MicroEdges, coeffs: LawCoefficients, n_ang: int, i: np.
     return out
 
 
-def _forces_numba(edges: MicroEdges, coeffs: LawCoefficients, phi: np.ndarray,
-                  h: np.ndarray, cutting: np.ndarray, cl: np.ndarray,
-                  weight: np.ndarray) -> np.ndarray:
-    """:func:`tool_forces`' compiled sum; ``cl`` already (n_fl, m)."""
+def _block_forces(edges: MicroEdges, coeffs: LawCoefficients, phi: np.ndarray,
+                  h: np.ndarray, cutting: np.ndarray, cl: np.ndarray, weight: np.ndarray,
+                  compiled: bool) -> np.ndarray:
+    """:func:`tool_forces`' sum over the block's cutting entries (``np.nonzero`` order):
+    the compiled loop, or its numpy twin (``compiled`` False); ``cl`` already (n_fl, m)."""
     i, k, j = np.nonzero(cutting)
     return _entry_forces(edges, coeffs, phi.shape[0], i, j, phi[i, k, j], h[i, k, j],
-                         cl[k, j], weight[i, k, j], compiled=True)
-
-
-def _forces_numpy(edges: MicroEdges, coeffs: LawCoefficients, phi: np.ndarray,
-                  h: np.ndarray, cutting: np.ndarray, cl: np.ndarray,
-                  weight: np.ndarray) -> np.ndarray:
-    """:func:`tool_forces`' numpy twin of the compiled sum; ``cl`` already (n_fl, m)."""
-    i, k, j = np.nonzero(cutting)
-    return _entry_forces(edges, coeffs, phi.shape[0], i, j, phi[i, k, j], h[i, k, j],
-                         cl[k, j], weight[i, k, j], compiled=False)
+                         cl[k, j], weight[i, k, j], compiled=compiled)

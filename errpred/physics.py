@@ -61,7 +61,7 @@ import numpy as np
 
 from .coefficients import WEAR_NAMES, CuttingCoefficients
 from .dynamics import Compliance, receptance
-from .force import entry_forces
+from .force import _chip, entry_forces
 from .geometry import PointGeometry
 from .spindle import tooth_frequency
 from .tool import MicroEdges, Tool
@@ -371,10 +371,9 @@ def _revolution(tool, edges, coeffs, compliance, g, cl_mm, modes) -> tuple:
     theta, cols, edges, i, k, j, phi, weight = eng
     cl_mm = np.asarray(cl_mm)[..., cols]
     f_tool = g.frame @ g.feed_per_tooth_world
-    # chip_thickness's arithmetic, per entry
-    sk, ck = np.sin(edges.kappa), np.cos(edges.kappa)
-    h = np.maximum((f_tool[0] * sk)[j] * np.sin(phi) + (f_tool[1] * sk)[j] * np.cos(phi)
-                   - (f_tool[2] * ck)[j], 0.0)
+    # chip_thickness per entry
+    h = _chip(f_tool, np.sin(edges.kappa)[j], np.cos(edges.kappa)[j], np.sin(phi),
+              np.cos(phi))
     f_tool_frame = entry_forces(edges, coeffs, theta.shape[0], i, k, j, phi, h, cl_mm,
                                 weight=weight)
     force = f_tool_frame @ g.frame  # rows: tool frame -> world

@@ -410,8 +410,9 @@ def _place_all(cam: CutterLocations, contacts: Contacts, idx: np.ndarray, u_new:
 def _sdm_checks(scn, tool_sys, wp, contacts, idx, u_new, cuts, rpm, zoa, runs, *,
                 client=None) -> list[dict]:
     """Time-periodic margins of the planned posture at the lowest-ZOA points (with a
-    ``client``, each point's margin on its workers: about 0.7 s each on the bundled thin
-    wall, 1.6 s before the monodromy kernel worked on the columns the history reaches)."""
+    ``client``, each point's margin on its workers: about 0.3 s each on the bundled thin
+    wall since the monodromy matrices are taken on their active states, 0.7 s before and
+    1.6 s before the kernel worked on the columns the history reaches)."""
     from .constants import GAIN_ANGLES_PER_REV
 
     tool = scn.base.tool

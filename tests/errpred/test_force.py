@@ -348,18 +348,18 @@ def test_tool_forces_is_sum_of_building_blocks_and_backends_agree():
     assert np.allclose(got, ref, rtol=1e-12, atol=1e-9)
     clb = np.broadcast_to(cl, phi.shape[1:])
     ones = np.ones(phi.shape)
-    assert np.allclose(force._forces_numpy(e, COEF, phi, h, cutting, clb, ones), ref,
-                       rtol=1e-12, atol=1e-9)
+    twin = force._block_forces(e, COEF, phi, h, cutting, clb, ones, compiled=False)
+    assert np.allclose(twin, ref, rtol=1e-12, atol=1e-9)
     if force.entry_forces_kernel is not None:
-        assert np.allclose(force._forces_numba(e, COEF, phi, h, cutting, clb, ones), ref,
-                           rtol=1e-12, atol=1e-9)
+        compiled = force._block_forces(e, COEF, phi, h, cutting, clb, ones, compiled=True)
+        assert np.allclose(compiled, ref, rtol=1e-12, atol=1e-9)
     # a weight scales each micro edge's contribution (its share of the step)
     w = np.random.default_rng(5).uniform(0, 1, phi.shape)
     ref_w = np.sum(np.where(cutting[..., None], per * w[..., None], 0.0), axis=(1, 2))
     assert np.allclose(tool_forces(e, COEF, phi, h, cutting, cl, weight=w), ref_w,
                        rtol=1e-12, atol=1e-9)
-    assert np.allclose(force._forces_numpy(e, COEF, phi, h, cutting, clb, w), ref_w,
-                       rtol=1e-12, atol=1e-9)
+    twin_w = force._block_forces(e, COEF, phi, h, cutting, clb, w, compiled=False)
+    assert np.allclose(twin_w, ref_w, rtol=1e-12, atol=1e-9)
 
 
 def test_non_cutting_contributes_exactly_zero():

@@ -69,10 +69,10 @@ def test_linear_law_through_the_table_equals_the_closed_form_slot_force(path):
     assert e.db.sum() == pytest.approx(2.0)
     h = np.where(cutting, force.chip_thickness(e, phi, (fz, 0.0, 0.0)), 0.0)
     cl = np.zeros((FLAT.flutes, len(e)))
-    fn = force._forces_numba if path == "numba" else force._forces_numpy
-    if fn is force._forces_numba and force.entry_forces_kernel is None:
+    if path == "numba" and force.entry_forces_kernel is None:
         pytest.skip("numba not installed")
-    mean = fn(e, LIN, phi, h, cutting, cl, np.ones(phi.shape)).mean(axis=0)
+    mean = force._block_forces(e, LIN, phi, h, cutting, cl, np.ones(phi.shape),
+                               compiled=path == "numba").mean(axis=0)
     ref = slot_force_linear(LIN, fz, 2.0, FLAT.flutes)
     np.testing.assert_allclose(mean, ref, rtol=1e-6)        # midpoint rule, 3600 steps
     # and the fit's forward model (quadrature) to round-off
@@ -97,8 +97,8 @@ def test_force_kernel_and_its_numpy_twin_agree_for_every_law(c):
     if force.entry_forces_kernel is None:
         pytest.skip("numba not installed")
     e, phi, h, cutting, cl, w = _random_block(3)
-    a = force._forces_numba(e, c, phi, h, cutting, cl, w)
-    b = force._forces_numpy(e, c, phi, h, cutting, cl, w)
+    a = force._block_forces(e, c, phi, h, cutting, cl, w, compiled=True)
+    b = force._block_forces(e, c, phi, h, cutting, cl, w, compiled=False)
     np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
     assert np.abs(b).max() > 1.0
 
