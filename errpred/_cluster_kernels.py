@@ -15,6 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._sort_kernels import argsort_stable
 from ._kernels import (_in_box, _reach_bound, _sphere, sweep_distance, sweep_lower_bound,
                        sweep_within)
 from .constants import (CLUSTER_COARSE, CLUSTER_RECENT, CLUSTER_SUPER, HOT_SEED_POINTS,
@@ -65,7 +66,7 @@ def _bins(points, candidates, cell):
             keys[m] = (sup * (sq * sq * sq) + coarse) * (q * q * q) + fine
             idx[m] = i
             m += 1
-    order = np.argsort(keys[:m])
+    order = argsort_stable(keys[:m])
     return idx, order, keys, m
 
 
@@ -357,11 +358,15 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach,
                                       k, recent, nrec, p0, d, w, c, r, top, r + reach, out)
                     offsets[b + 1] = total
                     continue
+                # element loops, not slice assignments: those compile a broadcast and its
+                # error message (1.4 s on an empty cache)
                 if total + k > buf.shape[0]:
                     bigger = np.empty(2 * (total + k), dtype=np.int64)
-                    bigger[:total] = buf[:total]
+                    for t in range(total):
+                        bigger[t] = buf[t]
                     buf = bigger
-                buf[total:total + k] = lists[2, :k]
+                for t in range(k):
+                    buf[total + t] = lists[2, t]
                 total += k
                 offsets[b + 1] = total
             c0 = c1

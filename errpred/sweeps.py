@@ -29,6 +29,7 @@ from nc.path import CutterLocations
 
 from . import constants as K
 from ._kernels import inside_any_sweep, sweep_distance, sweeps_within
+from ._sort_kernels import argsort_stable, compress, take
 from .tool import Tool
 
 #: ``inside_any_sweep`` and ``sweep_distance`` (numba, usable inside other
@@ -65,7 +66,8 @@ def _grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark):
                     mark[item] = True
                     if count == out.shape[0]:
                         bigger = np.empty(2 * count, dtype=np.int64)
-                        bigger[:count] = out
+                        for t in range(count):      # not a slice assignment: that
+                            bigger[t] = out[t]      # compiles a broadcast (1.7 s)
                         out = bigger
                     out[count] = item
                     count += 1
@@ -79,8 +81,9 @@ def _grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark):
 def _query(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi):
     """Ids (sorted) of the sweeps whose bounds overlap the box [lo, hi]."""
     mark = np.zeros(lo_all.shape[0], dtype=np.bool_)
-    ids = _grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark)
-    return np.sort(_overlapping(ids, lo_all, hi_all, lo, hi))
+    ids = _overlapping(_grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark),
+                       lo_all, hi_all, lo, hi)
+    return take(ids, argsort_stable(ids))
 
 
 @njit(cache=True)
@@ -139,7 +142,7 @@ def _overlapping(within, lo_all, hi_all, lo, hi):
         keep[t] = (lo_all[j, 0] <= hi[0] and lo_all[j, 1] <= hi[1] and lo_all[j, 2] <= hi[2]
                    and hi_all[j, 0] >= lo[0] and hi_all[j, 1] >= lo[1]
                    and hi_all[j, 2] >= lo[2])
-    return within[keep]
+    return compress(within, keep)
 
 
 @njit(cache=True)
@@ -153,7 +156,7 @@ def _near(cell_start, cell_items, shape, origin, cell, p0_all, d_all, w_all, lo_
         ids = _query(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi)
     keep = sweeps_within(ids, centre[0], centre[1], centre[2], reach, p0_all, d_all, w_all,
                          lo_all, hi_all, c, r, top)
-    ids = ids[keep]
+    ids = compress(ids, keep)
     dist = np.empty(ids.shape[0])
     for t in range(ids.shape[0]):
         j = ids[t]
@@ -162,7 +165,7 @@ def _near(cell_start, cell_items, shape, origin, cell, p0_all, d_all, w_all, lo_
             e = p0_all[j, a] + 0.5 * d_all[j, a] - order_from[a]
             v += e * e
         dist[t] = v
-    ids = ids[np.argsort(dist, kind="mergesort")]
+    ids = take(ids, argsort_stable(dist))
     radius = c + r
     height = top + r
     p0, d, w, lo1, hi1, ids1 = _clip(ids, p0_all, d_all, w_all, lo_all, hi_all, path_start,

@@ -169,6 +169,39 @@ def recommended_samples(cut_fraction: float) -> int:
 
 # ---------------------------------------------------------------------- kernel
 @njit(cache=True)
+def _solve_in_place(a, b):
+    """``b <- a^-1 b`` for ``a`` (n, n), ``b`` (n, p): Gaussian elimination with partial
+    pivoting (``a`` is overwritten). A matrix with a zero pivot raises."""
+    n, p = a.shape[0], b.shape[1]
+    for col in range(n):
+        piv_row, big = col, abs(a[col, col])
+        for r in range(col + 1, n):
+            if abs(a[r, col]) > big:
+                piv_row, big = r, abs(a[r, col])
+        if big == 0.0:
+            raise ValueError("singular step matrix (I - b C) in the monodromy matrix")
+        if piv_row != col:
+            for c in range(n):
+                a[col, c], a[piv_row, c] = a[piv_row, c], a[col, c]
+            for c in range(p):
+                b[col, c], b[piv_row, c] = b[piv_row, c], b[col, c]
+        piv = a[col, col]
+        for r in range(col + 1, n):
+            f = a[r, col] / piv
+            if f != 0.0:
+                for c in range(col + 1, n):
+                    a[r, c] -= f * a[col, c]
+                for c in range(p):
+                    b[r, c] -= f * b[col, c]
+    for r in range(n - 1, -1, -1):
+        for c in range(p):
+            v = b[r, c]
+            for q in range(r + 1, n):
+                v -= a[r, q] * b[q, c]
+            b[r, c] = v / a[r, r]
+
+
+@njit(cache=True)
 def _monodromy(phi0, pa, pb, s, cmat, active, out):
     """Monodromy matrix of the full-discretization map (see module docstring), on its
     active states.
@@ -218,32 +251,58 @@ def _monodromy(phi0, pa, pb, s, cmat, active, out):
     cmatt = np.ascontiguousarray(cmat.T)
     xs = np.empty((k, nn, m))                     # xi_j = C y_j, transposed, j = 0..k-1
     width = np.empty(k, dtype=np.int64)           # ... non-zero in its first rows only
-    xs[0, :n2] = xt[:n2] @ cmatt
+    # element loops, not slice assignments, and the solve by hand: numba compiles each
+    # array-to-array assignment's broadcast with its error message, np.linalg.solve its
+    # checks and copies (3-4 s of this kernel's 6-8 s on an empty cache)
+    prod = xt[:n2] @ cmatt
+    for r in range(n2):
+        for a in range(m):
+            xs[0, r, a] = prod[r, a]
     width[0] = n2
     eye = np.eye(n2)
-    rhs = np.empty((n2, n2 + 2 * m))
+    lhs = np.empty((n2, n2))
+    sol = np.empty((n2, n2 + 2 * m))
     for i in range(k):
         w = n2 + read[i] * m                      # the non-zero rows after this step
         ai = s * pa[i]
         bi = s * pb[i]
-        rhs[:, :n2] = phi0 + ai @ cmat
-        rhs[:, n2:n2 + m] = ai
-        rhs[:, n2 + m:] = bi
-        sol = np.linalg.solve(eye - bi @ cmat, rhs)           # [M_i, N_i, P_i]
-        xt[:w] = xt[:w] @ np.ascontiguousarray(sol[:, :n2].T)
+        top = phi0 + ai @ cmat
+        left = eye - bi @ cmat
+        for r in range(n2):
+            for c in range(n2):
+                sol[r, c] = top[r, c]
+                lhs[r, c] = left[r, c]
+            for c in range(m):
+                sol[r, n2 + c] = ai[r, c]
+                sol[r, n2 + m + c] = bi[r, c]
+        _solve_in_place(lhs, sol)                 # [M_i, N_i, P_i]
+        prod = xt[:w] @ np.ascontiguousarray(sol[:, :n2].T)
+        for r in range(w):
+            for c in range(n2):
+                xt[r, c] = prod[r, c]
         sa = slot[k - i]                                       # xi_{i-k} (N_i = 0 if not)
         if sa >= 0:
             c0 = n2 + sa * m
-            xt[c0:c0 + m] -= sol[:, n2:n2 + m].T
+            for a in range(m):
+                for r in range(n2):
+                    xt[c0 + a, r] -= sol[r, n2 + a]
         if i + 1 < k:                                          # xi_{i+1-k}: the next one
             sb = slot[k - i - 1]
             if sb >= 0:
                 c0 = n2 + sb * m
-                xt[c0:c0 + m] -= sol[:, n2 + m:].T
-            xs[i + 1, :w] = xt[:w] @ cmatt
+                for a in range(m):
+                    for r in range(n2):
+                        xt[c0 + a, r] -= sol[r, n2 + m + a]
+            prod = xt[:w] @ cmatt
+            for r in range(w):
+                for a in range(m):
+                    xs[i + 1, r, a] = prod[r, a]
             width[i + 1] = w
         else:                                                  # xi_0 = C y_0
-            xt[:n2] -= (np.ascontiguousarray(sol[:, n2 + m:]) @ cmat).T
+            prod = np.ascontiguousarray(sol[:, n2 + m:]) @ cmat
+            for r in range(n2):
+                for c in range(n2):
+                    xt[r, c] -= prod[c, r]
     src = np.empty(na, dtype=np.int64)            # out's column c is row src[c] here
     for c in range(na):
         src[c] = c if c < n2 else n2 + slot[lag_of[c]] * m + (c - n2) % m

@@ -413,3 +413,18 @@ def test_a_concave_top_under_a_tilted_ball_keeps_its_engagement(tilt_deg, kf, kb
     assert exact.engaged_fraction > 0.05
     assert np.linalg.norm(s.P - exact.P) / np.linalg.norm(s.P) < 0.05
     assert exact.engaged_fraction == pytest.approx(s.engaged_fraction, abs=0.01)
+
+
+@pytest.mark.parametrize("n", [1, 2, 5, 13, 40, 300])
+def test_union_order_sorts_by_start(n):
+    """The engaged-time union's order (a Shell sort) sorts the rows' starts, each row once,
+    ties in any order: the union merged from it is the one np.argsort's order gives."""
+    from orient._kernels import _order
+
+    rng = np.random.default_rng(n)
+    union = np.zeros((n + 7, 2))
+    union[:n, 0] = rng.integers(0, max(n // 3, 1), n) * 0.25   # ties
+    union[:n, 1] = union[:n, 0] + rng.random(n)
+    got = _order(union, n)
+    assert sorted(got.tolist()) == list(range(n))
+    np.testing.assert_array_equal(union[got, 0], np.sort(union[:n, 0]))

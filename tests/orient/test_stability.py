@@ -834,3 +834,23 @@ def test_zoa_batch_in_one_thread_equals_the_threaded_kernel():
         threads = zoa_margin_batch(p, sys, rpm, 2, mode_directions=md, cap=cap, parallel=True)
         np.testing.assert_array_equal(one, threads)
         assert np.all(np.isfinite(one)) and np.ptp(one) > 0.1
+
+
+@pytest.mark.parametrize("n,p", [(1, 1), (4, 8), (12, 20)])
+def test_step_solve_is_a_linear_solve(n, p):
+    """The monodromy kernel's hand-written solve against np.linalg.solve, on matrices
+    that need row exchanges (a zero leading entry) and near the identity (its use)."""
+    from orient.stability.sdm import _solve_in_place
+
+    rng = np.random.default_rng(n)
+    for a in (rng.normal(size=(n, n)) + 3.0 * np.eye(n),
+              np.eye(n) - 0.3 * rng.normal(size=(n, n))):
+        if n > 1:
+            a[0, 0] = 0.0           # pivoting needed
+        b = rng.normal(size=(n, p))
+        want = np.linalg.solve(a, b)
+        got = b.copy()
+        _solve_in_place(a.copy(), got)
+        np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12)
+    with pytest.raises(ValueError, match="singular"):
+        _solve_in_place(np.zeros((n, n)), np.ones((n, p)))
