@@ -216,17 +216,18 @@ def _uncap(scn, systems: list, axes: np.ndarray, P: np.ndarray, rpm: float,
     else:
         futures = [client.submit(_uncap_rows, flutes, rpm,
                                  [(systems[r], axes[r, c], P[r, c]) for r, c in
-                                  wanted[a:a + chunk]], pure=False)
+                                  wanted[a:a + chunk]], False, pure=False)
                    for a in range(0, len(wanted), chunk)]
         parts = client.gather(futures)
     for (r, c), m in zip(wanted, (m for p in parts for m in p), strict=True):
         margin[r, c] = m
 
 
-def _uncap_rows(flutes: int, rpm: float, rows: list) -> list:
-    """Exact ZOA margins of ``rows``: (system, axes (k, 3), P (k, 3, 3)) each."""
+def _uncap_rows(flutes: int, rpm: float, rows: list, parallel: bool | None = None) -> list:
+    """Exact ZOA margins of ``rows``: (system, axes (k, 3), P (k, 3, 3)) each;
+    ``parallel`` as in :func:`_speed_rows`."""
     return [zoa_margin_batch(P_, sys_r, rpm, flutes,
-                             mode_directions=sys_r.directions_for_axes(ax))
+                             mode_directions=sys_r.directions_for_axes(ax), parallel=parallel)
             for sys_r, ax, P_ in rows]
 
 
@@ -249,7 +250,7 @@ def _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm0: float,
     else:
         wp_f = client.scatter(wp, broadcast=True) if wp_f is None else wp_f
         futures = [client.submit(_speed_rows, wp_f, tool_sys, speeds, flutes, target,
-                                 args[a:a + DASK_SPEED_ROWS], pure=False)
+                                 args[a:a + DASK_SPEED_ROWS], False, pure=False)
                    for a in range(0, len(args), DASK_SPEED_ROWS)]
         bests = [x for part in client.gather(futures) for x in part]
     score = np.full(len(speeds), np.inf)
@@ -260,12 +261,15 @@ def _choose_speed(scn, tool_sys, wp, contacts, idx, axes, ok, P, rpm0: float,
 
 
 def _speed_rows(wp: WorkpieceModel, tool_sys: ModalSystem, speeds: np.ndarray, flutes: int,
-                target: float, rows: list) -> list:
+                target: float, rows: list, parallel: bool | None = None) -> list:
     """Per sampled cutter location (point, feasible axes (k, 3), their P (k, 3, 3)): the
     best capped margin of its postures at each of ``speeds`` (a Dask task or not). The
     margins are computed capped at ``target`` (exact below it, to the phase crossing's
     tolerance): the choice needs no more, and uncapped they took the most of the speed
-    choice's time (each posture's eigenvalues over the whole frequency grid)."""
+    choice's time (each posture's eigenvalues over the whole frequency grid).
+    ``parallel``: as :func:`orient.stability.zoa_margin_batch` (False in a Dask task: the
+    workers are the parallelism there; a row's 71 speeds x its postures passed the
+    threaded kernel's threshold, and the job's warm-up compiled that kernel for it)."""
     out = []
     for point, ax, P_ in rows:
         system = wp.system_at(tool_sys, point)
@@ -273,6 +277,7 @@ def _speed_rows(wp: WorkpieceModel, tool_sys: ModalSystem, speeds: np.ndarray, f
         k = len(ax)
         m = zoa_margin_batch(np.tile(P_, (len(speeds), 1, 1)), system,
                              np.repeat(speeds, k), flutes,
-                             mode_directions=np.tile(dirs, (len(speeds), 1, 1)), cap=target)
+                             mode_directions=np.tile(dirs, (len(speeds), 1, 1)), cap=target,
+                             parallel=parallel)
         out.append(np.minimum(m.reshape(len(speeds), k), target).max(axis=1))
     return out

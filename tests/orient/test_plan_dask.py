@@ -86,3 +86,28 @@ def test_a_wall_level_a_worker_is_solving_is_waited_for_not_solved_again(one_wor
 
     got = _solve_shared(one_worker, _square_slowly, [0, 3, 2])
     assert got == [(0, "here"), (9, "worker"), (4, "here")]
+
+
+def test_dask_tasks_use_the_one_thread_margin_kernel(planned, one_worker, monkeypatch):
+    """On a cluster the workers are the parallelism: no task calls the threaded margin
+    kernel (the speed choice's rows passed its size threshold and used it, and the job's
+    warm-up compiled it, 2 s more, for them alone). The plan is the one-process plan."""
+    import orient.stability._kernels as kernels
+
+    scn, one = planned
+    serial = kernels.margin_batch_serial
+    calls = {"serial": 0}
+
+    def threaded(*args):
+        raise AssertionError("the threaded margin kernel was called in a Dask task")
+
+    def counted(*args):
+        calls["serial"] += 1
+        return serial(*args)
+
+    monkeypatch.setattr(kernels, "margin_batch", threaded)
+    monkeypatch.setattr(kernels, "margin_batch_serial", counted)
+    dist = plan(scn, client=one_worker)
+    assert calls["serial"] > 0
+    np.testing.assert_array_equal(one.cl.axis, dist.cl.axis)
+    np.testing.assert_array_equal(one.margin, dist.margin)
