@@ -28,6 +28,7 @@ Local DOF order: ``3 * local_node + component``; local node order
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -147,6 +148,28 @@ class Q2Mesh:
     def upper(self) -> np.ndarray:
         """Upper corner of each element, shape (E, 3)."""
         return np.stack([self.lines[d][self.cells[:, d] + 1] for d in range(3)], axis=1)
+
+    @cached_property
+    def _grid_element(self) -> np.ndarray:
+        """Element number of each grid cell, -1 where none (n0, n1, n2)."""
+        out = np.full(tuple(len(x) - 1 for x in self.lines), -1, dtype=np.int64)
+        out[self.cells[:, 0], self.cells[:, 1], self.cells[:, 2]] = np.arange(len(self.cells))
+        return out
+
+    def elements_near(self, point, reach: float) -> np.ndarray:
+        """Element numbers (ascending) of every element whose box comes within ``reach``
+        of ``point`` (3,) along each axis: a superset of those within ``reach`` of it.
+        From the grid lines (a binary search per axis), not a pass over every element."""
+        box = []
+        for d in range(3):
+            x = self.lines[d]
+            lo = max(int(np.searchsorted(x, point[d] - reach, "left")) - 1, 0)
+            hi = min(int(np.searchsorted(x, point[d] + reach, "right")) - 1, len(x) - 2)
+            if hi < lo:
+                return np.zeros(0, dtype=np.int64)
+            box.append(slice(lo, hi + 1))
+        ids = self._grid_element[tuple(box)].ravel()
+        return np.sort(ids[ids >= 0])
 
 
 def build_mesh(lines: tuple[np.ndarray, np.ndarray, np.ndarray], active: np.ndarray) -> Q2Mesh:

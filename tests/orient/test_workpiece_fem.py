@@ -400,3 +400,42 @@ def test_shape_along_names_the_kept_modes_with_their_signs():
     # mirror points: each mode is symmetric (+1) or antisymmetric (-1) about the middle
     assert np.allclose(np.abs(ratio), 1.0, rtol=1e-6)
     assert any(r < 0 for r in ratio) and any(r > 0 for r in ratio)
+
+
+def test_elements_near_finds_the_element_a_pass_over_all_finds():
+    """shapes_at's element from the grid's look-up against a pass over every element (the
+    nearest, the first of equals): points inside, on shared faces, edges and corners (one
+    element of several), in front of the step left by the cut within the tolerance, and
+    beyond it (the same error)."""
+    from orient.fem import q2hex
+
+    w = ThinWall(30.0, 20.0, 4.0, ALUMINIUM, finish_side="front").in_process(12.0, 1.0)
+    m = wall_modes(w, n_modes=2, elements=(5, 2, 6))
+    mesh = m.mesh
+    lo, hi = mesh.lower, mesh.upper
+    rng = np.random.default_rng(7)
+    lines = mesh.lines
+    pts = [rng.uniform(lo.min(axis=0) - 0.3, hi.max(axis=0) + 0.3, size=(400, 3)),
+           np.stack([rng.choice(x, 200) for x in lines], axis=1)]      # grid nodes: ties
+    tol = 0.25
+    checked = refused = 0
+    for p in np.concatenate(pts):
+        dist = np.linalg.norm(np.clip(p, lo, hi) - p, axis=1)
+        want = int(np.argmin(dist))
+        near = mesh.elements_near(p, tol)
+        assert np.all(np.diff(near) > 0)
+        if dist[want] <= tol:
+            assert want in near
+            sub = np.linalg.norm(np.clip(p, lo[near], hi[near]) - p, axis=1)
+            assert int(near[np.argmin(sub)]) == want
+            u = m.shapes_at(w.to_workpiece(p), tol_mm=tol)
+            e = want
+            n = q2hex.shape_functions((np.clip(p, lo[e], hi[e]) - lo[e]) / (hi[e] - lo[e]))
+            np.testing.assert_array_equal(u, np.einsum("i,kij->kj", n,
+                                                       m.shapes[:, m.elements[e], :]))
+            checked += 1
+        else:
+            with pytest.raises(ValueError, match="from the wall's material"):
+                m.shapes_at(w.to_workpiece(p), tol_mm=tol)
+            refused += 1
+    assert checked > 300 and refused > 20
