@@ -260,22 +260,19 @@ def _monodromy(phi0, pa, pb, s, cmat, active, out):
             xs[0, r, a] = prod[r, a]
     width[0] = n2
     eye = np.eye(n2)
-    lhs = np.empty((n2, n2))
     sol = np.empty((n2, n2 + 2 * m))
     for i in range(k):
         w = n2 + read[i] * m                      # the non-zero rows after this step
         ai = s * pa[i]
         bi = s * pb[i]
         top = phi0 + ai @ cmat
-        left = eye - bi @ cmat
         for r in range(n2):
             for c in range(n2):
                 sol[r, c] = top[r, c]
-                lhs[r, c] = left[r, c]
             for c in range(m):
                 sol[r, n2 + c] = ai[r, c]
                 sol[r, n2 + m + c] = bi[r, c]
-        _solve_in_place(lhs, sol)                 # [M_i, N_i, P_i]
+        _solve_in_place(eye - bi @ cmat, sol)     # [M_i, N_i, P_i] (a new left side)
         prod = xt[:w] @ np.ascontiguousarray(sol[:, :n2].T)
         for r in range(w):
             for c in range(n2):
