@@ -95,6 +95,15 @@ __all__ = [
 
 
 # ---------------------------------------------------------------------- modes
+def _nearest_box(p: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> tuple:
+    """Of the boxes ``lower``, ``upper`` (n, 3), the one nearest the point ``p`` (the first
+    of equals): its index, corners, the nearest point in it and the distance."""
+    q = np.clip(p, lower, upper)
+    dist = np.linalg.norm(q - p, axis=1)
+    e = int(np.argmin(dist))
+    return e, lower[e], upper[e], q[e], float(dist[e])
+
+
 @dataclass(frozen=True, eq=False)
 class WallModes:
     """Lowest modes of a :class:`ThinWall` (from :func:`wall_modes`).
@@ -148,29 +157,18 @@ class WallModes:
         tol = _real("tol_mm", tol_mm, ">=0")
         # the elements within tol of the point along each axis hold every one within tol
         # of it, so the nearest (the first of equals, ascending as they are) is the one a
-        # pass over all elements finds, 10-20 times faster; where none is, that pass
-        # gives the error its distance
-        near = self.mesh.elements_near(np.ravel(p), tol)
-        mesh = self.mesh
-        for ids in (near, None):
-            if ids is None:
-                lo, hi = mesh.lower, mesh.upper
-            else:
-                if ids.size == 0:
-                    continue
-                lo = np.stack([mesh.lines[d][mesh.cells[ids, d]] for d in range(3)], axis=1)
-                hi = np.stack([mesh.lines[d][mesh.cells[ids, d] + 1] for d in range(3)], axis=1)
-            q = np.clip(p, lo, hi)
-            dist = np.linalg.norm(q - p, axis=1)
-            e = int(np.argmin(dist))
-            if dist[e] <= tol:
-                break
-        if dist[e] > tol:
-            raise ValueError(f"point_mm: {np.asarray(point_mm).tolist()} is {dist[e]:.3g} mm "
-                             f"from the wall's material (tol_mm={tol:g})")
-        n = q2hex.shape_functions((q[e] - lo[e]) / (hi[e] - lo[e]))
-        if ids is not None:
+        # pass over all elements finds; where none is, that pass gives the error its
+        # distance
+        ids = self.mesh.elements_near(np.ravel(p), tol)
+        if ids.size:
+            e, lo, hi, q, gap = _nearest_box(p, *self.mesh.boxes(ids))
             e = int(ids[e])
+        if ids.size == 0 or gap > tol:
+            e, lo, hi, q, gap = _nearest_box(p, *self.mesh.boxes())
+        if gap > tol:
+            raise ValueError(f"point_mm: {np.asarray(point_mm).tolist()} is {gap:.3g} mm "
+                             f"from the wall's material (tol_mm={tol:g})")
+        n = q2hex.shape_functions((q - lo) / (hi - lo))
         return np.einsum("i,kij->kj", n, self.shapes[:, self.elements[e], :])
 
     def _oriented(self, d: np.ndarray) -> np.ndarray:

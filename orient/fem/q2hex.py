@@ -142,12 +142,19 @@ class Q2Mesh:
     @property
     def lower(self) -> np.ndarray:
         """Lower corner of each element, shape (E, 3)."""
-        return np.stack([self.lines[d][self.cells[:, d]] for d in range(3)], axis=1)
+        return self.boxes()[0]
 
     @property
     def upper(self) -> np.ndarray:
         """Upper corner of each element, shape (E, 3)."""
-        return np.stack([self.lines[d][self.cells[:, d] + 1] for d in range(3)], axis=1)
+        return self.boxes()[1]
+
+    def boxes(self, ids=slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corners of the elements ``ids`` (all by default), each
+        shape (len(ids), 3)."""
+        cells = self.cells[ids]
+        return (np.stack([self.lines[d][cells[:, d]] for d in range(3)], axis=1),
+                np.stack([self.lines[d][cells[:, d] + 1] for d in range(3)], axis=1))
 
     @cached_property
     def _grid_element(self) -> np.ndarray:
