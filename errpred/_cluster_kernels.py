@@ -15,9 +15,9 @@ import math
 import numpy as np
 from numba import njit
 
-from ._sort_kernels import argsort_stable
 from ._kernels import (_in_box, _reach_bound, _sphere, sweep_distance, sweep_lower_bound,
                        sweep_within)
+from ._sort_kernels import argsort_stable, grown
 from .constants import (CLUSTER_COARSE, CLUSTER_RECENT, CLUSTER_SUPER, HOT_SEED_POINTS,
                         HOT_SEED_SWEEPS)
 
@@ -358,13 +358,10 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach,
                                       k, recent, nrec, p0, d, w, c, r, top, r + reach, out)
                     offsets[b + 1] = total
                     continue
-                # element loops, not slice assignments: those compile a broadcast and its
-                # error message (1.4 s on an empty cache)
+                # an element loop, not a slice assignment: that compiles a broadcast and
+                # its error message (1.4 s on an empty cache)
                 if total + k > buf.shape[0]:
-                    bigger = np.empty(2 * (total + k), dtype=np.int64)
-                    for t in range(total):
-                        bigger[t] = buf[t]
-                    buf = bigger
+                    buf = grown(buf, total, 2 * (total + k))
                 for t in range(k):
                     buf[total + t] = lists[2, t]
                 total += k

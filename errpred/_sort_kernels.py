@@ -5,7 +5,8 @@ kind and key type), boolean masks and index arrays with their broadcast checks a
 error messages into every kernel that uses them: on an empty cache each cost
 0.8-1.6 s to compile. These small loops do the same for the prediction's kernels
 at a fraction of that. Their numpy twins are ``np.argsort(keys, kind="stable")``,
-``a[order]`` and ``a[mask]`` (``tests/errpred/test_sort_kernels.py``).
+``a[order]``, ``a[mask]`` and a slice copy into a larger array
+(``tests/errpred/test_sort_kernels.py``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["argsort_stable", "compress", "take"]
+__all__ = ["argsort_stable", "compress", "grown", "take"]
 
 #: Run length sorted by insertion before the merges (a common choice: short runs
 #: sort faster by insertion than by merging).
@@ -89,4 +90,15 @@ def compress(values, mask):
         if mask[t]:
             out[n] = values[t]
             n += 1
+    return out
+
+
+@njit(cache=True)
+def grown(buf, used, size):
+    """A new array of ``size`` (>= ``used``) with ``buf[:used]`` first: a growing buffer's
+    next one, copied by a loop (a slice assignment compiles a broadcast and its error
+    message)."""
+    out = np.empty(size, dtype=buf.dtype)
+    for t in range(used):
+        out[t] = buf[t]
     return out

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from errpred._sort_kernels import argsort_stable, compress, take
+from errpred._sort_kernels import argsort_stable, compress, grown, take
 
 
 @pytest.mark.parametrize("n", [0, 1, 2, 15, 16, 17, 31, 33, 100, 1000, 4099])
@@ -40,3 +40,11 @@ def test_take_and_compress_are_numpys_indexing():
     np.testing.assert_array_equal(compress(values, mask), values[mask])
     assert compress(values, np.zeros(57, dtype=np.bool_)).shape == (0,)
     assert take(values, np.zeros(0, dtype=np.int64)).shape == (0,)
+
+
+def test_grown_keeps_the_used_part():
+    buf = np.arange(10, dtype=np.int64) * 3
+    out = grown(buf, 7, 25)
+    assert out.shape == (25,) and out.dtype == np.int64
+    np.testing.assert_array_equal(out[:7], buf[:7])
+    assert grown(buf, 0, 4).shape == (4,)
