@@ -52,7 +52,10 @@ ZMAP_GUARD_MM = 1.0e-5
 #: and E): the planned 5-axis mold core's blocks 9000-9149 and 18000-18149
 #: 4.95 -> 2.92 s, mold-ball contour and raster slices 6.14 -> 4.39 and
 #: 4.93 -> 3.34 s, the planned thin wall 16.1 -> 15.0 s, wall-radius 4.07 ->
-#: 3.79 s (0.1 and 0.03 mm: within noise of 0.05, neither better on all).
+#: 3.79 s (0.1 and 0.03 mm: within noise of 0.05, neither better on all). Measured
+#: again on 2026-11-28 (the recent sweeps' pass since; membership bins alone at 0.2
+#: mm, the margins' kept at 0.05, two runs each): 3-6 % less on the slices and the
+#: thin wall, 25-30 % more on the mold core's blocks (1.9 -> 2.4-2.5 s).
 CLUSTER_CELL_MM = 0.05
 #: Bins are grouped into cubes of this many bins a side; a bin's sweeps are
 #: picked from its cube's, which are picked from all (two levels instead of
