@@ -132,6 +132,15 @@ POINT_SPACING_MM = math.inf
 #: ends included) [mm]: a corrected program is re-predicted this densely before it
 #: is written (the corrected path's vertices and everything between them).
 VERIFY_SPACING_MM = 2.0
+#: A block up to this share longer than a whole number of point spacings keeps that
+#: number of parts (its points up to 1 % farther apart than the spacing) [-]. A CAM
+#: program's moves are often exactly the spacing long (the bundled thin wall's 2 mm
+#: moves), and a correction lengthens them by micrometres: at a slack of 1e-9 each
+#: such move of a candidate got two points where the original's had one (the main
+#: job's candidates: 2,588 cutting points against the planned program's 1,569, their
+#: dense predictions that much slower), and the candidate was sampled elsewhere than
+#: the original it is compared with.
+POINT_SPACING_SLACK = 0.01
 #: A feed move within this angle of the tool axis is a plunge (or a retract): the
 #: dense points predict the corner at its end as the next move's start [rad].
 PLUNGE_ANGLE_RAD = math.radians(45.0)

@@ -72,7 +72,8 @@ class Resolution:
         cuts).
     point_ends : bool
         With a finite ``point_spacing_mm``: points at both ends of every block and
-        at most ``point_spacing_mm`` apart between them (a block's start is left
+        at most ``point_spacing_mm`` apart between them (1 % more allowed:
+        ``errpred.constants.POINT_SPACING_SLACK``; a block's start is left
         out where the block before it ends there, so each corner is predicted
         once). The dense verification of a correction uses this
         (:func:`Resolution.dense`).
@@ -86,8 +87,8 @@ class Resolution:
     point_ends: bool = False
 
     def dense(self, spacing_mm: float = K.VERIFY_SPACING_MM) -> "Resolution":
-        """This resolution with points at most ``spacing_mm`` apart on every block,
-        both ends included [mm]."""
+        """This resolution with points at most ``spacing_mm`` apart on every block
+        (``POINT_SPACING_SLACK`` more), both ends included [mm]."""
         return dataclasses.replace(self, point_spacing_mm=float(spacing_mm), point_ends=True)
 
     @classmethod
@@ -423,8 +424,9 @@ class GeometryModel:
 
     def _spaced_points(self, block: int, i0: int, start: float, length: float,
                        spacing: float) -> list[PointGeometry]:
-        """Points at most ``spacing`` apart along the block, each standing for its share."""
-        n = max(1, math.ceil(length / spacing - 1e-9))
+        """Points at most ``spacing`` apart along the block (``POINT_SPACING_SLACK``
+        more), each standing for its share."""
+        n = max(1, math.ceil(length / spacing - K.POINT_SPACING_SLACK))
         if not self.res.point_ends:
             # a point in the middle of each of n equal parts
             return [self.point(block, start + (k + 0.5) / n * length, length / n)

@@ -210,3 +210,27 @@ def test_unknown_coefficients_fail_before_anything_runs():
     with pytest.raises(ValueError, match="Ktc_N_mm2"):
         CuttingCoefficients(Ktc_N_mm2=float("nan"), Krc_N_mm2=1, Kac_N_mm2=1, Kte0_N_mm=1,
                             Kre0_N_mm=1, Kae0_N_mm=1)
+
+
+def test_dense_points_keep_their_count_when_a_block_grows_by_micrometres():
+    """A block the dense spacing's length (2 mm) and the same block a correction made
+    1 um longer get one point each (the corner before them is the move before's), as the
+    spacing's slack (``POINT_SPACING_SLACK``, 1 %) says; a block 1.5 % longer than the
+    spacing is split in two, and no two points of a block lie farther apart than the
+    spacing and its slack. At a slack of 1e-9 the 1 um longer block got two points."""
+    from errpred import constants as K
+
+    prog = parse_program("\n".join([
+        "G21 G90 G17 G94", "S8000 M3", "G0 X0 Y2 Z5", "G1 Z0 F1600",
+        "G1 X2", "G1 X4.001", "G1 X6.031", "G1 X8.031", "M5"]))
+    tool = Tool("ball", 10.0, flute_length_mm=15)
+    dense = Resolution.default(tool).dense(2.0)
+    model = Predictor(tool, plane_stock(0.0, 0.2), prog, STEEL, stiff_tool(k_N_m=1.2e6),
+                      resolution=dense).model
+    moves = {round(float(prog.end[b, 0]), 3): b for b in range(len(prog))
+             if 5 <= prog.line[b] <= 8}
+    counts = {x: len(model.geometry(b)) for x, b in moves.items()}
+    assert counts == {2.0: 2, 4.001: 1, 6.031: 2, 8.031: 1}, counts
+    for b in moves.values():
+        s = np.array([g.path_mm for g in model.geometry(b)])
+        assert np.all(np.diff(s) <= 2.0 * (1 + K.POINT_SPACING_SLACK) + 1e-9)

@@ -193,3 +193,24 @@ def test_welch_spectrum_in_chunks_is_scipys_welch_bit_for_bit(length):
         f0, p = signal.welch(x, fs=25600.0, window="hann", nperseg=n, axis=0,
                              scaling="spectrum")
         assert np.array_equal(f, f0) and np.array_equal(a, np.sqrt(2.0 * p.sum(axis=1)))
+
+
+def test_the_simulated_cut_is_the_programs_not_the_planners_table(tmp_path):
+    """The simulated machine cuts what the program it runs cuts, from the part: a
+    scenario whose ``[orient.cut]`` table says 0.05 mm still gets the wall's 0.2 mm
+    (the planner's own cut is the table's). A corrected program cuts deeper than the
+    table's depth; its verification must see that force. On the table, as before, the
+    simulated cut was 0.05 mm."""
+    from orient.cuts import local_cuts
+
+    from tests.thin_wall import thin_wall_copy
+
+    path = thin_wall_copy(tmp_path / "wall", edits={"depth_mm = 0.2": "depth_mm = 0.05"},
+                          cam_lines=60)
+    scn = load_plan_scenario(path)
+    part = PartProgram(scn)
+    depth = np.array([c.depth_mm for c in part.cuts.values()])
+    assert depth.size >= 20
+    np.testing.assert_allclose(depth, 0.2, atol=1e-3)
+    planned = local_cuts(scn, part.contacts, part.touch, part.cam, part.rpm)
+    assert all(c.depth_mm == 0.05 for c in planned)
