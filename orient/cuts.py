@@ -27,7 +27,8 @@ FIRST_PASS_TOLERANCE = 0.5
 
 
 def local_cuts(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: CutterLocations,
-               spindle_rpm: float, info: dict | None = None) -> list[LocalCut]:
+               spindle_rpm: float, info: dict | None = None, *,
+               from_part: bool = False) -> list[LocalCut]:
     """The local cut (depth and pick feed times the safety factor, side of the previous
     pass, feed per tooth at ``spindle_rpm`` [rev/min]) at cutter locations ``idx``.
 
@@ -41,10 +42,14 @@ def local_cuts(scn: PlanScenario, contacts: Contacts, idx: np.ndarray, cam: Cutt
     ``info`` (a dict, optional) is filled with where the cut came from (``source``:
     ``"part"`` or ``"table"``) and, from the part, the seconds taken and the locations
     per state (air, cut, entry, exit).
+
+    ``from_part``: from the part even where the scenario gives ``[orient.cut]`` (the
+    simulated machine: the cut the program it runs makes, which a corrected program
+    makes deeper than the planner's table says).
     """
     opt = scn.options
     cut = opt.cut
-    if cut is None:
+    if cut is None or from_part:
         return _from_part(scn, contacts, idx, cam, spindle_rpm, info)
     if info is not None:
         info["source"] = "table"

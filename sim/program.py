@@ -86,9 +86,8 @@ class PartProgram:
         # moves), not the planner's [orient.cut] table: a corrected program cuts deeper
         # than the table says (the bundled thin wall's top pass 0.222-0.229 mm against its
         # 0.2 mm), and the force of that depth is what its verification must see
-        as_cut = dataclasses.replace(scn, options=dataclasses.replace(scn.options, cut=None))
-        cuts = local_cuts(as_cut, self.contacts, self.touch, self.cam, self.rpm) \
-            if self.touch.size else []
+        cuts = local_cuts(scn, self.contacts, self.touch, self.cam, self.rpm,
+                          from_part=True) if self.touch.size else []
         self.cuts = dict(zip(self.touch.tolist(), cuts, strict=True))
         lead, tilt = lead_tilt_of(self.cam.axis, self.contacts.normal, self.contacts.feed)
         self.cam_lead, self.cam_tilt = np.asarray(lead), np.asarray(tilt)
