@@ -75,8 +75,8 @@ def test_local_cluster_gives_the_same_report_and_program(jobs):
     "correction is 31.0 % of before (2.22 of 7.18 um; predicted 0.30 of 5.25 um): its "
     "plan chatters lightly (one sustained episode, the marks the correction does not "
     "remove) and the top pass, a third of its points, holds half the corrected run's "
-    "squared error. The bundled default holds it (22.3 %, 1.74 of 7.77 um) since the "
-    "simulated cut keeps its trailing edges (26.9 % without)."))
+    "squared error (figures from before the simulated cut came from the part). The "
+    "bundled default holds it (23.05 %, 1.785 of 7.746 um)."))
 def test_the_simulated_surface_error_after_correction_is_a_quarter_of_before(jobs):
     _, one, _ = jobs
     s = json.loads((one / "report.json").read_text())["simulation"]
