@@ -27,60 +27,68 @@ def _flushed(x):
 
 
 @njit(cache=True, nogil=True)
-def _chips(i, ptr, pos, edge, h0, nrm, q, surface, out):
-    """Chips [mm] of a table's entries at rotation sample ``i`` into ``out``; their count."""
+def _chips(i, ptr, pos, edge, h0, nrm, q0, q1, q2, surface, out):
+    """Chips [mm] of a table's entries at rotation sample ``i`` into ``out`` (``q0, q1,
+    q2`` the mid-step displacement); their count."""
     k = 0
     for e in range(ptr[i], ptr[i + 1]):
         p = pos[e]
         j = edge[e]
-        out[k] = h0[e] + (nrm[e, 0] * (q[0] - surface[p, j, 0])
-                          + nrm[e, 1] * (q[1] - surface[p, j, 1])
-                          + nrm[e, 2] * (q[2] - surface[p, j, 2]))
+        out[k] = h0[e] + (nrm[e, 0] * (q0 - surface[p, j, 0])
+                          + nrm[e, 1] * (q1 - surface[p, j, 1])
+                          + nrm[e, 2] * (q2 - surface[p, j, 2]))
         k += 1
     return k
 
 
 @njit(cache=True, nogil=True)
-def _forces(i, ptr, f0, f1, h, s, w, linear, rub, F):
-    """Adds a table's force at sample ``i`` times ``s w`` to ``F``; returns (chip sum
-    weighted by ``w``, weight of the edges in contact, entries whose chip fell to 0).
-    An edge whose chip fell to 0 but not below ``-rub`` still rubs (edge force only)."""
+def _forces(i, ptr, f0, f1, h, s, w, linear, rub, F0, F1, F2):
+    """A table's force at sample ``i`` times ``s w`` added to ``F0, F1, F2``; returns the
+    sums, the chip sum weighted by ``w``, the weight of the edges in contact and the
+    entries whose chip fell to 0. An edge whose chip fell to 0 but not below ``-rub``
+    still rubs (edge force only)."""
     hsum = 0.0
     wsum = 0.0
     lost = 0
     for k in range(ptr[i + 1] - ptr[i]):
         e = ptr[i] + k
         if h[k] > 0.0 or linear:
-            for a in range(3):
-                F[a] += s * w * (f0[e, a] + h[k] * f1[e, a])
+            F0 += s * w * (f0[e, 0] + h[k] * f1[e, 0])
+            F1 += s * w * (f0[e, 1] + h[k] * f1[e, 1])
+            F2 += s * w * (f0[e, 2] + h[k] * f1[e, 2])
             hsum += w * h[k]
             wsum += w
         else:
             lost += 1
             if h[k] > -rub:
-                for a in range(3):
-                    F[a] += s * w * f0[e, a]
-    return hsum, wsum, lost
+                F0 += s * w * f0[e, 0]
+                F1 += s * w * f0[e, 1]
+                F2 += s * w * f0[e, 2]
+    return F0, F1, F2, hsum, wsum, lost
 
 
 @njit(cache=True, nogil=True)
-def _leave(i, ptr, pos, edge, h0, nrm, h, q, linear, surface, o_ptr, o_pos, o_edge, skip):
+def _leave(i, ptr, pos, edge, h0, nrm, h, q0, q1, q2, linear, surface, o_ptr, o_pos, o_edge,
+           skip):
     """Writes what a table's edges leave on the surface at sample ``i``; with ``skip``,
-    not where the other table (``o_*``) engages at this sample (it writes those)."""
+    not where the other table (``o_*``) engages at this sample (it writes those). Both
+    tables' entries at a sample are in ascending ``(pos, edge)`` order
+    (:func:`integrate`), so the other's are walked once alongside."""
+    e2 = o_ptr[i]
+    end2 = o_ptr[i + 1]
     for k in range(ptr[i + 1] - ptr[i]):
         e = ptr[i] + k
         p = pos[e]
         j = edge[e]
         if skip:
-            other = False
-            for e2 in range(o_ptr[i], o_ptr[i + 1]):
-                if o_pos[e2] == p and o_edge[e2] == j:
-                    other = True
-            if other:
+            while e2 < end2 and (o_pos[e2] < p or o_pos[e2] == p and o_edge[e2] < j):
+                e2 += 1
+            if e2 < end2 and o_pos[e2] == p and o_edge[e2] == j:
                 continue
         if h[k] > 0.0 or linear:
-            for a in range(3):
-                surface[p, j, a] = q[a]
+            surface[p, j, 0] = q0
+            surface[p, j, 1] = q1
+            surface[p, j, 2] = q2
         else:                             # not cut: the next flute meets it
             n2 = nrm[e, 0] ** 2 + nrm[e, 1] ** 2 + nrm[e, 2] ** 2
             for a in range(3):
@@ -142,8 +150,9 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1,
     """March the cut ``n_steps`` rotation steps.
 
     Step ``n`` sits at rotation sample ``i = (start + n) mod spr``; its cutting entries
-    are ``ptr[i]:ptr[i+1]``: surface position ``pos`` (index into ``surface``'s
-    rows; the flutes share positions), micro edge ``edge``, static chip ``h0``
+    are ``ptr[i]:ptr[i+1]``, in ascending ``(pos, edge)`` order
+    (:func:`sim.cutting.prepare_cut` sorts them so): surface position ``pos`` (index
+    into ``surface``'s rows; the flutes share positions), micro edge ``edge``, static chip ``h0``
     [mm], chip direction ``nrm`` (3) [mm per m of relative displacement],
     force at zero chip ``f0`` (3) [N] and per mm of chip ``f1`` (3) [N/mm],
     world frame. ``disp`` is the mid-step displacement. ``surface`` (spr, m, 3) [m]: the
@@ -181,72 +190,90 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1,
         _ring_down(n_steps, phi_d, gam_d, dirs, mk, mc, mm, mr, tool_mode, half_dt, state,
                    force, disp, acc_tool, chip_mean, contact_loss)
         return
-    q = np.zeros(3)
-    F = np.zeros(3)
     most = 1
     for i in range(spr):
         most = max(most, ptr[i + 1] - ptr[i], ptr_b[i + 1] - ptr_b[i])
     h_a = np.empty(most)
     h_b = np.empty(most)
+    # the displacement, the force, the acceleration and the modes' state in local
+    # variables and arrays of the kernel's own (the same arithmetic in the same order: the
+    # same numbers; an output array may alias an input as far as the compiler knows, so
+    # sums kept in them were stored and loaded again at every term)
+    eta = np.empty(nm)
+    deta = np.empty(nm)
+    for k in range(nm):
+        eta[k] = state[k, 0]
+        deta[k] = state[k, 1]
     for n in range(n_steps):
         i = (start + n) % spr
-        q[0] = 0.0
-        q[1] = 0.0
-        q[2] = 0.0
+        q0 = 0.0
+        q1 = 0.0
+        q2 = 0.0
         for k in range(nm):
-            for a in range(3):
-                q[a] += dirs[k, a] * (state[k, 0] + (half_dt + mr[k]) * state[k, 1])
-        F[0] = 0.0
-        F[1] = 0.0
-        F[2] = 0.0
+            d = eta[k] + (half_dt + mr[k]) * deta[k]
+            q0 += dirs[k, 0] * d
+            q1 += dirs[k, 1] * d
+            q2 += dirs[k, 2] * d
         s = scale[n]
         w_b = blend[n]
         w_a = 1.0 - w_b
-        _chips(i, ptr, pos, edge, h0, nrm, q, surface, h_a)
-        _chips(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, q, surface, h_b)
+        _chips(i, ptr, pos, edge, h0, nrm, q0, q1, q2, surface, h_a)
+        _chips(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, q0, q1, q2, surface, h_b)
+        F0, F1, F2 = 0.0, 0.0, 0.0
         hsum, wsum, lost = 0.0, 0.0, 0
         if w_a > 0.0:
-            hs, ws, ls = _forces(i, ptr, f0, f1, h_a, s, w_a, linear, rub, F)
+            F0, F1, F2, hs, ws, ls = _forces(i, ptr, f0, f1, h_a, s, w_a, linear, rub,
+                                             F0, F1, F2)
             hsum += hs
             wsum += ws
             lost += ls
         if w_b > 0.0:
-            hs, ws, ls = _forces(i, ptr_b, f0_b, f1_b, h_b, s, w_b, linear, rub, F)
+            F0, F1, F2, hs, ws, ls = _forces(i, ptr_b, f0_b, f1_b, h_b, s, w_b, linear, rub,
+                                             F0, F1, F2)
             hsum += hs
             wsum += ws
             lost += ls
         if w_b <= 0.0:
-            _leave(i, ptr, pos, edge, h0, nrm, h_a, q, linear, surface, ptr_b, pos_b, edge_b,
-                   False)
+            _leave(i, ptr, pos, edge, h0, nrm, h_a, q0, q1, q2, linear, surface, ptr_b, pos_b,
+                   edge_b, False)
         elif w_a <= 0.0:
-            _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q, linear, surface, ptr, pos,
-                   edge, False)
+            _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q0, q1, q2, linear, surface,
+                   ptr, pos, edge, False)
         elif w_a >= w_b:
-            _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q, linear, surface, ptr, pos,
-                   edge, True)
-            _leave(i, ptr, pos, edge, h0, nrm, h_a, q, linear, surface, ptr_b, pos_b, edge_b,
-                   False)
+            _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q0, q1, q2, linear, surface,
+                   ptr, pos, edge, True)
+            _leave(i, ptr, pos, edge, h0, nrm, h_a, q0, q1, q2, linear, surface, ptr_b, pos_b,
+                   edge_b, False)
         else:
-            _leave(i, ptr, pos, edge, h0, nrm, h_a, q, linear, surface, ptr_b, pos_b, edge_b,
-                   True)
-            _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q, linear, surface, ptr, pos,
-                   edge, False)
-        for a in range(3):
-            force[n, a] = F[a]
-            disp[n, a] = q[a]
+            _leave(i, ptr, pos, edge, h0, nrm, h_a, q0, q1, q2, linear, surface, ptr_b, pos_b,
+                   edge_b, True)
+            _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q0, q1, q2, linear, surface,
+                   ptr, pos, edge, False)
+        force[n, 0] = F0
+        force[n, 1] = F1
+        force[n, 2] = F2
+        disp[n, 0] = q0
+        disp[n, 1] = q1
+        disp[n, 2] = q2
         chip_mean[n] = hsum / wsum if wsum > 0.0 else 0.0
         contact_loss[n] = lost
-        for a in range(3):
-            acc_tool[n, a] = 0.0
+        a0, a1, a2 = 0.0, 0.0, 0.0
         for k in range(nm):
-            u = dirs[k, 0] * F[0] + dirs[k, 1] * F[1] + dirs[k, 2] * F[2]
+            u = dirs[k, 0] * F0 + dirs[k, 1] * F1 + dirs[k, 2] * F2
             if tool_mode[k]:
-                acc = _tool_acceleration(u, mk[k], mc[k], mm[k], state[k, 0], state[k, 1])
-                for a in range(3):
-                    acc_tool[n, a] += dirs[k, a] * acc
-            state[k, 0], state[k, 1] = _mode_map(phi_d[k, 0, 0], phi_d[k, 0, 1], phi_d[k, 1, 0],
-                                                 phi_d[k, 1, 1], gam_d[k, 0], gam_d[k, 1],
-                                                 state[k, 0], state[k, 1], u)
+                acc = _tool_acceleration(u, mk[k], mc[k], mm[k], eta[k], deta[k])
+                a0 += dirs[k, 0] * acc
+                a1 += dirs[k, 1] * acc
+                a2 += dirs[k, 2] * acc
+            eta[k], deta[k] = _mode_map(phi_d[k, 0, 0], phi_d[k, 0, 1], phi_d[k, 1, 0],
+                                        phi_d[k, 1, 1], gam_d[k, 0], gam_d[k, 1], eta[k],
+                                        deta[k], u)
+        acc_tool[n, 0] = a0
+        acc_tool[n, 1] = a1
+        acc_tool[n, 2] = a2
+    for k in range(nm):
+        state[k, 0] = eta[k]
+        state[k, 1] = deta[k]
 
 
 @njit(cache=True, nogil=True)

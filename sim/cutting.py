@@ -268,6 +268,11 @@ def prepare_cut(tool: Tool, coeffs: LawCoefficients, posture_axis: Any, normal: 
     spr = eng.theta.size                       # rounded to the flutes and even
     spt = spr // tool.flutes
     i, f, j, phi, h0 = eng.entries()           # (angle sample, flute, edge), i sorted
+    # within a sample by surface position, then edge: the kernel walks two tables' entries
+    # at a sample side by side (sim._kernels._leave); the order in which a flute wraps
+    # past the last position is the only change (two flutes cutting at one sample)
+    order = np.lexsort((j, (i + f * spt) % spr, i))
+    i, f, j, phi, h0 = (x[order] for x in (i, f, j, phi, h0))
     kappa = edges.kappa[j]
     db = edges.db[j]
     # the law's per-entry table: the tangent of F(h) at the static chip; a trailing edge

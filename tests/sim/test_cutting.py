@@ -63,6 +63,26 @@ def test_1dof_slotting_boundary_agrees_with_time_periodic_analysis(rpm):
     assert abs(b / ref - 1.0) < 0.10
 
 
+def test_a_tables_entries_at_a_sample_ascend_by_position_and_edge():
+    """The kernel walks two tables' entries at a sample side by side (sim._kernels._leave):
+    prepare_cut orders them by surface position, then edge. A 4-flute slot engages two
+    flutes at every sample; where the later flute's position has wrapped past the last
+    one, flute order and position order differ."""
+    system, coef, slot = _insperger_case()
+    four = Tool("flat", 10.0, flutes=4, helix_deg=0.0, flute_length_mm=6.0)
+    model = prepare_cut(four, coef, Z, Z, X, slot, system, 5000.0, edges=EDGES)
+    ptr, pos, edge = model.table[:3]
+    spr, spt = model.steps_per_rev, model.steps_per_tooth
+    key = pos * model.n_edges + edge
+    swapped = 0
+    for i in range(spr):
+        e = slice(ptr[i], ptr[i + 1])
+        assert np.all(np.diff(key[e]) > 0), f"sample {i}"
+        flute = (pos[e] - i) % spr // spt
+        swapped += bool(np.any(np.diff(flute) < 0))
+    assert swapped > spr // 8
+
+
 def _fdm_margin(rpm: float, steps: int | None = None) -> float:
     g = process_gain(FLAT, COEF, Z, Z, X, HALF_DOWN, spindle_rpm=rpm, edges=EDGES,
                      n_angles=360)

@@ -105,8 +105,10 @@ def _integrate_twin(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1,
 def _table(rng, spr, m, fill):
     """A random engagement table: entries at a share ``fill`` of (sample, flute, edge)."""
     i, f, j = np.nonzero(rng.random((spr, 2, m)) < fill)
-    ptr = np.searchsorted(i, np.arange(spr + 1)).astype(np.int64)
     pos = ((i + f * (spr // 2)) % spr).astype(np.int64)
+    order = np.lexsort((j, pos, i))      # the kernel's order: sample, position, edge
+    i, j, pos = i[order], j[order], pos[order]
+    ptr = np.searchsorted(i, np.arange(spr + 1)).astype(np.int64)
     k = i.size
     return (ptr, pos, j.astype(np.int64), rng.uniform(-0.002, 0.02, k),
             rng.normal(0.0, 1e3, (k, 3)), rng.normal(0.0, 20.0, (k, 3)),
