@@ -204,6 +204,14 @@ CUTTING_GAP_MM = 0.1
 #: 200 ticks are 1 s simulated, about 25,600 samples (0.8 MB) in hand; tick by tick,
 #: scipy's filter wrapper took 15.5 s of a 141 s simulated run's 28,243 pushes.
 VERIFY_TICKS_PER_PUSH = 200
+#: Stretches the main job's simulated run of each whole program is split into, at air
+#: moves of about equal cutting time (``sim.verify.split_at_air``), run apart and judged
+#: as one run [-]: the corrected program's run was the verification's critical path on
+#: one worker (51 s) while the other ran the planned program's (35 s) and the CAM pass
+#: (1.6 s); in halves the two workers share the 87 s. Each stretch starts at rest, after
+#: an air move of about 1.3 s on the bundled thin wall, where one run's vibration has
+#: rung down by more than 60 orders of magnitude.
+VERIFY_STRETCHES = 2
 #: A verification's reason for an incomplete run lists at most this many cutter
 #: locations (and program lines) of a kind, then their count [-].
 COVERAGE_LISTED = 8

@@ -12,8 +12,10 @@ One run, the four packages in order (``docs/architecture.md``, "Data flow"):
 4. write the 5-axis program for the scenario's machine and dialect
    (:mod:`nc.writer`) and read it back (round trip);
 5. verify in the simulated machine (:func:`sim.verify.verify_program`): the
-   planned program and the corrected one over their whole length, the CAM
-   program over its worst pass; chatter or not, the surface error of each;
+   planned program and the corrected one over their whole length (each run in
+   stretches split at air moves, :func:`sim.verify.split_at_air`, on the workers at
+   once, and judged as one run), the CAM program over its worst pass; chatter or
+   not, the surface error of each;
 6. the stability lobes at representative points (CAM and planned posture).
 
 No reporting here: :mod:`sim.job_report` turns a :class:`JobResult` into the
@@ -55,8 +57,10 @@ from .constants import (
     JOB_CORRECTION_PASSES,
     JOB_LOBE_SPEEDS,
     JOB_SURFACE_RATIO,
+    VERIFY_STRETCHES,
 )
-from .verify import Verification, scenario_with_program, verify_program
+from .verify import (Verification, judge, scenario_with_program, simulate_stretch,
+                     split_at_air)
 from .warmup import warm_apart
 
 __all__ = ["JobResult", "run_job"]
@@ -349,12 +353,16 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     say("write", 1, 1)
     lap("write")
 
-    # 5: verify in the simulated machine
+    # 5: verify in the simulated machine: each whole program's run in stretches split at
+    # air moves (VERIFY_STRETCHES), the corrected program's first (the longest run), run
+    # apart and judged as one run; the CAM program's worst pass whole
     cam_points = _worst_cam_pass(res)
-    runs = [(scenario_with_program(scn, planned_path), None),
-            (scenario_with_program(scn, final_path), None),
-            (scn, cam_points)]
-    say("verify", 0, len(runs))
+    programs = [scenario_with_program(scn, planned_path), scenario_with_program(scn, final_path),
+                scn]
+    stretches = [split_at_air(programs[0], VERIFY_STRETCHES),
+                 split_at_air(programs[1], VERIFY_STRETCHES), [cam_points]]
+    runs = [(w, k, p) for w in (1, 0, 2) for k, p in enumerate(stretches[w])]
+    say("verify", 0, len(programs))
 
     # 6: lobes at representative points
     def lobes_stage() -> list[dict]:
@@ -372,19 +380,26 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
             warm_sim.clear()
         restart_compiled_workers(client)
         wp_f = client.scatter(wp, broadcast=True)
-        futures = [client.submit(verify_program, s, points=p, workpiece=wp_f, pure=False)
-                   for s, p in runs]
+        futures = [client.submit(simulate_stretch, programs[w], points=p, seed=k,
+                                 workpiece=wp_f, pure=False) for w, k, p in runs]
         t_lobes = time.perf_counter()
         lobes = lobes_stage()                       # while the workers verify
         seconds["lobes"] = round(time.perf_counter() - t_lobes, 2)
-        for k, f in enumerate(futures):
-            verified.append(f.result())
-            say("verify", k + 1, len(runs))
+        done = {}
+        for (w, _k, _p), f in zip(runs, futures):
+            done.setdefault(w, []).append(f.result())
+            if len(done[w]) == len(stretches[w]):
+                say("verify", len(done), len(programs))
+        verified = [judge(done[w]) for w in range(len(programs))]
         lap("verify")
     else:
-        for k, (s, p) in enumerate(runs):
-            verified.append(verify_program(s, points=p, workpiece=wp))
-            say("verify", k + 1, len(runs))
+        done = {}
+        for w, k, p in runs:
+            done.setdefault(w, []).append(simulate_stretch(programs[w], points=p, seed=k,
+                                                           workpiece=wp))
+            if len(done[w]) == len(stretches[w]):
+                say("verify", len(done), len(programs))
+        verified = [judge(done[w]) for w in range(len(programs))]
         lap("verify")
         lobes = lobes_stage()
         lap("lobes")

@@ -27,6 +27,8 @@ class PartProgram:
     points : tuple (first, last), optional
         The stretch of cutter locations that will run (default: all); its highest
         spindle speed sets the local cuts' feed per tooth.
+    cuts : bool
+        Derive the local cuts (``cuts``; False: none, the geometry alone).
 
     Attributes
     ----------
@@ -48,7 +50,8 @@ class PartProgram:
         simulation does not cut at rapid moves, :class:`sim.verify.Verification` reports
         them as not covered).
     cuts : dict of int -> orient.engagement.LocalCut
-        The local cut at each touching cutter location.
+        The local cut at each touching cutter location (of the whole program, whatever
+        the stretch); empty with ``cuts=False``.
     cam_lead, cam_tilt : ndarray [rad]
         The program's own posture at each cutter location.
     first, last : int
@@ -57,7 +60,8 @@ class PartProgram:
         Its highest spindle speed.
     """
 
-    def __init__(self, scn: PlanScenario, points: tuple[int, int] | None = None) -> None:
+    def __init__(self, scn: PlanScenario, points: tuple[int, int] | None = None, *,
+                 cuts: bool = True) -> None:
         base = scn.base
         self.scn = scn
         self.machine = scn.machine()
@@ -86,8 +90,11 @@ class PartProgram:
         # moves), not the planner's [orient.cut] table: a corrected program cuts deeper
         # than the table says (the bundled thin wall's top pass 0.222-0.229 mm against its
         # 0.2 mm), and the force of that depth is what its verification must see
-        cuts = local_cuts(scn, self.contacts, self.touch, self.cam, self.rpm,
-                          from_part=True) if self.touch.size else []
-        self.cuts = dict(zip(self.touch.tolist(), cuts, strict=True))
+        # every touching location's, whatever the stretch: the pick feed of a pass is
+        # derived from its neighbours (the first pass's from the second)
+        run = self.touch if cuts else self.touch[:0]
+        cuts = local_cuts(scn, self.contacts, run, self.cam, self.rpm,
+                          from_part=True) if run.size else []
+        self.cuts = dict(zip(run.tolist(), cuts, strict=True))
         lead, tilt = lead_tilt_of(self.cam.axis, self.contacts.normal, self.contacts.feed)
         self.cam_lead, self.cam_tilt = np.asarray(lead), np.asarray(tilt)

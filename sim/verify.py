@@ -40,13 +40,15 @@ import numpy as np
 from orient.detect import ChatterDetector
 from orient.scenario import PlanScenario
 
-from .constants import (COVERAGE_LISTED, SPECTRUM_CHUNK_SEGMENTS, SPECTRUM_SEGMENT,
-                        VERIFY_TICKS_PER_PUSH)
+from .constants import (COVERAGE_LISTED, RAPID_MM_MIN, SPECTRUM_CHUNK_SEGMENTS,
+                        SPECTRUM_SEGMENT, VERIFY_TICKS_PER_PUSH)
 from .machine import SimulatedNC
+from .program import PartProgram
 from .report import summarize_run
 from .sensors import detector_settings
 
-__all__ = ["Verification", "scenario_with_program", "verify_program"]
+__all__ = ["StretchRun", "Verification", "judge", "scenario_with_program", "simulate_stretch",
+           "split_at_air", "verify_program"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,6 +175,51 @@ def welch_spectrum(accel_m_s2: np.ndarray, fs_hz: float, segment: int = SPECTRUM
     return sft.f, np.sqrt(2.0 * p.sum(axis=1))
 
 
+@dataclass(frozen=True, eq=False)
+class StretchRun:
+    """One stretch of a program run in the simulated machine, not judged yet
+    (:func:`simulate_stretch`; :func:`judge` makes the :class:`Verification` of one or
+    more consecutive stretches).
+
+    Attributes
+    ----------
+    time_s : ndarray, shape (k,) [s]
+        The accelerometer samples' times, from the stretch's start.
+    acceleration_m_s2 : ndarray, shape (k, 2) [m/s^2]
+    cutting : ndarray of bool, shape (k,)
+        The tool cut during the sample's tick.
+    surface : dict of ndarray
+        :meth:`sim.machine.SurfaceRecord.arrays` (per tooth; ``time_s`` from the
+        stretch's start).
+    gap_mm, contact_mm : ndarray, shapes (n,), (n, 3) [mm]
+        The programmed ball's gap to the design and its contact point, per cutter
+        location of the program.
+    machining_s : float [s]
+        Simulated time of the stretch.
+    stretch, asked, covered, reached, stopped_reason
+        As :class:`Verification`'s, for this stretch.
+    spindle_rpm : float [rev/min]
+    flutes : int
+    sensors : sim.sensors.Accelerometers
+    """
+
+    time_s: np.ndarray
+    acceleration_m_s2: np.ndarray
+    cutting: np.ndarray
+    surface: dict
+    gap_mm: np.ndarray
+    contact_mm: np.ndarray
+    machining_s: float
+    stretch: tuple[int, int]
+    asked: np.ndarray
+    covered: np.ndarray
+    reached: int
+    stopped_reason: str | None
+    spindle_rpm: float
+    flutes: int
+    sensors: object
+
+
 def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
                    workpiece=None, progress: Callable[[int, int], None] | None = None,
                    seed: int = 0, max_machining_s: float | None = None) -> Verification:
@@ -200,6 +247,15 @@ def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
         Its ``complete`` is False, with ``stopped_reason``, when the run did not cut every
         cutter location of the stretch where the ball is in the material.
     """
+    return judge([simulate_stretch(scn, points=points, workpiece=workpiece, progress=progress,
+                                   seed=seed, max_machining_s=max_machining_s)])
+
+
+def simulate_stretch(scn: PlanScenario, *, points: tuple[int, int] | None = None,
+                     workpiece=None, progress: Callable[[int, int], None] | None = None,
+                     seed: int = 0, max_machining_s: float | None = None) -> StretchRun:
+    """:func:`verify_program`'s run, without the judgement: the accelerometer stream and
+    the surface record of the stretch (the same arguments)."""
     if max_machining_s is not None and not max_machining_s > 0:
         raise ValueError(f"max_machining_s: expected a time > 0 s, got {max_machining_s!r}")
     nc = SimulatedNC(scn, points=points, seed=seed, workpiece=workpiece)
@@ -231,27 +287,113 @@ def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
     cut = np.concatenate(cutting) if cutting else np.zeros(0, bool)
     for parts in (times, accel, cutting):   # the run's samples held once from here, not twice
         parts.clear()
-    det = ChatterDetector(detector_settings(nc.sensors))
-    surf = nc.surface.arrays()
-    summ = summarize_run(t, acc, surf, det, nc.rpm, nc.tool.flutes, cutting=cut)
+    asked, covered, reached, reason = _coverage(nc, stop)
+    return StretchRun(time_s=t, acceleration_m_s2=acc, cutting=cut, surface=nc.surface.arrays(),
+                      gap_mm=nc.contacts.gap_mm, contact_mm=nc.contacts.point,
+                      machining_s=float(nc.state.time_s), stretch=(nc.first, nc.last),
+                      asked=asked, covered=covered, reached=reached, stopped_reason=reason,
+                      spindle_rpm=nc.rpm, flutes=nc.tool.flutes, sensors=nc.sensors)
+
+
+def judge(runs: list[StretchRun]) -> Verification:
+    """The :class:`Verification` of consecutive stretches of one program, run one after the
+    other or apart (:func:`split_at_air`): their streams and surface records joined, each
+    stretch's times after the ones before, then judged as one run's (the detector, the
+    surface per cutter location, the averaged spectrum, the coverage).
+
+    Parameters
+    ----------
+    runs : list of StretchRun
+        In program order, each starting where the one before ended, with one spindle
+        speed, tool and accelerometers.
+    """
+    if not runs:
+        raise ValueError("runs: expected at least one stretch")
+    for a, b in zip(runs[:-1], runs[1:]):
+        if b.stretch[0] != a.stretch[1] or b.spindle_rpm != a.spindle_rpm \
+                or b.flutes != a.flutes or b.sensors != a.sensors:
+            raise ValueError(f"runs: stretch {b.stretch} does not follow {a.stretch} with "
+                             f"the same spindle speed, tool and accelerometers")
+    head = runs[0]
+    start = np.cumsum([0.0] + [r.machining_s for r in runs[:-1]])
+    if len(runs) == 1:
+        t, acc, cut, surf = head.time_s, head.acceleration_m_s2, head.cutting, head.surface
+    else:
+        t = np.concatenate([r.time_s + s for r, s in zip(runs, start)])
+        acc = np.concatenate([r.acceleration_m_s2 for r in runs])
+        cut = np.concatenate([r.cutting for r in runs])
+        surf = {k: np.concatenate([np.asarray(r.surface[k]) + (s if k == "time_s" else 0)
+                                   for r, s in zip(runs, start)]) for k in head.surface}
+    det = ChatterDetector(detector_settings(head.sensors))
+    summ = summarize_run(t, acc, surf, det, head.spindle_rpm, head.flutes, cutting=cut)
     # the spectrum reads the cutting samples alone: the stream's times and the whole
     # stream are let go before it holds its segments' spectra (the run's memory peak)
     del t
     acc = acc[cut]
-    pts = surf["point"].astype(np.int64)
-    off = surf["offset_mm"]
+    pts = np.asarray(surf["point"]).astype(np.int64)
+    off = np.asarray(surf["offset_mm"])
     u, inv = np.unique(pts, return_inverse=True)
     cnt = np.bincount(inv).astype(float)
     mean = np.bincount(inv, off) / cnt
     var = np.maximum(np.bincount(inv, off * off) / cnt - mean * mean, 0.0)
-    gap = nc.contacts.gap_mm[u]
-    f, a = welch_spectrum(acc, nc.sensors.sample_rate_hz)
-    asked, covered, reached, reason = _coverage(nc, stop)
-    return Verification(points=u, contact_mm=nc.contacts.point[u], surface_um=(mean + gap) * 1e3,
+    gap = head.gap_mm[u]
+    f, a = welch_spectrum(acc, head.sensors.sample_rate_hz)
+    reasons = [r.stopped_reason for r in runs if r.stopped_reason is not None]
+    return Verification(points=u, contact_mm=head.contact_mm[u], surface_um=(mean + gap) * 1e3,
                         marks_um=np.sqrt(var) * 1e3, summary=summ, spectrum_hz=f,
-                        spectrum_m_s2=a, spindle_rpm=nc.rpm, machining_s=float(nc.state.time_s),
-                        stretch=(nc.first, nc.last), asked=asked, covered=covered,
-                        reached=reached, stopped_reason=reason)
+                        spectrum_m_s2=a, spindle_rpm=head.spindle_rpm,
+                        machining_s=float(sum(r.machining_s for r in runs)),
+                        stretch=(head.stretch[0], runs[-1].stretch[1]),
+                        asked=np.concatenate([r.asked for r in runs]),
+                        covered=np.concatenate([r.covered for r in runs]),
+                        reached=runs[-1].reached if not reasons else next(
+                            r.reached for r in runs if r.stopped_reason is not None),
+                        stopped_reason="; ".join(reasons) if reasons else None)
+
+
+def split_at_air(scn: PlanScenario, parts: int) -> list[tuple[int, int]]:
+    """Up to ``parts`` consecutive stretches of the scenario's program, split where the
+    tool is in the air, of about equal cutting time: stretches that can run apart
+    (:func:`simulate_stretch`) and be judged as one run (:func:`judge`).
+
+    A split is at a cutter location whose move in and the move before are both out of
+    the material (an air move between passes: the cut's vibration has rung down, and
+    the next cut's surface memory is set where it starts, as in one run). Fewer
+    stretches where the program has fewer such places.
+
+    Parameters
+    ----------
+    scn : PlanScenario
+    parts : int
+        Stretches wanted (>= 1).
+
+    Returns
+    -------
+    list of (first, last)
+        Cutter location stretches (the program read through the machine), each starting
+        where the one before ends, from 0 to the last.
+    """
+    if not (isinstance(parts, (int, np.integer)) and parts >= 1):
+        raise ValueError(f"parts: expected an integer >= 1, got {parts!r}")
+    part = PartProgram(scn, cuts=False)
+    n = len(part.cam)
+    material = part.contacts.touching | part.rapid_in_material
+    seg = np.zeros(n)
+    seg[1:] = np.linalg.norm(np.diff(part.cam.tip, axis=0), axis=1)
+    feed = np.where(part.cam.rapid, RAPID_MM_MIN, part.cam.feed_mm_min)
+    cutting_s = np.where(material, 60.0 * seg / np.maximum(feed, 1e-9), 0.0)
+    done = np.cumsum(cutting_s)                      # cutting time up to each location
+    air = np.zeros(n, bool)
+    air[2:n - 1] = ~material[1:n - 2] & ~material[2:n - 1]
+    where = np.flatnonzero(air)
+    cuts: list[int] = []
+    if where.size and done[-1] > 0:
+        for k in range(1, parts):
+            c = int(where[np.argmin(np.abs(done[where] - done[-1] * k / parts))])
+            if c not in cuts:
+                cuts.append(c)
+    bounds = [0, *sorted(cuts), n - 1]
+    return list(zip(bounds[:-1], bounds[1:]))
 
 
 def _listed(idx: np.ndarray, most: int = COVERAGE_LISTED) -> str:

@@ -18,7 +18,7 @@ import pytest
 from nc.path import CutterLocations
 from nc.writer import PostOptions, write_program
 from orient.scenario import load_plan_scenario
-from sim.constants import CUTTING_GAP_MM
+from sim.constants import CUTTING_GAP_MM, TICK_S
 from sim.program import PartProgram
 from sim.verify import Verification, scenario_with_program, verify_program
 from tests.thin_wall import wall_mode
@@ -214,3 +214,56 @@ def test_the_simulated_cut_is_the_programs_not_the_planners_table(tmp_path):
     np.testing.assert_allclose(depth, 0.2, atol=1e-3)
     planned = local_cuts(scn, part.contacts, part.touch, part.cam, part.rpm)
     assert all(c.depth_mm == 0.05 for c in planned)
+
+
+def test_a_run_split_at_air_moves_and_judged_as_one_is_the_whole_run(tmp_path):
+    """The main job runs each whole program in stretches split at air moves
+    (``split_at_air``), apart, and judges them as one run (``judge``). On the flexible
+    wall's two passes (stiffened; it still chatters): the split is in the air move
+    between them; what was asked and cut and the cutter locations are the whole run's,
+    the simulated time to one servo tick; the first stretch's surface is the whole
+    run's bit for bit (the same start and noise seed); the second stretch's differs from
+    the whole run's as much as the whole run with another noise seed does (the work
+    material's scatter and the sensors' noise: another draw), and so do the chatter
+    figures."""
+    from sim.verify import judge, simulate_stretch, split_at_air
+
+    scn = load_plan_scenario(flexible_wall(tmp_path / "wall", passes=2, edits=STIFF))
+    part = PartProgram(scn, cuts=False)
+    n = len(part.cam)
+    material = part.contacts.touching | part.rapid_in_material
+    assert split_at_air(scn, 1) == [(0, n - 1)]
+    stretches = split_at_air(scn, 2)
+    assert len(stretches) == 2
+    (a, c), (c2, b) = stretches
+    assert (a, c2, b) == (0, c, n - 1)
+    assert not material[c - 1] and not material[c]            # in the air between passes
+    assert material[:c].any() and material[c:].any()
+    with pytest.raises(ValueError, match="parts"):
+        split_at_air(scn, 0)
+
+    whole = verify_program(scn)
+    runs = [simulate_stretch(scn, points=p, seed=k) for k, p in enumerate(stretches)]
+    v = judge(runs)
+    with pytest.raises(ValueError, match="does not follow"):
+        judge(runs[::-1])
+    assert v.complete and whole.complete
+    for name in ("asked", "covered", "points"):
+        np.testing.assert_array_equal(getattr(v, name), getattr(whole, name))
+    assert v.stretch == whole.stretch and v.reached == whole.reached
+    # each stretch ends with its own servo tick: at most one tick more a split
+    assert 0.0 <= v.machining_s - whole.machining_s <= TICK_S * (len(runs) - 1) + 1e-9
+    one = v.points <= c
+    np.testing.assert_array_equal(v.surface_um[one], whole.surface_um[one])
+    np.testing.assert_array_equal(v.marks_um[one], whole.marks_um[one])
+    other = verify_program(scn, seed=1)
+
+    def rms(x: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(x ** 2)))
+
+    split = rms(v.surface_um[~one] - whole.surface_um[~one])
+    seed = rms(other.surface_um[~one] - whole.surface_um[~one])
+    assert 0.0 < split < 1.5 * seed, (split, seed)
+    assert v.sustained_chatter == whole.sustained_chatter
+    assert abs(v.chatter_windows - whole.chatter_windows) <= max(
+        2, 2 * abs(other.chatter_windows - whole.chatter_windows))
