@@ -104,3 +104,37 @@ def test_engagement_is_the_expanded_flute():
     assert np.array_equal(eng.h[:, 0], fe.h0)
     assert eng.theta[1] == pytest.approx(2 * math.pi / fe.theta.size)
     assert fe.cutting0.any()
+
+
+@pytest.mark.parametrize("kind", ["ball", "radius", "flat"])
+def test_edges_reaching_keeps_every_edge_below_the_top_and_drops_others(kind, monkeypatch):
+    """The kernel tests the stock top only on the edges ``edges_reaching`` keeps: on a grid
+    of 2,048 angles (twenty times the cases' own), every edge with a sample below the top
+    (concave, flat and convex tops) is kept, and edges that stay above it are dropped."""
+    calls = []
+    kernel = SK.flute0_engagement
+
+    def record(*args):
+        calls.append(args)
+        return kernel(*args)
+
+    monkeypatch.setattr(SK, "flute0_engagement", record)
+    kept = dropped = concave = 0
+    phi = np.linspace(0.0, 2 * math.pi, 2048, endpoint=False)[:, None]
+    for tool, u, n, feed, cut in _cases(23, kind, 16):
+        edges = tool.micro_edges(60)
+        flute_engagement(tool, edges, u, n, feed, cut, 96)
+        args = calls[-1]
+        rho, z, proj, depth, kf, kb = args[2], args[3], args[8], args[9], args[10], args[11]
+        reach = SK.edges_reaching(proj, rho, z, depth, kf, kb)
+        x, y = rho * np.sin(phi), rho * np.cos(phi)
+
+        def along(r):
+            return proj[r, 0] + x * proj[r, 1] + y * proj[r, 2] + z * proj[r, 3]
+
+        below = (along(0) < depth - 0.5 * (kf * along(1) ** 2 + kb * along(2) ** 2)).any(0)
+        assert np.all(reach[below])
+        kept += int(below.sum())
+        dropped += int((~reach).sum())
+        concave += int(below.any() and min(kf, kb) < 0.0)
+    assert kept > 0 and dropped > 0 and concave > 0
