@@ -371,7 +371,17 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
         say("lobes", 1, 1)
         return out
 
-    verified = []
+    done: dict[int, list] = {}
+    judged: dict[int, Verification] = {}
+
+    def finished(w: int, run) -> None:
+        """Stretch ``run`` of program ``w`` is done (in program order): the program is
+        judged when its last one is, and its streams let go."""
+        done.setdefault(w, []).append(run)
+        if len(done[w]) == len(stretches[w]):
+            judged[w] = judge(done.pop(w))
+            say("verify", len(judged), len(programs))
+
     if client is not None:
         if warm_sim:    # the simulation's kernels: compiled (and cached) before it starts
             from distributed import wait
@@ -385,21 +395,15 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
         t_lobes = time.perf_counter()
         lobes = lobes_stage()                       # while the workers verify
         seconds["lobes"] = round(time.perf_counter() - t_lobes, 2)
-        done = {}
         for (w, _k, _p), f in zip(runs, futures):
-            done.setdefault(w, []).append(f.result())
-            if len(done[w]) == len(stretches[w]):
-                say("verify", len(done), len(programs))
-        verified = [judge(done[w]) for w in range(len(programs))]
+            finished(w, f.result())
+            f.release()
+        verified = [judged[w] for w in range(len(programs))]
         lap("verify")
     else:
-        done = {}
         for w, k, p in runs:
-            done.setdefault(w, []).append(simulate_stretch(programs[w], points=p, seed=k,
-                                                           workpiece=wp))
-            if len(done[w]) == len(stretches[w]):
-                say("verify", len(done), len(programs))
-        verified = [judge(done[w]) for w in range(len(programs))]
+            finished(w, simulate_stretch(programs[w], points=p, seed=k, workpiece=wp))
+        verified = [judged[w] for w in range(len(programs))]
         lap("verify")
         lobes = lobes_stage()
         lap("lobes")
