@@ -212,6 +212,12 @@ VERIFY_TICKS_PER_PUSH = 200
 #: an air move of about 1.3 s on the bundled thin wall, where one run's vibration has
 #: rung down by more than 60 orders of magnitude.
 VERIFY_STRETCHES = 2
+#: Shortest air gap a simulated run is split in (``sim.verify.split_at_air``), from the
+#: last move in the material to the next [s]: a stretch starts at rest, where one run's
+#: vibration rings down over the gap; 0.25 s is eight decay times (1 / (zeta omega))
+#: of a 500 Hz mode with 1 % damping, below a thousandth of its amplitude (the bundled
+#: thin wall's gaps between passes: about 1.3 s).
+SPLIT_AIR_MIN_S = 0.25
 #: A verification's reason for an incomplete run lists at most this many cutter
 #: locations (and program lines) of a kind, then their count [-].
 COVERAGE_LISTED = 8

@@ -55,6 +55,22 @@ class CuttingModel:
     step_map: tuple
     generating: np.ndarray
 
+    def __post_init__(self) -> None:
+        # the kernel walks two tables' entries at a sample side by side
+        # (sim._kernels._leave): they must ascend by (position, edge) within each sample
+        ptr, pos, edge = self.table[:3]
+        if pos.size > 1:
+            start = np.zeros(pos.size, bool)
+            inner = ptr[1:-1]
+            start[inner[inner < pos.size]] = True
+            key = pos * self.n_edges + edge
+            bad = np.flatnonzero((np.diff(key) <= 0) & ~start[1:])
+            if bad.size:
+                i = int(np.searchsorted(ptr, bad[0] + 1, side="right") - 1)
+                raise ValueError(f"table: the entries at rotation sample {i} are not in "
+                                 f"ascending (position, edge) order, which the kernel walks "
+                                 f"(sim.cutting.prepare_cut orders them)")
+
     @property
     def steps_per_tooth(self) -> int:
         return self.steps_per_rev // self.flutes

@@ -26,6 +26,10 @@ The accelerometer stream is judged window by window with the controller's
 detector (:func:`sim.report.summarize_run`, only windows that end while the
 tool cuts; chatter is a sustained episode, a call that outlives its window),
 and its spectrum while cutting is averaged (Welch).
+
+A run can be made in stretches (:func:`simulate_stretch`), run apart, and judged as one
+run (:func:`judge`): the main job splits each whole program's run at air moves
+(:func:`split_at_air`) so that its workers share it.
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ from orient.detect import ChatterDetector
 from orient.scenario import PlanScenario
 
 from .constants import (COVERAGE_LISTED, RAPID_MM_MIN, SPECTRUM_CHUNK_SEGMENTS,
-                        SPECTRUM_SEGMENT, VERIFY_TICKS_PER_PUSH)
+                        SPECTRUM_SEGMENT, SPLIT_AIR_MIN_S, VERIFY_TICKS_PER_PUSH)
 from .machine import SimulatedNC
 from .program import PartProgram
 from .report import summarize_run
@@ -214,7 +218,8 @@ class StretchRun:
     asked: np.ndarray
     covered: np.ndarray
     reached: int
-    stopped_reason: str | None
+    finished: bool
+    why: list
     spindle_rpm: float
     flutes: int
     sensors: object
@@ -287,12 +292,12 @@ def simulate_stretch(scn: PlanScenario, *, points: tuple[int, int] | None = None
     cut = np.concatenate(cutting) if cutting else np.zeros(0, bool)
     for parts in (times, accel, cutting):   # the run's samples held once from here, not twice
         parts.clear()
-    asked, covered, reached, reason = _coverage(nc, stop)
+    asked, covered, reached, why = _coverage(nc, stop)
     return StretchRun(time_s=t, acceleration_m_s2=acc, cutting=cut, surface=nc.surface.arrays(),
                       gap_mm=nc.contacts.gap_mm, contact_mm=nc.contacts.point,
                       machining_s=float(nc.state.time_s), stretch=(nc.first, nc.last),
-                      asked=asked, covered=covered, reached=reached, stopped_reason=reason,
-                      spindle_rpm=nc.rpm, flutes=nc.tool.flutes, sensors=nc.sensors)
+                      asked=asked, covered=covered, reached=reached, finished=bool(nc.done),
+                      why=why, spindle_rpm=nc.rpm, flutes=nc.tool.flutes, sensors=nc.sensors)
 
 
 def judge(runs: list[StretchRun]) -> Verification:
@@ -314,6 +319,10 @@ def judge(runs: list[StretchRun]) -> Verification:
                 or b.flutes != a.flutes or b.sensors != a.sensors:
             raise ValueError(f"runs: stretch {b.stretch} does not follow {a.stretch} with "
                              f"the same spindle speed, tool and accelerometers")
+    # a stretch whose NC stopped before its end ends the run there, as one run would
+    stopped = next((k for k, r in enumerate(runs) if not r.finished), None)
+    if stopped is not None:
+        runs = runs[:stopped + 1]
     head = runs[0]
     start = np.cumsum([0.0] + [r.machining_s for r in runs[:-1]])
     if len(runs) == 1:
@@ -338,17 +347,19 @@ def judge(runs: list[StretchRun]) -> Verification:
     var = np.maximum(np.bincount(inv, off * off) / cnt - mean * mean, 0.0)
     gap = head.gap_mm[u]
     f, a = welch_spectrum(acc, head.sensors.sample_rate_hz)
-    reasons = [r.stopped_reason for r in runs if r.stopped_reason is not None]
+    asked = np.concatenate([r.asked for r in runs])
+    covered = np.concatenate([r.covered for r in runs])
+    why = [w for r in runs for w in r.why]
+    missed = np.setdiff1d(asked, covered)
+    reason = None if not why else (f"{missed.size} of {asked.size} cutter locations in the "
+                                   f"material not cut: " + "; ".join(why))
     return Verification(points=u, contact_mm=head.contact_mm[u], surface_um=(mean + gap) * 1e3,
                         marks_um=np.sqrt(var) * 1e3, summary=summ, spectrum_hz=f,
                         spectrum_m_s2=a, spindle_rpm=head.spindle_rpm,
                         machining_s=float(sum(r.machining_s for r in runs)),
                         stretch=(head.stretch[0], runs[-1].stretch[1]),
-                        asked=np.concatenate([r.asked for r in runs]),
-                        covered=np.concatenate([r.covered for r in runs]),
-                        reached=runs[-1].reached if not reasons else next(
-                            r.reached for r in runs if r.stopped_reason is not None),
-                        stopped_reason="; ".join(reasons) if reasons else None)
+                        asked=asked, covered=covered, reached=runs[-1].reached,
+                        stopped_reason=reason)
 
 
 def split_at_air(scn: PlanScenario, parts: int) -> list[tuple[int, int]]:
@@ -357,9 +368,12 @@ def split_at_air(scn: PlanScenario, parts: int) -> list[tuple[int, int]]:
     (:func:`simulate_stretch`) and be judged as one run (:func:`judge`).
 
     A split is at a cutter location whose move in and the move before are both out of
-    the material (an air move between passes: the cut's vibration has rung down, and
-    the next cut's surface memory is set where it starts, as in one run). Fewer
-    stretches where the program has fewer such places.
+    the material, with cutting before and after it, in an air gap of at least
+    ``SPLIT_AIR_MIN_S`` from the last move in the material to the next (an air move
+    between passes: the cut's vibration has rung down, and the next cut's surface memory
+    is set where it starts, as in one run). Fewer stretches where the program has fewer
+    such places. The stretches take the whole program's local cuts and spindle speed
+    only where it has one speed (:func:`judge` refuses stretches at different speeds).
 
     Parameters
     ----------
@@ -381,11 +395,21 @@ def split_at_air(scn: PlanScenario, parts: int) -> list[tuple[int, int]]:
     seg = np.zeros(n)
     seg[1:] = np.linalg.norm(np.diff(part.cam.tip, axis=0), axis=1)
     feed = np.where(part.cam.rapid, RAPID_MM_MIN, part.cam.feed_mm_min)
-    cutting_s = np.where(material, 60.0 * seg / np.maximum(feed, 1e-9), 0.0)
+    move_s = 60.0 * seg / np.maximum(feed, 1e-9)
+    cutting_s = np.where(material, move_s, 0.0)
     done = np.cumsum(cutting_s)                      # cutting time up to each location
+    clock = np.cumsum(move_s)                        # programmed time up to each location
     air = np.zeros(n, bool)
     air[2:n - 1] = ~material[1:n - 2] & ~material[2:n - 1]
-    where = np.flatnonzero(air)
+    # cutting on both sides, and an air gap long enough for the vibration to ring down:
+    # from the last location in the material before to the first one after
+    cut_at = np.flatnonzero(material)
+    before = np.searchsorted(cut_at, np.arange(n), side="left") - 1
+    after = np.searchsorted(cut_at, np.arange(n), side="right")
+    inside = (before >= 0) & (after < cut_at.size)
+    gap = np.zeros(n)
+    gap[inside] = clock[cut_at[after[inside]] - 1] - clock[cut_at[before[inside]]]
+    where = np.flatnonzero(air & inside & (gap >= SPLIT_AIR_MIN_S))
     cuts: list[int] = []
     if where.size and done[-1] > 0:
         for k in range(1, parts):
@@ -403,10 +427,11 @@ def _listed(idx: np.ndarray, most: int = COVERAGE_LISTED) -> str:
 
 
 def _coverage(nc: SimulatedNC, stop: str | None = None
-              ) -> tuple[np.ndarray, np.ndarray, int, str | None]:
+              ) -> tuple[np.ndarray, np.ndarray, int, list[str]]:
     """What the run was asked to cut, what it cut, where the NC got to, and why not all
-    (:class:`Verification`'s ``asked``, ``covered``, ``reached``, ``stopped_reason``);
-    ``stop``: why the run was ended before the NC finished."""
+    (:class:`Verification`'s ``asked``, ``covered``, ``reached``, and the parts of its
+    ``stopped_reason``: empty when it covered everything); ``stop``: why the run was
+    ended before the NC finished."""
     first, last = nc.first, nc.last
     rows = np.arange(first + 1, last + 1)
     moves = nc.arc[rows] > nc.arc[rows - 1]
@@ -418,7 +443,7 @@ def _coverage(nc: SimulatedNC, stop: str | None = None
         covered = covered[covered < reached]
     missed = np.setdiff1d(asked, covered)
     if missed.size == 0 and stop is None:
-        return asked, covered, reached, None
+        return asked, covered, reached, []
     why = []
     if not nc.done:
         why.append(f"{stop or 'the NC stopped'} on the move into cutter location {reached} "
@@ -432,6 +457,5 @@ def _coverage(nc: SimulatedNC, stop: str | None = None
     if nc.done and other.size:
         why.append(f"{other.size} feed move(s) in the material not cut: cutter locations "
                    f"{_listed(other)}")
-    return asked, covered, reached, (f"{missed.size} of {asked.size} cutter locations in "
-                                     f"the material not cut: " + "; ".join(why))
+    return asked, covered, reached, why
 

@@ -663,3 +663,19 @@ def test_forced_response_with_kept_parts_is_the_former_one_bit_for_bit():
         for kept in (parts, None):
             np.testing.assert_array_equal(forced_response(m, parts=kept), ref)
     assert len(parts) == 4          # two tables, two step maps
+
+
+def test_a_model_refuses_a_table_out_of_the_kernels_order():
+    """A table whose entries at a sample do not ascend by (position, edge) would have the
+    kernel write a place of the surface twice: the model refuses it, naming the sample."""
+    import dataclasses
+
+    system, coef, slot = _insperger_case()
+    four = Tool("flat", 10.0, flutes=4, helix_deg=0.0, flute_length_mm=6.0)
+    model = prepare_cut(four, coef, Z, Z, X, slot, system, 5000.0, edges=EDGES)
+    ptr, pos, edge = model.table[:3]
+    i = int(np.flatnonzero(np.diff(ptr) >= 2)[0])
+    a, b = ptr[i], ptr[i + 1]
+    swapped = tuple(np.concatenate([x[:a], x[a:b][::-1], x[b:]]) for x in model.table[1:])
+    with pytest.raises(ValueError, match=f"rotation sample {i} "):
+        dataclasses.replace(model, table=(ptr, *swapped))

@@ -175,6 +175,50 @@ def test_the_time_budget_stops_the_run_and_says_where(gouged):
         verify_program(scn, points=(first, last), max_machining_s=0.0)
 
 
+def test_stretches_judged_as_one_say_what_one_run_says(gouged, run):
+    """``judge`` on stretches of the gouged run: the rapid move into the material, in the
+    first stretch's last move, is reported with the joined run's counts and the NC's last location;
+    a stretch stopped by its time budget ends the joined run there (the stretches after
+    it are not counted, as one run would not have reached them)."""
+    from sim.verify import judge, simulate_stretch
+
+    scn, part, rows, into, first = gouged
+    last, mid = len(part.cam) - 1, into
+    runs = [simulate_stretch(scn, points=(first, mid)),
+            simulate_stretch(scn, points=(mid, last), seed=1)]
+    v = judge(runs)
+    np.testing.assert_array_equal(v.asked, run.asked)
+    np.testing.assert_array_equal(v.covered, run.covered)
+    assert v.reached == run.reached == last
+    assert v.stopped_reason == run.stopped_reason
+    assert v.coverage == run.coverage
+
+    stop = rows[-1] + 2
+    short = [simulate_stretch(scn, points=(first, stop), max_machining_s=0.15),
+             simulate_stretch(scn, points=(stop, last), seed=1)]
+    alone = verify_program(scn, points=(first, stop), max_machining_s=0.15)
+    w = judge(short)
+    assert w.reached == alone.reached == first + 2
+    np.testing.assert_array_equal(w.covered, alone.covered)
+    np.testing.assert_array_equal(w.asked, alone.asked)
+    assert w.stopped_reason == alone.stopped_reason
+    assert w.machining_s == alone.machining_s
+
+
+def test_a_one_pass_program_is_not_split():
+    """``split_at_air`` splits only in an air gap with cutting on both sides: the
+    approach and the retract of a one-pass program are no such place."""
+    from sim.verify import split_at_air
+
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as d:
+        scn = load_plan_scenario(flexible_wall(Path(d) / "wall", passes=1))
+        n = len(PartProgram(scn, cuts=False).cam)
+        assert split_at_air(scn, 2) == [(0, n - 1)]
+
+
 @pytest.mark.parametrize("length", [7, 8, 9001, 8192 * 3 + 17, 8192 * 40 + 4095])
 def test_welch_spectrum_in_chunks_is_scipys_welch_bit_for_bit(length):
     """The run's averaged spectrum, its segments' spectra computed a few at a time
