@@ -42,10 +42,8 @@ def _cases(seed: int, kind: str, count: int):
         yield tool, u, n, feed, cut
 
 
-@pytest.mark.parametrize("kind", ["ball", "radius", "flat"])
-def test_kernel_equals_numpy_twin(kind, monkeypatch):
-    """On the arguments flute_engagement hands the kernel (random postures and cuts, with
-    and without the trailing edges): the same mask and chips, bit for bit."""
+def _recorded_calls(monkeypatch) -> list:
+    """The arguments of every call flute_engagement makes to the kernel, from now on."""
     calls = []
     kernel = SK.flute0_engagement
 
@@ -54,6 +52,14 @@ def test_kernel_equals_numpy_twin(kind, monkeypatch):
         return kernel(*args)
 
     monkeypatch.setattr(SK, "flute0_engagement", record)
+    return calls
+
+
+@pytest.mark.parametrize("kind", ["ball", "radius", "flat"])
+def test_kernel_equals_numpy_twin(kind, monkeypatch):
+    """On the arguments flute_engagement hands the kernel (random postures and cuts, with
+    and without the trailing edges): the same mask and chips, bit for bit."""
+    calls = _recorded_calls(monkeypatch)
     cutting_seen = trailing_seen = removed_seen = 0
     for tool, u, n, feed, cut in _cases(11, kind, 12):
         edges = tool.micro_edges(60)
@@ -111,14 +117,7 @@ def test_edges_reaching_keeps_every_edge_below_the_top_and_drops_others(kind, mo
     """The kernel tests the stock top only on the edges ``edges_reaching`` keeps: on a grid
     of 2,048 angles (twenty times the cases' own), every edge with a sample below the top
     (concave, flat and convex tops) is kept, and edges that stay above it are dropped."""
-    calls = []
-    kernel = SK.flute0_engagement
-
-    def record(*args):
-        calls.append(args)
-        return kernel(*args)
-
-    monkeypatch.setattr(SK, "flute0_engagement", record)
+    calls = _recorded_calls(monkeypatch)
     kept = dropped = concave = 0
     phi = np.linspace(0.0, 2 * math.pi, 2048, endpoint=False)[:, None]
     for tool, u, n, feed, cut in _cases(23, kind, 16):
