@@ -89,9 +89,9 @@ class PartProgram:
         # the cut this program makes, from the part (the stock and the program's earlier
         # moves), not the planner's [orient.cut] table: a corrected program cuts deeper
         # than the table says (the bundled thin wall's top pass 0.222-0.229 mm against its
-        # 0.2 mm), and the force of that depth is what its verification must see
-        # every touching location's, whatever the stretch: the pick feed of a pass is
-        # derived from its neighbours (the first pass's from the second)
+        # 0.2 mm), and the force of that depth is what its verification must see. At every
+        # touching location, whatever the stretch: a pass's pick feed is derived from its
+        # neighbours (the first pass's from the second)
         run = self.touch if cuts else self.touch[:0]
         cuts = local_cuts(scn, self.contacts, run, self.cam, self.rpm,
                           from_part=True) if run.size else []

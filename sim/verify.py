@@ -200,8 +200,14 @@ class StretchRun:
         location of the program.
     machining_s : float [s]
         Simulated time of the stretch.
-    stretch, asked, covered, reached, stopped_reason
+    stretch, asked, covered, reached
         As :class:`Verification`'s, for this stretch.
+    finished : bool
+        The NC ran to the end of the stretch (:func:`judge` ends the joined run at the
+        first stretch that did not).
+    why : list of str
+        Why the stretch did not cover what it was asked to (empty when it did): the parts
+        of the joined run's :attr:`Verification.stopped_reason`.
     spindle_rpm : float [rev/min]
     flutes : int
     sensors : sim.sensors.Accelerometers
@@ -331,7 +337,7 @@ def judge(runs: list[StretchRun]) -> Verification:
         t = np.concatenate([r.time_s + s for r, s in zip(runs, start)])
         acc = np.concatenate([r.acceleration_m_s2 for r in runs])
         cut = np.concatenate([r.cutting for r in runs])
-        surf = {k: np.concatenate([np.asarray(r.surface[k]) + (s if k == "time_s" else 0)
+        surf = {k: np.concatenate([r.surface[k] + (s if k == "time_s" else 0)
                                    for r, s in zip(runs, start)]) for k in head.surface}
     det = ChatterDetector(detector_settings(head.sensors))
     summ = summarize_run(t, acc, surf, det, head.spindle_rpm, head.flutes, cutting=cut)
@@ -339,8 +345,8 @@ def judge(runs: list[StretchRun]) -> Verification:
     # stream are let go before it holds its segments' spectra (the run's memory peak)
     del t
     acc = acc[cut]
-    pts = np.asarray(surf["point"]).astype(np.int64)
-    off = np.asarray(surf["offset_mm"])
+    pts = surf["point"].astype(np.int64)
+    off = surf["offset_mm"]
     u, inv = np.unique(pts, return_inverse=True)
     cnt = np.bincount(inv).astype(float)
     mean = np.bincount(inv, off) / cnt
