@@ -13,7 +13,7 @@ from numba import njit
 
 from .constants import SUBNORMAL_FLUSH
 
-__all__ = ["accel_filter", "forced_tail", "integrate"]
+__all__ = ["accel_filter", "integrate", "periodic_forced"]
 
 _TINY = SUBNORMAL_FLUSH
 
@@ -319,39 +319,57 @@ def accel_filter(acc, rotation, factor, sos, zi, out):
 
 
 @njit(cache=True, nogil=True)
-def forced_tail(u, neg_lam, tail):
-    """The first-order filters of :func:`sim.forced.forced_response`: for each mode ``m``
-    and eigenvalue ``lam[m, i]`` (``neg_lam`` = ``-lam`` as a complex array, scipy's
-    ``a[1]``), ``tail[p + 1] = lam tail[p] + u[p]`` from ``tail[0] = 0``
-    over ``u[:, m]`` (spr,) and a final 0 (``tail`` (spr + 1, nm, 2) complex), with the
-    arithmetic of ``scipy.signal.lfilter([0, 1], [1, -lam], ...)`` on complex numbers
-    (scipy's transposed direct form, its normalisation by ``a[0] = 1`` and its complex
-    products written out in real and imaginary parts, in its order), so the same
-    numbers bit for bit, without a Python call per mode and eigenvalue."""
-    spr, nm = u.shape
-    a0r = 1.0
-    a0i = 0.0
-    mag = a0r * a0r + a0i * a0i
-    b0r, b0i, b1r, b1i = 0.0, 0.0, 1.0, 0.0
+def periodic_forced(ptr, h0, f0, f1, scale, direction, phi, gam, x):
+    """The periodic state of the modes under a table's static chips, one revolution:
+    ``x`` (spr, nm, 2) [m, m/s] with ``x[p + 1] = phi x[p] + gam u[p]`` and
+    ``x[spr] = x[0]``, where ``u[p] = direction . F[p]`` and ``F[p]`` the sum of
+    ``scale (f0 + h0 f1)`` over the table's entries at rotation sample ``p``
+    (``ptr`` (spr + 1,), ``h0`` (e,), ``f0``/``f1`` (e, 3) [N, N/mm]).
+
+    Per mode, a pass from rest gives ``s = sum_p phi^(spr-1-p) gam u[p]`` and
+    ``phi^spr``; ``x[0] = (I - phi^spr)^-1 s`` (2 x 2), and a second pass gives the
+    rest: real arithmetic, no eigen-decomposition (``phi`` (nm, 2, 2), ``gam`` (nm, 2),
+    ``direction`` (nm, 3))."""
+    spr = ptr.size - 1
+    nm = phi.shape[0]
+    u = np.zeros((spr, nm))
+    for p in range(spr):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        for e in range(ptr[p], ptr[p + 1]):
+            h = h0[e]
+            fx += scale * (f0[e, 0] + h * f1[e, 0])
+            fy += scale * (f0[e, 1] + h * f1[e, 1])
+            fz += scale * (f0[e, 2] + h * f1[e, 2])
+        for m in range(nm):
+            u[p, m] = fx * direction[m, 0] + fy * direction[m, 1] + fz * direction[m, 2]
     for m in range(nm):
-        for i in range(2):
-            a1r = neg_lam[m, i].real
-            a1i = neg_lam[m, i].imag
-            zr = 0.0
-            zi = 0.0
-            for k in range(spr + 1):
-                xr = u[k, m] if k < spr else 0.0
-                xi = 0.0
-                tr = b0r * a0r + b0i * a0i
-                ti = b0i * a0r - b0r * a0i
-                yr = zr + (tr * xr - ti * xi) / mag
-                yi = zi + (ti * xr + tr * xi) / mag
-                tr = b1r * a0r + b1i * a0i
-                ti = b1i * a0r - b1r * a0i
-                zr = (tr * xr - ti * xi) / mag
-                zi = (ti * xr + tr * xi) / mag
-                tr = a1r * a0r + a1i * a0i
-                ti = a1i * a0r - a1r * a0i
-                zr -= (tr * yr - ti * yi) / mag
-                zi -= (ti * yr + tr * yi) / mag
-                tail[k, m, i] = complex(yr, yi)
+        a, b = phi[m, 0, 0], phi[m, 0, 1]
+        c, d = phi[m, 1, 0], phi[m, 1, 1]
+        g0, g1 = gam[m, 0], gam[m, 1]
+        s0 = 0.0
+        s1 = 0.0
+        pa, pb, pc, pd = 1.0, 0.0, 0.0, 1.0         # phi^p
+        for p in range(spr):
+            up = u[p, m]
+            t0 = a * s0 + b * s1 + g0 * up
+            s1 = c * s0 + d * s1 + g1 * up
+            s0 = t0
+            qa = a * pa + b * pc
+            qb = a * pb + b * pd
+            pc = c * pa + d * pc
+            pd = c * pb + d * pd
+            pa, pb = qa, qb
+        # (I - phi^spr) x0 = s
+        ma, mb, mc, md = 1.0 - pa, -pb, -pc, 1.0 - pd
+        det = ma * md - mb * mc
+        x0 = (md * s0 - mb * s1) / det
+        x1 = (ma * s1 - mc * s0) / det
+        for p in range(spr):
+            x[p, m, 0] = x0
+            x[p, m, 1] = x1
+            up = u[p, m]
+            t0 = a * x0 + b * x1 + g0 * up
+            x1 = c * x0 + d * x1 + g1 * up
+            x0 = t0

@@ -94,7 +94,6 @@ class Cutter:
         #: The cut in effect after the last :meth:`advance` or :meth:`switch` (None: idle).
         self.cut: Cut | None = None
         self._forced_cache: OrderedDict = OrderedDict()
-        self._forced_parts: dict = {}            # forced_response's unchanging parts
         self._idle: tuple | None = None          # (system, dt_s, model) of the last idle
         self._engaged_kept: list = []            # the last two cuts' models and places
 
@@ -164,7 +163,7 @@ class Cutter:
         for m, w in cut.parts():
             hit = self._forced_cache.get(id(m))
             if hit is None or hit[0] is not m:
-                hit = (m, forced_response(m, parts=self._forced_parts))
+                hit = (m, forced_response(m))
                 self._forced_cache[id(m)] = hit
                 if len(self._forced_cache) > _FORCED_CACHE:
                     self._forced_cache.popitem(last=False)

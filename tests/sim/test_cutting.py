@@ -611,9 +611,11 @@ def test_advance_pieces_is_advance_piece_by_piece_bit_for_bit():
         many.advance_pieces(a, counts, previous=b, weights=(w[:-1], w[1:] + 0.5))
 
 
-def _forced_before(model):
-    """forced_response as it was written before its parts were kept and its filters ran in
-    a kernel (scipy's lfilter per mode and eigenvalue): the reference, bit for bit."""
+def _forced_eigen(model):
+    """The forced response computed another way: in each mode's step-map eigenvectors,
+    where every component is a first-order filter (``w_p = lam^p w_0 + z t_p``), scipy's
+    lfilter per mode and eigenvalue and the periodic start ``w_0 = z t_spr / (1 -
+    lam^spr)`` (how sim.forced computed it before its real-arithmetic kernel)."""
     import scipy.signal
 
     ptr, _pos, _e, h0, _nrm, f0, f1 = model.table
@@ -639,11 +641,12 @@ def _forced_before(model):
     return np.einsum("mij,pmj->pmi", vec, w).real
 
 
-def test_forced_response_with_kept_parts_is_the_former_one_bit_for_bit():
-    """The forced response with its unchanging parts kept (static force per table, the
-    step map's eigen-decomposition) and its filters in sim._kernels.forced_tail equals
-    the former computation bit for bit, kept parts reused or not, for two tables on the
-    same dynamics and for other dynamics (three tool modes)."""
+def test_forced_response_is_the_eigenvector_filters_answer():
+    """The forced response (real 2 x 2 steps, sim._kernels.periodic_forced) equals the
+    same periodic solution computed in the step maps' eigenvectors with scipy's lfilter,
+    to rounding (1e-10 of its largest value), for two tables on the same dynamics and
+    for other dynamics (three tool modes); and it is periodic: one more step from its
+    last row gives its first."""
     import dataclasses
 
     from errpred.dynamics import Mode
@@ -656,13 +659,25 @@ def test_forced_response_with_kept_parts_is_the_former_one_bit_for_bit():
     modes = [(Mode.from_frequency(f, 0.02, 2e6), d) for f, d in
              ((700.0, (1, 0, 0)), (1300.0, (0, 1, 0)), (2900.0, (0.6, 0.8, 0)))]
     c = with_system(b, ModalSystem.from_modes(modes, source="tool"), u)
-    parts: dict = {}
-    for m in (a, b, a, c, b):
-        ref = _forced_before(m)
+    for m in (a, b, c):
+        ref = _forced_eigen(m)
+        got = forced_response(m)
         assert np.abs(ref).max() > 0
-        for kept in (parts, None):
-            np.testing.assert_array_equal(forced_response(m, parts=kept), ref)
-    assert len(parts) == 4          # two tables, two step maps
+        for col in (0, 1):          # displacement [m] and velocity [m/s]: own scales
+            np.testing.assert_allclose(got[..., col], ref[..., col], rtol=0,
+                                       atol=1e-10 * np.abs(ref[..., col]).max())
+        # x[spr] = phi x[spr - 1] + gam u[spr - 1] is x[0]
+        ptr, _pos, _e, h0, _nrm, f0, f1 = m.table
+        last = np.arange(ptr[-2], ptr[-1])
+        u_last = (f0[last] + h0[last, None] * f1[last]).sum(axis=0) @ m.system.direction.T
+        phi, gam = m.step_map
+        nxt = np.einsum("mij,mj->mi", phi, got[-1]) + gam * u_last[:, None]
+        np.testing.assert_allclose(nxt, got[0], rtol=1e-9, atol=1e-12 * np.abs(got).max())
+    np.testing.assert_array_equal(forced_response(a, scale=0.0), 0.0)
+    one, scaled = forced_response(a), forced_response(a, scale=2.5)
+    for col in (0, 1):              # linear in the force, to rounding
+        np.testing.assert_allclose(scaled[..., col], 2.5 * one[..., col], rtol=0,
+                                   atol=1e-10 * np.abs(one[..., col]).max())
 
 
 def test_a_model_refuses_a_table_out_of_the_kernels_order():

@@ -274,26 +274,58 @@ def test_stream_samples_are_unchanged_by_the_flush():
     assert got.time_s[1] - got.time_s[0] == pytest.approx(1.0 / fs)
 
 
+def _periodic_forced_twin(ptr, h0, f0, f1, scale, direction, phi, gam):
+    """periodic_forced's numpy twin: the static force per sample by bincount, the state
+    after one revolution from rest by the step map, the periodic start solved with
+    numpy's matrix power, then the steps."""
+    spr, nm = ptr.size - 1, phi.shape[0]
+    sample = np.repeat(np.arange(spr), np.diff(ptr))
+    fe = scale * (f0 + h0[:, None] * f1)
+    force = np.stack([np.bincount(sample, fe[:, a], minlength=spr) for a in range(3)], axis=1)
+    u = force @ direction.T                                  # (spr, nm)
+    s = np.zeros((nm, 2))
+    for p in range(spr):
+        s = np.einsum("mij,mj->mi", phi, s) + gam * u[p][:, None]
+    x = np.empty((spr, nm, 2))
+    for m in range(nm):
+        x[0, m] = np.linalg.solve(np.eye(2) - np.linalg.matrix_power(phi[m], spr), s[m])
+    for p in range(spr - 1):
+        x[p + 1] = np.einsum("mij,mj->mi", phi, x[p]) + gam * u[p][:, None]
+    return x
+
+
 @pytest.mark.parametrize("real_poles", [False, True])
-def test_forced_tail_equals_scipy_lfilter(real_poles):
-    """forced_tail against its twin, the lfilter calls forced_response made per mode and
-    eigenvalue (complex input, a real force and a final 0), bit for bit."""
+def test_periodic_forced_equals_its_twin(real_poles):
+    """periodic_forced against its numpy twin on a random table (samples without entries
+    among them) and random stable step maps, complex or real eigenvalues, to rounding;
+    its rows are periodic (one step on from the last gives the first)."""
     rng = np.random.default_rng(11)
     spr, nm = 701, 5
-    u = rng.normal(0.0, 30.0, (spr, nm))
-    u[5:9] = 0.0
-    u[12, 1] = -0.0
-    if real_poles:
-        lam = rng.uniform(-0.99, 0.99, (nm, 2))
-    else:
-        lam = 0.999 * np.exp(1j * rng.uniform(0.01, 3.0, (nm, 2)))
-    got = np.empty((spr + 1, nm, 2), complex)
-    K.forced_tail(u, np.ascontiguousarray((-lam).astype(complex)), got)
-    uc = np.zeros((nm, spr + 1), complex)
-    uc[:, :spr] = u.T
+    counts = rng.integers(0, 4, spr)
+    counts[5:9] = 0
+    ptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    e = int(ptr[-1])
+    h0 = rng.uniform(0.0, 0.05, e)
+    f0 = rng.normal(0.0, 3.0, (e, 3))
+    f1 = rng.normal(0.0, 80.0, (e, 3))
+    direction = rng.normal(size=(nm, 3))
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    phi = np.empty((nm, 2, 2))
     for m in range(nm):
-        for i in range(2):
-            ref = signal.lfilter(np.array([0.0, 1.0]), np.array([1.0, -lam[m, i]]), uc[m])
-            mine = np.ascontiguousarray(got[:, m, i]).view(np.float64)
-            assert np.array_equal(mine, ref.view(np.float64))
-            assert np.array_equal(np.signbit(mine), np.signbit(ref.view(np.float64)))
+        if real_poles:
+            lam = np.diag(rng.uniform(-0.99, 0.99, 2))
+        else:
+            r, t = 0.999, rng.uniform(0.01, 3.0)
+            lam = r * np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+        v = rng.normal(size=(2, 2)) + 2.0 * np.eye(2)
+        phi[m] = v @ lam @ np.linalg.inv(v)
+    gam = rng.normal(0.0, 1e-7, (nm, 2))
+    got = np.empty((spr, nm, 2))
+    K.periodic_forced(ptr, h0, f0, f1, 1.5, direction, phi, gam, got)
+    want = _periodic_forced_twin(ptr, h0, f0, f1, 1.5, direction, phi, gam)
+    assert np.abs(want).max() > 0
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.abs(want).max())
+    last = np.arange(ptr[-2], ptr[-1])
+    u_last = 1.5 * (f0[last] + h0[last, None] * f1[last]).sum(axis=0) @ direction.T
+    nxt = np.einsum("mij,mj->mi", phi, got[-1]) + gam * u_last[:, None]
+    np.testing.assert_allclose(nxt, got[0], rtol=0, atol=1e-9 * np.abs(want).max())
