@@ -59,6 +59,7 @@ from .constants import (
     JOB_SURFACE_RATIO,
     VERIFY_STRETCHES,
 )
+from .program import PartProgram
 from .verify import (Verification, judge, scenario_with_program, simulate_stretch,
                      split_at_air)
 from .warmup import warm_apart
@@ -355,14 +356,17 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
 
     # 5: verify in the simulated machine: each whole program's run in stretches split at
     # air moves (VERIFY_STRETCHES), the corrected program's first (the longest run), run
-    # apart and judged as one run; the CAM program's worst pass whole
+    # apart and judged as one run, their program's local cuts derived once for them all;
+    # the CAM program's worst pass whole
     cam_points = _worst_cam_pass(res)
     programs = [scenario_with_program(scn, planned_path), scenario_with_program(scn, final_path),
                 scn]
-    stretches = [split_at_air(programs[0], VERIFY_STRETCHES),
-                 split_at_air(programs[1], VERIFY_STRETCHES), [cam_points]]
-    runs = [(w, k, p) for w in (1, 0, 2) for k, p in enumerate(stretches[w])]
+    stretches: dict[int, list] = {2: [cam_points]}
     say("verify", 0, len(programs))
+
+    def runs() -> list[tuple[int, int, tuple[int, int]]]:
+        """(program, seed, stretch) of each run, in the order they are started."""
+        return [(w, k, p) for w in (1, 0, 2) for k, p in enumerate(stretches[w])]
 
     # 6: lobes at representative points
     def lobes_stage() -> list[dict]:
@@ -390,19 +394,30 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
             warm_sim.clear()
         restart_compiled_workers(client)
         wp_f = client.scatter(wp, broadcast=True)
+        # each program's part and local cuts on a worker, kept there for its stretches
+        part_f = {w: client.submit(PartProgram, programs[w], pure=False) for w in (1, 0)}
+        split_f = {w: client.submit(split_at_air, programs[w], VERIFY_STRETCHES,
+                                    part=part_f[w], pure=False) for w in (1, 0)}
+        stretches.update((w, f.result()) for w, f in split_f.items())
         futures = [client.submit(simulate_stretch, programs[w], points=p, seed=k,
-                                 workpiece=wp_f, pure=False) for w, k, p in runs]
+                                 workpiece=wp_f, part=part_f.get(w), pure=False)
+                   for w, k, p in runs()]
         t_lobes = time.perf_counter()
         lobes = lobes_stage()                       # while the workers verify
         seconds["lobes"] = round(time.perf_counter() - t_lobes, 2)
-        for (w, _k, _p), f in zip(runs, futures):
+        for (w, _k, _p), f in zip(runs(), futures):
             finished(w, f.result())
             f.release()
+        del part_f, split_f
         verified = [judged[w] for w in range(len(programs))]
         lap("verify")
     else:
-        for w, k, p in runs:
-            finished(w, simulate_stretch(programs[w], points=p, seed=k, workpiece=wp))
+        parts = {w: PartProgram(programs[w]) for w in (1, 0)}
+        stretches.update((w, split_at_air(programs[w], VERIFY_STRETCHES, part=parts[w]))
+                         for w in (1, 0))
+        for w, k, p in runs():
+            finished(w, simulate_stretch(programs[w], points=p, seed=k, workpiece=wp,
+                                         part=parts.get(w)))
         verified = [judged[w] for w in range(len(programs))]
         lap("verify")
         lobes = lobes_stage()

@@ -177,6 +177,10 @@ class SimulatedNC:
     workpiece : orient.workpiece.WorkpieceModel, optional
         A workpiece model already built for this scenario (its finite elements
         take seconds); default: built here.
+    part : sim.program.PartProgram, optional
+        This scenario's program and part with their local cuts, already derived (for
+        any stretch: :meth:`~sim.program.PartProgram.stretch` takes ``points``; a
+        program's stretches run apart share it); default: derived here.
 
     Attributes
     ----------
@@ -187,10 +191,18 @@ class SimulatedNC:
 
     def __init__(self, scn: PlanScenario, *, sensors: Accelerometers | None = None,
                  points: tuple[int, int] | None = None, seed: int = 0,
-                 workpiece: WorkpieceModel | None = None) -> None:
+                 workpiece: WorkpieceModel | None = None,
+                 part: PartProgram | None = None) -> None:
         self.scn = scn
         base = scn.base
-        part = PartProgram(scn, points)
+        if part is None:
+            part = PartProgram(scn, points)
+        else:
+            if not part.with_cuts or part.scn.base.program_path != base.program_path:
+                raise ValueError(f"part: expected {base.program_path}'s program and part "
+                                 f"with their local cuts, got {part.scn.base.program_path}'s"
+                                 f"{'' if part.with_cuts else ' without local cuts'}")
+            part = part.stretch(points)
         self.part = part
         self.machine, self.cam, self.contacts = part.machine, part.cam, part.contacts
         first = part.first

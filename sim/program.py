@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 
 import numpy as np
@@ -52,6 +53,8 @@ class PartProgram:
     cuts : dict of int -> orient.engagement.LocalCut
         The local cut at each touching cutter location (of the whole program, whatever
         the stretch); empty with ``cuts=False``.
+    with_cuts : bool
+        The ``cuts`` argument.
     cam_lead, cam_tilt : ndarray [rad]
         The program's own posture at each cutter location.
     first, last : int
@@ -69,12 +72,8 @@ class PartProgram:
         self.cam = cutter_locations(program, self.machine)
         self.cam_line = np.where(self.cam.block >= 0,
                                  program.line[np.maximum(self.cam.block, 0)], 0)
-        n = len(self.cam)
-        first, last = (0, n - 1) if points is None else (int(points[0]), int(points[1]))
-        if not 0 <= first < last < n:
-            raise InputError(f"--points: expected 0 <= FIRST < LAST < {n} (the program's "
-                             f"cutter locations), got {points!r}")
-        self.first, self.last = first, last
+        self.first, self.last = _bounds(points, len(self.cam))
+        first, last = self.first, self.last
         self.design = base.stock.load_design()
         # a corrected program's ball stands micrometres off the design and still cuts; a
         # ball deeper in the design (a gouge) cuts all the more
@@ -92,9 +91,31 @@ class PartProgram:
         # 0.2 mm), and the force of that depth is what its verification must see. At every
         # touching location, whatever the stretch: a pass's pick feed is derived from its
         # neighbours (the first pass's from the second)
+        self.with_cuts = bool(cuts)
         run = self.touch if cuts else self.touch[:0]
         cuts = local_cuts(scn, self.contacts, run, self.cam, self.rpm,
                           from_part=True) if run.size else []
         self.cuts = dict(zip(run.tolist(), cuts, strict=True))
         lead, tilt = lead_tilt_of(self.cam.axis, self.contacts.normal, self.contacts.feed)
         self.cam_lead, self.cam_tilt = np.asarray(lead), np.asarray(tilt)
+
+    def stretch(self, points: tuple[int, int] | None) -> PartProgram:
+        """The same program and part for the stretch ``points`` (None: all), without
+        deriving them again where the stretch's highest spindle speed is this one's (the
+        local cuts' feed per tooth is taken at it); else made anew for the stretch."""
+        first, last = _bounds(points, len(self.cam))
+        rpm = float(np.nanmax(self.cam.spindle_rpm[first:last + 1]))
+        if rpm != self.rpm:
+            return PartProgram(self.scn, points, cuts=self.with_cuts)
+        out = copy.copy(self)
+        out.first, out.last = first, last
+        return out
+
+
+def _bounds(points: tuple[int, int] | None, n: int) -> tuple[int, int]:
+    """``(first, last)`` of a stretch of ``n`` cutter locations (None: all), checked."""
+    first, last = (0, n - 1) if points is None else (int(points[0]), int(points[1]))
+    if not 0 <= first < last < n:
+        raise InputError(f"--points: expected 0 <= FIRST < LAST < {n} (the program's "
+                         f"cutter locations), got {points!r}")
+    return first, last

@@ -264,12 +264,15 @@ def verify_program(scn: PlanScenario, *, points: tuple[int, int] | None = None,
 
 def simulate_stretch(scn: PlanScenario, *, points: tuple[int, int] | None = None,
                      workpiece=None, progress: Callable[[int, int], None] | None = None,
-                     seed: int = 0, max_machining_s: float | None = None) -> StretchRun:
+                     seed: int = 0, max_machining_s: float | None = None,
+                     part: PartProgram | None = None) -> StretchRun:
     """:func:`verify_program`'s run, without the judgement: the accelerometer stream and
-    the surface record of the stretch (the same arguments)."""
+    the surface record of the stretch (the same arguments; ``part``, optional: the
+    program's :class:`~sim.program.PartProgram` with its local cuts, derived once for
+    all its stretches)."""
     if max_machining_s is not None and not max_machining_s > 0:
         raise ValueError(f"max_machining_s: expected a time > 0 s, got {max_machining_s!r}")
-    nc = SimulatedNC(scn, points=points, seed=seed, workpiece=workpiece)
+    nc = SimulatedNC(scn, points=points, seed=seed, workpiece=workpiece, part=part)
     times, accel, cutting = [], [], []
     total = nc.last - nc.first
     k = 0
@@ -368,7 +371,8 @@ def judge(runs: list[StretchRun]) -> Verification:
                         stopped_reason=reason)
 
 
-def split_at_air(scn: PlanScenario, parts: int) -> list[tuple[int, int]]:
+def split_at_air(scn: PlanScenario, parts: int, part: PartProgram | None = None
+                 ) -> list[tuple[int, int]]:
     """Up to ``parts`` consecutive stretches of the scenario's program, split where the
     tool is in the air, of about equal cutting time: stretches that can run apart
     (:func:`simulate_stretch`) and be judged as one run (:func:`judge`).
@@ -386,6 +390,9 @@ def split_at_air(scn: PlanScenario, parts: int) -> list[tuple[int, int]]:
     scn : PlanScenario
     parts : int
         Stretches wanted (>= 1).
+    part : PartProgram, optional
+        The scenario's program and part, if already made (default: made here, without
+        the local cuts).
 
     Returns
     -------
@@ -395,7 +402,8 @@ def split_at_air(scn: PlanScenario, parts: int) -> list[tuple[int, int]]:
     """
     if not (isinstance(parts, (int, np.integer)) and parts >= 1):
         raise ValueError(f"parts: expected an integer >= 1, got {parts!r}")
-    part = PartProgram(scn, cuts=False)
+    if part is None:
+        part = PartProgram(scn, cuts=False)
     n = len(part.cam)
     material = part.contacts.touching | part.rapid_in_material
     seg = np.zeros(n)

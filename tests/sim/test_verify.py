@@ -311,3 +311,33 @@ def test_a_run_split_at_air_moves_and_judged_as_one_is_the_whole_run(tmp_path):
     assert v.sustained_chatter == whole.sustained_chatter
     assert abs(v.chatter_windows - whole.chatter_windows) <= max(
         2, 2 * abs(other.chatter_windows - whole.chatter_windows))
+
+
+def test_a_stretch_run_with_its_programs_part_given_is_the_run_that_derives_it(tmp_path):
+    """The job derives a program's part and local cuts once (``PartProgram``) and gives it
+    to each of its stretches: a stretch run with it is the run that derives them itself,
+    bit for bit; a part of another program, or one without local cuts, is refused, naming
+    the program."""
+    import dataclasses
+
+    from sim.verify import simulate_stretch
+
+    scn = load_plan_scenario(flexible_wall(tmp_path / "wall", passes=1, edits=STIFF))
+    part = PartProgram(scn)
+    touch = part.touch
+    points = (int(touch[len(touch) // 2]) - 12, int(touch[len(touch) // 2]) + 12)
+    alone = simulate_stretch(scn, points=points, seed=3)
+    given = simulate_stretch(scn, points=points, seed=3, part=part)
+    assert alone.stretch == given.stretch == points
+    assert alone.surface["point"].size > 0
+    for name in ("time_s", "acceleration_m_s2", "cutting", "asked", "covered"):
+        np.testing.assert_array_equal(getattr(given, name), getattr(alone, name))
+    for key, value in alone.surface.items():
+        np.testing.assert_array_equal(given.surface[key], value)
+    assert part.stretch(points).first == points[0] and part.first == 0   # part unchanged
+    other = dataclasses.replace(scn, base=dataclasses.replace(scn.base,
+                                                              program_path=tmp_path / "x.nc"))
+    with pytest.raises(ValueError, match="x.nc"):
+        simulate_stretch(other, points=points, part=part)
+    with pytest.raises(ValueError, match="without local cuts"):
+        simulate_stretch(scn, points=points, part=PartProgram(scn, cuts=False))
