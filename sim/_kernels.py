@@ -1,7 +1,7 @@
 """Numba kernels of the time-domain regenerative milling model (sim/cutting.py) and of
 the accelerometers' analog chain (sim/sensors.py).
 
-Both flush subnormal state to zero (``sim.constants.SUBNORMAL_FLUSH``): a mode or a
+They flush subnormal state to zero (``sim.constants.SUBNORMAL_FLUSH``): a mode or a
 filter that rings down to subnormal numbers stays there in a limit cycle of rounding,
 at about 20 times the cost of every operation, and no answer can see below 2.2e-308.
 """
@@ -353,23 +353,28 @@ def periodic_forced(ptr, h0, f0, f1, scale, direction, phi, gam, x):
         pa, pb, pc, pd = 1.0, 0.0, 0.0, 1.0         # phi^p
         for p in range(spr):
             up = u[p, m]
-            t0 = a * s0 + b * s1 + g0 * up
-            s1 = c * s0 + d * s1 + g1 * up
+            t0 = _flushed(a * s0 + b * s1 + g0 * up)
+            s1 = _flushed(c * s0 + d * s1 + g1 * up)
             s0 = t0
-            qa = a * pa + b * pc
-            qb = a * pb + b * pd
-            pc = c * pa + d * pc
-            pd = c * pb + d * pd
+            qa = _flushed(a * pa + b * pc)     # a heavily damped mode's powers ring down
+            qb = _flushed(a * pb + b * pd)
+            pc = _flushed(c * pa + d * pc)
+            pd = _flushed(c * pb + d * pd)
             pa, pb = qa, qb
         # (I - phi^spr) x0 = s
         ma, mb, mc, md = 1.0 - pa, -pb, -pc, 1.0 - pd
         det = ma * md - mb * mc
+        if det == 0.0:              # no periodic response (an undamped mode in tune)
+            for p in range(spr):
+                x[p, m, 0] = np.nan
+                x[p, m, 1] = np.nan
+            continue
         x0 = (md * s0 - mb * s1) / det
         x1 = (ma * s1 - mc * s0) / det
         for p in range(spr):
             x[p, m, 0] = x0
             x[p, m, 1] = x1
             up = u[p, m]
-            t0 = a * x0 + b * x1 + g0 * up
-            x1 = c * x0 + d * x1 + g1 * up
+            t0 = _flushed(a * x0 + b * x1 + g0 * up)
+            x1 = _flushed(c * x0 + d * x1 + g1 * up)
             x0 = t0

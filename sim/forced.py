@@ -43,6 +43,11 @@ def forced_response(model: CuttingModel, scale: float = 1.0) -> np.ndarray:
     _k.periodic_forced(ptr, h0, f0, f1, float(scale),
                        np.ascontiguousarray(model.system.direction, dtype=float),
                        np.ascontiguousarray(phi), np.ascontiguousarray(gam), x)
+    if not np.isfinite(x).all():
+        bad = np.flatnonzero(~np.isfinite(x).all(axis=(0, 2)))
+        raise ValueError(f"model: no periodic forced response: mode(s) {bad.tolist()} "
+                         f"undamped at a multiple of the revolution frequency (or a "
+                         f"non-finite force table)")
     return x
 
 

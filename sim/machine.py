@@ -198,9 +198,11 @@ class SimulatedNC:
         if part is None:
             part = PartProgram(scn, points)
         else:
-            if not part.with_cuts or part.scn.base.program_path != base.program_path:
-                raise ValueError(f"part: expected {base.program_path}'s program and part "
-                                 f"with their local cuts, got {part.scn.base.program_path}'s"
+            if not part.with_cuts or part.scn.path != scn.path \
+                    or part.scn.base.program_path != base.program_path:
+                raise ValueError(f"part: expected the program and part of {scn.path} "
+                                 f"({base.program_path}) with their local cuts, got those of "
+                                 f"{part.scn.path} ({part.scn.base.program_path})"
                                  f"{'' if part.with_cuts else ' without local cuts'}")
             part = part.stretch(points)
         self.part = part

@@ -674,6 +674,12 @@ def test_forced_response_is_the_eigenvector_filters_answer():
         nxt = np.einsum("mij,mj->mi", phi, got[-1]) + gam * u_last[:, None]
         np.testing.assert_allclose(nxt, got[0], rtol=1e-9, atol=1e-12 * np.abs(got).max())
     np.testing.assert_array_equal(forced_response(a, scale=0.0), 0.0)
+    # an undamped mode whose step map returns to itself over a revolution has no periodic
+    # response to a force: refused, not a state of inf or NaN
+    phi, gam = a.step_map
+    still = dataclasses.replace(a, step_map=(np.broadcast_to(np.eye(2), phi.shape).copy(), gam))
+    with pytest.raises(ValueError, match="undamped"):
+        forced_response(still)
     one, scaled = forced_response(a), forced_response(a, scale=2.5)
     for col in (0, 1):              # linear in the force, to rounding
         np.testing.assert_allclose(scaled[..., col], 2.5 * one[..., col], rtol=0,

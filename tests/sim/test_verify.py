@@ -334,6 +334,12 @@ def test_a_stretch_run_with_its_programs_part_given_is_the_run_that_derives_it(t
         np.testing.assert_array_equal(getattr(given, name), getattr(alone, name))
     for key, value in alone.surface.items():
         np.testing.assert_array_equal(given.surface[key], value)
+    # a second stretch on the same part after the first: nothing of the first is left
+    later = (points[1], len(part.cam) - 1)
+    shared = simulate_stretch(scn, points=later, seed=4, part=part).surface["offset_mm"]
+    assert shared.size > 0
+    np.testing.assert_array_equal(
+        shared, simulate_stretch(scn, points=later, seed=4).surface["offset_mm"])
     assert part.stretch(points).first == points[0] and part.first == 0   # part unchanged
     other = dataclasses.replace(scn, base=dataclasses.replace(scn.base,
                                                               program_path=tmp_path / "x.nc"))
