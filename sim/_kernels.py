@@ -352,15 +352,10 @@ def periodic_forced(ptr, h0, f0, f1, scale, direction, phi, gam, x):
         s1 = 0.0
         pa, pb, pc, pd = 1.0, 0.0, 0.0, 1.0         # phi^p
         for p in range(spr):
-            up = u[p, m]
-            t0 = _flushed(a * s0 + b * s1 + g0 * up)
-            s1 = _flushed(c * s0 + d * s1 + g1 * up)
-            s0 = t0
-            qa = _flushed(a * pa + b * pc)     # a heavily damped mode's powers ring down
-            qb = _flushed(a * pb + b * pd)
-            pc = _flushed(c * pa + d * pc)
-            pd = _flushed(c * pb + d * pd)
-            pa, pb = qa, qb
+            s0, s1 = _mode_map(a, b, c, d, g0, g1, s0, s1, u[p, m])
+            # phi^(p+1), column by column (a heavily damped mode's powers ring down)
+            pa, pc = _mode_map(a, b, c, d, 0.0, 0.0, pa, pc, 0.0)
+            pb, pd = _mode_map(a, b, c, d, 0.0, 0.0, pb, pd, 0.0)
         # (I - phi^spr) x0 = s
         ma, mb, mc, md = 1.0 - pa, -pb, -pc, 1.0 - pd
         det = ma * md - mb * mc
@@ -374,7 +369,4 @@ def periodic_forced(ptr, h0, f0, f1, scale, direction, phi, gam, x):
         for p in range(spr):
             x[p, m, 0] = x0
             x[p, m, 1] = x1
-            up = u[p, m]
-            t0 = _flushed(a * x0 + b * x1 + g0 * up)
-            x1 = _flushed(c * x0 + d * x1 + g1 * up)
-            x0 = t0
+            x0, x1 = _mode_map(a, b, c, d, g0, g1, x0, x1, u[p, m])
