@@ -91,13 +91,20 @@ def run_part(scn: PlanScenario, part: str) -> None:
 def sources_stamp() -> str:
     """A digest of the packages' sources (each ``.py`` file's path, size and
     modification time, as numba stamps its own cache) and of Python's and numba's
-    versions: a manifest made from other sources is not used."""
+    versions: a manifest made from other sources is not used. The same in every
+    working directory."""
     import numba
 
     h = hashlib.sha256(f"{sys.version}|{numba.__version__}".encode())
     for name in _PACKAGES:
-        for root in importlib.import_module(name).__path__:
-            for path in sorted(Path(root).rglob("*.py")):
+        # each folder once, resolved: a namespace package's (``errpred``) path lists
+        # the folder again where the working directory is the one holding it (and
+        # the editable install's path hook), so a job started from another folder
+        # than the last one ran the simulated machine's part again (9-15 s)
+        roots = {Path(p).resolve() for p in importlib.import_module(name).__path__
+                 if Path(p).is_dir()}
+        for root in sorted(roots):
+            for path in sorted(root.rglob("*.py")):
                 st = path.stat()
                 h.update(f"{path}|{st.st_size}|{st.st_mtime_ns}".encode())
     return h.hexdigest()

@@ -250,3 +250,20 @@ def test_a_warm_up_part_runs_once_then_loads_its_manifest(tmp_path, monkeypatch,
     assert "no_such_kernel" in caplog.text and "running the part" in caplog.text
     with pytest.raises(ValueError, match="unknown part 'x'"):
         warmup.warm_kernels(scn, ("x",))
+
+def test_the_sources_stamp_is_the_same_from_any_working_directory(tmp_path):
+    # errpred is a namespace package: its path lists the folder again where the
+    # working directory holds it; a stamp that counted it twice made a job started
+    # from another folder than the last one run the simulated machine's part again
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    code = "from sim.warmup import sources_stamp; print(sources_stamp())"
+    env = dict(os.environ, PYTHONPATH=str(root))
+    stamps = {subprocess.run([sys.executable, "-c", code], cwd=cwd, env=env, check=True,
+                             capture_output=True, text=True).stdout.strip()
+              for cwd in (root, tmp_path)}
+    assert len(stamps) == 1 and len(stamps.pop()) == 64
