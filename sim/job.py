@@ -241,7 +241,7 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
     # The simulation's part is submitted after the plan and waited for before the
     # verification only: run whole, it took 35 s even with the kernels cached (its finite
     # elements, lobes and a few cutter locations), which the prediction waited for (with
-    # the kernels cached every part now only loads its manifest: sim/warmup.py)
+    # the kernels cached no child is started: sim/warmup.py)
     warm = [] if client is None else [client.submit(
         warm_apart, scn, ("predict", "margins"), pure=False, priority=-1)]
     warm_sim: list = []

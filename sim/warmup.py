@@ -12,6 +12,8 @@ are the same, the part only asks numba for those signatures (a load from the cac
 about a second, where running the simulated machine's part takes 8-10 s of
 finite elements and lobes even with every kernel cached). Signatures numba no longer
 has (a cache emptied by hand) are compiled from the manifest as the run would have.
+The manifest also lists the kernels' cache index files: while the sources are the
+same and those files are there, no child is started at all (:func:`cached`).
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ from orient.workpiece import WorkpieceModel
 from .constants import JOB_WARM_BLOCKS, JOB_WARM_POINTS
 from .verify import verify_program
 
-__all__ = ["PARTS", "warm_kernels", "warm_apart", "manifest_path", "sources_stamp"]
+__all__ = ["PARTS", "cached", "warm_kernels", "warm_apart", "manifest_path", "sources_stamp"]
 
 #: The warm-up's parts, in the order a job needs them.
 PARTS = ("margins", "predict", "simulate")
@@ -120,6 +122,21 @@ def manifest_path(part: str) -> Path:
     return Path(folder) / f"job-warm-{part}.manifest"
 
 
+def _index_files(entries: list[tuple[str, str, list]]) -> list[str] | None:
+    """The numba cache index file (``.nbi``) of each kernel of a manifest's ``entries``,
+    or None where numba does not say where one is (the check that uses them is then
+    not made)."""
+    out = []
+    for module, attr, _sigs in entries:
+        disp = getattr(sys.modules.get(module), attr, None)
+        path = getattr(getattr(getattr(disp, "_cache", None), "_cache_file", None),
+                       "_index_path", None)
+        if not isinstance(path, str):
+            return None
+        out.append(path)
+    return out
+
+
 def _compiled_signatures() -> list[tuple[str, str, list]]:
     """``(module, name, signatures)`` of every kernel of the packages called from Python
     in this process (a kernel's callees come with it: numba links them into its code)."""
@@ -142,7 +159,7 @@ def _from_manifest(path: Path, stamp: str) -> bool:
     then runs)."""
     try:
         with open(path, "rb") as fh:
-            made, entries = pickle.load(fh)
+            made, entries, *_files = pickle.load(fh)
     except FileNotFoundError:
         return False
     except Exception as exc:                    # noqa: BLE001 -- only time depends on it
@@ -161,6 +178,26 @@ def _from_manifest(path: Path, stamp: str) -> bool:
     return True
 
 
+def cached(parts: tuple[str, ...], stamp: str | None = None) -> bool:
+    """Whether every part's manifest is of these sources and lists numba cache index
+    files that all exist: then the warm-up has nothing to do (each kernel is loaded
+    from the cache where it is first called) and :func:`warm_apart` starts no child
+    (a Python that imports the packages to find that out: 3-5 s of a core, and the
+    worker waiting for it, in the job). False where unsure: the child then checks."""
+    stamp = stamp or sources_stamp()
+    for part in parts:
+        try:
+            with open(manifest_path(part), "rb") as fh:
+                made, _entries, *files = pickle.load(fh)
+        except Exception:                       # noqa: BLE001 -- only time depends on it
+            return False
+        if made != stamp or not files or files[0] is None:
+            return False
+        if not all(os.path.isfile(f) for f in files[0]):
+            return False
+    return True
+
+
 def warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
     """Have numba compile (and cache on disk for every process) the kernels of ``parts``
     (:data:`PARTS`): from the part's manifest where one of these sources exists,
@@ -173,17 +210,24 @@ def warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
     for part in parts:
         path = manifest_path(part)
         if _from_manifest(path, stamp):
+            if not cached((part,), stamp):
+                _write_manifest(path, stamp)    # one without its index files: with them
             continue
         run_part(scn, part)
-        # every kernel this process called so far, not only this part's: a later part's
-        # manifest holds an earlier one's too (cheap to load; complete on its own)
-        entries = _compiled_signatures()
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            with atomic_write(path, "wb") as fh:
-                pickle.dump((stamp, entries), fh)
-        except OSError as exc:      # a read-only cache: the part runs every time
-            log.info("%s: warm-up manifest not written (%s)", path, exc)
+        _write_manifest(path, stamp)
+
+
+def _write_manifest(path: Path, stamp: str) -> None:
+    """Every kernel this process called so far, not only the part's (a later part's
+    manifest holds an earlier one's too: cheap to load; complete on its own), with
+    their cache index files."""
+    entries = _compiled_signatures()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_write(path, "wb") as fh:
+            pickle.dump((stamp, entries, _index_files(entries)), fh)
+    except OSError as exc:      # a read-only cache: the part runs every time
+        log.info("%s: warm-up manifest not written (%s)", path, exc)
 
 
 def warm_apart(scn: PlanScenario, parts: tuple[str, ...]) -> int:
@@ -192,7 +236,11 @@ def warm_apart(scn: PlanScenario, parts: tuple[str, ...]) -> int:
     for the margins' and the prediction's kernels), so the process that compiles is one
     that ends, not a worker that goes on to plan, predict or verify. Returns the child's
     exit status (a failure only costs time: a later stage compiles what is missing;
-    its last line of error output is logged)."""
+    its last line of error output is logged). No child where the kernels are cached
+    (:func:`cached`)."""
+    unknown = [p for p in parts if p not in PARTS]
+    if not unknown and cached(parts):
+        return 0
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
     code = ("import pickle, sys; from sim.warmup import warm_kernels; "
             "warm_kernels(*pickle.load(sys.stdin.buffer))")

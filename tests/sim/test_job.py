@@ -197,6 +197,14 @@ def test_the_warm_up_runs_apart_and_a_failure_is_logged(tmp_path, caplog):
     assert "unknown part 'no-such-part'" in caplog.text
 
 
+def entries_files(path) -> list[str]:
+    """The cache index files a warm-up manifest lists."""
+    import pickle
+
+    with open(path, "rb") as fh:
+        return pickle.load(fh)[2]
+
+
 def test_a_warm_up_part_runs_once_then_loads_its_manifest(tmp_path, monkeypatch, caplog):
     # the first time a part runs its kernels and writes the signatures numba compiled,
     # stamped with the sources; then, while the sources are the same, it only asks numba
@@ -224,7 +232,7 @@ def test_a_warm_up_part_runs_once_then_loads_its_manifest(tmp_path, monkeypatch,
     path = warmup.manifest_path("margins")
     assert path.parent == tmp_path / "cache"
     with open(path, "rb") as fh:
-        stamp, entries = pickle.load(fh)
+        stamp, entries, _files = pickle.load(fh)
     assert stamp == warmup.sources_stamp()
     names = {(m, a) for m, a, sigs in entries if sigs}
     # the one-thread kernel the job's Dask tasks use (the manifest lists every kernel
@@ -234,12 +242,38 @@ def test_a_warm_up_part_runs_once_then_loads_its_manifest(tmp_path, monkeypatch,
     warmup.warm_kernels(scn, ("margins",))
     assert ran == ["margins"]                   # from the manifest: not run
 
+    # with the manifest current and its kernels' cache index files there, warm_apart
+    # starts no child; one index file missing and it does
+    assert all(f.endswith(".nbi") for f in entries_files(path))
+    started: list = []
+
+    def child(args, **_kw):
+        started.append(args)
+        return warmup.subprocess.CompletedProcess(args, 0, b"", b"")
+
+    monkeypatch.setattr(warmup.subprocess, "run", child)
+    assert warmup.cached(("margins",)) and warmup.warm_apart(scn, ("margins",)) == 0
+    assert started == []
+    with open(path, "rb") as fh:
+        stamp, entries, files = pickle.load(fh)
+    with open(path, "wb") as fh:
+        pickle.dump((stamp, entries, files + [str(tmp_path / "gone.nbi")]), fh)
+    assert not warmup.cached(("margins",))
+    assert warmup.warm_apart(scn, ("margins",)) == 0 and len(started) == 1
+    monkeypatch.undo()
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(warmup, "run_part", spy)
+    # a manifest without its index files (or with a missing one) is written again
+    # with them when it loads
+    warmup.warm_kernels(scn, ("margins",))
+    assert ran == ["margins"] and warmup.cached(("margins",))
+
     monkeypatch.setattr(warmup, "sources_stamp", lambda: "other sources")
     warmup.warm_kernels(scn, ("margins",))
     assert ran == ["margins", "margins"]
 
     with open(path, "rb") as fh:
-        stamp, entries = pickle.load(fh)
+        stamp, entries, _files = pickle.load(fh)
     assert stamp == "other sources"
     entries.append(("orient.stability._kernels", "no_such_kernel", ["int64"]))
     with open(path, "wb") as fh:
