@@ -18,8 +18,9 @@ from numba import njit
 from ._kernels import (_in_box, _reach_bound, _sphere, sweep_distance, sweep_lower_bound,
                        sweep_within)
 from ._sort_kernels import argsort_stable, grown
-from .constants import (CLUSTER_COARSE, CLUSTER_RECENT, CLUSTER_SUPER, HOT_SEED_POINTS,
-                        HOT_SEED_SWEEPS)
+from .constants import (CLUSTER_COARSE, CLUSTER_RECENT, CLUSTER_SUPER, HOT_ROUNDS,
+                        HOT_ROUNDS_BALL, HOT_SEED_POINTS, HOT_SEED_POINTS_BALL,
+                        HOT_SEED_SWEEPS, HOT_SEED_SWEEPS_BALL)
 
 __all__ = ["inside_any_sweep_clustered", "read_only", "sweep_margin_clustered"]
 
@@ -372,25 +373,37 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach,
 
 
 @njit(cache=True)
-def _hot_sweep(points, candidates, p0, d, w, c, r, top, lim):
-    """A sweep likely to hold many of the points within ``lim`` of its core, or -1.
-
-    The first of the first ``HOT_SEED_SWEEPS`` sweeps (callers order them
-    nearest first) to hold one of the first ``HOT_SEED_POINTS`` candidates: in
-    finishing, the move just behind the tool holds most of the tool.
-    """
-    tried = 0
-    for i in range(points.shape[0]):
+def _hot_sweep(points, candidates, p0, d, w, c, r, top, lim, n_sweeps, n_points):
+    """Of the first ``n_sweeps`` sweeps (callers order them nearest first), the one
+    holding the most of about ``n_points`` candidates spread over the array (every
+    k-th candidate), or -1 where none holds any: in finishing, the moves just behind
+    the tool hold most of it, the pass before much of the rest."""
+    k = points.shape[0]
+    ns = min(p0.shape[0], n_sweeps)
+    count = np.zeros(max(ns, 1), dtype=np.int64)
+    left = 0
+    for i in range(k):
+        if candidates[i]:
+            left += 1
+    stride = max(1, left // n_points)
+    seen = -1
+    for i in range(k):
         if not candidates[i]:
             continue
-        if tried >= HOT_SEED_POINTS:
-            break
-        tried += 1
-        for j in range(min(p0.shape[0], HOT_SEED_SWEEPS)):
+        seen += 1
+        if seen % stride:
+            continue
+        for j in range(ns):
             if sweep_within(points[i, 0], points[i, 1], points[i, 2], p0[j], d[j], w[j], c, r,
                             top, lim):
-                return j
-    return -1
+                count[j] += 1
+    best = -1
+    most = 0
+    for j in range(ns):
+        if count[j] > most:
+            most = count[j]
+            best = j
+    return best
 
 
 @njit(cache=True)
@@ -409,14 +422,20 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
     if k == 0 or p0.shape[0] == 0:
         return out
     lim = r + eps
-    # first, every point against one sweep that holds many (:func:`_hot_sweep`): only
-    # the others are binned
+    # first, every point against a few sweeps that hold many (:func:`_hot_sweep`, one
+    # a round, from the points left): only the others are binned
     rest = candidates.copy()
-    hot = _hot_sweep(points, candidates, p0, d, w, c, r, top, lim)
-    if hot >= 0:
+    if c == 0.0:
+        rounds, n_sweeps, n_points = HOT_ROUNDS_BALL, HOT_SEED_SWEEPS_BALL, HOT_SEED_POINTS_BALL
+    else:
+        rounds, n_sweeps, n_points = HOT_ROUNDS, HOT_SEED_SWEEPS, HOT_SEED_POINTS
+    for _round in range(rounds):
+        hot = _hot_sweep(points, rest, p0, d, w, c, r, top, lim, n_sweeps, n_points)
+        if hot < 0:
+            break
         for i in range(k):
-            if candidates[i] and sweep_within(points[i, 0], points[i, 1], points[i, 2], p0[hot],
-                                              d[hot], w[hot], c, r, top, lim):
+            if rest[i] and sweep_within(points[i, 0], points[i, 1], points[i, 2], p0[hot],
+                                        d[hot], w[hot], c, r, top, lim):
                 out[i] = True
                 rest[i] = False
     idx, order, keys, m = _bins(points, rest, cell)
@@ -445,7 +464,8 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
     # first, every point against one sweep many lie deep inside (:func:`_hot_sweep`):
     # those read ``floor``; only the others are binned
     rest = candidates.copy()
-    hot = _hot_sweep(points, candidates, p0, d, w, c, r, top, r + floor)
+    hot = _hot_sweep(points, candidates, p0, d, w, c, r, top, r + floor, HOT_SEED_SWEEPS,
+                     HOT_SEED_POINTS)
     if hot >= 0:
         for i in range(k):
             if candidates[i] and sweep_distance(points[i, 0], points[i, 1], points[i, 2],

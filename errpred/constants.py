@@ -71,12 +71,23 @@ CLUSTER_SUPER = 4
 #: bins before (latest first); only a bin with a point none of them holds gets
 #: its short list and the exact tests against it [-].
 CLUSTER_RECENT = 8
-#: Before binning, points are tested against one sweep likely to hold many of
-#: them (in finishing, the move just behind the tool): the first of the first
-#: HOT_SEED_SWEEPS sweeps (nearest first) to hold one of the first
-#: HOT_SEED_POINTS points [-]. Only the points it does not hold are binned.
-HOT_SEED_POINTS = 4
+#: Before binning, points are tested against a few sweeps likely to hold many
+#: of them (in finishing, the moves just behind the tool and the pass before),
+#: picked in HOT_ROUNDS rounds: each round, of the first HOT_SEED_SWEEPS sweeps
+#: (nearest first), the one holding the most of HOT_SEED_POINTS points spread
+#: over those left [-]. Only the points none of them holds are binned. Ball end
+#: mills (a closed-form test) take more of each; other tools' tests are searches,
+#: so fewer (wall-radius, a corner radius, took x1.45 the time with the ball's
+#: figures). Measured on the calls recorded from stage 1 (the same answers; min of
+#: six runs each, in turn with the former seed, the first of 16 sweeps to hold one
+#: of the first 4 points): the thin wall's planned program (5-axis ball) x0.71-0.75,
+#: mold-ball contour x0.93, raster x0.96, wall-radius x0.97.
 HOT_SEED_SWEEPS = 16
+HOT_SEED_POINTS = 16
+HOT_ROUNDS = 1
+HOT_SEED_SWEEPS_BALL = 64
+HOT_SEED_POINTS_BALL = 48
+HOT_ROUNDS_BALL = 3
 #: Stock membership by vertical rays looks up the triangles over a point in a
 #: grid of (x, y) columns: at most this many columns along the longer side
 #: [-] ...

@@ -421,3 +421,36 @@ def test_block_lookup_gives_near_the_same_sweeps(tilting):
     # a block spanning more than the limit has no shared look-up
     far = BlockLookup(sw, pts[100:400], axis[100:400], R, height, margin, 1.0)
     assert far.ids_for(pts[200] - 1, pts[200] + 1) is None
+
+
+def test_the_hot_sweep_holds_the_most_of_the_candidates_sampled():
+    """The clustered test's first pass picks, of the first sweeps, the one that holds
+    the most of the candidates it samples (every k-th candidate): not the first to hold
+    one; among the candidates left after it, the next; -1 where none holds any."""
+    from errpred._cluster_kernels import _hot_sweep
+
+    # three parked ball end mills (no displacement) of radius 1 along x: sweep 0 holds
+    # the points around x = 0 (a tenth), sweep 1 around x = 5 (six tenths), sweep 2
+    # around x = 10 (three tenths)
+    p0 = np.array([[0.0, 0, 0], [5.0, 0, 0], [10.0, 0, 0]])
+    d = np.zeros((3, 3))
+    w = np.tile([0.0, 0.0, 1.0], (3, 1))
+    rng = np.random.default_rng(4)
+    centres = np.repeat([0.0, 5.0, 10.0], [100, 600, 300])
+    pts = np.column_stack([centres, np.zeros(1000), np.ones(1000)])
+    pts += rng.uniform(-0.3, 0.3, pts.shape)
+    order = rng.permutation(1000)
+    pts = np.ascontiguousarray(pts[order])
+    owner = (centres[order] / 5.0).astype(int)
+    c, r, top, lim = 0.0, 1.0, 10.0, 1.0 + 1e-6
+    every = np.ones(1000, dtype=np.bool_)
+    assert _hot_sweep(pts, every, p0, d, w, c, r, top, lim, 16, 48) == 1
+    # sparse candidates: sampled among the candidates, not among all points
+    rest = np.ascontiguousarray(owner != 1)
+    assert _hot_sweep(pts, rest, p0, d, w, c, r, top, lim, 16, 48) == 2
+    assert _hot_sweep(pts, np.ascontiguousarray(owner == 0), p0, d, w, c, r, top, lim,
+                      16, 48) == 0
+    # only the first n_sweeps sweeps are looked at
+    assert _hot_sweep(pts, rest, p0, d, w, c, r, top, lim, 1, 48) == 0
+    far = np.ascontiguousarray(pts + [0.0, 50.0, 0.0])
+    assert _hot_sweep(far, every, p0, d, w, c, r, top, lim, 16, 48) == -1
