@@ -20,7 +20,7 @@ from ._kernels import (_in_box, _reach_bound, _sphere, sweep_distance, sweep_low
 from ._sort_kernels import argsort_stable, grown
 from .constants import (CLUSTER_COARSE, CLUSTER_RECENT, CLUSTER_SUPER, HOT_ROUNDS,
                         HOT_ROUNDS_BALL, HOT_SEED_POINTS, HOT_SEED_POINTS_BALL,
-                        HOT_SEED_SWEEPS, HOT_SEED_SWEEPS_BALL)
+                        HOT_SEED_SWEEPS, HOT_SEED_SWEEPS_BALL, MARGIN_SEED_POINTS)
 
 __all__ = ["inside_any_sweep_clustered", "read_only", "sweep_margin_clustered"]
 
@@ -373,21 +373,24 @@ def _shortlists(points, idx, order, keys, m, p0, d, w, lo, hi, c, r, top, reach,
 
 
 @njit(cache=True)
-def _hot_sweep(points, candidates, p0, d, w, c, r, top, lim, n_sweeps, n_points):
+def _hot_sweep(points, candidates, p0, d, w, c, r, top, lim, n_sweeps, n_points, enough):
     """Of the first ``n_sweeps`` sweeps (callers order them nearest first), the one
-    holding the most of about ``n_points`` candidates spread over the array (every
-    k-th candidate), or -1 where none holds any: in finishing, the moves just behind
-    the tool hold most of it, the pass before much of the rest."""
-    k = points.shape[0]
+    holding the most of ``n_points`` candidates spread over them (every ``stride``-th
+    candidate; fewer where there are fewer), or -1 where none holds any: in finishing,
+    the moves just behind the tool hold most of it, the pass before much of the rest.
+    With ``enough`` > 0 the first sweep to hold that many of them is taken at once
+    (``enough = 1``: the first to hold one, the sampled points in order)."""
+    n = points.shape[0]
     ns = min(p0.shape[0], n_sweeps)
     count = np.zeros(max(ns, 1), dtype=np.int64)
     left = 0
-    for i in range(k):
+    for i in range(n):
         if candidates[i]:
             left += 1
-    stride = max(1, left // n_points)
+    want = max(n_points, 1)
+    stride = max(1, (left + want - 1) // want)
     seen = -1
-    for i in range(k):
+    for i in range(n):
         if not candidates[i]:
             continue
         seen += 1
@@ -397,6 +400,8 @@ def _hot_sweep(points, candidates, p0, d, w, c, r, top, lim, n_sweeps, n_points)
             if sweep_within(points[i, 0], points[i, 1], points[i, 2], p0[j], d[j], w[j], c, r,
                             top, lim):
                 count[j] += 1
+                if enough > 0 and count[j] >= enough:
+                    return j
     best = -1
     most = 0
     for j in range(ns):
@@ -430,7 +435,7 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
     else:
         rounds, n_sweeps, n_points = HOT_ROUNDS, HOT_SEED_SWEEPS, HOT_SEED_POINTS
     for _round in range(rounds):
-        hot = _hot_sweep(points, rest, p0, d, w, c, r, top, lim, n_sweeps, n_points)
+        hot = _hot_sweep(points, rest, p0, d, w, c, r, top, lim, n_sweeps, n_points, 0)
         if hot < 0:
             break
         for i in range(k):
@@ -464,8 +469,10 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
     # first, every point against one sweep many lie deep inside (:func:`_hot_sweep`):
     # those read ``floor``; only the others are binned
     rest = candidates.copy()
+    # (the first of them to hold one of a few points, as before the membership test's
+    # rounds: those were measured on membership calls only)
     hot = _hot_sweep(points, candidates, p0, d, w, c, r, top, r + floor, HOT_SEED_SWEEPS,
-                     HOT_SEED_POINTS)
+                     MARGIN_SEED_POINTS, 1)
     if hot >= 0:
         for i in range(k):
             if candidates[i] and sweep_distance(points[i, 0], points[i, 1], points[i, 2],

@@ -75,19 +75,23 @@ CLUSTER_RECENT = 8
 #: of them (in finishing, the moves just behind the tool and the pass before),
 #: picked in HOT_ROUNDS rounds: each round, of the first HOT_SEED_SWEEPS sweeps
 #: (nearest first), the one holding the most of HOT_SEED_POINTS points spread
-#: over those left [-]. Only the points none of them holds are binned. Ball end
+#: over those left (fewer where fewer are left) [-]. Only the points none of them holds are binned. Ball end
 #: mills (a closed-form test) take more of each; other tools' tests are searches,
 #: so fewer (wall-radius, a corner radius, took x1.45 the time with the ball's
 #: figures). Measured on the calls recorded from stage 1 (the same answers; min of
 #: six runs each, in turn with the former seed, the first of 16 sweeps to hold one
-#: of the first 4 points): the thin wall's planned program (5-axis ball) x0.71-0.75,
-#: mold-ball contour x0.93, raster x0.96, wall-radius x0.97.
+#: of the first 4 points): the thin wall's planned program (5-axis ball) x0.69-0.75,
+#: mold-ball contour x0.87-0.93, raster x0.96, wall-radius x0.97.
 HOT_SEED_SWEEPS = 16
 HOT_SEED_POINTS = 16
 HOT_ROUNDS = 1
 HOT_SEED_SWEEPS_BALL = 64
 HOT_SEED_POINTS_BALL = 48
 HOT_ROUNDS_BALL = 3
+#: The margins' first pass (errpred._cluster_kernels.sweep_margin_clustered): the
+#: first of HOT_SEED_SWEEPS sweeps to hold one of this many points spread over the
+#: candidates [-] (its rounds above were not measured there).
+MARGIN_SEED_POINTS = 4
 #: Stock membership by vertical rays looks up the triangles over a point in a
 #: grid of (x, y) columns: at most this many columns along the longer side
 #: [-] ...

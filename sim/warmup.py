@@ -13,7 +13,8 @@ about a second, where running the simulated machine's part takes 8-10 s of
 finite elements and lobes even with every kernel cached). Signatures numba no longer
 has (a cache emptied by hand) are compiled from the manifest as the run would have.
 The manifest also lists the kernels' cache index files: while the sources are the
-same and those files are there, no child is started at all (:func:`cached`).
+same and those files are there, no child is started at all (:func:`cached`; a cache
+emptied by hand then means its index files are gone).
 """
 
 from __future__ import annotations
@@ -183,17 +184,20 @@ def cached(parts: tuple[str, ...], stamp: str | None = None) -> bool:
     files that all exist: then the warm-up has nothing to do (each kernel is loaded
     from the cache where it is first called) and :func:`warm_apart` starts no child
     (a Python that imports the packages to find that out: 3-5 s of a core, and the
-    worker waiting for it, in the job). False where unsure: the child then checks."""
+    worker waiting for it, in the job). False where unsure: the child then checks.
+    Only the index files are looked at, not each signature in them: a cache whose
+    data files were deleted by hand, its index kept, is compiled again by the stage
+    that needs it (in a worker: time and the compiler's memory, not answers)."""
     stamp = stamp or sources_stamp()
     for part in parts:
         try:
             with open(manifest_path(part), "rb") as fh:
                 made, _entries, *files = pickle.load(fh)
+            if made != stamp or not files or files[0] is None:
+                return False
+            if not all(os.path.isfile(f) for f in files[0]):
+                return False
         except Exception:                       # noqa: BLE001 -- only time depends on it
-            return False
-        if made != stamp or not files or files[0] is None:
-            return False
-        if not all(os.path.isfile(f) for f in files[0]):
             return False
     return True
 
@@ -210,7 +214,7 @@ def warm_kernels(scn: PlanScenario, parts: tuple[str, ...]) -> None:
     for part in parts:
         path = manifest_path(part)
         if _from_manifest(path, stamp):
-            if not cached((part,), stamp):
+            if not cached((part,), stamp) and _index_files(_compiled_signatures()):
                 _write_manifest(path, stamp)    # one without its index files: with them
             continue
         run_part(scn, part)

@@ -425,7 +425,7 @@ def test_block_lookup_gives_near_the_same_sweeps(tilting):
 
 def test_the_hot_sweep_holds_the_most_of_the_candidates_sampled():
     """The clustered test's first pass picks, of the first sweeps, the one that holds
-    the most of the candidates it samples (every k-th candidate): not the first to hold
+    the most of the candidates it samples (spread over them): not the first to hold
     one; among the candidates left after it, the next; -1 where none holds any."""
     from errpred._cluster_kernels import _hot_sweep
 
@@ -444,13 +444,16 @@ def test_the_hot_sweep_holds_the_most_of_the_candidates_sampled():
     owner = (centres[order] / 5.0).astype(int)
     c, r, top, lim = 0.0, 1.0, 10.0, 1.0 + 1e-6
     every = np.ones(1000, dtype=np.bool_)
-    assert _hot_sweep(pts, every, p0, d, w, c, r, top, lim, 16, 48) == 1
+    assert _hot_sweep(pts, every, p0, d, w, c, r, top, lim, 16, 48, 0) == 1
     # sparse candidates: sampled among the candidates, not among all points
     rest = np.ascontiguousarray(owner != 1)
-    assert _hot_sweep(pts, rest, p0, d, w, c, r, top, lim, 16, 48) == 2
+    assert _hot_sweep(pts, rest, p0, d, w, c, r, top, lim, 16, 48, 0) == 2
     assert _hot_sweep(pts, np.ascontiguousarray(owner == 0), p0, d, w, c, r, top, lim,
-                      16, 48) == 0
+                      16, 48, 0) == 0
     # only the first n_sweeps sweeps are looked at
-    assert _hot_sweep(pts, rest, p0, d, w, c, r, top, lim, 1, 48) == 0
+    assert _hot_sweep(pts, rest, p0, d, w, c, r, top, lim, 1, 48, 0) == 0
     far = np.ascontiguousarray(pts + [0.0, 50.0, 0.0])
-    assert _hot_sweep(far, every, p0, d, w, c, r, top, lim, 16, 48) == -1
+    assert _hot_sweep(far, every, p0, d, w, c, r, top, lim, 16, 48, 0) == -1
+    # enough = 1 (the margins' pass): the first sweep to hold a sampled point, the first
+    # point first
+    assert _hot_sweep(pts, every, p0, d, w, c, r, top, lim, 16, 4, 1) == owner[0]

@@ -263,8 +263,13 @@ def test_a_warm_up_part_runs_once_then_loads_its_manifest(tmp_path, monkeypatch,
     monkeypatch.undo()
     monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(warmup, "run_part", spy)
-    # a manifest without its index files (or with a missing one) is written again
-    # with them when it loads
+    # a manifest with a missing index file, or without its index files (the former
+    # format), is written again with them when it loads (not run)
+    warmup.warm_kernels(scn, ("margins",))
+    assert ran == ["margins"] and warmup.cached(("margins",))
+    with open(path, "wb") as fh:
+        pickle.dump((stamp, entries), fh)
+    assert not warmup.cached(("margins",))
     warmup.warm_kernels(scn, ("margins",))
     assert ran == ["margins"] and warmup.cached(("margins",))
 
@@ -284,6 +289,7 @@ def test_a_warm_up_part_runs_once_then_loads_its_manifest(tmp_path, monkeypatch,
     assert "no_such_kernel" in caplog.text and "running the part" in caplog.text
     with pytest.raises(ValueError, match="unknown part 'x'"):
         warmup.warm_kernels(scn, ("x",))
+
 
 def test_the_sources_stamp_is_the_same_from_any_working_directory(tmp_path):
     # errpred is a namespace package: its path lists the folder again where the
