@@ -431,7 +431,8 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
     # a round, from the points left): only the others are binned
     rest = candidates.copy()
     if c == 0.0:
-        rounds, n_sweeps, n_points = HOT_ROUNDS_BALL, HOT_SEED_SWEEPS_BALL, HOT_SEED_POINTS_BALL
+        rounds, n_sweeps = HOT_ROUNDS_BALL, HOT_SEED_SWEEPS_BALL
+        n_points = HOT_SEED_POINTS_BALL
     else:
         rounds, n_sweeps, n_points = HOT_ROUNDS, HOT_SEED_SWEEPS, HOT_SEED_POINTS
     for _round in range(rounds):

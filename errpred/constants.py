@@ -75,8 +75,9 @@ CLUSTER_RECENT = 8
 #: of them (in finishing, the moves just behind the tool and the pass before),
 #: picked in HOT_ROUNDS rounds: each round, of the first HOT_SEED_SWEEPS sweeps
 #: (nearest first), the one holding the most of HOT_SEED_POINTS points spread
-#: over those left (fewer where fewer are left) [-]. Only the points none of them holds are binned. Ball end
-#: mills (a closed-form test) take more of each; other tools' tests are searches,
+#: over those left (fewer where fewer are left) [-]. Only the points none of
+#: them holds are binned. Ball end mills (a closed-form test) take more of each;
+#: other tools' tests are searches,
 #: so fewer (wall-radius, a corner radius, took x1.45 the time with the ball's
 #: figures). Measured on the calls recorded from stage 1 (the same answers; min of
 #: six runs each, in turn with the former seed, the first of 16 sweeps to hold one

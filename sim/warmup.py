@@ -43,7 +43,8 @@ from orient.workpiece import WorkpieceModel
 from .constants import JOB_WARM_BLOCKS, JOB_WARM_POINTS
 from .verify import verify_program
 
-__all__ = ["PARTS", "cached", "warm_kernels", "warm_apart", "manifest_path", "sources_stamp"]
+__all__ = ["PARTS", "cached", "warm_kernels", "warm_apart", "manifest_path",
+           "sources_stamp"]
 
 #: The warm-up's parts, in the order a job needs them.
 PARTS = ("margins", "predict", "simulate")
