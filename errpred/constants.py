@@ -77,9 +77,8 @@ CLUSTER_RECENT = 8
 #: (nearest first), the one holding the most of HOT_SEED_POINTS points spread
 #: over those left (fewer where fewer are left) [-]. Only the points none of
 #: them holds are binned. Ball end mills (a closed-form test) take more of each;
-#: other tools' tests are searches,
-#: so fewer (wall-radius, a corner radius, took x1.45 the time with the ball's
-#: figures). Measured on the calls recorded from stage 1 (the same answers; min of
+#: other tools' tests are searches, so fewer (wall-radius, a corner radius, took
+#: x1.45 the time with the ball's figures). Measured on the calls recorded from stage 1 (the same answers; min of
 #: six runs each, in turn with the former seed, the first of 16 sweeps to hold one
 #: of the first 4 points): the thin wall's planned program (5-axis ball) x0.69-0.75,
 #: mold-ball contour x0.87-0.93, raster x0.96, wall-radius x0.97.

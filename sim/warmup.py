@@ -155,13 +155,20 @@ def _compiled_signatures() -> list[tuple[str, str, list]]:
     return out
 
 
+def _read_manifest(path: Path) -> tuple[str, list, list[str] | None]:
+    """``(stamp, entries, index files)`` of a manifest (index files None in one of the
+    former format, which has none); raises where there is none or it cannot be read."""
+    with open(path, "rb") as fh:
+        made, entries, *files = pickle.load(fh)
+    return made, entries, (files[0] if files else None)
+
+
 def _from_manifest(path: Path, stamp: str) -> bool:
     """Ask numba for the manifest's signatures; False where there is no manifest of
     these sources (or it cannot be read, or a signature no longer compiles: the part
     then runs)."""
     try:
-        with open(path, "rb") as fh:
-            made, entries, *_files = pickle.load(fh)
+        made, entries, _files = _read_manifest(path)
     except FileNotFoundError:
         return False
     except Exception as exc:                    # noqa: BLE001 -- only time depends on it
@@ -192,11 +199,8 @@ def cached(parts: tuple[str, ...], stamp: str | None = None) -> bool:
     stamp = stamp or sources_stamp()
     for part in parts:
         try:
-            with open(manifest_path(part), "rb") as fh:
-                made, _entries, *files = pickle.load(fh)
-            if made != stamp or not files or files[0] is None:
-                return False
-            if not all(os.path.isfile(f) for f in files[0]):
+            made, _entries, files = _read_manifest(manifest_path(part))
+            if made != stamp or files is None or not all(os.path.isfile(f) for f in files):
                 return False
         except Exception:                       # noqa: BLE001 -- only time depends on it
             return False
@@ -242,9 +246,8 @@ def warm_apart(scn: PlanScenario, parts: tuple[str, ...]) -> int:
     that ends, not a worker that goes on to plan, predict or verify. Returns the child's
     exit status (a failure only costs time: a later stage compiles what is missing;
     its last line of error output is logged). No child where the kernels are cached
-    (:func:`cached`)."""
-    unknown = [p for p in parts if p not in PARTS]
-    if not unknown and cached(parts):
+    (:func:`cached`; an unknown part has no manifest, so the child reports it)."""
+    if cached(parts):
         return 0
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
     code = ("import pickle, sys; from sim.warmup import warm_kernels; "
