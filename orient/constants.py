@@ -330,6 +330,11 @@ WINDOW_MAINLOBE_BINS = {"hann": 2.0, "hamming": 2.0, "blackman": 3.0,
                         "blackmanharris": 4.0, "boxcar": 1.0}
 #: Shortest window accepted [samples].
 MIN_WINDOW_SAMPLES = 16
+#: Lines of a window's DFT kept for its response at fractional bins
+#: (:func:`orient.detect.window_response`): those above this fraction of the largest
+#: [-]. The windows accepted are cosine sums, with 1 to 7 lines; the others are
+#: rounding (about 1e-16 of the largest), far below this.
+WINDOW_LINE_REL = 1e-12
 #: Floor added to the power spectrum before taking its logarithm [-], relative
 #: to the largest power of the window (avoids log(0) on synthetic silence).
 LOG_FLOOR_REL = 1e-30

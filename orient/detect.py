@@ -79,6 +79,7 @@ from .constants import (
     DEFAULT_WINDOW_SAMPLES,
     LOG_FLOOR_REL,
     MIN_WINDOW_SAMPLES,
+    WINDOW_LINE_REL,
     WINDOW_MAINLOBE_BINS,
 )
 
@@ -89,9 +90,64 @@ __all__ = [
     "ChatterDetector",
     "Detection",
     "DetectorSettings",
+    "window_lines",
+    "window_response",
 ]
 
 _CAUSES = ("tool", "workpiece")
+
+
+def window_lines(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The lines of a periodic window's DFT: where it is not zero.
+
+    Parameters
+    ----------
+    w : ndarray, shape (N,)
+        The window (``fftbins=True``).
+
+    Returns
+    -------
+    bins : ndarray, shape (L,) [bins]
+        Signed bin of each line (``-N/2 < m <= N/2``).
+    values : ndarray of complex, shape (L,)
+        The DFT there (lines at or below ``WINDOW_LINE_REL`` of the largest dropped).
+    """
+    w = np.asarray(w, dtype=float)
+    n = w.size
+    spec = np.fft.fft(w)
+    mag = np.abs(spec)
+    keep = np.flatnonzero(mag > WINDOW_LINE_REL * mag.max())
+    return np.where(keep > n // 2, keep - n, keep).astype(float), spec[keep]
+
+
+def window_response(lines: tuple[np.ndarray, np.ndarray], n: int, d: np.ndarray
+                    ) -> np.ndarray:
+    """``|sum_n w_n exp(-2 pi i d n / N)|`` at offsets ``d`` from the window's DFT lines.
+
+    The window is the inverse DFT of its lines, so its response is their sum of
+    Dirichlet kernels, ``(1/N) sum_m W_m D(d - m)`` with ``D(x) = sum_n exp(-2 pi i x n
+    / N) = exp(-i pi x (N-1)/N) sin(pi x) / sin(pi x / N)`` (``N`` at ``x = 0``): exact,
+    and a few terms per offset for the cosine-sum windows instead of ``N``.
+
+    Parameters
+    ----------
+    lines : tuple of ndarray
+        :func:`window_lines` of the window.
+    n : int [samples]
+        Window length ``N``.
+    d : ndarray, any shape [bins]
+        Offsets, ``|d| < N/2`` from every line.
+
+    Returns
+    -------
+    ndarray, shape like ``d``
+    """
+    bins, values = lines
+    x = np.asarray(d, dtype=float)[..., None] - bins
+    at_line = x == 0.0
+    s = np.sin(np.pi * x / n)
+    ratio = np.where(at_line, float(n), np.sin(np.pi * x) / np.where(at_line, 1.0, s))
+    return np.abs((np.exp(-1j * np.pi * x * ((n - 1) / n)) * ratio) @ values) / n
 
 
 def _int(name: str, value: Any, minimum: int) -> int:
@@ -300,7 +356,7 @@ class ChatterDetector:
         self._w = get_window(settings.window, n, fftbins=True).astype(float)
         self._wsum = float(self._w.sum())
         self._freqs = np.fft.rfftfreq(n, 1.0 / settings.sample_rate_hz)
-        self._nidx = np.arange(n, dtype=float)
+        self._lines = window_lines(self._w)
         self.reset()
 
     # --- streaming ---------------------------------------------------------
@@ -433,9 +489,7 @@ class ChatterDetector:
 
     def _kernel(self, d: np.ndarray) -> np.ndarray:
         """Normalized window response ``W(d)`` at offsets d [bins], shape like d."""
-        n = self.settings.window_samples
-        e = np.exp(-2j * np.pi * np.outer(d, self._nidx) / n)
-        return np.abs(e @ self._w) / self._wsum
+        return window_response(self._lines, self.settings.window_samples, d) / self._wsum
 
     def _analyze_batch(self, wx: np.ndarray, wy: np.ndarray, f_sp: float, f_tooth: float,
                        ends: np.ndarray) -> list[Detection]:

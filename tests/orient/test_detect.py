@@ -301,3 +301,29 @@ def test_from_durations():
     s = DetectorSettings.from_durations(FS, 2.0, window_s=0.1024, hop_s=0.0256)
     assert (s.window_samples, s.hop_samples) == (1024, 256)
     assert s.window_s == pytest.approx(0.1024) and s.bin_hz == pytest.approx(FS / 1024)
+
+
+@pytest.mark.parametrize("n", [16, 17, 1024, 2049])
+@pytest.mark.parametrize("window", ["hann", "hamming", "blackman", "blackmanharris",
+                                    "boxcar", "random"])
+def test_window_response_from_its_lines_equals_the_direct_sum(window, n):
+    """The window's response at fractional bins, from its DFT lines (Dirichlet kernels),
+    against the sum over its N samples; a window that is no cosine sum (random: all its
+    lines kept) as well."""
+    from scipy.signal import get_window
+
+    from orient.detect import window_lines, window_response
+
+    rng = np.random.default_rng(n)
+    w = rng.uniform(0.1, 1.0, n) if window == "random" else get_window(window, n,
+                                                                        fftbins=True)
+    d = np.concatenate([rng.uniform(-0.5, 0.5, 100), [0.0, 0.5, -0.5, 1e-12, -1e-9]])
+    direct = np.abs(np.exp(-2j * np.pi * np.outer(d, np.arange(n)) / n) @ w)
+    lines = window_lines(w)
+    got = window_response(lines, n, d)
+    assert got.shape == d.shape
+    np.testing.assert_allclose(got, direct, rtol=1e-13)
+    if window != "random":       # a cosine sum of K terms has 2K - 1 lines
+        assert lines[0].size <= 7
+    # at a line's own bin the Dirichlet kernel is N: the response is |sum(w)|
+    assert window_response(lines, n, np.zeros(1))[0] == pytest.approx(abs(w.sum()), rel=1e-14)
