@@ -201,15 +201,22 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
           f"setup {setup:.2f} s; "
           f"{'with' if sensitivity else 'without'} the correction's sensitivity pass)")
     if pred.model.sweeps is not None and sweep_map(pred.model.sweeps, pred.tool) is not None:
-        # the slices start far into their programs: the height map's catch-up (every
-        # sweep before the slice, inserted once) is start-up here, so force the map
+        # the slices start far into their programs: the height map's tiles along the
+        # slice, filled with every sweep before it that reaches them, are start-up here
+        # (marginal cost per block), so force the map and fill them first
         pred.model.use_sweep_map = True
         zmap = pred.model._sweep_map()
-        start = float(pred.model.path[pred.model.block_points(blocks[0])[0]])
+        first = pred.model.block_points(blocks[0])[0]
+        last = pred.model.block_points(blocks[-1])[1]
+        start = float(pred.model.path[first])
+        r = pred.tool.radius_mm
+        ring = np.array([(a, b, 0.0) for a in (-r, 0.0, r) for b in (-r, 0.0, r)])
+        around = (pred.model.cl.tip[first:last + 1, None, :] + ring).reshape(-1, 3)
         t0 = time.perf_counter()
-        zmap.classify(np.zeros((0, 3)), start)
-        print(f"  sweeps' height map filled to the slice ({zmap.time:,} sweeps): "
-              f"{time.perf_counter() - t0:.1f} s")
+        zmap.classify(around, start)
+        held = int((zmap.tile_index >= 0).sum())
+        print(f"  sweeps' height map: {held} tiles along the slice filled with the "
+              f"{zmap.time:,} sweeps before it: {time.perf_counter() - t0:.1f} s")
     pred.run(blocks[:10])  # kernels compiled or loaded from the cache
     one, geo_share, cpu = [], [], []
     for _ in range(repeat):

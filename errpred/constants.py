@@ -41,6 +41,17 @@ ZMAP_MAX_TILES = 2048
 #: are at most this many a block of the run [-]: the catch-up costs about 1 ms
 #: a sweep and the map saves about 3 ms a block (mold-ball raster, measured).
 ZMAP_CATCHUP_PER_BLOCK = 2
+#: A query this many sweeps or more after the height map's time is a jump [-]:
+#: the sweeps skipped are not inserted into every tile they reach, but into each
+#: tile a later query touches, when it does (a stage-1 worker's next chunk skips
+#: the other workers' chunks; a run may start far into the program). Below it
+#: (consecutive blocks: 1-3 sweeps, an arc's chords more) every tile follows.
+ZMAP_JUMP_SWEEPS = 32
+#: A tile caught up with at most this many sweeps tests each one's bounds; with
+#: more, the sweep index is asked (its grid gives every sweep so far near the
+#: tile: on the mold-ball raster, the catch-up's look-ups took 4 % of a stage-1
+#: worker's time that way) [-]. The same sweeps either way.
+ZMAP_SCAN_SWEEPS = 4096
 #: Rounding allowance of the height map's decisions [mm]: far above the
 #: closed forms' rounding (~1e-12 mm), far below a cell.
 ZMAP_GUARD_MM = 1.0e-5

@@ -236,6 +236,12 @@ class Sweeps:
         return _query(*self._index(), self.lo, self.hi, np.asarray(lo, float),
                       np.asarray(hi, float))
 
+    def overlapping(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Those of sweeps ``ids`` (in their order) whose bounds overlap the box
+        ``[lo, hi]`` [mm]: :meth:`query`'s test without the grid, for a few ids."""
+        return _overlapping(np.asarray(ids, dtype=np.int64), self.lo, self.hi,
+                            np.asarray(lo, float), np.asarray(hi, float))
+
     def near(self, lo, hi, centre, reach: float, order_from, t1_end: float,
              t2_start: float, within: np.ndarray | None = None):
         """T1 and T2 near a prediction point, in one call.

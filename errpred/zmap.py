@@ -33,7 +33,7 @@ __all__ = ["SweepMap", "sweep_map"]
 
 
 #: What the map is at a given time (what the kept state copies and restores).
-_STATE = ("time", "tile_index", "_vals", "_owner", "_used", "_free")
+_STATE = ("time", "tile_index", "_vals", "_owner", "_used", "_free", "_filled")
 
 
 class SweepMap:
@@ -81,6 +81,9 @@ class SweepMap:
         self._owner = np.full(cap, -1, dtype=np.int64)  # flat tile key of each slot
         self._used = np.zeros(cap, dtype=np.int64)  # last query that touched it
         self._free = list(range(cap - 1, -1, -1))
+        # sweeps 0 .. _filled[s] - 1 are in slot s: the map's time, but for a tile left
+        # behind by a jump (_advance), caught up when a query next touches it
+        self._filled = np.zeros(cap, dtype=np.int64)
         self._clock = 0
         self._snapshot = None
 
@@ -105,7 +108,13 @@ class SweepMap:
             else:
                 self._reset()
         fresh = self._snapshot is None
-        if target > self.time:
+        if target - self.time >= K.ZMAP_JUMP_SWEEPS:
+            # a jump (a run's start far into the program, or a stage-1 worker's next
+            # chunk after the other workers' chunks): the tiles are left where they are
+            # and each is caught up, with the skipped sweeps that reach it, when a query
+            # next touches it (classify)
+            self.time = target
+        elif target > self.time:
             ids = np.arange(self.time, target, dtype=np.int64)
             self._insert(ids)
             self.time = target
@@ -150,7 +159,15 @@ class SweepMap:
         need = need[self.tile_index.ravel()[need] < 0]
         if need.size:
             self._allocate(need)
-        self._insert_only(ids)
+        flat = self.tile_index.ravel()
+        held = flat >= 0
+        current = held.copy()
+        current[held] = self._filled[flat[held]] == self.time
+        if current[held].all():
+            self._insert_only(ids)
+        else:   # the tiles left behind by a jump: not before their catch-up
+            self._insert_into(np.flatnonzero(current), ids)
+        self._filled[flat[current]] = int(ids[-1]) + 1
 
     def _insert_only(self, ids: np.ndarray) -> None:
         sw = self.sweeps
@@ -166,6 +183,8 @@ class SweepMap:
                     [self._vals, np.broadcast_to(self._empty, (grow,) + self._empty.shape)])
                 self._owner = np.concatenate([self._owner, np.full(grow, -1, dtype=np.int64)])
                 self._used = np.concatenate([self._used, np.zeros(grow, dtype=np.int64)])
+                self._filled = np.concatenate([self._filled,
+                                               np.zeros(grow, dtype=np.int64)])
                 self._free = list(range(cap + grow - 1, cap - 1, -1))
             else:
                 s = int(np.argmin(self._used))  # the least recently used tile
@@ -183,17 +202,22 @@ class SweepMap:
         if new.size > self.max_tiles:
             raise MemoryError(f"a query needs {new.size} tiles of the sweep map, "
                               f"more than its budget of {self.max_tiles}")
-        span = self.cell * self.size
         for key in new.tolist():
             s = self._slot()
             self._vals[s] = self._empty
             self._owner[s] = key
             self._used[s] = self._clock
             self.tile_index.flat[key] = s
-        if self.time == 0:
+        self._filled[self.tile_index.ravel()[new]] = self.time
+        self._fill(new, 0)
+
+    def _fill(self, keys: np.ndarray, start: int) -> None:
+        """Insert into tiles ``keys`` (flat, allocated) the sweeps from ``start`` to the
+        map's time that reach them."""
+        if self.time <= start or keys.size == 0:
             return
-        # the sweeps before the map's time that reach the new tiles
-        a, b = np.divmod(new, self.shape[1])
+        span = self.cell * self.size
+        a, b = np.divmod(keys, self.shape[1])
         lo = np.array([self.origin[0] + a.min() * span, self.origin[1] + b.min() * span,
                        self._zlo])
         hi = np.array([self.origin[0] + (a.max() + 1) * span,
@@ -201,18 +225,38 @@ class SweepMap:
         grow = self.lim + self.cell
         lo[:2] -= grow
         hi[:2] += grow
-        ids = self.sweeps.query(lo, hi)
-        ids = ids[ids < self.time]
+        if self.time - start <= K.ZMAP_SCAN_SWEEPS:   # a few: each one's bounds
+            ids = self.sweeps.overlapping(np.arange(start, self.time), lo, hi)
+        else:                                       # the index (every sweep so far)
+            ids = self.sweeps.query(lo, hi)
+            ids = ids[(ids >= start) & (ids < self.time)]
         if ids.size:
-            # fill only the new tiles: hide the others while inserting
-            keep = self.tile_index.copy()
-            mask = np.full(self.tile_index.size, -1, dtype=np.int64)
-            mask[new] = keep.ravel()[new]
-            self.tile_index = mask.reshape(self.tile_index.shape)
-            try:
-                self._insert_only(ids)
-            finally:
-                self.tile_index = keep
+            self._insert_into(keys, ids)
+
+    def _insert_into(self, keys: np.ndarray, ids: np.ndarray) -> None:
+        """Insert sweeps ``ids`` into tiles ``keys`` (flat, allocated) only: the others
+        hidden while inserting."""
+        keep = self.tile_index
+        mask = np.full(keep.size, -1, dtype=np.int64)
+        mask[keys] = keep.ravel()[keys]
+        self.tile_index = mask.reshape(keep.shape)
+        try:
+            self._insert_only(ids)
+        finally:
+            self.tile_index = keep
+
+    def _catch_up(self, keys: np.ndarray) -> None:
+        """Tiles ``keys`` (flat, allocated) left behind by jumps: the sweeps they miss
+        inserted, from each one's own time."""
+        slots = self.tile_index.ravel()[keys]
+        behind = self._filled[slots] < self.time
+        if not behind.any():
+            return
+        keys, slots = keys[behind], slots[behind]
+        since = self._filled[slots]
+        for start in np.unique(since).tolist():
+            self._fill(keys[since == start], start)
+        self._filled[slots] = self.time
 
     def classify(self, points: np.ndarray, t1_end: float) -> np.ndarray:
         """Per point, against the sweeps that end by path length ``t1_end``:
@@ -232,6 +276,7 @@ class SweepMap:
         fresh = self._advance(t1_end)
         keys = tiles_of(points, self.origin, self.cell, self.size, self.shape)
         self._allocate(keys)
+        self._catch_up(keys)
         if fresh:  # the state a later query earlier than the map's time goes back to
             self._keep()
         slots = self.tile_index.ravel()[keys]

@@ -105,6 +105,9 @@ def test_index_query_is_a_superset_and_local():
         brute_ids = set(np.flatnonzero(np.all((sw.lo <= hi) & (sw.hi >= lo), axis=1)).tolist())
         assert got == brute_ids
         assert len(got) < 0.2 * len(sw)
+        # the same test on given ids, without the grid: the ids among them, in their order
+        some = rng.permutation(len(sw))[:2000]
+        assert sw.overlapping(some, lo, hi).tolist() == [j for j in some if j in brute_ids]
 
 
 def test_clipping_to_path_intervals():

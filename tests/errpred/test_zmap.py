@@ -273,3 +273,54 @@ def test_handed_over_kept_state_is_taken_once():
     assert "_vals" not in z._snapshot and z.nbytes == z._vals.nbytes + z.tile_index.nbytes
     assert np.array_equal(z.classify(pts, float(L[len(L) // 3])),
                           want.classify(pts, float(L[len(L) // 3])))
+
+
+def test_a_jump_leaves_tiles_behind_and_each_is_caught_up_as_eager_insertion_fills_it(
+        monkeypatch):
+    """Queries that jump (``ZMAP_JUMP_SWEEPS`` or more sweeps after the map's time) leave
+    the tiles where they are and catch each one up when a later query touches it: the
+    answers are the eager map's (every skipped sweep into every tile it reaches), every
+    tile a query touched holds what the eager map's holds, bit for bit (the same sweeps
+    in the same order), and the tiles no query touched since stay behind."""
+    tool = Tool("ball", 6.0, flute_length_mm=12.0)
+    sw = build_sweeps(_wavy_raster(), tool)
+    n = len(sw)
+    rng = np.random.default_rng(11)
+
+    def near(x0, x1):
+        xy = rng.uniform([x0, -5.0], [x1, 5.0], (1500, 2))
+        base = 0.6 * np.sin(0.5 * xy[:, 0]) + 0.3 * np.cos(0.7 * xy[:, 1])
+        return np.column_stack([xy, base + rng.uniform(-0.3, 0.3, len(xy))])
+
+    # (sweeps inserted, points): small steps and jumps, over different parts of the part
+    steps = [(n // 10, near(0, 12)), (n // 10 + 2, near(0, 4)), (n // 2, near(0, 4)),
+             (n // 2 + 1, near(0, 4)), (n // 2 + 3, near(8, 12)), (9 * n // 10, near(0, 12))]
+    maps = {}
+    for lazy in (True, False):
+        if not lazy:
+            monkeypatch.setattr(K, "ZMAP_JUMP_SWEEPS", 10**9)
+        z = SweepMap(sw, tool)
+        out = []
+        for k, (time, pts) in enumerate(steps):
+            out.append(z.classify(pts, float(sw.path_end[time - 1])))
+            assert z.time == time
+            if lazy and k == 3:     # after a jump, the tiles of x > 4 were not touched
+                slots = z.tile_index.ravel()[z.tile_index.ravel() >= 0]
+                assert (z._filled[slots] < z.time).any()
+        maps[lazy] = (z, out)
+    (lz, lazy_out), (ez, eager_out) = maps[True], maps[False]
+    for a, b in zip(lazy_out, eager_out):
+        assert np.array_equal(a, b)
+    current = 0
+    for key, slot in enumerate(lz.tile_index.ravel()):
+        if slot >= 0 and lz._filled[slot] == lz.time:
+            current += 1
+            assert np.array_equal(lz._vals[slot], ez._vals[ez.tile_index.ravel()[key]],
+                                  equal_nan=True)
+    assert current > 0
+    exact = inside_any_sweep(steps[-1][1], np.ones(1500, dtype=np.bool_), sw.p0[:steps[-1][0]],
+                             sw.d[:steps[-1][0]], sw.w[:steps[-1][0]],
+                             sw.lo[:steps[-1][0]] - 1.0, sw.hi[:steps[-1][0]] + 1.0, 0.0,
+                             tool.corner_radius_mm, tool.flute_length_mm,
+                             K.MEMBERSHIP_EPS_MM)
+    assert not (lazy_out[-1][exact] == -1).any() and not (lazy_out[-1][~exact] == 1).any()
