@@ -209,9 +209,15 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
         first = pred.model.block_points(blocks[0])[0]
         last = pred.model.block_points(blocks[-1])[1]
         start = float(pred.model.path[first])
+        # the path every half radius, and a radius to each side
         r = pred.tool.radius_mm
+        tips = pred.model.cl.tip[first:last + 1]
+        steps = np.maximum(np.ceil(np.linalg.norm(np.diff(tips, axis=0), axis=1) / (0.5 * r)), 1)
+        path = np.concatenate([tips[:1]] + [a + (b - a) * (np.arange(1, k + 1) / k)[:, None]
+                                            for a, b, k in zip(tips[:-1], tips[1:],
+                                                               steps.astype(int))])
         ring = np.array([(a, b, 0.0) for a in (-r, 0.0, r) for b in (-r, 0.0, r)])
-        around = (pred.model.cl.tip[first:last + 1, None, :] + ring).reshape(-1, 3)
+        around = (path[:, None, :] + ring).reshape(-1, 3)
         t0 = time.perf_counter()
         zmap.classify(around, start)
         held = int((zmap.tile_index >= 0).sum())

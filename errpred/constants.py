@@ -37,9 +37,12 @@ ZMAP_TILE_CELLS = 32
 #: hold 302 MB, a part of 92 x 92 mm at 0.1 mm; the state kept for going back
 #: (errpred.zmap) doubles it [-].
 ZMAP_MAX_TILES = 2048
-#: A run uses the height map where the sweeps to insert before its first block
-#: are at most this many a block of the run [-]: the catch-up costs about 1 ms
-#: a sweep and the map saves about 3 ms a block (mold-ball raster, measured).
+#: A run uses the height map where the sweeps before its first block, not yet in
+#: the map, are at most this many a block of the run [-]. The map saves about 1-5
+#: ms a block (mold-ball raster, contour); its catch-up, each tile the run
+#: touches filled with the earlier sweeps that reach it (ZMAP_JUMP_SWEEPS), took
+#: 3.5-4.5 s for the 101-167 tiles along the 300-block bench slices (every tile,
+#: as before, 14.5-16.2 s: about 1 ms a sweep), so such a slice still loses.
 ZMAP_CATCHUP_PER_BLOCK = 2
 #: A query this many sweeps or more after the height map's time is a jump [-]:
 #: the sweeps skipped are not inserted into every tile they reach, but into each

@@ -649,10 +649,11 @@ class GeometryModel:
     def plan_sweep_map(self, blocks: list[int]) -> None:
         """Whether a run over ``blocks`` (in order) uses the height map, when
         :attr:`use_sweep_map` is None: the map is filled in program order, so a run
-        that starts far into the program first inserts every sweep before it (about
-        1 ms each on the mold-ball raster, against about 3 ms a block saved); it
-        is used where that catch-up is at most ``ZMAP_CATCHUP_PER_BLOCK`` sweeps
-        a block of the run, or already done."""
+        that starts far into the program first fills each tile it touches with every
+        sweep before it that reaches it (``ZMAP_CATCHUP_PER_BLOCK``: seconds for a
+        slice of the mold-ball program, against 1-5 ms a block saved); it is used
+        where the sweeps before the run not yet in the map are at most
+        ``ZMAP_CATCHUP_PER_BLOCK`` a block of the run."""
         if not blocks:
             return
         first = self.block_points(int(min(blocks)))
