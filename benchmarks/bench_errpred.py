@@ -28,7 +28,9 @@ resolution it prints:
   this process's peak resident size.
 
 The machine is shared: figures are min and median of repeats, and the ratio
-to one core is taken in the same run.
+to one core is taken in the same run, its runs in turn repeat by repeat (one core,
+one core without the map, the workers): best against best, and the median of each
+repeat's ratio.
 
 Usage: python benchmarks/bench_errpred.py [--blocks N] [--repeat K] [--slices NAMES]
 """
@@ -225,22 +227,30 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
               f"{zmap.time:,} sweeps before it: {time.perf_counter() - t0:.1f} s")
     pred.run(blocks[:10])  # kernels compiled or loaded from the cache
     one, geo_share, cpu = [], [], []
+    zmap = pred.model._sweep_map()
+    base, base_cpu, two, two_cpu = [], [], [], []
+    # in turn, repeat by repeat: one core, one core without the height map, the workers
+    # (on a shared machine the load drifts; a ratio of runs next to each other holds)
     for _ in range(repeat):
         total, t_geo = _one_core(pred, blocks, cpu)
         one.append(len(blocks) / total)
         geo_share.append(t_geo / total)
+        if zmap is not None:
+            # the same blocks without the sweeps' height map (every T1 test exact)
+            pred.model.use_sweep_map = False
+            base.append(len(blocks) / _one_core(pred, blocks, base_cpu)[0])
+            pred.model.use_sweep_map = True  # forced, as above
+        c0 = _cpu_seconds()
+        t0 = time.perf_counter()
+        pred.run(blocks, workers=workers)
+        two.append(len(blocks) / (time.perf_counter() - t0))
+        two_cpu.append(_cpu_seconds() - c0)
     print(f"1 core     blocks/s: {_fmt(one)}   (geometry {100 * statistics.median(geo_share):.0f} %"
           " of it)")
     # on a shared machine the wall rate is the share of a core this process got
     print(f"  per CPU-second: {_fmt([len(blocks) / c for c in cpu])}   (CPU/wall "
           f"{statistics.median([c * r / len(blocks) for c, r in zip(cpu, one)]):.2f})")
-    zmap = pred.model._sweep_map()
     if zmap is not None:
-        # the same blocks without the sweeps' height map (every T1 test exact), same run
-        pred.model.use_sweep_map = False
-        base_cpu = []
-        base = [len(blocks) / _one_core(pred, blocks, base_cpu)[0] for _ in range(repeat)]
-        pred.model.use_sweep_map = True  # forced, as above
         counts = np.zeros(3)
         classify = type(zmap).classify
 
@@ -261,15 +271,9 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
               f"{zmap.nbytes / 1e6:.0f} MB, {int((zmap.tile_index >= 0).sum())} tiles)")
         print(f"    per CPU-second: {_fmt([len(blocks) / c for c in base_cpu])}   (map "
               f"x{min(base_cpu) / min(cpu):.2f} in CPU, best against best)")
-    two, two_cpu = [], []
-    for _ in range(repeat):
-        c0 = _cpu_seconds()
-        t0 = time.perf_counter()
-        pred.run(blocks, workers=workers)
-        two.append(len(blocks) / (time.perf_counter() - t0))
-        two_cpu.append(_cpu_seconds() - c0)
+    paired = statistics.median(b / a for a, b in zip(one, two))
     print(f"{workers} workers  blocks/s: {_fmt(two)}   (x{max(two) / max(one):.2f} of one core, "
-          "best against best)")
+          f"best against best; x{paired:.2f}, the median of each repeat's runs in turn)")
     # CPU this process and the workers used (a pool is started and ended per run): the
     # CPU a block costs there, and how many cores the run got (CPU/wall; 2 workers can
     # only beat one process when the machine has a second core free)
