@@ -208,12 +208,12 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
         # (marginal cost per block), so force the map and fill them first
         pred.model.use_sweep_map = True
         zmap = pred.model._sweep_map()
-        first = pred.model.block_points(blocks[0])[0]
-        last = pred.model.block_points(blocks[-1])[1]
-        start = float(pred.model.path[first])
+        i0 = pred.model.block_points(blocks[0])[0]
+        i1 = pred.model.block_points(blocks[-1])[1]
+        start = float(pred.model.path[i0])
         # the path every half radius, and a radius to each side
         r = pred.tool.radius_mm
-        tips = pred.model.cl.tip[first:last + 1]
+        tips = pred.model.cl.tip[i0:i1 + 1]
         steps = np.maximum(np.ceil(np.linalg.norm(np.diff(tips, axis=0), axis=1) / (0.5 * r)), 1)
         path = np.concatenate([tips[:1]] + [a + (b - a) * (np.arange(1, k + 1) / k)[:, None]
                                             for a, b, k in zip(tips[:-1], tips[1:],

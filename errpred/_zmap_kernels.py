@@ -287,16 +287,18 @@ def insert_sweeps(ids, p0, d, rc, lim, top, cell, size, vals, tile_index, origin
 @njit(cache=True)
 def tiles_of(points, origin, cell, size, shape):
     """Sorted unique flat indices (``a * ty + b``) of the tiles holding ``points``;
-    points outside the map's extent are skipped."""
-    span = cell * size
+    points outside the map's extent are skipped. The tile of a point is found as
+    :func:`classify` finds it (its cell, then the cell's tile), so that the two agree on
+    a point at a tile's edge whatever the tile's size."""
+    tx, ty = shape[0], shape[1]
     keys = np.empty(points.shape[0], dtype=np.int64)
     n = 0
     for q in range(points.shape[0]):
-        fa = (points[q, 0] - origin[0]) / span
-        fb = (points[q, 1] - origin[1]) / span
-        if not (0.0 <= fa < shape[0] and 0.0 <= fb < shape[1]):
+        fx = (points[q, 0] - origin[0]) / cell
+        fy = (points[q, 1] - origin[1]) / cell
+        if not (0.0 <= fx < tx * size and 0.0 <= fy < ty * size):
             continue
-        keys[n] = int(fa) * shape[1] + int(fb)
+        keys[n] = (int(fx) // size) * ty + int(fy) // size
         n += 1
     return np.unique(keys[:n])
 

@@ -50,10 +50,11 @@ ZMAP_CATCHUP_PER_BLOCK = 2
 #: the other workers' chunks; a run may start far into the program). Below it
 #: (consecutive blocks: 1-3 sweeps, an arc's chords more) every tile follows.
 ZMAP_JUMP_SWEEPS = 32
-#: A tile caught up with at most this many sweeps tests each one's bounds; with
-#: more, the sweep index is asked (its grid gives every sweep so far near the
-#: tile: on the mold-ball raster, the catch-up's look-ups took 4 % of a stage-1
-#: worker's time that way) [-]. The same sweeps either way.
+#: A tile filled with at most this many sweeps (caught up after a jump, or new at
+#: a map time this small) tests each one's bounds; with more, the sweep index is
+#: asked, whose grid gives every sweep of the program near the tile, the later
+#: ones then dropped (on the mold-ball raster, with the index alone, the catch-ups'
+#: look-ups took 4 % of a stage-1 worker's samples) [-]. The same sweeps either way.
 ZMAP_SCAN_SWEEPS = 4096
 #: Rounding allowance of the height map's decisions [mm]: far above the
 #: closed forms' rounding (~1e-12 mm), far below a cell.

@@ -652,8 +652,9 @@ class GeometryModel:
         that starts far into the program first fills each tile it touches with every
         sweep before it that reaches it (``ZMAP_CATCHUP_PER_BLOCK``: seconds for a
         slice of the mold-ball program, against 1-5 ms a block saved); it is used
-        where the sweeps before the run not yet in the map are at most
-        ``ZMAP_CATCHUP_PER_BLOCK`` a block of the run."""
+        where the sweeps before the run and after the map's time are at most
+        ``ZMAP_CATCHUP_PER_BLOCK`` a block of the run (the tiles a jump left behind
+        are caught up as touched, whichever way)."""
         if not blocks:
             return
         first = self.block_points(int(min(blocks)))

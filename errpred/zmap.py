@@ -13,9 +13,12 @@ on), go to the exact test as before; every answer is the exact one.
 The map is filled in program order: a query at path length ``L`` needs the
 sweeps that end by ``L`` inserted and no later one; a query earlier than the
 map's time goes back to the state kept at the map's first query, or starts the
-map again. Cells are allocated by tiles where sweeps reach and queries ask, and
-beyond a budget the least recently used tiles are dropped (to be filled again,
-from the sweep index, if asked for).
+map again. A query ``ZMAP_JUMP_SWEEPS`` or more sweeps later is a jump: the tiles
+are left behind, and each is caught up, with the skipped sweeps that reach it, when
+a query next touches it; a tile left behind never answers (it reads as not
+allocated). Cells are allocated by tiles where sweeps reach and queries ask, and
+beyond a budget the least recently used tiles are dropped (to be filled again, if
+asked for, with the earlier sweeps that reach them).
 """
 
 from __future__ import annotations
@@ -74,7 +77,7 @@ class SweepMap:
         self._reset()
 
     def _reset(self) -> None:
-        self.time = 0  # sweeps 0 .. time - 1 are in every allocated tile
+        self.time = 0  # sweeps 0 .. time - 1: in every tile not left behind (_filled)
         self.tile_index = np.full(tuple(self.shape), -1, dtype=np.int64)
         cap = min(64, self.max_tiles)
         self._vals = np.broadcast_to(self._empty, (cap,) + self._empty.shape).copy()
@@ -95,7 +98,8 @@ class SweepMap:
         return int(self._vals.nbytes + self.tile_index.nbytes + kept)
 
     def _advance(self, t1_end: float) -> bool:
-        """Insert the sweeps that end by path length ``t1_end``, no later one.
+        """Take the map to the sweeps that end by path length ``t1_end``, no later one:
+        insert them, or after a jump leave the tiles behind (:meth:`_catch_up`).
 
         A query earlier than the map's time goes back to the state kept at the
         first query after the map was started (a run over the same blocks again,
@@ -141,9 +145,9 @@ class SweepMap:
         self._hand_over = True
 
     def _insert(self, ids: np.ndarray) -> None:
-        """Insert sweeps ``ids`` (the map's next ones) into every tile they reach,
-        allocating the tiles they reach first (so tiles are filled as the program
-        goes, not from scratch when first asked for)."""
+        """Insert sweeps ``ids`` (the map's next ones) into every tile they reach but
+        those left behind by a jump, allocating the tiles they reach first (so tiles are
+        filled as the program goes, not from scratch when first asked for)."""
         sw = self.sweeps
         span = self.cell * self.size
         grow = self.lim + self.cell
@@ -159,20 +163,28 @@ class SweepMap:
         need = need[self.tile_index.ravel()[need] < 0]
         if need.size:
             self._allocate(need)
-        flat = self.tile_index.ravel()
-        held = flat >= 0
-        current = held.copy()
-        current[held] = self._filled[flat[held]] == self.time
-        if current[held].all():
-            self._insert_only(ids)
-        else:   # the tiles left behind by a jump: not before their catch-up
-            self._insert_into(np.flatnonzero(current), ids)
-        self._filled[flat[current]] = int(ids[-1]) + 1
+        index = self._current_index()   # the tiles left behind: not before their catch-up
+        self._insert_only(ids, index)
+        slots = index.ravel()
+        self._filled[slots[slots >= 0]] = int(ids[-1]) + 1
 
-    def _insert_only(self, ids: np.ndarray) -> None:
+    def _current_index(self) -> np.ndarray:
+        """:attr:`tile_index` with the tiles left behind by a jump hidden (-1)."""
+        flat = self.tile_index.ravel()
+        held = np.flatnonzero(flat >= 0)
+        behind = held[self._filled[flat[held]] < self.time]
+        if behind.size == 0:
+            return self.tile_index
+        out = flat.copy()
+        out[behind] = -1
+        return out.reshape(self.tile_index.shape)
+
+    def _insert_only(self, ids: np.ndarray, index: np.ndarray | None = None) -> None:
+        """Insert sweeps ``ids`` into the tiles of ``index`` (default: every allocated
+        tile)."""
         sw = self.sweeps
         insert_sweeps(ids, sw.p0, sw.d, self.rc, self.lim, self.top, self.cell, self.size,
-                      self._vals, self.tile_index, self.origin)
+                      self._vals, self.tile_index if index is None else index, self.origin)
 
     def _slot(self) -> int:
         if not self._free:
@@ -207,9 +219,10 @@ class SweepMap:
             self._vals[s] = self._empty
             self._owner[s] = key
             self._used[s] = self._clock
+            self._filled[s] = self.time
             self.tile_index.flat[key] = s
-        self._filled[self.tile_index.ravel()[new]] = self.time
-        self._fill(new, 0)
+        # (a tile given a slot here and dropped again for a later one of them reads -1)
+        self._fill(new[self.tile_index.ravel()[new] >= 0], 0)
 
     def _fill(self, keys: np.ndarray, start: int) -> None:
         """Insert into tiles ``keys`` (flat, allocated) the sweeps from ``start`` to the
@@ -234,22 +247,16 @@ class SweepMap:
             self._insert_into(keys, ids)
 
     def _insert_into(self, keys: np.ndarray, ids: np.ndarray) -> None:
-        """Insert sweeps ``ids`` into tiles ``keys`` (flat, allocated) only: the others
-        hidden while inserting."""
-        keep = self.tile_index
-        mask = np.full(keep.size, -1, dtype=np.int64)
-        mask[keys] = keep.ravel()[keys]
-        self.tile_index = mask.reshape(keep.shape)
-        try:
-            self._insert_only(ids)
-        finally:
-            self.tile_index = keep
+        """Insert sweeps ``ids`` into tiles ``keys`` (flat, allocated) only."""
+        mask = np.full(self.tile_index.size, -1, dtype=np.int64)
+        mask[keys] = self.tile_index.ravel()[keys]
+        self._insert_only(ids, mask.reshape(self.tile_index.shape))
 
     def _catch_up(self, keys: np.ndarray) -> None:
         """Tiles ``keys`` (flat, allocated) left behind by jumps: the sweeps they miss
         inserted, from each one's own time."""
         slots = self.tile_index.ravel()[keys]
-        behind = self._filled[slots] < self.time
+        behind = (slots >= 0) & (self._filled[slots] < self.time)
         if not behind.any():
             return
         keys, slots = keys[behind], slots[behind]
@@ -275,14 +282,14 @@ class SweepMap:
         self._clock += 1
         fresh = self._advance(t1_end)
         keys = tiles_of(points, self.origin, self.cell, self.size, self.shape)
+        slots = self.tile_index.ravel()[keys]
+        self._used[slots[slots >= 0]] = self._clock  # first: not dropped for its own new tiles
         self._allocate(keys)
         self._catch_up(keys)
         if fresh:  # the state a later query earlier than the map's time goes back to
             self._keep()
-        slots = self.tile_index.ravel()[keys]
-        self._used[slots[slots >= 0]] = self._clock
-        return classify(points, self._vals, self.tile_index, self.origin, self.cell, self.size,
-                        K.ZMAP_GUARD_MM)
+        return classify(points, self._vals, self._current_index(), self.origin, self.cell,
+                        self.size, K.ZMAP_GUARD_MM)
 
 
 def sweep_map(sweeps: Sweeps, tool: Tool) -> SweepMap | None:

@@ -324,3 +324,124 @@ def test_a_jump_leaves_tiles_behind_and_each_is_caught_up_as_eager_insertion_fil
                              tool.corner_radius_mm, tool.flute_length_mm,
                              K.MEMBERSHIP_EPS_MM)
     assert not (lazy_out[-1][exact] == -1).any() and not (lazy_out[-1][~exact] == 1).any()
+
+
+def _wavy(xy):
+    return 0.6 * np.sin(0.5 * xy[:, 0]) + 0.3 * np.cos(0.7 * xy[:, 1])
+
+
+def _exact(sw, tool, pts, time):
+    ids = np.arange(time)
+    return inside_any_sweep(pts, np.ones(len(pts), dtype=np.bool_), sw.p0[ids], sw.d[ids],
+                            sw.w[ids], sw.lo[ids] - 1.0, sw.hi[ids] + 1.0, 0.0,
+                            tool.corner_radius_mm, tool.flute_length_mm, K.MEMBERSHIP_EPS_MM)
+
+
+def test_a_tile_left_behind_is_caught_up_even_when_a_query_drops_one_of_its_own():
+    """A jump's query whose new tile takes the slot of one of its own tiles (the least
+    recently used of a small budget) leaves no other tile marked caught up: the tile
+    left behind at the jump still answers as the exact test."""
+    tool = Tool("ball", 6.0, flute_length_mm=12.0)
+    sw = build_sweeps(_wavy_raster(), tool)
+    z = SweepMap(sw, tool, max_tiles=12)
+    span, ty = z.cell * z.size, int(z.shape[1])
+
+    def centre(key):
+        a, b = divmod(key, ty)
+        xy = np.array([[z.origin[0] + (a + 0.5) * span, z.origin[1] + (b + 0.5) * span]])
+        return np.column_stack([xy, _wavy(xy)])
+
+    x = int((6.0 - z.origin[0]) / span) * ty + int((-2.6 - z.origin[1]) / span)
+    others = [k for k in range(z.tile_index.size) if k != x][:11]
+    new = next(k for k in range(z.tile_index.size) if k not in others and k != x)
+    at = [float(sw.path_end[t - 1]) for t in (50, 150)]
+    z.classify(np.vstack([centre(k) for k in others]), at[0])      # 11 slots
+    z.classify(centre(x), at[0])                                    # the 12th: x
+    z.classify(np.vstack([centre(others[0]), centre(new)]), at[1])  # a jump; x left behind
+    a, b = divmod(x, ty)
+    rng = np.random.default_rng(0)
+    xy = rng.uniform([z.origin[0] + a * span, z.origin[1] + b * span],
+                     [z.origin[0] + (a + 1) * span, z.origin[1] + (b + 1) * span], (500, 2))
+    pts = np.column_stack([xy, _wavy(xy) + rng.uniform(-0.3, 0.3, len(xy))])
+    got = z.classify(pts, at[1])
+    exact = _exact(sw, tool, pts, 150)
+    assert exact.sum() > 100 and (got != 0).sum() > 100
+    assert not (got[exact] == -1).any() and not (got[~exact] == 1).any()
+
+
+def test_tiles_of_and_the_classify_kernel_agree_on_a_tile_edge():
+    """With a tile side that is no power of two, a point at a tile's edge is put in the
+    same tile by both (else the kernel could read a tile the query did not catch up)."""
+    from errpred._zmap_kernels import tiles_of
+
+    tool = Tool("ball", 6.0, flute_length_mm=12.0)
+    z = SweepMap(build_sweeps(_wavy_raster(), tool), tool, tile=24)
+    span = z.cell * z.size
+    checked = 0
+    for a in range(1, int(z.shape[0])):
+        for x in z.origin[0] + a * span + np.arange(-6, 7) * 1e-15:
+            key = tiles_of(np.array([[x, z.origin[1] + 0.5 * span, 0.0]]), z.origin, z.cell,
+                           z.size, z.shape)
+            assert key.size == 1
+            assert key[0] // z.shape[1] == int((x - z.origin[0]) / z.cell) // z.size
+            checked += 1
+    assert checked > 20
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_the_map_with_jumps_and_a_small_budget_answers_as_the_eager_map_and_exactly(
+        seed, monkeypatch):
+    """Random query sequences (small steps, jumps, 31-33 sweeps, going back), over random
+    parts of the part, on a lazy map with a small tile budget (tiles dropped and filled
+    again) against an eager map with room for all: the same answers where the lazy map
+    still holds the point's tile (0 elsewhere), every decided answer the exact test's,
+    and every caught-up tile bit for bit the eager one's."""
+    rng = np.random.default_rng(seed)
+    tool = Tool("ball", 6.0, flute_length_mm=12.0)
+    sw = build_sweeps(_wavy_raster(), tool)
+    # budgets above the tiles a step of a few sweeps reaches, below those of the part
+    cell, tile, budget = [(0.1, 32, 24), (0.25, 16, 20), (0.2, 16, 24)][seed % 3]
+    monkeypatch.setattr(K, "ZMAP_SCAN_SWEEPS", int(rng.choice([0, 16, 4096])))
+    lazy = SweepMap(sw, tool, cell_mm=cell, tile=tile, max_tiles=budget)
+    eager = SweepMap(sw, tool, cell_mm=cell, tile=tile, max_tiles=10**5)
+    n, span, t = len(sw), cell * tile, int(rng.integers(40, len(sw) // 3))
+    dropped, take = [0], lazy._slot
+
+    def slot():
+        dropped[0] += not lazy._free and lazy._vals.shape[0] >= lazy.max_tiles
+        return take()
+
+    lazy._slot = slot
+    decided = 0
+    for q in range(20):
+        step = rng.choice(["small", "jump", "edge", "back"], p=[0.4, 0.3, 0.15, 0.15])
+        if q:
+            t = {"small": min(n, t + int(rng.integers(1, 4))),
+                 "jump": min(n, t + int(rng.integers(32, 250))),
+                 "edge": min(n, t + int(rng.choice([31, 32, 33]))),
+                 "back": int(rng.integers(32, t + 1))}[step]   # (from 0: a jump)
+        xy = rng.uniform([-1.0, -6.0], [13.0, 6.0]) + rng.uniform(-1.0 * span, 1.0 * span,
+                                                                  (200, 2))
+        pts = np.column_stack([xy, _wavy(xy) + rng.choice([1e-3, 1e-2, 0.1, 1.0], 200)
+                               * rng.choice([-1, 1], 200)])
+        got = lazy.classify(pts, float(sw.path_end[t - 1]))
+        with monkeypatch.context() as m:
+            m.setattr(K, "ZMAP_JUMP_SWEEPS", 10**9)
+            want = eager.classify(pts, float(sw.path_end[t - 1]))
+        exact = _exact(sw, tool, pts, t)
+        assert not (got[exact] == -1).any() and not (got[~exact] == 1).any()
+        fx = ((pts[:, 0] - lazy.origin[0]) / cell).astype(int) // tile
+        fy = ((pts[:, 1] - lazy.origin[1]) / cell).astype(int) // tile
+        inside = (fx >= 0) & (fx < lazy.shape[0]) & (fy >= 0) & (fy < lazy.shape[1])
+        held = np.zeros(len(pts), dtype=bool)
+        held[inside] = lazy.tile_index[fx[inside], fy[inside]] >= 0
+        assert np.array_equal(got[held], want[held]) and not got[~held].any()
+        flat = lazy.tile_index.ravel()
+        for key in np.flatnonzero(flat >= 0).tolist():
+            if lazy._filled[flat[key]] == lazy.time:
+                e = eager.tile_index.ravel()[key]
+                assert e >= 0 and np.array_equal(lazy._vals[flat[key]], eager._vals[e],
+                                                 equal_nan=True)
+        decided += int((got != 0).sum())
+    assert decided > 0
+    assert dropped[0] > 0           # tiles were dropped for others (and some filled again)
