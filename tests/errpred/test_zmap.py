@@ -90,6 +90,19 @@ def _wavy_raster(step=0.4, passes=25, length=12.0, seg=0.5):
     return CutterLocations.from_arrays(pts, [0.0, 0.0, 1.0], 1000.0, 8000.0)
 
 
+def _wavy(xy):
+    """The wavy surface of :func:`_wavy_raster` at points ``xy`` (k, 2)."""
+    return 0.6 * np.sin(0.5 * xy[:, 0]) + 0.3 * np.cos(0.7 * xy[:, 1])
+
+
+def _exact(sw, tool, pts, time):
+    """The exact T1 test of ``pts`` against sweeps ``0 .. time - 1``."""
+    ids = np.arange(time)
+    return inside_any_sweep(pts, np.ones(len(pts), dtype=np.bool_), sw.p0[ids], sw.d[ids],
+                            sw.w[ids], sw.lo[ids] - 1.0, sw.hi[ids] + 1.0, 0.0,
+                            tool.corner_radius_mm, tool.flute_length_mm, K.MEMBERSHIP_EPS_MM)
+
+
 def _classify_twin(points, vals, tile_index, origin, cell, size, guard):
     """numpy twin of :func:`errpred._zmap_kernels.classify`."""
     out = np.zeros(points.shape[0], dtype=np.int8)
@@ -130,16 +143,11 @@ def test_map_answers_are_the_exact_tests_and_most_are_answered(cell):
         t1_end = float(sw.path_end[time - 1])
         # points around the envelope of what is cut so far, some far off it
         xy = rng.uniform([0.0, -5.0], [12.0, 5.0], (6000, 2))
-        base = 0.6 * np.sin(0.5 * xy[:, 0]) + 0.3 * np.cos(0.7 * xy[:, 1])
         dz = rng.choice([1e-4, 1e-3, 1e-2, 0.1, 1.0], 6000) * rng.choice([-1, 1], 6000)
-        pts = np.column_stack([xy, base + dz + rng.uniform(-0.05, 0.05, 6000)])
+        pts = np.column_stack([xy, _wavy(xy) + dz + rng.uniform(-0.05, 0.05, 6000)])
         state = zmap.classify(pts, t1_end)
         assert zmap.time == time
-        ids = np.arange(time)
-        exact = inside_any_sweep(pts, np.ones(len(pts), dtype=np.bool_), sw.p0[ids], sw.d[ids],
-                                 sw.w[ids], sw.lo[ids] - 1.0, sw.hi[ids] + 1.0, 0.0,
-                                 tool.corner_radius_mm, tool.flute_length_mm,
-                                 K.MEMBERSHIP_EPS_MM)
+        exact = _exact(sw, tool, pts, time)
         assert not (state[exact] == -1).any()
         assert not (state[~exact] == 1).any()
         twin = _classify_twin(pts, zmap._vals, zmap.tile_index, zmap.origin, zmap.cell,
@@ -289,8 +297,7 @@ def test_a_jump_leaves_tiles_behind_and_each_is_caught_up_as_eager_insertion_fil
 
     def near(x0, x1):
         xy = rng.uniform([x0, -5.0], [x1, 5.0], (1500, 2))
-        base = 0.6 * np.sin(0.5 * xy[:, 0]) + 0.3 * np.cos(0.7 * xy[:, 1])
-        return np.column_stack([xy, base + rng.uniform(-0.3, 0.3, len(xy))])
+        return np.column_stack([xy, _wavy(xy) + rng.uniform(-0.3, 0.3, len(xy))])
 
     # (sweeps inserted, points): small steps and jumps, over different parts of the part
     steps = [(n // 10, near(0, 12)), (n // 10 + 2, near(0, 4)), (n // 2, near(0, 4)),
@@ -318,23 +325,8 @@ def test_a_jump_leaves_tiles_behind_and_each_is_caught_up_as_eager_insertion_fil
             assert np.array_equal(lz._vals[slot], ez._vals[ez.tile_index.ravel()[key]],
                                   equal_nan=True)
     assert current > 0
-    exact = inside_any_sweep(steps[-1][1], np.ones(1500, dtype=np.bool_), sw.p0[:steps[-1][0]],
-                             sw.d[:steps[-1][0]], sw.w[:steps[-1][0]],
-                             sw.lo[:steps[-1][0]] - 1.0, sw.hi[:steps[-1][0]] + 1.0, 0.0,
-                             tool.corner_radius_mm, tool.flute_length_mm,
-                             K.MEMBERSHIP_EPS_MM)
+    exact = _exact(sw, tool, steps[-1][1], steps[-1][0])
     assert not (lazy_out[-1][exact] == -1).any() and not (lazy_out[-1][~exact] == 1).any()
-
-
-def _wavy(xy):
-    return 0.6 * np.sin(0.5 * xy[:, 0]) + 0.3 * np.cos(0.7 * xy[:, 1])
-
-
-def _exact(sw, tool, pts, time):
-    ids = np.arange(time)
-    return inside_any_sweep(pts, np.ones(len(pts), dtype=np.bool_), sw.p0[ids], sw.d[ids],
-                            sw.w[ids], sw.lo[ids] - 1.0, sw.hi[ids] + 1.0, 0.0,
-                            tool.corner_radius_mm, tool.flute_length_mm, K.MEMBERSHIP_EPS_MM)
 
 
 def test_a_tile_left_behind_is_caught_up_even_when_a_query_drops_one_of_its_own():
