@@ -211,14 +211,19 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
         i0 = pred.model.block_points(blocks[0])[0]
         i1 = pred.model.block_points(blocks[-1])[1]
         start = float(pred.model.path[i0])
-        # the path every half radius, and a radius to each side
+        # every tile within a tool radius (and a tile) of the path: the path every half
+        # tile, offsets half a tile apart (a coarser ring, a radius to each side, left
+        # tiles between its points to be filled from scratch inside the timed runs)
         r = pred.tool.radius_mm
+        half = 0.5 * zmap.cell * zmap.size
         tips = pred.model.cl.tip[i0:i1 + 1]
-        steps = np.maximum(np.ceil(np.linalg.norm(np.diff(tips, axis=0), axis=1) / (0.5 * r)), 1)
+        steps = np.maximum(np.ceil(np.linalg.norm(np.diff(tips, axis=0), axis=1) / half), 1)
         path = np.concatenate([tips[:1]] + [a + (b - a) * (np.arange(1, k + 1) / k)[:, None]
                                             for a, b, k in zip(tips[:-1], tips[1:],
                                                                steps.astype(int))])
-        ring = np.array([(a, b, 0.0) for a in (-r, 0.0, r) for b in (-r, 0.0, r)])
+        reach = np.arange(-r - 2 * half, r + 2 * half + 1e-9, half)
+        ring = np.array([(a, b, 0.0) for a in reach for b in reach
+                         if np.hypot(a, b) <= r + 2 * half])
         around = (path[:, None, :] + ring).reshape(-1, 3)
         t0 = time.perf_counter()
         zmap.classify(around, start)
