@@ -275,8 +275,8 @@ class GeometryModel:
         self._shank_hit = False
         #: the block :meth:`geometry` works on (CL range) and its shared sweep look-up
         self._block_span = self._block_near = None
-        # how far outside the sweeps the finished-surface search measures margins [mm]
-        self._margin_reach = float(self.bottom.reach.max()) + K.MEMBERSHIP_EPS_MM
+        #: the last block's look-up, shared by the blocks after it inside its box
+        self._kept_near: BlockLookup | None = None
         seg = np.zeros(len(cl))
         if len(cl) > 1:
             seg[1:] = np.linalg.norm(np.diff(cl.tip, axis=0), axis=1)
@@ -669,7 +669,7 @@ class GeometryModel:
         state = dict(self.__dict__)
         state["_zmap"] = None  # per process, rebuilt where it is used
         state["_last_interval"] = state["_last_near"] = None
-        state["_block_span"] = state["_block_near"] = None
+        state["_block_span"] = state["_block_near"] = state["_kept_near"] = None
         state["_shank_hit"] = False
         return state
 
@@ -722,16 +722,17 @@ class GeometryModel:
         ext = R * np.sqrt(np.clip(1 - u * u, 0, None)) + 2 * self.res.pixel_mm
         lo, hi = np.minimum(tip, top) - ext, np.maximum(tip, top) + ext
         box = np.stack([lo, hi])
-        mid_axis = tip + 0.5 * height * u
-        # only sweeps that may reach the ball around everything this point tests
-        # (the tool below ``height``, and the finished-surface margins beyond it)
-        ball = math.hypot(R + 2 * self.res.pixel_mm, 0.5 * height)
-        return self.sweeps.near(lo, hi, mid_axis, ball + self._margin_reach, tip + R * u,
-                                L - fz, L + fz, within=self._shared_lookup(lo, hi)), box
+        # the sweeps whose bounds overlap the box, without the test of whether they may
+        # reach the ball around everything this point tests: it kept 92-96 % of them on
+        # the bench slices and cost more than it saved (each kernel call prunes what
+        # cannot reach its own points: wall-radius 12 % less CPU, raster 3 %, contour 0)
+        return self.sweeps.near(lo, hi, tip, math.inf, tip + R * u, L - fz, L + fz,
+                                within=self._shared_lookup(lo, hi)), box
 
     def _shared_lookup(self, lo, hi) -> np.ndarray | None:
         """The block's shared sweep look-up (:class:`~errpred.sweeps.BlockLookup`,
-        made on first use) for the box ``[lo, hi]``, or None."""
+        made on first use, or the one before it where that holds the block's box) for
+        the box ``[lo, hi]``, or None."""
         span = self._block_span
         if span is None:
             return None
@@ -739,10 +740,15 @@ class GeometryModel:
             i0, i1 = span
             k = max(i0 - 1, 0)
             tool = self.tool
-            self._block_near = BlockLookup(
+            own = BlockLookup(
                 self.sweeps, self.cl.tip[k:i1 + 1], self.cl.axis[k:i1 + 1], tool.radius_mm,
                 tool.flute_length_mm + tool.corner_radius_mm, 2 * self.res.pixel_mm,
-                K.SHARED_LOOKUP_SPAN_PER_DIAMETER * tool.diameter_mm)
+                K.SHARED_LOOKUP_SPAN_PER_DIAMETER * tool.diameter_mm,
+                K.SHARED_LOOKUP_GROW_PER_DIAMETER * tool.diameter_mm)
+            kept = self._kept_near
+            if kept is not None and kept.holds(own):
+                own = kept
+            self._block_near = self._kept_near = own
         return self._block_near.ids_for(lo, hi)
 
     def _side_view(self, tip, frame, fin, cutting0, t1, t2) -> GenerationPoint | None:

@@ -123,10 +123,12 @@ def test_clipping_to_path_intervals():
 
 
 def _reference_near(sw, lo, hi, centre, reach, order_from, t1_end, t2_start):
-    """Sweeps.near composed from its parts in numpy (query, prune, order, clip)."""
+    """Sweeps.near composed from its parts in numpy (query, prune unless the reach is
+    infinite, order, clip)."""
     ids = sw.query(lo, hi)
-    keep = np.array([_may_reach_brute(sw, j, centre, reach) for j in ids], dtype=bool)
-    ids = ids[keep] if ids.size else ids
+    if math.isfinite(reach):
+        keep = np.array([_may_reach_brute(sw, j, centre, reach) for j in ids], dtype=bool)
+        ids = ids[keep] if ids.size else ids
     mid = sw.p0[ids] + 0.5 * sw.d[ids]
     ids = ids[np.argsort(np.sum((mid - order_from) ** 2, axis=1), kind="stable")]
     return sw.clipped(ids, -math.inf, t1_end), sw.clipped(ids, t2_start, math.inf)
@@ -154,6 +156,31 @@ def test_near_is_query_prune_order_and_clip():
             for g, r in zip(got, ref, strict=True):
                 for a, b in zip(g, r, strict=True):
                     assert a.shape == b.shape and np.array_equal(a, b)
+
+
+def test_near_orders_equal_distances_by_id():
+    """A path back and forth over the same few segments: many sweeps share a middle, so
+    their distances are equal; :meth:`Sweeps.near` (numpy's sort, not a stable one)
+    gives them in the order of their ids, as the stable sort of the sorted ids does,
+    with and without the reach test and from a shared look-up."""
+    rng = np.random.default_rng(8)
+    corners = np.array([[0.0, 0, 0], [2.0, 0, 0], [2.0, 1.5, 0], [0.0, 1.5, 0.5]])
+    pts = corners[rng.integers(0, 4, 400)]
+    pts = pts[np.r_[True, np.any(pts[1:] != pts[:-1], axis=1)]]   # no zero-length moves
+    cl = CutterLocations.from_arrays(pts, [0.0, 0.0, 1.0], 1000.0, 8000.0)
+    sw = build_sweeps(cl, Tool("ball", 6))
+    mid = sw.p0 + 0.5 * sw.d
+    assert np.unique(mid, axis=0).shape[0] < len(sw) // 10   # ties everywhere
+    c = np.array([1.0, 0.7, 0.2])
+    L = float(sw.path_end[len(sw) // 2])
+    for reach in (math.inf, 6.0):
+        args = (c - 2.0, c + 2.0, c, reach, c + [0.3, 0.1, 0.0], L - 0.1, L + 0.1)
+        ref = _reference_near(sw, *args)
+        got = sw.near(*args)
+        shared = sw.near(*args, within=sw.query(c - 3.0, c + 3.0))
+        for g in (got, shared):
+            for x, y in zip((*g[0], *g[1]), (*ref[0], *ref[1]), strict=True):
+                assert np.array_equal(x, y)
 
 
 def test_sweeps_left_out_reach_no_point_of_the_ball():
@@ -371,7 +398,9 @@ def test_block_lookup_gives_near_the_same_sweeps(tilting):
     """Positions along a run of cutter locations: :meth:`Sweeps.near` from the block's
     shared look-up (:class:`BlockLookup`) returns the same arrays as with its own grid
     look-up; with a constant axis every position is inside the shared box, a position
-    outside it (the axis turning a lot) gets None (its own look-up)."""
+    outside it (the axis turning a lot) gets None (its own look-up). A look-up grown
+    for the blocks after it gives the positions of a later block it holds the same
+    arrays too."""
     from errpred.sweeps import BlockLookup
     rng = np.random.default_rng(5)
     n = 2500
@@ -386,12 +415,21 @@ def test_block_lookup_gives_near_the_same_sweeps(tilting):
     sw = build_sweeps(cl, tool)
     R, height, margin = tool.radius_mm, tool.flute_length_mm + tool.corner_radius_mm, 0.1
     path = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]
-    used = inside = 0
+    used = inside = held = 0
     for k in rng.integers(200, n - 10, 30):
         i0, i1 = int(k), int(k) + 3
         shared = BlockLookup(sw, pts[i0 - 1:i1 + 1], axis[i0 - 1:i1 + 1], R, height, margin,
                              1e9)
-        assert shared.ids_for(pts[i0] - 0.1, pts[i0] + 0.1) is None  # the first: its own
+        if k % 2:   # a look-up grown for the blocks after it, used by the next block
+            grown = BlockLookup(sw, pts[i0 - 4:i0], axis[i0 - 4:i0], R, height, margin, 1e9,
+                                grow=2.0)
+            inside_box = bool(np.all(shared.own_lo >= grown.own_lo - 2.0)
+                              and np.all(shared.own_hi <= grown.own_hi + 2.0))
+            assert grown.holds(grown) and grown.holds(shared) == inside_box
+            if not inside_box:
+                continue
+            shared = grown
+            held += 1
         for s in range(i0, i1 + 1):
             for t in (0.0, 0.3, 0.5, 1.0):
                 tip = pts[s - 1] + t * (pts[s] - pts[s - 1])
@@ -412,6 +450,7 @@ def test_block_lookup_gives_near_the_same_sweeps(tilting):
                 for x, y in zip((*a[0], *a[1], a[2]), (*b[0], *b[1], b[2])):
                     assert np.array_equal(x, y)
     assert inside == used if not tilting else 0 < inside <= used
+    assert held >= 3
     # an axis turning by 74 deg between two cutter locations: the tool's top halfway
     # (the axis vertical there) rises above the box of both ends: its own look-up
     a2 = np.array([[0.6, 0.0, 0.8], [-0.6, 0.0, 0.8]])
@@ -419,7 +458,7 @@ def test_block_lookup_gives_near_the_same_sweeps(tilting):
     turn = BlockLookup(sw, t2, a2, R, height, margin, 1e9)
     tip, top = np.array([0.5, 0.0, 0.0]), np.array([0.5, 0.0, height])
     inner = (t2[0] - 0.01, t2[0] + 0.01)
-    assert turn.ids_for(*inner) is None and turn.ids_for(*inner) is not None
+    assert turn.ids_for(*inner) is not None
     assert turn.ids_for(np.minimum(tip, top) - R - margin, np.maximum(tip, top) + margin) is None
     # a block spanning more than the limit has no shared look-up
     far = BlockLookup(sw, pts[100:400], axis[100:400], R, height, margin, 1.0)
