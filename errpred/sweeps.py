@@ -297,7 +297,7 @@ class Sweeps:
             *self._index(), self.p0, self.d, self.w, self.lo, self.hi, self.core_radius_mm,
             self.corner_radius_mm, self.top_mm, np.asarray(lo, float), np.asarray(hi, float),
             np.asarray(centre, float), float(reach), np.asarray(order_from, float),
-            _NO_IDS if within is None else within, within is not None, math.isfinite(reach))
+            _NO_IDS if within is None else within, within is not None, reach != math.inf)
         # numpy's sort: 53 us for 3,700 keys, numba's merge sort 494 us (bench slices)
         return _near_clipped(ids, key, np.argsort(key), self.p0, self.d, self.w, self.lo,
                              self.hi, self.path_start, self.path_end, self.core_radius_mm,

@@ -361,6 +361,34 @@ def test_prediction_without_sensitivity_has_the_same_error():
     assert all(q.result.gain == 0.0 for q in without.predicted())
 
 
+def test_blocks_sharing_the_last_blocks_look_up_give_what_their_own_give(monkeypatch):
+    """A block whose box lies inside the last block's grown look-up box takes its sweeps
+    from it (:class:`errpred.sweeps.BlockLookup`, kept across blocks): every point the
+    same, bit for bit, as from a model that looks each block up alone; and the look-up
+    is shared (fewer grid look-ups than blocks)."""
+    import pickle
+
+    from errpred.sweeps import Sweeps
+
+    prog = parse_program(plane_raster(30.0, R, passes=4))
+    blocks = [b for b in range(len(prog)) if 40 <= prog.line[b] <= 70]
+    tool, stock = Tool("ball", D, flute_length_mm=15), plane_stock(30.0, 0.2)
+    cl = cutter_locations(prog)
+    res = Resolution.default(tool)
+    queries = []
+    query = Sweeps.query
+    monkeypatch.setattr(Sweeps, "query", lambda self, lo, hi: queries.append(1) or
+                        query(self, lo, hi))
+    shared = GeometryModel(tool, stock, cl, res)
+    got = [pickle.dumps(g) for b in blocks for g in shared.geometry(b)]
+    assert len(queries) < len(blocks) // 2
+    alone = []
+    for b in blocks:
+        model = GeometryModel(tool, stock, cl, res)
+        alone += [pickle.dumps(g) for g in model.geometry(b)]
+    assert len(got) == len(alone) >= len(blocks) and got == alone
+
+
 def test_two_worker_processes_predict_as_one():
     """Stage 1 in two worker processes (chunks of a few blocks, results shipped packed)
     gives the same points and errors, in the same order, as in this process."""

@@ -178,9 +178,15 @@ def test_near_orders_equal_distances_by_id():
         ref = _reference_near(sw, *args)
         got = sw.near(*args)
         shared = sw.near(*args, within=sw.query(c - 3.0, c + 3.0))
+        ids = sw.query(c - 2.0, c + 2.0)
+        ids = ids[np.argsort(np.sum((mid[ids] - args[4]) ** 2, axis=1), kind="stable")]
+        if math.isfinite(reach):
+            ids = ids[[_may_reach_brute(sw, j, c, reach) for j in ids]]
+        ids1 = ids[sw.path_start[ids] < L - 0.1]     # the sweeps T1 keeps a part of
         for g in (got, shared):
             for x, y in zip((*g[0], *g[1]), (*ref[0], *ref[1]), strict=True):
                 assert np.array_equal(x, y)
+            assert np.array_equal(g[2], ids1)
 
 
 def test_sweeps_left_out_reach_no_point_of_the_ball():
