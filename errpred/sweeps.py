@@ -75,11 +75,17 @@ def _grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark):
 
 
 @njit(cache=True)
+def _query_unsorted(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi):
+    """Ids of the sweeps whose bounds overlap the box [lo, hi], in the grid's order."""
+    mark = np.zeros(lo_all.shape[0], dtype=np.bool_)
+    return _overlapping(_grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark),
+                        lo_all, hi_all, lo, hi)
+
+
+@njit(cache=True)
 def _query(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi):
     """Ids (sorted) of the sweeps whose bounds overlap the box [lo, hi]."""
-    mark = np.zeros(lo_all.shape[0], dtype=np.bool_)
-    ids = _overlapping(_grid_query(cell_start, cell_items, shape, origin, cell, lo, hi, mark),
-                       lo_all, hi_all, lo, hi)
+    ids = _query_unsorted(cell_start, cell_items, shape, origin, cell, lo_all, hi_all, lo, hi)
     return take(ids, argsort_stable(ids))
 
 
@@ -151,9 +157,8 @@ def _near_candidates(cell_start, cell_items, shape, origin, cell, p0_all, d_all,
     if use_within:
         ids = _overlapping(within, lo_all, hi_all, lo, hi)
     else:   # in the grid's order (they are ordered below)
-        mark = np.zeros(lo_all.shape[0], dtype=np.bool_)
-        ids = _overlapping(_grid_query(cell_start, cell_items, shape, origin, cell, lo, hi,
-                                       mark), lo_all, hi_all, lo, hi)
+        ids = _query_unsorted(cell_start, cell_items, shape, origin, cell, lo_all, hi_all,
+                              lo, hi)
     if test_reach:
         keep = sweeps_within(ids, centre[0], centre[1], centre[2], reach, p0_all, d_all,
                              w_all, lo_all, hi_all, c, r, top)
@@ -370,15 +375,18 @@ class BlockLookup:
             self.own_hi = (np.maximum(tips, top) + ext).max(axis=0)
             self.lo, self.hi = self.own_lo - grow, self.own_hi + grow
 
+    def _inside(self, lo, hi) -> bool:
+        """Is the box ``[lo, hi]`` inside this look-up's (False: it has none)?"""
+        return self.lo is not None and bool(np.all(lo >= self.lo) and np.all(hi <= self.hi))
+
     def holds(self, other: "BlockLookup") -> bool:
         """Does this look-up's box hold ``other``'s own box (the block's, not grown)?"""
-        return (self.lo is not None and other.own_lo is not None
-                and bool(np.all(other.own_lo >= self.lo) and np.all(other.own_hi <= self.hi)))
+        return other.own_lo is not None and self._inside(other.own_lo, other.own_hi)
 
     def ids_for(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray | None:
         """Sorted sweep ids holding every sweep whose bounds overlap ``[lo, hi]`` [mm],
         or None where that box is not inside the shared one."""
-        if self.lo is None or not (np.all(lo >= self.lo) and np.all(hi <= self.hi)):
+        if not self._inside(lo, hi):
             return None
         if self._ids is None:
             self._ids = self._sweeps.query(self.lo, self.hi)
