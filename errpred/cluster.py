@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import contextlib
 import logging
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from nc.errors import InputError
 
 _log = logging.getLogger(__name__)
 
-__all__ = ["dask_client", "keep_freed_memory", "restart_compiled_workers"]
+__all__ = ["balanced", "dask_client", "keep_freed_memory", "restart_compiled_workers"]
 
 
 @contextlib.contextmanager
@@ -111,6 +111,69 @@ def restart_compiled_workers(client) -> list[str]:
             _log.warning("worker %s, started again after numba compiled there: %s",
                          addr, what)
     return [addr for addr in todo if status.get(addr) == "OK"]
+
+
+def balanced(client, calls: Sequence[tuple[Callable, tuple, dict]]) -> Iterator[Any]:
+    """The results of ``calls`` (function, positional and keyword arguments) run on the
+    cluster's workers, in the order given; the calls start in that order, one a worker
+    thread at a time, each on the worker that frees up next. The first ones start
+    here, before the first result is asked for.
+
+    Dask places a task where its arguments' data lies: the stretches of one program,
+    which share its part (a future), all went to the worker that made it, so the main
+    job's verification ran the corrected program's on one worker and the planned
+    program's on the other, 18 s apart at the end on the bundled thin wall. Here a call
+    goes to a worker with a free thread (its data moved there if needed), so with the
+    longest calls first the workers end close together. The worker is a preference
+    (``allow_other_workers``): a call whose worker has left runs on another. A call
+    that fails raises where its result is taken, the calls not yet done cancelled.
+
+    Parameters
+    ----------
+    client : distributed.Client
+    calls : sequence of (callable, tuple, dict)
+        In the order they should start (longest first for the shortest end).
+    """
+    from distributed import as_completed
+
+    todo = list(calls)
+    info = client.scheduler_info().get("workers", {})
+    free = [addr for addr, w in info.items() for _ in range(max(int(w.get("nthreads", 1)), 1))]
+    if not free:
+        free = [None]             # no worker listed yet: let the scheduler place them
+    running: dict[Any, tuple[int, Any]] = {}
+    pending = as_completed()
+    nxt = 0
+
+    def start(addr) -> None:
+        nonlocal nxt
+        fn, args, kwargs = todo[nxt]
+        where = {} if addr is None else {"workers": [addr], "allow_other_workers": True}
+        f = client.submit(fn, *args, pure=False, **where, **kwargs)
+        running[f] = (nxt, addr)
+        pending.add(f)
+        nxt += 1
+
+    while free and nxt < len(todo):
+        start(free.pop(0))
+
+    def results() -> Iterator[Any]:
+        done: dict[int, Any] = {}
+        try:
+            for taken in range(len(todo)):
+                while taken not in done:
+                    f = next(pending)
+                    i, addr = running.pop(f)
+                    done[i] = f.result()            # raises the call's error
+                    f.release()
+                    if nxt < len(todo):
+                        start(addr)
+                yield done.pop(taken)
+        finally:
+            if running:
+                client.cancel(list(running))
+
+    return results()
 
 
 class _PlannedRestarts(logging.Filter):

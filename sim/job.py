@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from errpred.cluster import restart_compiled_workers
+from errpred.cluster import balanced, restart_compiled_workers
 from errpred.constants import FALLBACK_REACH_RADII
 from errpred.correct_path import PathCompensation, compensate_path
 from errpred.findings import error_findings, findings_line
@@ -398,15 +398,17 @@ def run_job(scn: PlanScenario, workdir: str | Path, *, client=None,
         # the splits here meanwhile (the geometry alone, 0.1 s a program)
         part_f = {w: client.submit(PartProgram, programs[w], pure=False) for w in (1, 0)}
         stretches.update((w, split_at_air(programs[w], VERIFY_STRETCHES)) for w in (1, 0))
-        futures = [client.submit(simulate_stretch, programs[w], points=p, seed=k,
-                                 workpiece=wp_f, part=part_f.get(w), pure=False)
-                   for w, k, p in runs()]
+        # each stretch on the worker that frees up next, the longest runs first (Dask
+        # alone ran every stretch of a program where its part was made)
+        results = balanced(client, [(simulate_stretch, (programs[w],),
+                                     dict(points=p, seed=k, workpiece=wp_f,
+                                          part=part_f.get(w)))
+                                    for w, k, p in runs()])
         t_lobes = time.perf_counter()
         lobes = lobes_stage()                       # while the workers verify
         seconds["lobes"] = round(time.perf_counter() - t_lobes, 2)
-        for (w, _k, _p), f in zip(runs(), futures):
-            finished(w, f.result())
-            f.release()
+        for (w, _k, _p), run in zip(runs(), results):
+            finished(w, run)
         del part_f
         verified = [judged[w] for w in range(len(programs))]
         lap("verify")

@@ -265,3 +265,55 @@ def test_pool_results_in_order_bounded_and_the_collector_unfrozen():
     assert [g[0][1] for g in out] == list(range(200))
     assert len(submitted) == len(taken) > 2
     assert gc.get_freeze_count() == 0
+
+
+def _where(i, data, seconds):
+    """A call of :func:`errpred.cluster.balanced`'s test: its index, the worker it ran on,
+    when it ran."""
+    from distributed import get_worker
+
+    t0 = time.time()
+    time.sleep(seconds)
+    return i, get_worker().address, t0, time.time(), float(np.sum(data))
+
+
+def _fails(i):
+    raise ValueError(f"call {i} fails")
+
+
+def test_balanced_calls_run_where_a_thread_is_free_not_where_their_data_is(cluster):
+    """``balanced`` gives the results in the order of the calls, starts them in that
+    order, one a worker thread at a time, each on the worker that frees up next,
+    although every call needs data held by one worker only. Dask alone places such
+    calls by their data and each worker runs its own queue: the main job's verification
+    ran every stretch of a program on the worker that made its part, and here Dask alone
+    starts call 2 (moved to the idle worker) a whole call before call 1."""
+    from errpred.cluster import balanced
+
+    a, b = list(cluster.scheduler_info()["workers"])
+    data = cluster.submit(np.ones, 1000, workers=[a], pure=False)
+    data.result()
+    assert cluster.who_has(data)[data.key] == (a,)
+    seconds = [1.2, 0.9, 0.6, 0.3, 0.3, 0.3]                      # longest first
+    out = list(balanced(cluster, [(_where, (i, data, s), {}) for i, s in enumerate(seconds)]))
+    assert [o[0] for o in out] == list(range(len(seconds)))       # in the calls' order
+    assert all(o[4] == 1000.0 for o in out)                       # each got the data
+    ran = {w: sorted((o[2], o[3]) for o in out if o[1] == w) for w in (a, b)}
+    assert ran[a] and ran[b]                                      # both workers used
+    for spans in ran.values():                                    # one at a time on each
+        assert all(s[1] <= t[0] + 1e-3 for s, t in zip(spans, spans[1:]))
+    starts = [o[2] for o in out]
+    # started in order: a later call never started before an earlier one (but for the
+    # hand-over's latency, far below the calls' lengths)
+    assert all(starts[k] >= max(starts[:k]) - 0.15 for k in range(2, len(starts)))
+    assert list(balanced(cluster, [])) == []
+
+
+def test_balanced_call_that_fails_raises_where_its_result_is_taken(cluster):
+    from errpred.cluster import balanced
+
+    res = balanced(cluster, [(_where, (0, np.ones(3), 0.0), {}), (_fails, (1,), {}),
+                             (_where, (2, np.ones(3), 0.0), {})])
+    assert next(res)[0] == 0
+    with pytest.raises(ValueError, match="call 1 fails"):
+        next(res)
