@@ -14,7 +14,8 @@ One run, the four packages in order (``docs/architecture.md``, "Data flow"):
 5. verify in the simulated machine (:func:`sim.verify.verify_program`): the
    planned program and the corrected one over their whole length (each run in
    stretches split at air moves, :func:`sim.verify.split_at_air`, on the workers at
-   once, and judged as one run), the CAM program over its worst pass; chatter or
+   once, each on the one that frees up next, and judged as one run), the CAM program
+   over its worst pass; chatter or
    not, the surface error of each;
 6. the stability lobes at representative points (CAM and planned posture).
 
