@@ -395,6 +395,13 @@ ASSEMBLY_BATCH = 512
 EIGEN_TOL = 1e-10
 #: Seed of the Lanczos start vector [-] (deterministic modes, run to run).
 EIGEN_SEED = 0
+#: Parts of at most this many elements end the nested dissection that orders the
+#: stiffness's DOFs for its sparse LU (orient.fem.q2hex.nested_dissection) [-]. The
+#: bundled thin wall's largest level (24,108 DOFs): SuperLU's own minimum degree
+#: ordering 2.7 s and 22.8 M entries in L and U; nested dissection with parts of 8
+#: elements 1.4-1.5 s and 18.6 M, a solve 31.5 -> 24.2 ms (leaves of 4: 1.4 s, of 16:
+#: 1.5 s, of 32: 1.8 s and 22.3 M).
+ND_LEAF_ELEMENTS = 8
 #: Default modal damping ratio of a wall [-] (measure it when it matters).
 DEFAULT_DAMPING_RATIO = 0.01
 #: Default mesh: element size = min(length, height) / this (one Q2 element per

@@ -339,7 +339,7 @@ def wall_modes(wall: ThinWall, n_modes: int = DEFAULT_N_MODES,
                       elements=mesh.elements, nodes=nodes * 1e-3)
     lam, mu = wall.material.lame_Pa()
     K, M = q2hex.assemble(si, lam, mu, wall.material.density_kg_m3)
-    w2, X = q2hex.lowest_modes(K, M, free, int(n_modes))
+    w2, X = q2hex.lowest_modes(K, M, free, int(n_modes), q2hex.nested_dissection(si))
     shapes = np.einsum("nck,rc->knr", X.reshape(len(nodes), 3, -1), wall.rotation)
     freq = np.sqrt(np.maximum(w2, 0.0)) / (2.0 * math.pi)
     arrays = [freq, shapes, wall.to_workpiece(nodes), mesh.elements]

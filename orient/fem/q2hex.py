@@ -35,11 +35,13 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator, eigsh, splu
 
 from orient.blas import blas_limited
-from orient.constants import ASSEMBLY_BATCH, EIGEN_SEED, EIGEN_TOL
+from orient.constants import ASSEMBLY_BATCH, EIGEN_SEED, EIGEN_TOL, ND_LEAF_ELEMENTS
 
-__all__ = ["Q2Mesh", "assemble", "build_mesh", "lowest_modes", "shape_functions"]
+__all__ = ["Q2Mesh", "assemble", "build_mesh", "lowest_modes", "nested_dissection",
+           "shape_functions"]
 
-#: Fill-reducing ordering for the sparse LU of the stiffness (symmetric pattern).
+#: Fill-reducing ordering for the sparse LU of the stiffness (symmetric pattern) where
+#: no node order is given (:func:`lowest_modes`).
 LU_ORDERING = "MMD_AT_PLUS_A"
 
 
@@ -245,12 +247,72 @@ def assemble(mesh: Q2Mesh, lam: float, mu: float, rho: float) -> tuple[sp.csr_ma
 
 
 @blas_limited
+def nested_dissection(mesh: Q2Mesh, leaf: int = ND_LEAF_ELEMENTS) -> np.ndarray:
+    """A fill-reducing order of the mesh's nodes (each node once) for a sparse
+    factorization: nested dissection by the elements' geometry.
+
+    The elements are split in two at the median of their centres along the direction
+    in which those spread most; the nodes both halves share separate them (no element
+    couples a node of one half to one of the other) and come after both halves, each
+    half ordered the same way, down to parts of ``leaf`` elements or fewer (their nodes
+    in number order). The factor's fill stays within the parts and their separators.
+
+    Parameters
+    ----------
+    mesh : Q2Mesh
+    leaf : int
+        Largest part not split further, >= 1.
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+        Node numbers, in the order to eliminate them.
+    """
+    if not (isinstance(leaf, (int, np.integer)) and leaf >= 1):
+        raise ValueError(f"leaf: expected an integer >= 1, got {leaf!r}")
+    elements = mesh.elements
+    n = mesh.nodes.shape[0]
+    centre = mesh.nodes[elements].mean(axis=1)
+    parts: list[np.ndarray] = []
+
+    def nodes_of(el: np.ndarray, own: np.ndarray) -> np.ndarray:
+        mask = np.zeros(n, dtype=bool)
+        mask[elements[el].ravel()] = True
+        return mask & own
+
+    def split(el: np.ndarray, own: np.ndarray) -> None:
+        if el.size > leaf:
+            c = centre[el]
+            axis = int(np.argmax(np.ptp(c, axis=0)))
+            below = c[:, axis] < np.median(c[:, axis])
+            a, b = el[below], el[~below]
+            if a.size and b.size:
+                in_a, in_b = nodes_of(a, own), nodes_of(b, own)
+                sep = in_a & in_b
+                split(a, in_a & ~sep)
+                split(b, in_b & ~sep)
+                parts.append(np.flatnonzero(sep))
+                return
+        parts.append(np.flatnonzero(own))
+
+    split(np.arange(elements.shape[0]), np.ones(n, dtype=bool))
+    order = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
+    if order.size != n or np.unique(order).size != n:     # every node once
+        raise AssertionError("nested_dissection: the order does not hold every node once")
+    return order
+
+
 def lowest_modes(K: sp.spmatrix, M: sp.spmatrix, free: np.ndarray,
-                 n_modes: int) -> tuple[np.ndarray, np.ndarray]:
+                 n_modes: int, node_order: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """Lowest eigenpairs of ``K x = w^2 M x`` with the DOFs not in ``free`` fixed at 0.
 
     Shift-invert Lanczos about 0; the fixed DOFs must make K positive definite,
     so its sparse LU takes diagonal pivots (symmetric mode, no row pivoting).
+    ``node_order`` (a permutation of the nodes, :func:`nested_dissection`): the DOFs
+    are eliminated node by node in that order (three DOFs a node), else in SuperLU's
+    own ``LU_ORDERING``; the same eigenpairs (the Lanczos start vector is permuted
+    with them), to rounding.
 
     Returns
     -------
@@ -261,19 +323,32 @@ def lowest_modes(K: sp.spmatrix, M: sp.spmatrix, free: np.ndarray,
         scaled so that its largest-magnitude entry is positive.
     """
     idx = np.flatnonzero(free)
+    v0 = np.random.default_rng(EIGEN_SEED).standard_normal(len(idx))
+    spec = LU_ORDERING
+    if node_order is not None:
+        # the free DOFs in the nodes' order: their positions among the free DOFs
+        where = np.full(K.shape[0], -1, dtype=np.int64)
+        where[idx] = np.arange(len(idx))
+        dofs = (np.asarray(node_order, dtype=np.int64)[:, None] * 3 + np.arange(3)).ravel()
+        perm = where[dofs]
+        perm = perm[perm >= 0]
+        if perm.size != idx.size:
+            raise ValueError(f"node_order: expected a permutation of the {K.shape[0] // 3} "
+                             f"nodes, got {np.asarray(node_order).size} entries")
+        idx, v0, spec = idx[perm], v0[perm], "NATURAL"
     Kc = K[idx][:, idx].tocsc()
     Mc = M[idx][:, idx].tocsc()
-    lu = splu(Kc, permc_spec=LU_ORDERING, diag_pivot_thresh=0.0,
+    lu = splu(Kc, permc_spec=spec, diag_pivot_thresh=0.0,
               options={"SymmetricMode": True})
     op = LinearOperator(Kc.shape, matvec=lu.solve, dtype=float)
-    v0 = np.random.default_rng(EIGEN_SEED).standard_normal(len(idx))
     w2, Xc = eigsh(Kc, k=n_modes, M=Mc, sigma=0.0, which="LM", OPinv=op, v0=v0,
                    tol=EIGEN_TOL, ncv=min(len(idx), max(2 * n_modes + 1, 20)))
     order = np.argsort(w2)
     w2, Xc = w2[order], Xc[:, order]
     Xc = Xc / np.sqrt(np.einsum("ik,ik->k", Xc, Mc @ Xc))
-    big = np.argmax(np.abs(Xc), axis=0)
-    Xc = Xc * np.sign(Xc[big, np.arange(Xc.shape[1])])
     X = np.zeros((K.shape[0], n_modes))
     X[idx] = Xc
-    return w2, X
+    # the sign from the largest entry in DOF order (the first of equals), whatever the
+    # elimination order
+    big = np.argmax(np.abs(X), axis=0)
+    return w2, X * np.sign(X[big, np.arange(n_modes)])

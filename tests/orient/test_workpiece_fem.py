@@ -30,6 +30,7 @@ from orient.workpiece_fem import (
     STEEL,
     Material,
     ThinWall,
+    wall_mesh,
     wall_modes,
 )
 
@@ -439,3 +440,56 @@ def test_elements_near_finds_the_element_a_pass_over_all_finds():
                 m.shapes_at(w.to_workpiece(p), tol_mm=tol)
             refused += 1
     assert checked > 300 and refused > 20
+
+
+def test_nested_dissection_orders_every_node_once_and_separates_the_halves():
+    """The order holds each node once; at the top split, no element has nodes in both
+    halves that come before the separator (the separator, last, decouples them)."""
+    from orient.fem import q2hex
+
+    wall = ThinWall(40.0, 20.0, 3.0, Material(210.0, 7850.0, 0.29))
+    mesh = wall_mesh(wall, None)
+    si = q2hex.Q2Mesh(lines=mesh.lines, cells=mesh.cells, elements=mesh.elements,
+                      nodes=mesh.nodes)
+    order = q2hex.nested_dissection(si, leaf=8)
+    n = mesh.nodes.shape[0]
+    assert np.array_equal(np.sort(order), np.arange(n))
+    # the top split: the elements' centres about their median along the longest spread
+    c = mesh.nodes[mesh.elements].mean(axis=1)
+    axis = int(np.argmax(np.ptp(c, axis=0)))
+    below = c[:, axis] < np.median(c[:, axis])
+    in_a = np.zeros(n, bool)
+    in_a[mesh.elements[below].ravel()] = True
+    in_b = np.zeros(n, bool)
+    in_b[mesh.elements[~below].ravel()] = True
+    sep = in_a & in_b
+    assert sep.any() and np.array_equal(np.sort(order[n - sep.sum():]), np.flatnonzero(sep))
+    rank = np.empty(n, int)
+    rank[order] = np.arange(n)
+    assert rank[in_a & ~sep].max() < rank[in_b & ~sep].min()   # one half, then the other
+    with pytest.raises(ValueError, match="leaf"):
+        q2hex.nested_dissection(si, leaf=0)
+
+
+def test_modes_in_nested_dissection_order_equal_superlus_own_ordering():
+    """The eigenpairs do not depend on the elimination order: the same frequencies and
+    mode shapes (to rounding; each up to its sign, which the largest entry sets and a
+    symmetric wall's come in mirror pairs of equal size) with the nodes in
+    nested-dissection order as with SuperLU's own minimum-degree ordering."""
+    from orient.fem import q2hex
+
+    wall = ThinWall(40.0, 20.0, 3.0, Material(210.0, 7850.0, 0.29)).in_process(12.0, 2.5)
+    mesh = wall_mesh(wall, None)
+    si = q2hex.Q2Mesh(lines=tuple(x * 1e-3 for x in mesh.lines), cells=mesh.cells,
+                      elements=mesh.elements, nodes=mesh.nodes * 1e-3)
+    lam, mu = wall.material.lame_Pa()
+    k, m = q2hex.assemble(si, lam, mu, wall.material.density_kg_m3)
+    free = np.repeat(mesh.nodes[:, 2] > 0, 3)
+    w2_own, x_own = q2hex.lowest_modes(k, m, free, 6)
+    w2_nd, x_nd = q2hex.lowest_modes(k, m, free, 6, q2hex.nested_dissection(si))
+    np.testing.assert_allclose(w2_nd, w2_own, rtol=1e-9)
+    diff = np.minimum(np.abs(x_nd - x_own).max(axis=0), np.abs(x_nd + x_own).max(axis=0))
+    assert np.all(diff <= 1e-6 * np.abs(x_own).max(axis=0))
+    assert np.all(x_nd[~free] == 0.0)
+    with pytest.raises(ValueError, match="node_order"):
+        q2hex.lowest_modes(k, m, free, 6, np.arange(3))
