@@ -246,7 +246,6 @@ def assemble(mesh: Q2Mesh, lam: float, mu: float, rho: float) -> tuple[sp.csr_ma
     return K, M
 
 
-@blas_limited
 def nested_dissection(mesh: Q2Mesh, leaf: int = ND_LEAF_ELEMENTS) -> np.ndarray:
     """A fill-reducing order of the mesh's nodes (each node once) for a sparse
     factorization: nested dissection by the elements' geometry.
@@ -302,6 +301,7 @@ def nested_dissection(mesh: Q2Mesh, leaf: int = ND_LEAF_ELEMENTS) -> np.ndarray:
     return order
 
 
+@blas_limited
 def lowest_modes(K: sp.spmatrix, M: sp.spmatrix, free: np.ndarray,
                  n_modes: int, node_order: np.ndarray | None = None
                  ) -> tuple[np.ndarray, np.ndarray]:
