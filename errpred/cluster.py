@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -116,8 +117,9 @@ def restart_compiled_workers(client) -> list[str]:
 def balanced(client, calls: Sequence[tuple[Callable, tuple, dict]]) -> Iterator[Any]:
     """The results of ``calls`` (function, positional and keyword arguments) run on the
     cluster's workers, in the order given; the calls start in that order, one a worker
-    thread at a time, each on the worker that frees up next. The first ones start
-    here, before the first result is asked for.
+    thread at a time, each on the worker that frees up next (started from the finished
+    call's callback, whether or not the caller is waiting for a result). The first ones
+    start here, before the first result is asked for.
 
     Dask places a task where its arguments' data lies: the stretches of one program,
     which share its part (a future), all went to the worker that made it, so the main
@@ -125,8 +127,11 @@ def balanced(client, calls: Sequence[tuple[Callable, tuple, dict]]) -> Iterator[
     program's on the other, 18 s apart at the end on the bundled thin wall. Here a call
     goes to a worker with a free thread (its data moved there if needed), so with the
     longest calls first the workers end close together. The worker is a preference
-    (``allow_other_workers``): a call whose worker has left runs on another. A call
-    that fails raises where its result is taken, the calls not yet done cancelled.
+    (``allow_other_workers``): a call whose worker has left runs on another. The workers
+    are those listed when this is called (none listed: every call submitted at once,
+    placed by Dask). A call that fails raises where its result is taken (the results
+    before it are given first); no call starts after a failure, and the calls still
+    running are cancelled when the results are left.
 
     Parameters
     ----------
@@ -134,44 +139,65 @@ def balanced(client, calls: Sequence[tuple[Callable, tuple, dict]]) -> Iterator[
     calls : sequence of (callable, tuple, dict)
         In the order they should start (longest first for the shortest end).
     """
-    from distributed import as_completed
-
     todo = list(calls)
+    n = len(todo)
     info = client.scheduler_info().get("workers", {})
     free = [addr for addr, w in info.items() for _ in range(max(int(w.get("nthreads", 1)), 1))]
     if not free:
-        free = [None]             # no worker listed yet: let the scheduler place them
-    running: dict[Any, tuple[int, Any]] = {}
-    pending = as_completed()
-    nxt = 0
+        free = [None] * n         # no worker listed: let the scheduler place them all
+    futures: list[Any] = [None] * n
+    cond = threading.Condition()
+    state: dict[str, Any] = {"next": 0, "failed": False, "error": None}
 
     def start(addr) -> None:
-        nonlocal nxt
-        fn, args, kwargs = todo[nxt]
+        """The next call, on ``addr`` (``cond`` held)."""
+        i = state["next"]
+        state["next"] += 1
+        fn, args, kwargs = todo[i]
         where = {} if addr is None else {"workers": [addr], "allow_other_workers": True}
         f = client.submit(fn, *args, pure=False, **where, **kwargs)
-        running[f] = (nxt, addr)
-        pending.add(f)
-        nxt += 1
+        futures[i] = f
+        cond.notify_all()
+        f.add_done_callback(lambda done: freed(addr, done))
 
-    while free and nxt < len(todo):
-        start(free.pop(0))
+    def freed(addr, done) -> None:
+        with cond:
+            if done.status != "finished":
+                state["failed"] = True
+            if not state["failed"] and state["next"] < n:
+                try:
+                    start(addr)
+                except Exception as exc:           # noqa: BLE001 -- raised to the caller
+                    state["failed"], state["error"] = True, exc
+                    cond.notify_all()
+
+    with cond:
+        while free and state["next"] < n:
+            start(free.pop(0))
 
     def results() -> Iterator[Any]:
-        done: dict[int, Any] = {}
         try:
-            for taken in range(len(todo)):
-                while taken not in done:
-                    f = next(pending)
-                    i, addr = running.pop(f)
-                    done[i] = f.result()            # raises the call's error
-                    f.release()
-                    if nxt < len(todo):
-                        start(addr)
-                yield done.pop(taken)
+            for i in range(n):
+                with cond:
+                    while futures[i] is None:      # started once a call before it ends
+                        if state["error"] is not None:
+                            raise state["error"]   # it could not be started
+                        cond.wait()
+                    f = futures[i]
+                out = f.result()                   # raises the call's error
+                with cond:
+                    futures[i] = False             # taken: let Dask forget it
+                f.release()
+                del f
+                yield out
         finally:
-            if running:
-                client.cancel(list(running))
+            with cond:
+                state["failed"] = True             # nothing more starts
+                left = [f for f in futures if f]
+                futures[:] = [False] * n
+                todo.clear()
+            if left:
+                client.cancel(left)
 
     return results()
 

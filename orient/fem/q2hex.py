@@ -251,7 +251,8 @@ def nested_dissection(mesh: Q2Mesh, leaf: int = ND_LEAF_ELEMENTS) -> np.ndarray:
     factorization: nested dissection by the elements' geometry.
 
     The elements are split in two at the median of their centres along the direction
-    in which those spread most; the nodes both halves share separate them (no element
+    in which those spread most (at the lowest value where half or more sit there); the
+    nodes both halves share separate them (no element
     couples a node of one half to one of the other) and come after both halves, each
     half ordered the same way, down to parts of ``leaf`` elements or fewer (their nodes
     in number order). The factor's fill stays within the parts and their separators.
@@ -279,20 +280,30 @@ def nested_dissection(mesh: Q2Mesh, leaf: int = ND_LEAF_ELEMENTS) -> np.ndarray:
         mask[elements[el].ravel()] = True
         return mask & own
 
+    def halves(el: np.ndarray) -> np.ndarray | None:
+        """Which of ``el`` go to the first half (None: no split): below the median
+        along the widest spread, or, where half or more sit at the lowest value, those
+        at it; the next widest direction where all sit at one value."""
+        c = centre[el]
+        spread = np.ptp(c, axis=0)
+        for axis in np.argsort(-spread, kind="stable"):
+            v = c[:, axis]
+            for below in (v < np.median(v), v <= v.min()):
+                if below.any() and not below.all():
+                    return below
+        return None
+
     def split(el: np.ndarray, own: np.ndarray) -> None:
-        if el.size > leaf:
-            c = centre[el]
-            axis = int(np.argmax(np.ptp(c, axis=0)))
-            below = c[:, axis] < np.median(c[:, axis])
-            a, b = el[below], el[~below]
-            if a.size and b.size:
-                in_a, in_b = nodes_of(a, own), nodes_of(b, own)
-                sep = in_a & in_b
-                split(a, in_a & ~sep)
-                split(b, in_b & ~sep)
-                parts.append(np.flatnonzero(sep))
-                return
-        parts.append(np.flatnonzero(own))
+        below = halves(el) if el.size > leaf else None
+        if below is None:
+            parts.append(np.flatnonzero(own))
+            return
+        a, b = el[below], el[~below]
+        in_a, in_b = nodes_of(a, own), nodes_of(b, own)
+        sep = in_a & in_b
+        split(a, in_a & ~sep)
+        split(b, in_b & ~sep)
+        parts.append(np.flatnonzero(sep))
 
     split(np.arange(elements.shape[0]), np.ones(n, dtype=bool))
     order = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
@@ -329,12 +340,14 @@ def lowest_modes(K: sp.spmatrix, M: sp.spmatrix, free: np.ndarray,
         # the free DOFs in the nodes' order: their positions among the free DOFs
         where = np.full(K.shape[0], -1, dtype=np.int64)
         where[idx] = np.arange(len(idx))
-        dofs = (np.asarray(node_order, dtype=np.int64)[:, None] * 3 + np.arange(3)).ravel()
+        nodes = np.asarray(node_order)
+        every = np.arange(K.shape[0] // 3)
+        if not (nodes.ndim == 1 and np.array_equal(np.sort(nodes), every)):
+            raise ValueError(f"node_order: expected a permutation of the {K.shape[0] // 3} "
+                             f"nodes, got {nodes.size} entries")
+        dofs = (nodes.astype(np.int64)[:, None] * 3 + np.arange(3)).ravel()
         perm = where[dofs]
         perm = perm[perm >= 0]
-        if perm.size != idx.size:
-            raise ValueError(f"node_order: expected a permutation of the {K.shape[0] // 3} "
-                             f"nodes, got {np.asarray(node_order).size} entries")
         idx, v0, spec = idx[perm], v0[perm], "NATURAL"
     Kc = K[idx][:, idx].tocsc()
     Mc = M[idx][:, idx].tocsc()

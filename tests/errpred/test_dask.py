@@ -281,6 +281,12 @@ def _fails(i):
     raise ValueError(f"call {i} fails")
 
 
+def _touch(path):
+    """A call that leaves a trace: the file ``path``."""
+    with open(path, "w") as fh:
+        fh.write("ran")
+
+
 def test_balanced_calls_run_where_a_thread_is_free_not_where_their_data_is(cluster):
     """``balanced`` gives the results in the order of the calls, starts them in that
     order, one a worker thread at a time, each on the worker that frees up next,
@@ -309,11 +315,18 @@ def test_balanced_calls_run_where_a_thread_is_free_not_where_their_data_is(clust
     assert list(balanced(cluster, [])) == []
 
 
-def test_balanced_call_that_fails_raises_where_its_result_is_taken(cluster):
+def test_balanced_call_that_fails_raises_where_its_result_is_taken(cluster, tmp_path):
+    """Call 1 fails while call 0 still runs: call 0's result comes first, then the error;
+    nothing starts after the failure (call 2, which leaves a file, never runs)."""
     from errpred.cluster import balanced
 
-    res = balanced(cluster, [(_where, (0, np.ones(3), 0.0), {}), (_fails, (1,), {}),
-                             (_where, (2, np.ones(3), 0.0), {})])
+    trace = tmp_path / "call-2-ran"
+    res = balanced(cluster, [(_where, (0, np.ones(3), 1.0), {}), (_fails, (1,), {}),
+                             (_touch, (str(trace),), {})])
     assert next(res)[0] == 0
     with pytest.raises(ValueError, match="call 1 fails"):
         next(res)
+    with pytest.raises(StopIteration):
+        next(res)
+    time.sleep(0.5)             # a call started after the failure would have run by now
+    assert not trace.exists()

@@ -469,6 +469,15 @@ def test_nested_dissection_orders_every_node_once_and_separates_the_halves():
     assert rank[in_a & ~sep].max() < rank[in_b & ~sep].min()   # one half, then the other
     with pytest.raises(ValueError, match="leaf"):
         q2hex.nested_dissection(si, leaf=0)
+    # one element: its nodes in number order; two side by side, parts of one: the face
+    # they share (9 nodes) last
+    one = q2hex.build_mesh((np.array([0.0, 1.0]),) * 3, np.ones((1, 1, 1), dtype=bool))
+    assert np.array_equal(q2hex.nested_dissection(one), np.arange(27))
+    two = q2hex.build_mesh((np.array([0.0, 1.0, 2.0]), np.array([0.0, 1.0]),
+                            np.array([0.0, 1.0])), np.ones((2, 1, 1), dtype=bool))
+    order = q2hex.nested_dissection(two, leaf=1)
+    assert np.array_equal(np.sort(order), np.arange(45))
+    assert np.all(two.nodes[order[-9:], 0] == 1.0)
 
 
 def test_modes_in_nested_dissection_order_equal_superlus_own_ordering():
@@ -493,3 +502,7 @@ def test_modes_in_nested_dissection_order_equal_superlus_own_ordering():
     assert np.all(x_nd[~free] == 0.0)
     with pytest.raises(ValueError, match="node_order"):
         q2hex.lowest_modes(k, m, free, 6, np.arange(3))
+    twice = q2hex.nested_dissection(si).copy()
+    twice[0] = twice[1]                     # the right size, a node twice, one missing
+    with pytest.raises(ValueError, match="node_order"):
+        q2hex.lowest_modes(k, m, free, 6, twice)
