@@ -162,7 +162,9 @@ def balanced(client, calls: Sequence[tuple[Callable, tuple, dict]]) -> Iterator[
 
     def freed(addr, done) -> None:
         with cond:
-            if done.status != "finished":
+            # an error stops the starts; "cancelled" is also a call whose result was taken
+            # and released before this callback ran (Dask cancels a released key's state)
+            if done.status == "error":
                 state["failed"] = True
             if not state["failed"] and state["next"] < n:
                 try:
