@@ -26,9 +26,12 @@ def real_number(name: str, value: Any, bound: str = "") -> float:
     ValueError
         NaN, infinite, or on the wrong side of ``bound``; the message names ``name``.
     """
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+    if type(value) is float or type(value) is np.float64:
+        v = float(value)        # the common case, without the abstract classes' checks
+    elif isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name}: expected a real number, got {value!r}")
-    v = float(value)
+    else:
+        v = float(value)
     if not math.isfinite(v) or (bound == ">0" and v <= 0) or (bound == ">=0" and v < 0):
         limit = {">0": " > 0", ">=0": " >= 0"}.get(bound, "")
         raise ValueError(f"{name}: expected a finite value{limit}, got {value!r}")
