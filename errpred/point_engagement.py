@@ -152,13 +152,13 @@ class PointEngagement:
             while span * q < K.ENGAGEMENT_MIN_STEPS and factor * q < K.ENGAGEMENT_MAX_REFINE:
                 q *= 2
             # the fine window: the engaged steps and one either side
-            engaged = engaged | np.roll(engaged, 1) | np.roll(engaged, -1)
+            engaged = _with_neighbours(engaged)
             fine = np.arange(n * q)
             window = engaged[np.round(fine / q).astype(int) % n]
             factor *= q
         # the rows that may hold a non-zero weight: the engaged steps and one either side
         # (in ascending order, so that what is read from them keeps the grid's order)
-        near = np.flatnonzero(engaged | np.roll(engaged, 1) | np.roll(engaged, -1))
+        near = np.flatnonzero(_with_neighbours(engaged))
         weight0, shift0 = self.step_weights(grid, cutting0, near, interval, tip, frame,
                                             removed_by_t1, factor, shift_vec)
         feed_step = (frame @ (f_tooth * tool.flutes)) / n
@@ -233,3 +233,16 @@ class PointEngagement:
         cut[inside] = ~removed_by_t1(("sub", factor), keys[inside], tip + local[inside] @ frame)
         cell_weights(cut, i, j, self.du, step, weight, shift)
         return weight, shift
+
+
+def _with_neighbours(mask: np.ndarray) -> np.ndarray:
+    """A cyclic 1-d mask with each set entry's two neighbours set too: ``mask |
+    np.roll(mask, 1) | np.roll(mask, -1)``, without ``np.roll``'s general machinery
+    (43 us a call, twice per refinement and per point: 1.6 % of a 5-axis stage 1)."""
+    out = mask.copy()
+    if mask.size:
+        out[1:] |= mask[:-1]
+        out[0] |= mask[-1]
+        out[:-1] |= mask[1:]
+        out[-1] |= mask[0]
+    return out

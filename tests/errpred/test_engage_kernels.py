@@ -124,3 +124,19 @@ def test_grid_candidates_as_numpy(seed):
             assert g.dtype == w.dtype and np.array_equal(g, w)
         idx, _, _, unsure = got
         assert 0 < idx.size < rows.size * cols.size and unsure.any() and not unsure.all()
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 3, 7, 180])
+def test_engaged_steps_with_their_neighbours_as_numpy_roll(n):
+    """The engagement's window (each engaged rotation step and one either side, around
+    the revolution) as ``mask | np.roll(mask, 1) | np.roll(mask, -1)``, both ends wrapping."""
+    from errpred.point_engagement import _with_neighbours
+
+    rng = np.random.default_rng(n)
+    for _ in range(50):
+        m = rng.random(n) < rng.random()
+        assert np.array_equal(_with_neighbours(m), m | np.roll(m, 1) | np.roll(m, -1))
+    if n >= 3:
+        one = np.zeros(n, dtype=bool)
+        one[0] = True                               # wraps to the last step
+        assert np.flatnonzero(_with_neighbours(one)).tolist() == [0, 1, n - 1]
