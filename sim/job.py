@@ -15,8 +15,7 @@ One run, the four packages in order (``docs/architecture.md``, "Data flow"):
    planned program and the corrected one over their whole length (each run in
    stretches split at air moves, :func:`sim.verify.split_at_air`, on the workers at
    once, each on the one that frees up next, and judged as one run), the CAM program
-   over its worst pass; chatter or
-   not, the surface error of each;
+   over its worst pass; chatter or not, the surface error of each;
 6. the stability lobes at representative points (CAM and planned posture).
 
 No reporting here: :mod:`sim.job_report` turns a :class:`JobResult` into the
