@@ -115,11 +115,11 @@ def _table(rng, spr, m, fill):
             rng.normal(0.0, 2e3, (k, 3)))
 
 
-def _case(seed, blended, linear, state_scale=1e-6):
+def _case(seed, blended, linear, state_scale=1e-6, fill=0.4):
     rng = np.random.default_rng(seed)
     spr, m, nm, n = 16, 5, 4, 200
-    a = _table(rng, spr, m, 0.4)
-    b = _table(rng, spr, m, 0.4) if blended else \
+    a = _table(rng, spr, m, fill)
+    b = _table(rng, spr, m, fill) if blended else \
         (np.zeros(spr + 1, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64),
          np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)))
     blend = np.linspace(0.0, 1.0, n) if blended else np.zeros(n)
@@ -155,6 +155,30 @@ def test_integrate_equals_its_numpy_twin(blended, linear):
         assert out[0][3].any() and out[0][5].any()          # forces and accelerations ran
         for got, ref in zip(*out):
             np.testing.assert_array_equal(got, ref)
+
+
+@pytest.mark.parametrize("blended", [False, True])
+def test_integrate_with_sparse_tables_equals_its_numpy_twin(blended):
+    """A ball's short arc in the cut: most rotation samples engage nothing (the kernel
+    skips the tables' helpers there), some only the first table, some only the second."""
+    for seed in range(6):
+        args, surface, state, n = _case(seed, blended, False, fill=0.06)
+        ptr, ptr_b = args[3], args[10]
+        a_at, b_at = np.diff(ptr) > 0, np.diff(ptr_b) > 0
+        assert (~a_at & ~b_at).sum() >= 2 and a_at.any()
+        if blended:
+            assert (a_at & ~b_at).any() and (b_at & ~a_at).any()
+        out = []
+        for f in (K.integrate, _integrate_twin):
+            s, st = surface.copy(), state.copy()
+            res = (np.ones((n, 3)), np.ones((n, 3)), np.ones((n, 3)), np.ones(n),
+                   np.ones(n, np.int64))
+            f(*args, s, st, *res)
+            out.append((s, st, *res))
+        assert out[0][2].any() and not out[0][2].all()      # steps with and without force
+        for got, ref in zip(*out):
+            np.testing.assert_array_equal(got, ref)
+            assert np.array_equal(np.signbit(got), np.signbit(ref))
 
 
 def test_integrate_with_nothing_engaged_equals_its_numpy_twin():
