@@ -435,8 +435,11 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
         n_points = HOT_SEED_POINTS_BALL
     else:
         rounds, n_sweeps, n_points = HOT_ROUNDS, HOT_SEED_SWEEPS, HOT_SEED_POINTS
+    # (typed, not literal ints: numba compiles a callee once per literal it is given, and
+    # sweep_margin_clustered's call below is then the same specialization)
+    none = np.int64(0)
     for _round in range(rounds):
-        hot = _hot_sweep(points, rest, p0, d, w, c, r, top, lim, n_sweeps, n_points, 0)
+        hot = _hot_sweep(points, rest, p0, d, w, c, r, top, lim, n_sweeps, n_points, none)
         if hot < 0:
             break
         for i in range(k):
@@ -472,8 +475,8 @@ def sweep_margin_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, floo
     rest = candidates.copy()
     # (the first of them to hold one of a few points, as before the membership test's
     # rounds: those were measured on membership calls only)
-    hot = _hot_sweep(points, candidates, p0, d, w, c, r, top, r + floor, HOT_SEED_SWEEPS,
-                     MARGIN_SEED_POINTS, 1)
+    hot = _hot_sweep(points, candidates, p0, d, w, c, r, top, r + floor,
+                     np.int64(HOT_SEED_SWEEPS), np.int64(MARGIN_SEED_POINTS), np.int64(1))
     if hot >= 0:
         for i in range(k):
             if candidates[i] and sweep_distance(points[i, 0], points[i, 1], points[i, 2],

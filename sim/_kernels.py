@@ -236,22 +236,26 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1,
                 hsum += hs
                 wsum += ws
                 lost += ls
+            # where both tables engage, the one with the larger weight writes a place
+            # both engage (the other skips it); ``both`` and ``not both`` rather than
+            # True and False: numba compiles a callee once per literal it is given
+            both = w_a > 0.0 and w_b > 0.0
             if w_b <= 0.0:
                 _leave(i, ptr, pos, edge, h0, nrm, h_a, q0, q1, q2, linear, surface,
-                       ptr_b, pos_b, edge_b, False)
+                       ptr_b, pos_b, edge_b, both)
             elif w_a <= 0.0:
                 _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q0, q1, q2, linear,
-                       surface, ptr, pos, edge, False)
+                       surface, ptr, pos, edge, both)
             elif w_a >= w_b:
                 _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q0, q1, q2, linear,
-                       surface, ptr, pos, edge, True)
+                       surface, ptr, pos, edge, both)
                 _leave(i, ptr, pos, edge, h0, nrm, h_a, q0, q1, q2, linear, surface,
-                       ptr_b, pos_b, edge_b, False)
+                       ptr_b, pos_b, edge_b, not both)
             else:
                 _leave(i, ptr, pos, edge, h0, nrm, h_a, q0, q1, q2, linear, surface,
-                       ptr_b, pos_b, edge_b, True)
+                       ptr_b, pos_b, edge_b, both)
                 _leave(i, ptr_b, pos_b, edge_b, h0_b, nrm_b, h_b, q0, q1, q2, linear,
-                       surface, ptr, pos, edge, False)
+                       surface, ptr, pos, edge, not both)
         force[n, 0] = F0
         force[n, 1] = F1
         force[n, 2] = F2
