@@ -20,6 +20,9 @@ if TYPE_CHECKING:
 
 __all__ = ["edge_spacing_rad", "generating_weights", "tooth_surface", "tooth_surfaces"]
 
+#: Margin on the angle within which an entry may generate a patch point [rad]: far above
+#: the rounding of the normals' dot products (~1e-8 rad near 0), far below a step.
+_TURN_MARGIN_RAD = 1e-6
 
 
 def edge_spacing_rad(edges: MicroEdges) -> float:
@@ -71,7 +74,8 @@ def generating_weights(table: tuple, steps_per_rev: int, flutes: int, normal: np
     unit = nrm / MM_PER_M
     sample = np.repeat(np.arange(steps_per_rev), np.diff(ptr)) % spt
     n = np.asarray(normal, dtype=float)
-    squarest = sample[int(np.argmin(unit @ n))]      # an edge facing the surface squarest
+    facing = unit @ n
+    squarest = sample[int(np.argmin(facing))]      # an edge facing the surface squarest
     if corner_radius_mm <= 0.0:
         w[squarest] = 1.0
         return w
@@ -83,16 +87,26 @@ def generating_weights(table: tuple, steps_per_rev: int, flutes: int, normal: np
     xf, xb = np.meshgrid(s * cut.fz_mm / corner_radius_mm, s * cut.pick_mm / corner_radius_mm)
     target = -n + xf.reshape(-1, 1) * f + xb.reshape(-1, 1) * b
     target /= np.linalg.norm(target, axis=1, keepdims=True)
+    step = STRIP_REACH * max(2.0 * math.pi / steps_per_rev, edge_step_rad)
+    reach = math.cos(step)
+    # only the entries within the patch's widest turn plus ``step`` of -n can come within
+    # ``step`` of a point's normal (the triangle inequality on the sphere; the margin far
+    # above rounding): each point's best entry that reaches is among them, and is the
+    # first of them, as of all entries, where several tie
+    widest = math.acos(min(1.0, float(np.min(target @ -n))))
+    near = np.flatnonzero(-facing >= math.cos(min(math.pi, widest + step + _TURN_MARGIN_RAD)))
+    if near.size == 0:
+        w[squarest] = 1.0
+        return w
     # (points, entries): each point's argmax runs along a row (along a column of the
     # (entries, points) product it took 0.29 ms a call, a twentieth of the simulation)
-    dots = target @ unit.T
+    dots = target @ unit[near].T
     best = np.argmax(dots, axis=1)
-    reach = math.cos(STRIP_REACH * max(2.0 * math.pi / steps_per_rev, edge_step_rad))
     ok = dots[np.arange(best.size), best] >= reach
     if not ok.any():
         w[squarest] = 1.0
         return w
-    np.add.at(w, sample[best[ok]], 1.0)
+    np.add.at(w, sample[near[best[ok]]], 1.0)
     return w / w.sum()
 
 

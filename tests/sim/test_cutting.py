@@ -327,6 +327,55 @@ def test_surface_is_generated_where_an_edge_faces_the_surface(lead_deg, tilt_deg
     np.testing.assert_allclose(run.surface_offset_mm, d @ w, rtol=1e-12)
 
 
+def _weights_over_every_entry(table, spr, flutes, n, f, cut, r, edge_step):
+    """The generating weights as the docstring states them, each patch point against every
+    engaged entry (the function picks among the entries near -n first)."""
+    from sim.constants import STRIP_GRID, STRIP_REACH
+
+    ptr, nrm = table[0], table[4]
+    spt = spr // flutes
+    unit = nrm / 1e3
+    sample = np.repeat(np.arange(spr), np.diff(ptr)) % spt
+    w = np.zeros(spt)
+    f = f - (f @ n) * n
+    f /= np.linalg.norm(f)
+    b = np.cross(n, f)
+    g = np.linspace(-0.5, 0.5, STRIP_GRID)
+    xf, xb = np.meshgrid(g * cut.fz_mm / r, g * cut.pick_mm / r)
+    target = -n + xf.reshape(-1, 1) * f + xb.reshape(-1, 1) * b
+    target /= np.linalg.norm(target, axis=1, keepdims=True)
+    dots = target @ unit.T
+    best = np.argmax(dots, axis=1)
+    ok = dots[np.arange(best.size), best] >= math.cos(
+        STRIP_REACH * max(2 * math.pi / spr, edge_step))
+    if not ok.any():
+        w[sample[int(np.argmin(unit @ n))]] = 1.0
+        return w
+    np.add.at(w, sample[best[ok]], 1.0)
+    return w / w.sum()
+
+
+@pytest.mark.parametrize("pick_mm", [0.05, PICK_MM, 3.0])
+@pytest.mark.parametrize(("lead_deg", "tilt_deg"), [(0.0, 45.0), (30.0, 10.0), (-20.0, 30.0)])
+def test_generating_weights_equal_every_entrys_test(lead_deg, tilt_deg, pick_mm):
+    """Only the entries near -n are tested against the patch's points: the same weights,
+    bit for bit, as testing every engaged entry, from a narrow patch to one wider than the
+    engagement (some points reached by no edge)."""
+    from orient.geometry import posture_axis
+    from sim.generation import edge_spacing_rad, generating_weights
+
+    ball = Tool("ball", 10.0, flutes=2, helix_deg=30.0, flute_length_mm=15.0)
+    u = posture_axis(Y, X, math.radians(lead_deg), math.radians(tilt_deg))
+    cut = LocalCut(0.2, pick_mm, -1, FZ_MM)
+    edges = ball.micro_edges(60)
+    model = prepare_cut(ball, COEF, u, Y, X, cut, _tool_2dof(), 9000.0, edges=edges)
+    args = (model.table, model.steps_per_rev, 2, Y, X, cut, 5.0, edge_spacing_rad(edges))
+    got = generating_weights(*args)
+    ref = _weights_over_every_entry(*args)
+    assert got.sum() == pytest.approx(1.0)
+    np.testing.assert_array_equal(got, ref)
+
+
 @pytest.mark.parametrize(("lead_deg", "tilt_deg"), [(30.0, 10.0), (30.0, 0.0)])
 def test_generating_strip_spans_the_finished_patch(lead_deg, tilt_deg):
     """Where the whole patch (fz along the feed, pick across) lies inside the engagement,
