@@ -140,18 +140,25 @@ def _case(seed, blended, linear, state_scale=1e-6, fill=0.4):
     return args, surface, state, n
 
 
+def _both(args, surface, state, n, fill):
+    """The kernel's and the twin's outputs (surface, state, force, displacement,
+    acceleration, chip, contact loss) from the same inputs, outputs first set to ``fill``."""
+    out = []
+    for f in (K.integrate, _integrate_twin):
+        s, st = surface.copy(), state.copy()
+        res = (np.full((n, 3), fill), np.full((n, 3), fill), np.full((n, 3), fill),
+               np.full(n, fill), np.full(n, int(fill), np.int64))
+        f(*args, s, st, *res)
+        out.append((s, st, *res))
+    return out
+
+
 @pytest.mark.parametrize("blended", [False, True])
 @pytest.mark.parametrize("linear", [False, True])
 def test_integrate_equals_its_numpy_twin(blended, linear):
     for seed in range(3):
         args, surface, state, n = _case(seed, blended, linear)
-        out = []
-        for f in (K.integrate, _integrate_twin):
-            s, st = surface.copy(), state.copy()
-            res = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n),
-                   np.zeros(n, np.int64))
-            f(*args, s, st, *res)
-            out.append((s, st, *res))
+        out = _both(args, surface, state, n, 0.0)
         assert out[0][3].any() and out[0][5].any()          # forces and accelerations ran
         for got, ref in zip(*out):
             np.testing.assert_array_equal(got, ref)
@@ -168,13 +175,7 @@ def test_integrate_with_sparse_tables_equals_its_numpy_twin(blended):
         assert (~a_at & ~b_at).sum() >= 2 and a_at.any()
         if blended:
             assert (a_at & ~b_at).any() and (b_at & ~a_at).any()
-        out = []
-        for f in (K.integrate, _integrate_twin):
-            s, st = surface.copy(), state.copy()
-            res = (np.ones((n, 3)), np.ones((n, 3)), np.ones((n, 3)), np.ones(n),
-                   np.ones(n, np.int64))
-            f(*args, s, st, *res)
-            out.append((s, st, *res))
+        out = _both(args, surface, state, n, 1.0)
         assert out[0][2].any() and not out[0][2].all()      # steps with and without force
         for got, ref in zip(*out):
             np.testing.assert_array_equal(got, ref)
@@ -190,13 +191,7 @@ def test_integrate_with_nothing_engaged_equals_its_numpy_twin():
         args[3] = np.zeros_like(args[3])
         for k in (4, 5, 6, 7, 8, 9):
             args[k] = args[k][:0]
-        out = []
-        for f in (K.integrate, _integrate_twin):
-            s, st = surface.copy(), state.copy()
-            res = (np.ones((n, 3)), np.ones((n, 3)), np.ones((n, 3)), np.ones(n),
-                   np.ones(n, np.int64))
-            f(*args, s, st, *res)
-            out.append((s, st, *res))
+        out = _both(args, surface, state, n, 1.0)
         assert out[0][3].any() and out[0][4].any() and not out[0][2].any()
         for got, ref in zip(*out):
             np.testing.assert_array_equal(got, ref)
