@@ -13,7 +13,7 @@ from numba import njit
 
 from .constants import SUBNORMAL_FLUSH
 
-__all__ = ["accel_filter", "integrate", "periodic_forced"]
+__all__ = ["accel_filter", "integrate", "periodic_forced", "tooth_sums"]
 
 _TINY = SUBNORMAL_FLUSH
 
@@ -377,3 +377,38 @@ def periodic_forced(ptr, h0, f0, f1, scale, direction, phi, gam, x):
             x[p, m, 0] = x0
             x[p, m, 1] = x1
             x0, x1 = _mode_map(a, b, c, d, g0, g1, x0, x1, u[p, m])
+
+
+@njit(cache=True, nogil=True)
+def tooth_sums(dn, first, counts, spt, gen, per_piece):
+    """Per tooth of consecutive pieces of a run, the generating weights' sums ``den`` and
+    their sums times the displacement along the normal ``num`` (:func:`sim.generation.
+    tooth_surfaces`): row ``t`` of piece ``p`` is step ``first[p] + t`` with weight
+    ``gen[p if per_piece else 0, step % spt]``; a piece's teeth are counted from its first
+    step's, the pieces' one after the other. ``dn`` (n,) [m]; returns ``num``, ``den`` (the
+    pieces' teeth) and how many teeth each piece spans. The sums run in the rows' order,
+    as ``np.bincount`` adds its weights (the same numbers)."""
+    n_p = counts.shape[0]
+    span = np.zeros(n_p, dtype=np.int64)
+    total = 0
+    for p in range(n_p):
+        if counts[p] > 0:
+            span[p] = (first[p] + counts[p] - 1) // spt - first[p] // spt + 1
+        total += span[p]
+    num = np.zeros(total)
+    den = np.zeros(total)
+    row = 0
+    base = 0
+    for p in range(n_p):
+        g = p if per_piece else 0
+        f = first[p]
+        t0 = base - f // spt
+        for t in range(counts[p]):
+            step = f + t
+            w = gen[g, step % spt]
+            k = step // spt + t0
+            num[k] += w * dn[row]
+            den[k] += w
+            row += 1
+        base += span[p]
+    return num, den, span

@@ -13,6 +13,7 @@ import numpy as np
 from errpred.tool import MicroEdges
 from orient.engagement import LocalCut
 
+from . import _kernels as _k
 from .constants import MM_PER_M, STRIP_GRID, STRIP_REACH
 
 if TYPE_CHECKING:
@@ -143,24 +144,17 @@ def tooth_surfaces(disp_m: np.ndarray, model: CuttingModel, first_steps: np.ndar
     per_piece = np.zeros(counts.size, dtype=np.int64)
     if n == 0:
         return np.zeros(0), per_piece
-    spt = model.steps_per_tooth
-    piece = np.repeat(np.arange(counts.size), counts)
-    first = np.asarray(first_steps, dtype=np.int64)
-    steps = np.repeat(first - (np.cumsum(counts) - counts), counts) + np.arange(n)
     if generating is None:
         if not model.generating.any():
             return np.zeros(0), per_piece
-        w = model.generating[steps % spt]
+        gen = model.generating[None, :]
     else:
-        w = generating[piece, steps % spt]
-    # each piece's teeth counted from its first, the pieces' bins one after the other
-    local = steps // spt - np.repeat(first // spt, counts)
-    span = np.zeros(counts.size, dtype=np.int64)
-    has = counts > 0
-    span[has] = local[np.cumsum(counts)[has] - 1] + 1
-    tooth = local + np.repeat(np.cumsum(span) - span, counts)
-    num = np.bincount(tooth, w * (disp_m @ model.normal))
-    den = np.bincount(tooth, w)
+        gen = np.asarray(generating, dtype=float)
+    # one pass over the rows (sim._kernels.tooth_sums), the sums np.bincount made
+    num, den, span = _k.tooth_sums(disp_m @ model.normal,
+                                   np.asarray(first_steps, dtype=np.int64), counts,
+                                   int(model.steps_per_tooth), np.ascontiguousarray(gen),
+                                   generating is not None)
     keep = den > 0.5
     per_piece = np.bincount(np.repeat(np.arange(counts.size), span)[keep],
                             minlength=counts.size)

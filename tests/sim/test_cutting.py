@@ -660,6 +660,29 @@ def test_advance_pieces_is_advance_piece_by_piece_bit_for_bit():
         many.advance_pieces(a, counts, previous=b, weights=(w[:-1], w[1:] + 0.5))
 
 
+def test_tooth_surfaces_of_pieces_with_an_empty_one_are_each_pieces_bit_for_bit():
+    """Pieces at once (sim._kernels.tooth_sums) against each piece's tooth_surface (numpy's
+    bincount), with an empty piece, a piece within one tooth and pieces across several,
+    with and without their own generating weights."""
+    from sim.generation import tooth_surface, tooth_surfaces
+
+    a, _ = _ball_cut(30.0, 10.0)
+    spt = a.steps_per_tooth
+    counts = np.array([5, 0, spt - 3, 3 * spt + 11, 0, 2])
+    starts = 1_000_003 + np.cumsum(counts) - counts
+    rng = np.random.default_rng(11)
+    d = rng.normal(0.0, 1e-6, (int(counts.sum()), 3))
+    g = rng.random((counts.size, spt)) * (rng.random(spt) < 0.2)
+    for gen in (None, g):
+        got, per = tooth_surfaces(d, a, starts, counts, gen)
+        rows = np.cumsum(counts) - counts
+        want = [tooth_surface(d[r:r + n], a, s, None if gen is None else gen[p])
+                for p, (r, s, n) in enumerate(zip(rows, starts, counts))]
+        assert sum(x.size for x in want) > 3
+        np.testing.assert_array_equal(got, np.concatenate(want))
+        np.testing.assert_array_equal(per, [x.size for x in want])
+
+
 def _forced_eigen(model):
     """The forced response computed another way: in each mode's step-map eigenvectors,
     where every component is a first-order filter (``w_p = lam^p w_0 + z t_p``), scipy's
