@@ -379,15 +379,17 @@ def flute_engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: A
     cur_p0 = (pl.tip - half * pl.f)[None, :]
     cur_d = ((half - cut.fz_mm) * pl.f)[None, :]
     f_tool = pl.frame @ (cut.fz_mm * pl.f)
+    sweeps = tuple(np.ascontiguousarray(a) for a in (prev_p0, prev_d, cur_p0, cur_d,
+                                                      pl.axis[None, :].copy()))
+    for a in sweeps:    # read-only as errpred's sweeps: the membership test's callees
+        a.flags.writeable = False   # compiled once for both (numba types them apart)
     rho, z, kappa = (np.ascontiguousarray(getattr(edges, a), dtype=float)
                      for a in ("rho", "z", "kappa"))
     shape = sin0.shape
     cutting0, h0 = np.empty(shape, bool), np.empty(shape)
     rows, cols = SK.flute0_engagement(
         sin0, cos0, rho, z, np.sin(kappa), np.cos(kappa), np.ascontiguousarray(pl.frame),
-        np.ascontiguousarray(pl.tip), proj, cut.depth_mm, kf, kb,
-        np.ascontiguousarray(prev_p0), np.ascontiguousarray(prev_d),
-        np.ascontiguousarray(cur_p0), np.ascontiguousarray(cur_d), pl.axis[None, :].copy(),
+        np.ascontiguousarray(pl.tip), proj, cut.depth_mm, kf, kb, *sweeps,
         tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm, MEMBERSHIP_EPS_MM,
         f_tool, CHIP_EPS * cut.fz_mm, bool(trailing), cutting0, h0)
     return FluteEngagement(theta=theta, cutting0=cutting0, h0=h0, rows=rows, cols=cols,

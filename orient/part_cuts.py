@@ -193,6 +193,8 @@ def cuts_from_part(tool: Tool, stock, cl: CutterLocations, contacts: Contacts,
         keep = (piece_end <= t1_end) & np.all(t1[3] <= c + R, axis=1) & np.all(
             t1[4] >= c - R, axis=1)
         parts = tuple(np.ascontiguousarray(a[keep]) for a in t1)
+        for a in parts[:3]:     # read-only as errpred's sweeps: numba's membership test
+            a.flags.writeable = False  # and its callees compiled once for both
 
         def material(pts: np.ndarray) -> np.ndarray:
             pts = np.ascontiguousarray(pts)
