@@ -13,7 +13,7 @@ from numba import njit
 
 from .constants import SUBNORMAL_FLUSH
 
-__all__ = ["accel_filter", "integrate", "periodic_forced", "tooth_sums"]
+__all__ = ["accel_filter", "integrate", "piece_steps", "periodic_forced", "tooth_sums"]
 
 _TINY = SUBNORMAL_FLUSH
 
@@ -412,3 +412,29 @@ def tooth_sums(dn, first, counts, spt, gen, per_piece):
             row += 1
         base += span[p]
     return num, den, span
+
+
+@njit(cache=True, nogil=True)
+def piece_steps(counts, w0, w1, start, dt, blend):
+    """Per step of consecutive pieces (``counts`` (p,) steps each): its time
+    ``start[p] + j dt`` [s] and, with ``blend``, the previous table's weight ``1 - w``,
+    ``w = w0[p] + (w1[p] - w0[p]) (j + 1/2) / max(counts[p], 1)`` (``j`` the step within
+    its piece; :meth:`sim.cutter.Cutter.advance_pieces`: numpy's arithmetic in the same
+    order, the same numbers). Returns ``(t, 1 - w)`` (the latter empty without ``blend``).
+    """
+    n = 0
+    for p in range(counts.shape[0]):
+        n += counts[p]
+    t = np.empty(n)
+    other = np.empty(n if blend else 0)
+    k = 0
+    for p in range(counts.shape[0]):
+        c = counts[p]
+        dw = w1[p] - w0[p]
+        m = max(c, 1)
+        for j in range(c):
+            t[k] = start[p] + j * dt
+            if blend:
+                other[k] = 1.0 - (w0[p] + dw * (j + 0.5) / m)
+            k += 1
+    return t, other

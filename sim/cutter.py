@@ -22,6 +22,7 @@ from errpred.spindle import rpm_for_tooth_period
 from nc.checks import real_number
 from orient.dynamics import ModalSystem
 
+from . import _kernels as _k
 from .cutting import CuttingModel, MillingRun, _integrate, _step_map, empty_table
 from .forced import forced_response, mid_step_displacement
 from .generation import tooth_surfaces
@@ -262,26 +263,25 @@ class Cutter:
         chip = np.empty(n)
         lost = np.empty(n, dtype=np.int64)
         first = np.cumsum(counts) - counts               # each piece's first step
-        local = np.arange(n) - np.repeat(first, counts)  # step within its piece
-        generating = None
-        if previous is None:
-            _integrate(model, self.step, widths, linear, self.surface, self.state,
-                       force, disp, acc, chip, lost)
-        else:
-            # each piece's share, as advance has it: w0 + (w1 - w0) (j + 1/2) / n
-            w = np.repeat(w0, counts) + np.repeat(w1 - w0, counts) * (local + 0.5) \
-                / np.repeat(np.maximum(counts, 1), counts)
-            _integrate(model, self.step, widths, linear, self.surface, self.state,
-                       force, disp, acc, chip, lost, previous.table, 1.0 - w)
-            wm = 0.5 * (w0 + w1)
-            generating = wm[:, None] * model.generating + (1.0 - wm)[:, None] \
-                * previous.generating
         start = np.empty(counts.size)                    # each piece's start time
         t0 = self.time_s
         for p, k in enumerate(counts.tolist()):
             start[p] = t0
             t0 += k * model.dt_s
-        t = np.repeat(start, counts) + local * model.dt_s
+        # each step's time and, blended, the previous table's share: advance's
+        # w0 + (w1 - w0) (j + 1/2) / n, j the step within its piece (one pass)
+        t, other = _k.piece_steps(counts, w0, w1, start, float(model.dt_s),
+                                  previous is not None)
+        generating = None
+        if previous is None:
+            _integrate(model, self.step, widths, linear, self.surface, self.state,
+                       force, disp, acc, chip, lost)
+        else:
+            _integrate(model, self.step, widths, linear, self.surface, self.state,
+                       force, disp, acc, chip, lost, previous.table, other)
+            wm = 0.5 * (w0 + w1)
+            generating = wm[:, None] * model.generating + (1.0 - wm)[:, None] \
+                * previous.generating
         surf, teeth = tooth_surfaces(disp, model, self.step + first, counts, generating)
         self.step += n
         self.time_s = t0
