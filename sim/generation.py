@@ -141,6 +141,9 @@ def tooth_surfaces(disp_m: np.ndarray, model: CuttingModel, first_steps: np.ndar
     piece, and how many each piece has."""
     counts = np.asarray(counts, dtype=np.int64)
     n = disp_m.shape[0]
+    # the kernel reads by these counts and shapes, unchecked
+    if counts.sum() != n or np.any(counts < 0):
+        raise ValueError(f"counts: expected {n} steps in counts >= 0, got {counts.sum()}")
     per_piece = np.zeros(counts.size, dtype=np.int64)
     if n == 0:
         return np.zeros(0), per_piece
@@ -150,6 +153,9 @@ def tooth_surfaces(disp_m: np.ndarray, model: CuttingModel, first_steps: np.ndar
         gen = model.generating[None, :]
     else:
         gen = np.asarray(generating, dtype=float)
+        if gen.shape != (counts.size, model.steps_per_tooth):
+            raise ValueError(f"generating: expected shape ({counts.size}, "
+                             f"{model.steps_per_tooth}), got {gen.shape}")
     # one pass over the rows (sim._kernels.tooth_sums), the sums np.bincount made
     num, den, span = _k.tooth_sums(disp_m @ model.normal,
                                    np.asarray(first_steps, dtype=np.int64), counts,

@@ -681,6 +681,11 @@ def test_tooth_surfaces_of_pieces_with_an_empty_one_are_each_pieces_bit_for_bit(
         assert sum(x.size for x in want) > 3
         np.testing.assert_array_equal(got, np.concatenate(want))
         np.testing.assert_array_equal(per, [x.size for x in want])
+    # the kernel reads by the counts and the weights' shape: both checked first
+    with pytest.raises(ValueError, match="counts"):
+        tooth_surfaces(d[:-1], a, starts, counts)
+    with pytest.raises(ValueError, match="generating"):
+        tooth_surfaces(d, a, starts, counts, g[:-1])
 
 
 def _forced_eigen(model):
