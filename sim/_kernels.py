@@ -239,7 +239,7 @@ def integrate(start, n_steps, spr, ptr, pos, edge, h0, nrm, f0, f1,
             # where both tables engage, the one with the larger weight writes a place
             # both engage (the other skips it); ``both`` and ``not both`` rather than
             # True and False: numba compiles a callee once per literal it is given
-            both = w_a > 0.0 and w_b > 0.0
+            both = not (w_b <= 0.0 or w_a <= 0.0)     # the branches' own tests
             if w_b <= 0.0:
                 _leave(i, ptr, pos, edge, h0, nrm, h_a, q0, q1, q2, linear, surface,
                        ptr_b, pos_b, edge_b, both)

@@ -140,10 +140,16 @@ def tooth_surfaces(disp_m: np.ndarray, model: CuttingModel, first_steps: np.ndar
     default ``model.generating`` for all). Returns the pieces' offsets [mm], piece after
     piece, and how many each piece has."""
     counts = np.asarray(counts, dtype=np.int64)
+    first = np.asarray(first_steps, dtype=np.int64)
     n = disp_m.shape[0]
     # the kernel reads by these counts and shapes, unchecked
     if counts.sum() != n or np.any(counts < 0):
         raise ValueError(f"counts: expected {n} steps in counts >= 0, got {counts.sum()}")
+    if first.shape != counts.shape:
+        raise ValueError(f"first_steps: expected shape {counts.shape}, got {first.shape}")
+    if model.generating.shape != (model.steps_per_tooth,):
+        raise ValueError(f"model.generating: expected shape ({model.steps_per_tooth},), "
+                         f"got {model.generating.shape}")
     per_piece = np.zeros(counts.size, dtype=np.int64)
     if n == 0:
         return np.zeros(0), per_piece
@@ -157,8 +163,7 @@ def tooth_surfaces(disp_m: np.ndarray, model: CuttingModel, first_steps: np.ndar
             raise ValueError(f"generating: expected shape ({counts.size}, "
                              f"{model.steps_per_tooth}), got {gen.shape}")
     # one pass over the rows (sim._kernels.tooth_sums), the sums np.bincount made
-    num, den, span = _k.tooth_sums(disp_m @ model.normal,
-                                   np.asarray(first_steps, dtype=np.int64), counts,
+    num, den, span = _k.tooth_sums(disp_m @ model.normal, first, counts,
                                    int(model.steps_per_tooth), np.ascontiguousarray(gen),
                                    generating is not None)
     keep = den > 0.5

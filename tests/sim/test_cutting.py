@@ -374,6 +374,13 @@ def test_generating_weights_equal_every_entrys_test(lead_deg, tilt_deg, pick_mm)
     ref = _weights_over_every_entry(*args)
     assert got.sum() == pytest.approx(1.0)
     np.testing.assert_array_equal(got, ref)
+    if pick_mm <= PICK_MM:      # a patch narrower than the engagement: entries left out
+        from sim.constants import STRIP_REACH
+
+        facing = -(model.table[4] / 1e3) @ Y
+        cone = math.hypot(FZ_MM, pick_mm) / 2 / 5.0 + STRIP_REACH * max(
+            2 * math.pi / model.steps_per_rev, edge_spacing_rad(edges)) + 1e-3
+        assert np.any(facing < math.cos(cone))
 
 
 @pytest.mark.parametrize(("lead_deg", "tilt_deg"), [(30.0, 10.0), (30.0, 0.0)])

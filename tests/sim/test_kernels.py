@@ -223,6 +223,32 @@ def test_integrate_flushes_a_mode_ringing_down_into_subnormal_numbers():
     assert np.all(np.abs(st0) > SUBNORMAL_FLUSH)
 
 
+def _piece_steps_twin(counts, w0, w1, start, dt, blend):
+    """numpy twin of :func:`sim._kernels.piece_steps` (advance_pieces' former arithmetic)."""
+    first = np.cumsum(counts) - counts
+    local = np.arange(int(counts.sum())) - np.repeat(first, counts)
+    t = np.repeat(start, counts) + local * dt
+    if not blend:
+        return t, np.zeros(0)
+    w = np.repeat(w0, counts) + np.repeat(w1 - w0, counts) * (local + 0.5) \
+        / np.repeat(np.maximum(counts, 1), counts)
+    return t, 1.0 - w
+
+
+@pytest.mark.parametrize("blend", [False, True])
+def test_piece_steps_equals_its_numpy_twin(blend):
+    rng = np.random.default_rng(4)
+    counts = np.array([3, 0, 1, 517, 0, 2048, 7], dtype=np.int64)
+    w0, w1 = rng.random(counts.size), rng.random(counts.size)
+    start = np.cumsum(rng.random(counts.size)) + 12.345
+    dt = 1.8351317624605448e-06
+    got = K.piece_steps(counts, w0, w1, start, dt, blend)
+    ref = _piece_steps_twin(counts, w0, w1, start, dt, blend)
+    assert got[0].size == counts.sum() and got[1].size == (counts.sum() if blend else 0)
+    for a, b in zip(got, ref):
+        np.testing.assert_array_equal(a, b)
+
+
 def _accel_twin(acc, rotation, factor, sos, zi):
     """numpy twin of :func:`sim._kernels.accel_filter`: the stream's former arithmetic
     (a matrix product, then ``scipy.signal.sosfilt``), without the flush."""
