@@ -116,29 +116,22 @@ def tooth_surface(disp_m: np.ndarray, model: CuttingModel, first_step: int,
     """The generated surface's offset per tooth [mm]: the relative displacement along the
     normal, averaged over the rotation samples that generate it (``generating``, default
     ``model.generating``), for the teeth whose samples lie mostly within this stretch of
-    steps."""
-    w_tooth = model.generating if generating is None else generating
-    n = disp_m.shape[0]
-    if n == 0 or not w_tooth.any():
-        return np.zeros(0)
-    spt = model.steps_per_tooth
-    steps = first_step + np.arange(n)
-    w = w_tooth[steps % spt]
-    tooth = steps // spt - first_step // spt
-    num = np.bincount(tooth, w * (disp_m @ model.normal))
-    den = np.bincount(tooth, w)
-    keep = den > 0.5
-    return num[keep] / den[keep] * MM_PER_M
+    steps (:func:`tooth_surfaces` of one piece)."""
+    gen = None if generating is None else np.asarray(generating, dtype=float)[None, :]
+    return tooth_surfaces(disp_m, model, np.array([first_step]),
+                          np.array([disp_m.shape[0]]), gen)[0]
 
 
 def tooth_surfaces(disp_m: np.ndarray, model: CuttingModel, first_steps: np.ndarray,
                    counts: np.ndarray, generating: np.ndarray | None = None
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`tooth_surface` of consecutive pieces of a run at once, the same numbers bit
-    for bit: piece ``p`` is ``counts[p]`` rows of ``disp_m`` from step ``first_steps[p]``,
-    with the generating weights ``generating[p]`` (shape (pieces, steps_per_tooth);
-    default ``model.generating`` for all). Returns the pieces' offsets [mm], piece after
-    piece, and how many each piece has."""
+    """:func:`tooth_surface` of consecutive pieces of a run at once: piece ``p`` is
+    ``counts[p]`` rows of ``disp_m`` from step ``first_steps[p]``, with the generating
+    weights ``generating[p]`` (shape (pieces, steps_per_tooth); default
+    ``model.generating`` for all). Returns the pieces' offsets [mm], piece after piece,
+    and how many each piece has; each piece's the same numbers, bit for bit, as its
+    own call (its teeth's sums in its rows' order; ``tests/sim/test_cutting.py`` holds
+    them equal to numpy's ``bincount``)."""
     counts = np.asarray(counts, dtype=np.int64)
     first = np.asarray(first_steps, dtype=np.int64)
     n = disp_m.shape[0]

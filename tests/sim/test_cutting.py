@@ -607,6 +607,23 @@ def test_cutter_switch_takes_the_places_the_cuts_engage():
     np.testing.assert_array_equal(c.surface, ref)
 
 
+def _tooth_surface_twin(disp_m, model, first_step, generating=None):
+    """numpy twin of :func:`sim.generation.tooth_surface` (its former code: each tooth's
+    sums by ``np.bincount``)."""
+    w_tooth = model.generating if generating is None else generating
+    n = disp_m.shape[0]
+    if n == 0 or not w_tooth.any():
+        return np.zeros(0)
+    spt = model.steps_per_tooth
+    steps = first_step + np.arange(n)
+    w = w_tooth[steps % spt]
+    tooth = steps // spt - first_step // spt
+    num = np.bincount(tooth, w * (disp_m @ model.normal))
+    den = np.bincount(tooth, w)
+    keep = den > 0.5
+    return num[keep] / den[keep] * 1e3
+
+
 def test_advance_pieces_is_advance_piece_by_piece_bit_for_bit():
     """The cutter's pieces in one kernel call (a stretch of servo ticks between two cutter
     locations) give what advance gives piece by piece: the blend going from piece to
@@ -615,7 +632,7 @@ def test_advance_pieces_is_advance_piece_by_piece_bit_for_bit():
     import dataclasses
 
     from sim.cutter import Cut, Cutter
-    from sim.generation import tooth_surface, tooth_surfaces
+    from sim.generation import tooth_surfaces
 
     a, _ = _ball_cut(30.0, 10.0)
     b0, _ = _ball_cut(30.0, 13.0, a.steps_per_rev)
@@ -659,7 +676,8 @@ def test_advance_pieces_is_advance_piece_by_piece_bit_for_bit():
     g = rng.random((len(counts), a.steps_per_tooth)) * (rng.random(a.steps_per_tooth) < 0.1)
     for gen in (None, g):
         got, per = tooth_surfaces(d, a, starts, counts, gen)
-        want = [tooth_surface(d[s - 11:s - 11 + n], a, s, None if gen is None else gen[p])
+        want = [_tooth_surface_twin(d[s - 11:s - 11 + n], a, s,
+                                    None if gen is None else gen[p])
                 for p, (s, n) in enumerate(zip(starts, counts))]
         np.testing.assert_array_equal(got, np.concatenate(want))
         np.testing.assert_array_equal(per, [x.size for x in want])
@@ -668,9 +686,9 @@ def test_advance_pieces_is_advance_piece_by_piece_bit_for_bit():
 
 
 def test_tooth_surfaces_of_pieces_with_an_empty_one_are_each_pieces_bit_for_bit():
-    """Pieces at once (sim._kernels.tooth_sums) against each piece's tooth_surface (numpy's
-    bincount), with an empty piece, a piece within one tooth and pieces across several,
-    with and without their own generating weights."""
+    """Pieces at once (sim._kernels.tooth_sums) against each piece's numpy twin (bincount),
+    and each piece's own tooth_surface, with an empty piece, a piece within one tooth and
+    pieces across several, with and without their own generating weights."""
     from sim.generation import tooth_surface, tooth_surfaces
 
     a, _ = _ball_cut(30.0, 10.0)
@@ -683,8 +701,11 @@ def test_tooth_surfaces_of_pieces_with_an_empty_one_are_each_pieces_bit_for_bit(
     for gen in (None, g):
         got, per = tooth_surfaces(d, a, starts, counts, gen)
         rows = np.cumsum(counts) - counts
-        want = [tooth_surface(d[r:r + n], a, s, None if gen is None else gen[p])
+        want = [_tooth_surface_twin(d[r:r + n], a, s, None if gen is None else gen[p])
                 for p, (r, s, n) in enumerate(zip(rows, starts, counts))]
+        for p, (r, s, n) in enumerate(zip(rows, starts, counts)):
+            one = tooth_surface(d[r:r + n], a, s, None if gen is None else gen[p])
+            np.testing.assert_array_equal(one, want[p])
         assert sum(x.size for x in want) > 3
         np.testing.assert_array_equal(got, np.concatenate(want))
         np.testing.assert_array_equal(per, [x.size for x in want])
