@@ -28,7 +28,9 @@ __all__ = ["inside_any_sweep_clustered", "read_only", "sweep_margin_clustered"]
 def read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
     """The sweep arrays (``p0, d, w, lo, hi``, and T1's sweep ids) flagged read-only:
     T1 and T2 as :meth:`errpred.geometry.GeometryModel` keeps its last answer (which
-    must not change), and every subset of them handed to the kernels. Numba compiles
+    must not change), every subset of them handed to the kernels, and other packages'
+    sweeps handed to the membership tests (``errpred.sweeps.read_only``: the same
+    specializations as errpred's, its callees compiled once). Numba compiles
     a kernel once per argument type and a read-only array is another type: a subset of
     T1 or T2 made writeable cost a second specialization of
     :func:`inside_any_sweep_clustered`, 14 s of compiling on a fresh cache."""

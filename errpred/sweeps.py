@@ -28,6 +28,7 @@ from numba import njit
 from nc.path import CutterLocations
 
 from . import constants as K
+from ._cluster_kernels import read_only
 from ._kernels import inside_any_sweep, sweep_distance, sweeps_within
 from ._sort_kernels import argsort_stable, compress, grown, take
 from .tool import Tool
@@ -35,7 +36,8 @@ from .tool import Tool
 #: ``inside_any_sweep`` and ``sweep_distance`` (numba, usable inside other
 #: numba kernels) are the swept tool solid's membership and distance, public
 #: here for the packages above errpred.
-__all__ = ["BlockLookup", "Sweeps", "build_sweeps", "inside_any_sweep", "slerp", "sweep_distance"]
+__all__ = ["BlockLookup", "Sweeps", "build_sweeps", "inside_any_sweep", "read_only", "slerp",
+           "sweep_distance"]
 
 
 def _cylinder_bounds(p: np.ndarray, w: np.ndarray, height: float, radius: float):

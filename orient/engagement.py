@@ -59,6 +59,7 @@ import numpy as np
 from errpred.engagement import expand_flutes, revolution_angles
 from errpred.force import chip_thickness
 from errpred.frames import tool_frame
+from errpred.sweeps import read_only
 from errpred.tool import MicroEdges, Tool
 
 from . import _kernels as KN
@@ -379,10 +380,10 @@ def flute_engagement(tool: Tool, edges: MicroEdges, posture_axis: Any, normal: A
     cur_p0 = (pl.tip - half * pl.f)[None, :]
     cur_d = ((half - cut.fz_mm) * pl.f)[None, :]
     f_tool = pl.frame @ (cut.fz_mm * pl.f)
-    sweeps = tuple(np.ascontiguousarray(a) for a in (prev_p0, prev_d, cur_p0, cur_d,
-                                                      pl.axis[None, :].copy()))
-    for a in sweeps:    # read-only as errpred's sweeps: the membership test's callees
-        a.flags.writeable = False   # compiled once for both (numba types them apart)
+    # read-only, as errpred's sweeps: the membership test's callees compiled once for
+    # both (numba types read-only arrays apart)
+    sweeps = read_only(*(np.ascontiguousarray(a) for a in (prev_p0, prev_d, cur_p0, cur_d,
+                                                           pl.axis[None, :].copy())))
     rho, z, kappa = (np.ascontiguousarray(getattr(edges, a), dtype=float)
                      for a in ("rho", "z", "kappa"))
     shape = sin0.shape

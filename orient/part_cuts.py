@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from errpred import constants as EK
-from errpred.sweeps import build_sweeps, inside_any_sweep
+from errpred.sweeps import build_sweeps, inside_any_sweep, read_only
 from errpred.tool import Tool
 from nc.path import CutterLocations
 
@@ -192,9 +192,10 @@ def cuts_from_part(tool: Tool, stock, cl: CutterLocations, contacts: Contacts,
         # this location's earlier moves: before its own trail, near its ball
         keep = (piece_end <= t1_end) & np.all(t1[3] <= c + R, axis=1) & np.all(
             t1[4] >= c - R, axis=1)
+        # the sweeps read-only, as errpred's own: the membership test's callees compiled
+        # once for both (numba types read-only arrays apart)
         parts = tuple(np.ascontiguousarray(a[keep]) for a in t1)
-        for a in parts[:3]:     # read-only as errpred's sweeps: numba's membership test
-            a.flags.writeable = False  # and its callees compiled once for both
+        read_only(*parts[:3])
 
         def material(pts: np.ndarray) -> np.ndarray:
             pts = np.ascontiguousarray(pts)
