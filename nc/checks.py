@@ -26,12 +26,11 @@ def real_number(name: str, value: Any, bound: str = "") -> float:
     ValueError
         NaN, infinite, or on the wrong side of ``bound``; the message names ``name``.
     """
-    if type(value) is float or type(value) is np.float64:
-        v = float(value)        # the common case, without the abstract classes' checks
-    elif isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+    # a float or numpy double (the common case) skips the abstract classes' checks
+    if type(value) is not float and type(value) is not np.float64 and (
+            isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real)):
         raise TypeError(f"{name}: expected a real number, got {value!r}")
-    else:
-        v = float(value)
+    v = float(value)
     if not math.isfinite(v) or (bound == ">0" and v <= 0) or (bound == ">=0" and v < 0):
         limit = {">0": " > 0", ">=0": " >= 0"}.get(bound, "")
         raise ValueError(f"{name}: expected a finite value{limit}, got {value!r}")
