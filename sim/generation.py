@@ -6,7 +6,7 @@ displacement over them."""
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -80,14 +80,7 @@ def generating_weights(table: tuple, steps_per_rev: int, flutes: int, normal: np
     if corner_radius_mm <= 0.0:
         w[squarest] = 1.0
         return w
-    f = np.asarray(feed_dir, dtype=float)
-    f = f - (f @ n) * n
-    f /= np.linalg.norm(f)
-    b = np.cross(n, f)
-    s = np.linspace(-0.5, 0.5, STRIP_GRID)
-    xf, xb = np.meshgrid(s * cut.fz_mm / corner_radius_mm, s * cut.pick_mm / corner_radius_mm)
-    target = -n + xf.reshape(-1, 1) * f + xb.reshape(-1, 1) * b
-    target /= np.linalg.norm(target, axis=1, keepdims=True)
+    target = _patch_normals(n, feed_dir, cut, corner_radius_mm)
     step = STRIP_REACH * max(2.0 * math.pi / steps_per_rev, edge_step_rad)
     reach = math.cos(step)
     # only the entries within the patch's widest turn plus ``step`` of -n can come within
@@ -109,6 +102,22 @@ def generating_weights(table: tuple, steps_per_rev: int, flutes: int, normal: np
         return w
     np.add.at(w, sample[near[best[ok]]], 1.0)
     return w / w.sum()
+
+
+def _patch_normals(normal: np.ndarray, feed_dir: Any, cut: LocalCut,
+                   corner_radius_mm: float) -> np.ndarray:
+    """The edge normals that leave the finished patch's ``STRIP_GRID x STRIP_GRID`` points
+    (:func:`generating_weights`): ``-n`` turned by ``(x_f, x_b) / r`` across ``fz`` along
+    the feed and ``pick`` across it, unit vectors, shape (points, 3) [-]."""
+    n = normal
+    f = np.asarray(feed_dir, dtype=float)
+    f = f - (f @ n) * n
+    f /= np.linalg.norm(f)
+    b = np.cross(n, f)
+    s = np.linspace(-0.5, 0.5, STRIP_GRID)
+    xf, xb = np.meshgrid(s * cut.fz_mm / corner_radius_mm, s * cut.pick_mm / corner_radius_mm)
+    target = -n + xf.reshape(-1, 1) * f + xb.reshape(-1, 1) * b
+    return target / np.linalg.norm(target, axis=1, keepdims=True)
 
 
 def tooth_surface(disp_m: np.ndarray, model: CuttingModel, first_step: int,

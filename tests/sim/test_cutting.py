@@ -329,21 +329,17 @@ def test_surface_is_generated_where_an_edge_faces_the_surface(lead_deg, tilt_deg
 
 def _weights_over_every_entry(table, spr, flutes, n, f, cut, r, edge_step):
     """The generating weights as the docstring states them, each patch point against every
-    engaged entry (the function picks among the entries near -n first)."""
-    from sim.constants import STRIP_GRID, STRIP_REACH
+    engaged entry (the function picks among the entries near -n first); the patch's points
+    as the function makes them."""
+    from sim.constants import STRIP_REACH
+    from sim.generation import _patch_normals
 
     ptr, nrm = table[0], table[4]
     spt = spr // flutes
     unit = nrm / 1e3
     sample = np.repeat(np.arange(spr), np.diff(ptr)) % spt
     w = np.zeros(spt)
-    f = f - (f @ n) * n
-    f /= np.linalg.norm(f)
-    b = np.cross(n, f)
-    g = np.linspace(-0.5, 0.5, STRIP_GRID)
-    xf, xb = np.meshgrid(g * cut.fz_mm / r, g * cut.pick_mm / r)
-    target = -n + xf.reshape(-1, 1) * f + xb.reshape(-1, 1) * b
-    target /= np.linalg.norm(target, axis=1, keepdims=True)
+    target = _patch_normals(n, f, cut, r)
     dots = target @ unit.T
     best = np.argmax(dots, axis=1)
     ok = dots[np.arange(best.size), best] >= math.cos(
