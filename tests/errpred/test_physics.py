@@ -13,8 +13,8 @@ import pytest
 from errpred.coefficients import CuttingCoefficients
 from errpred.engagement import expand_flutes
 from errpred.force import chip_thickness, tool_forces
-from errpred.physics import (_deflection, _engagement, _revolution, _strip_error,
-                             _wear_influence)
+from errpred.physics import (_deflection, _engagement, _flute_entries, _revolution,
+                             _strip_error, _wear_influence, bending_basis)
 from errpred.tool import Tool
 
 from .cases import stiff_tool
@@ -153,3 +153,51 @@ def test_wear_influence_is_the_error_s_derivative_in_each_edge_s_cutting_distanc
         assert slope == pytest.approx(a[q], rel=1e-6, abs=1e-9 * np.abs(a).max())
         checked += abs(a[q]) > 0
     assert checked >= 2
+
+
+def _lexsorted_entries(i0, j0, n, flutes):
+    """Every flute's entries from flute 0's as stage 2 first listed them: all flutes'
+    entries, then ``np.lexsort`` by (step, flute, edge) (the twin of ``_flute_entries``)."""
+    shift = n // flutes
+    k = np.repeat(np.arange(flutes), i0.size)
+    i = (np.tile(i0, flutes) - shift * k) % n
+    j = np.tile(j0, flutes)
+    order = np.lexsort((j, k, i))
+    return i[order], k[order], j[order], np.tile(np.arange(i0.size), flutes)[order]
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_flute_entries_are_the_sorted_entries_of_every_flute(seed):
+    """The entries without the sort: the same arrays as sorting all flutes' entries, for
+    sparse and dense blocks, empty rows and blocks, one flute and several."""
+    rng = np.random.default_rng(seed)
+    flutes = int(rng.integers(1, 5))
+    n = flutes * int(rng.integers(1, 40))
+    m = int(rng.integers(1, 25))
+    c0 = rng.random((n, m)) < (0.0 if seed == 0 else rng.random() * 0.6)
+    i0, j0 = np.nonzero(c0)
+    i, k, src = _flute_entries(i0, n, flutes)
+    want = _lexsorted_entries(i0, j0, n, flutes)
+    for got, ref in zip((i, k, j0[src], src), want):
+        assert got.dtype == ref.dtype and np.array_equal(got, ref)
+    assert i.size == flutes * i0.size
+
+
+def test_bending_basis_is_numpys_cross_and_norm_bit_for_bit():
+    """Its three-component arithmetic against np.linalg.norm and np.cross, for axes in
+    every direction and near X (where Y is taken as the first direction)."""
+    rng = np.random.default_rng(5)
+    axes = rng.normal(size=(2000, 3))
+    axes[:200] = [1.0, 0.0, 0.0] + 1e-7 * rng.normal(size=(200, 3))
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    near_x = 0
+    for u in axes:
+        x = np.array([1.0, 0.0, 0.0]) - u[0] * u
+        if np.linalg.norm(x) < 1e-6:
+            near_x += 1
+            x = np.array([0.0, 1.0, 0.0]) - u[1] * u
+        x /= np.linalg.norm(x)
+        b = bending_basis(u)
+        assert np.array_equal(b["x"], x) and np.array_equal(b["y"], np.cross(u, x))
+        assert np.array_equal(b["z"], u)
+    assert near_x > 100
