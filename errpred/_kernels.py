@@ -114,18 +114,20 @@ def _dist_half_strip(ax, ay, az, dx, dy, dz, wx, wy, wz, lmax):
 
 
 @njit(cache=True, inline="always")
-def _golden(x, y, z, p0, d, w, c, r, top, lim):
+def _golden(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top, lim):
     """Golden-section search over s of the core distance of (x, y, z) - s d: the
     smaller of its last two values, or the first value within ``lim`` (``-inf``:
     never stops early; the search keeps its best value, so the final one would be
-    within ``lim`` too)."""
+    within ``lim`` too). The sweep as scalars (tip, displacement, axis), as its callers
+    read them: an array argument is typed read-only or not after the caller's array,
+    and numba compiled :func:`_search_distance` once for each."""
     lo, hi = 0.0, 1.0
     m1 = hi - _INV_PHI * (hi - lo)
     m2 = lo + _INV_PHI * (hi - lo)
-    f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
-                    w[0], w[1], w[2], c, r, top)
-    f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
-                    w[0], w[1], w[2], c, r, top)
+    f1 = _core_dist(x - m1 * dx, y - m1 * dy, z - m1 * dz, px, py, pz,
+                    wx, wy, wz, c, r, top)
+    f2 = _core_dist(x - m2 * dx, y - m2 * dy, z - m2 * dz, px, py, pz,
+                    wx, wy, wz, c, r, top)
     if f1 <= lim:
         return f1
     if f2 <= lim:
@@ -135,16 +137,16 @@ def _golden(x, y, z, p0, d, w, c, r, top, lim):
             hi = m2
             m2, f2 = m1, f1
             m1 = hi - _INV_PHI * (hi - lo)
-            f1 = _core_dist(x - m1 * d[0], y - m1 * d[1], z - m1 * d[2], p0[0], p0[1], p0[2],
-                            w[0], w[1], w[2], c, r, top)
+            f1 = _core_dist(x - m1 * dx, y - m1 * dy, z - m1 * dz, px, py, pz,
+                            wx, wy, wz, c, r, top)
             if f1 <= lim:
                 return f1
         else:
             lo = m1
             m1, f1 = m2, f2
             m2 = lo + _INV_PHI * (hi - lo)
-            f2 = _core_dist(x - m2 * d[0], y - m2 * d[1], z - m2 * d[2], p0[0], p0[1], p0[2],
-                            w[0], w[1], w[2], c, r, top)
+            f2 = _core_dist(x - m2 * dx, y - m2 * dy, z - m2 * dz, px, py, pz,
+                            wx, wy, wz, c, r, top)
             if f2 <= lim:
                 return f2
     return f1 if f1 < f2 else f2
@@ -173,17 +175,19 @@ def sweep_distance(x, y, z, p0, d, w, c, r, top):
         return _dist_half_strip(x - (p0[0] + r * w[0]), y - (p0[1] + r * w[1]),
                                 z - (p0[2] + r * w[2]), d[0], d[1], d[2], w[0], w[1], w[2],
                                 top - r)
-    return _search_distance(x, y, z, p0, d, w, c, r, top)
+    return _search_distance(x, y, z, p0[0], p0[1], p0[2], d[0], d[1], d[2], w[0], w[1],
+                            w[2], c, r, top)
 
 
 @njit(cache=True)
-def _search_distance(x, y, z, p0, d, w, c, r, top):
+def _search_distance(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top):
     """:func:`sweep_distance` of a tool with ``c > 0``: golden-section search and the
-    two ends."""
-    best = _golden(x, y, z, p0, d, w, c, r, top, -math.inf)
+    two ends. Scalars only (:func:`_golden`): errpred's sweeps (read-only) and orient's
+    (built in its kernels, writable) reach it through one compiled version."""
+    best = _golden(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top, -math.inf)
     # the ends are candidates too (the minimum may sit at s = 0 or 1)
-    e0 = _core_dist(x, y, z, p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r, top)
-    e1 = _core_dist(x - d[0], y - d[1], z - d[2], p0[0], p0[1], p0[2], w[0], w[1], w[2], c, r, top)
+    e0 = _core_dist(x, y, z, px, py, pz, wx, wy, wz, c, r, top)
+    e1 = _core_dist(x - dx, y - dy, z - dz, px, py, pz, wx, wy, wz, c, r, top)
     if e0 < best:
         best = e0
     if e1 < best:
@@ -298,7 +302,8 @@ def _search_within(x, y, z, p0, d, w, c, r, top, lim):
         return False
     if exact:
         return True  # a move square to the axis: the bound, within lim, is the distance
-    return _golden(x, y, z, p0, d, w, c, r, top, lim) <= lim
+    return _golden(x, y, z, p0[0], p0[1], p0[2], d[0], d[1], d[2], w[0], w[1], w[2], c,
+                   r, top, lim) <= lim
 
 
 @njit(cache=True, parallel=False)
