@@ -118,9 +118,7 @@ def _golden(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top, lim):
     """Golden-section search over s of the core distance of (x, y, z) - s d: the
     smaller of its last two values, or the first value within ``lim`` (``-inf``:
     never stops early; the search keeps its best value, so the final one would be
-    within ``lim`` too). The sweep as scalars (tip, displacement, axis), as its callers
-    read them: an array argument is typed read-only or not after the caller's array,
-    and numba compiled :func:`_search_distance` once for each."""
+    within ``lim`` too). The sweep as scalars (see :func:`_search_distance`)."""
     lo, hi = 0.0, 1.0
     m1 = hi - _INV_PHI * (hi - lo)
     m2 = lo + _INV_PHI * (hi - lo)
@@ -182,8 +180,10 @@ def sweep_distance(x, y, z, p0, d, w, c, r, top):
 @njit(cache=True)
 def _search_distance(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top):
     """:func:`sweep_distance` of a tool with ``c > 0``: golden-section search and the
-    two ends. Scalars only (:func:`_golden`): errpred's sweeps (read-only) and orient's
-    (built in its kernels, writable) reach it through one compiled version."""
+    two ends. The sweep as scalars (tip, displacement, axis): numba types an array
+    argument as read-only or writable according to the caller's array, so array
+    arguments compiled this once for errpred's read-only sweeps and again for orient's,
+    built writable inside its kernels."""
     best = _golden(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top, -math.inf)
     # the ends are candidates too (the minimum may sit at s = 0 or 1)
     e0 = _core_dist(x, y, z, px, py, pz, wx, wy, wz, c, r, top)

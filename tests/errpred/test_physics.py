@@ -166,6 +166,15 @@ def _lexsorted_entries(i0, j0, n, flutes):
     return i[order], k[order], j[order], np.tile(np.arange(i0.size), flutes)[order]
 
 
+def _check_flute_entries(c0: np.ndarray, flutes: int) -> None:
+    i0, j0 = np.nonzero(c0)
+    i, k, src = _flute_entries(i0, c0.shape[0], flutes)
+    want = _lexsorted_entries(i0, j0, c0.shape[0], flutes)
+    for got, ref in zip((i, k, j0[src], src), want):
+        assert got.dtype == ref.dtype and np.array_equal(got, ref)
+    assert i.size == flutes * i0.size
+
+
 @pytest.mark.parametrize("seed", range(40))
 def test_flute_entries_are_the_sorted_entries_of_every_flute(seed):
     """The entries without the sort: the same arrays as sorting all flutes' entries, for
@@ -174,21 +183,29 @@ def test_flute_entries_are_the_sorted_entries_of_every_flute(seed):
     flutes = int(rng.integers(1, 5))
     n = flutes * int(rng.integers(1, 40))
     m = int(rng.integers(1, 25))
-    c0 = rng.random((n, m)) < (0.0 if seed == 0 else rng.random() * 0.6)
-    i0, j0 = np.nonzero(c0)
-    i, k, src = _flute_entries(i0, n, flutes)
-    want = _lexsorted_entries(i0, j0, n, flutes)
-    for got, ref in zip((i, k, j0[src], src), want):
-        assert got.dtype == ref.dtype and np.array_equal(got, ref)
-    assert i.size == flutes * i0.size
+    _check_flute_entries(rng.random((n, m)) < (0.0 if seed == 0 else rng.random() * 0.6),
+                         flutes)
+
+
+@pytest.mark.parametrize("flutes", [1, 2, 3, 4])
+def test_flute_entries_of_one_step_a_flute_and_of_full_blocks(flutes):
+    """As many steps as flutes (each flute's row is another flute's), and every sample
+    cutting."""
+    rng = np.random.default_rng(flutes)
+    for n in (flutes, 3 * flutes):
+        _check_flute_entries(np.ones((n, 5), bool), flutes)
+        _check_flute_entries(rng.random((n, 7)) < 0.5, flutes)
 
 
 def test_bending_basis_is_numpys_cross_and_norm_bit_for_bit():
-    """Its three-component arithmetic against np.linalg.norm and np.cross, for axes in
-    every direction and near X (where Y is taken as the first direction)."""
+    """Its three-component arithmetic against np.linalg.norm and np.cross, byte for byte
+    (signed zeros too), for axes in every direction, along +X and -X and near them
+    (where Y is taken as the first direction)."""
     rng = np.random.default_rng(5)
     axes = rng.normal(size=(2000, 3))
-    axes[:200] = [1.0, 0.0, 0.0] + 1e-7 * rng.normal(size=(200, 3))
+    axes[:100] = [1.0, 0.0, 0.0] + 1e-7 * rng.normal(size=(100, 3))
+    axes[100:200] = [-1.0, 0.0, 0.0] + 1e-7 * rng.normal(size=(100, 3))
+    axes[200:204] = [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]
     axes /= np.linalg.norm(axes, axis=1)[:, None]
     near_x = 0
     for u in axes:
@@ -198,6 +215,6 @@ def test_bending_basis_is_numpys_cross_and_norm_bit_for_bit():
             x = np.array([0.0, 1.0, 0.0]) - u[1] * u
         x /= np.linalg.norm(x)
         b = bending_basis(u)
-        assert np.array_equal(b["x"], x) and np.array_equal(b["y"], np.cross(u, x))
-        assert np.array_equal(b["z"], u)
-    assert near_x > 100
+        for got, ref in ((b["x"], x), (b["y"], np.cross(u, x)), (b["z"], u)):
+            assert got.dtype == ref.dtype and got.tobytes() == ref.tobytes()
+    assert near_x > 200

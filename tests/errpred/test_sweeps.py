@@ -505,3 +505,25 @@ def test_the_hot_sweep_holds_the_most_of_the_candidates_sampled():
     # enough = 1 (the margins' pass): the first sweep to hold a sampled point, the first
     # point first
     assert _hot_sweep(pts, every, p0, d, w, c, r, top, lim, 16, 4, 1) == owner[0]
+
+
+def test_a_radius_tools_search_compiles_once_for_read_only_and_writable_sweeps():
+    """``_search_distance`` takes the sweep as scalars: a read-only sweep (errpred's) and
+    a writable one (orient's, built inside its kernels) reach one compiled version, with
+    the same distance."""
+    from numba import njit
+
+    from errpred import _kernels
+
+    @njit
+    def distance(p0, d, w):
+        return sweep_distance(0.3, -0.2, 2.0, p0[0], d[0], w[0], 2.0, 1.0, 12.0)
+
+    arrays = [np.array([[0.0, 0.0, 0.0]]), np.array([[1.5, 0.5, 0.0]]),
+              np.array([[0.0, 0.0, 1.0]])]
+    frozen = [a.copy() for a in arrays]
+    for a in frozen:
+        a.flags.writeable = False
+    assert distance(*arrays) == distance(*frozen)
+    assert len(distance.signatures) == 2          # the caller: one version for each
+    assert len(_kernels._search_distance.signatures) == 1
