@@ -56,6 +56,10 @@ class Holder:
     def __post_init__(self) -> None:
         for name in ("diameter_mm", "length_mm"):
             v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+                raise ValueError(f"holder.{name}: expected a number, got {v!r}")
+            v = float(v)
+            object.__setattr__(self, name, v)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"holder.{name}: expected a finite value > 0, got {v!r}")
 
@@ -118,6 +122,10 @@ class MicroEdges:
         return np.stack(np.broadcast_arrays(sk * sp, sk * cp, -ck), axis=-1)
 
 
+#: The lengths a tool may leave out (``None``: derived from the diameter).
+_OPTIONAL = ("flute_length_mm", "overhang_mm", "shank_diameter_mm")
+
+
 @dataclass(frozen=True)
 class Tool:
     """A generalized end mill.
@@ -158,8 +166,18 @@ class Tool:
     def __post_init__(self) -> None:
         if self.kind not in TOOL_KINDS:
             raise ValueError(f"tool.type: {self.kind!r}; expected one of {', '.join(TOOL_KINDS)}")
+        # lengths and angles held as float: an int (``Tool("ball", 6)``) would have every
+        # numba kernel that takes them compiled a second time, for int64
+        for name in ("diameter_mm", "corner_radius_mm", "helix_deg", "flute_length_mm",
+                     "overhang_mm", "shank_diameter_mm"):
+            v = getattr(self, name)
+            if v is None and name in _OPTIONAL:
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+                raise ValueError(f"tool.{name}: expected a number, got {v!r}")
+            object.__setattr__(self, name, float(v))
         d = self.diameter_mm
-        if not (isinstance(d, (int, float)) and math.isfinite(d) and d > 0):
+        if not (math.isfinite(d) and d > 0):
             raise ValueError(f"tool.diameter_mm: expected a finite value > 0, got {d!r}")
         R = d / 2
         if self.kind == "ball":
