@@ -32,6 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from nc.checks import real_number
+
 from . import constants as K
 
 __all__ = ["Tool", "Holder", "MicroEdges", "TOOL_KINDS", "core_distance"]
@@ -55,13 +57,8 @@ class Holder:
 
     def __post_init__(self) -> None:
         for name in ("diameter_mm", "length_mm"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-                raise ValueError(f"holder.{name}: expected a number, got {v!r}")
-            v = float(v)
-            object.__setattr__(self, name, v)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"holder.{name}: expected a finite value > 0, got {v!r}")
+            object.__setattr__(self, name, real_number(f"holder.{name}", getattr(self, name),
+                                                       ">0"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,6 +147,15 @@ class Tool:
     shank_diameter_mm : float, optional [mm]
         Default: the cutting diameter.
     holder : Holder, optional
+
+    Lengths and angles are held as float, whatever real number type they are given in.
+
+    Raises
+    ------
+    TypeError
+        A length or angle that is not a real number (a boolean included).
+    ValueError
+        A value out of its range; the message names the key.
     """
 
     kind: str
@@ -166,18 +172,17 @@ class Tool:
     def __post_init__(self) -> None:
         if self.kind not in TOOL_KINDS:
             raise ValueError(f"tool.type: {self.kind!r}; expected one of {', '.join(TOOL_KINDS)}")
-        # lengths and angles held as float: an int (``Tool("ball", 6)``) would have every
-        # numba kernel that takes them compiled a second time, for int64
+        # lengths and angles held as float: an int (``flute_length_mm=15``) had every numba
+        # kernel that takes them compiled a second time, for int64
         for name in ("diameter_mm", "corner_radius_mm", "helix_deg", "flute_length_mm",
                      "overhang_mm", "shank_diameter_mm"):
             v = getattr(self, name)
-            if v is None and name in _OPTIONAL:
-                continue
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-                raise ValueError(f"tool.{name}: expected a number, got {v!r}")
-            object.__setattr__(self, name, float(v))
+            if v is None and name in _OPTIONAL or (name == "corner_radius_mm"
+                                                     and self.kind != "radius"):
+                continue            # derived below (a ball's or flat end mill's: ignored)
+            object.__setattr__(self, name, real_number(f"tool.{name}", v))
         d = self.diameter_mm
-        if not (math.isfinite(d) and d > 0):
+        if not d > 0:
             raise ValueError(f"tool.diameter_mm: expected a finite value > 0, got {d!r}")
         R = d / 2
         if self.kind == "ball":
