@@ -485,3 +485,8 @@ PART_CUT_MAX_CONCAVE_RADII = 0.5
 #: lookup (errpred's Sweeps.near) costs about 7 ms on mold-ball's flanks, whatever the
 #: box; each location then keeps the moves before its own trail near its ball.
 PART_CUT_CHUNK = 16
+#: Engaged cutter locations whose stock top is found in one bisection [-]
+#: (``_Section.stock_tops``: 17 calls of the mesh's test for them all instead of 17 a
+#: location); bounded so that a long program's arrays stay small (about 2 MB at 4,096:
+#: five columns of three coordinates a location, a few arrays at once).
+PART_CUT_TOP_CHUNK = 4096

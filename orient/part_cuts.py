@@ -60,6 +60,7 @@ from .constants import (
     PART_CUT_OWN_TRAIL_RADII,
     PART_CUT_PASS_TURN_DEG,
     PART_CUT_SHELL_STEPS,
+    PART_CUT_TOP_CHUNK,
 )
 from .contacts import Contacts
 from .geometry import local_frame
@@ -228,11 +229,12 @@ def cuts_from_part(tool: Tool, stock, cl: CutterLocations, contacts: Contacts,
         for r, t1_end in zip(rows, ends):
             i = idx[r]
             _one(r, i, t1, piece_end, t1_end)
-    # the stock's top at every engaged location at once: the stock before the program
-    # alone, so one bisection for them all (per location: 17 calls of the mesh's test,
-    # half the time of the part's cuts)
-    on = np.flatnonzero(engaged)
-    if on.size:
+    # the stock's top at the engaged locations, PART_CUT_TOP_CHUNK at once: it reads the
+    # stock before the program alone, so one bisection serves them all (one location at
+    # a time: 17 calls of the mesh's test each, half the time of the part's cuts)
+    engaged_rows = np.flatnonzero(engaged)
+    for start in range(0, engaged_rows.size, PART_CUT_TOP_CHUNK):
+        on = engaged_rows[start:start + PART_CUT_TOP_CHUNK]
         n_on = n_all[on]
         out["depth"][on], out["kf"][on], out["kb"][on] = geo.stock_tops(
             stock.contains, contacts.centre[idx[on]] - R * n_on, f_all[on], b_all[on], n_on)

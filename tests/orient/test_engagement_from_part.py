@@ -316,14 +316,17 @@ def test_mold_gain_agrees_with_errpred(mold, which):
 
 
 def test_chunked_lookup_gives_the_same_cuts(monkeypatch):
-    """The earlier moves looked up per chunk of locations, or per location: the same."""
+    """The earlier moves looked up per chunk of locations, or per location, and the stock
+    tops found for all locations at once or three at a time: the same."""
     import orient.part_cuts as PC
 
     tool, cl, con = _plane_case(32.0)
     idx = np.flatnonzero(con.touching)
     stock = plane_stock(0.0, 0.3)
     a = cuts_from_part(tool, stock, cl, con, idx)
+    assert np.count_nonzero(a.depth_mm) > 3
     monkeypatch.setattr(PC, "PART_CUT_CHUNK", 1)
+    monkeypatch.setattr(PC, "PART_CUT_TOP_CHUNK", 3)
     b = cuts_from_part(tool, stock, cl, con, idx)
     for k in ("depth_mm", "pick_mm", "previous_side", "state", "curvature_f_1_mm",
               "curvature_b_1_mm"):
