@@ -173,17 +173,17 @@ class Tool:
         if self.kind not in TOOL_KINDS:
             raise ValueError(f"tool.type: {self.kind!r}; expected one of {', '.join(TOOL_KINDS)}")
         # lengths and angles held as float: an int (``flute_length_mm=15``) had every numba
-        # kernel that takes them compiled a second time, for int64
+        # kernel that takes them compiled a second time, for int64; every length finite
+        # and > 0 (the angle and the corner radius: their ranges below)
         for name in ("diameter_mm", "corner_radius_mm", "helix_deg", "flute_length_mm",
                      "overhang_mm", "shank_diameter_mm"):
             v = getattr(self, name)
             if v is None and name in _OPTIONAL or (name == "corner_radius_mm"
                                                      and self.kind != "radius"):
                 continue            # derived below (a ball's or flat end mill's: ignored)
-            object.__setattr__(self, name, real_number(f"tool.{name}", v))
+            bound = "" if name in ("corner_radius_mm", "helix_deg") else ">0"
+            object.__setattr__(self, name, real_number(f"tool.{name}", v, bound))
         d = self.diameter_mm
-        if not d > 0:
-            raise ValueError(f"tool.diameter_mm: expected a finite value > 0, got {d!r}")
         R = d / 2
         if self.kind == "ball":
             object.__setattr__(self, "corner_radius_mm", R)
@@ -191,12 +191,12 @@ class Tool:
             object.__setattr__(self, "corner_radius_mm", 0.0)
         else:
             r = self.corner_radius_mm
-            if not (math.isfinite(r) and 0 < r < R):
+            if not 0 < r < R:
                 raise ValueError(f"tool.corner_radius_mm: {r!r}; a radius end mill needs "
                                  f"0 < r < D/2 = {R:g} mm")
         if not (isinstance(self.flutes, int) and self.flutes >= 1):
             raise ValueError(f"tool.flutes: expected a whole number >= 1, got {self.flutes!r}")
-        if not (math.isfinite(self.helix_deg) and -60 <= self.helix_deg <= 60):
+        if not -60 <= self.helix_deg <= 60:
             raise ValueError(f"tool.helix_deg: expected -60..60, got {self.helix_deg!r}")
         if self.rotation not in ("cw", "ccw"):
             raise ValueError(f"tool.rotation: {self.rotation!r}; expected 'cw' or 'ccw'")
@@ -206,10 +206,6 @@ class Tool:
             object.__setattr__(self, "overhang_mm", 3.0 * d + self.flute_length_mm)
         if self.shank_diameter_mm is None:
             object.__setattr__(self, "shank_diameter_mm", d)
-        for name in ("flute_length_mm", "overhang_mm", "shank_diameter_mm"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"tool.{name}: expected a finite value > 0, got {v!r}")
         if self.flute_length_mm < self.corner_radius_mm:
             raise ValueError(f"tool.flute_length_mm: {self.flute_length_mm:g} mm is shorter "
                              f"than the corner radius {self.corner_radius_mm:g} mm")
