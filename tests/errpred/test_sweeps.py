@@ -507,28 +507,41 @@ def test_the_hot_sweep_holds_the_most_of_the_candidates_sampled():
     assert _hot_sweep(pts, every, p0, d, w, c, r, top, lim, 16, 4, 1) == owner[0]
 
 
-def test_a_radius_tools_search_compiles_once_for_read_only_and_writable_sweeps():
-    """``_search_distance`` takes the sweep as scalars: a read-only sweep (errpred's) and
-    a writable one (orient's, built inside its kernels) reach one compiled version, with
-    the same distance."""
+@pytest.mark.parametrize("kernel", ["distance", "membership"])
+def test_a_radius_tools_search_compiles_once_for_read_only_and_writable_sweeps(kernel):
+    """``_search_distance`` and ``_search_within`` take the sweep as scalars: a read-only
+    sweep (errpred's) and a writable one (orient's, built inside its kernels) reach one
+    compiled version, with the same answer; no version takes an array (a row given to a
+    kernel that is not inlined is made a view: its reference count cost more than the
+    membership test itself)."""
     from numba import njit, types
 
     from errpred import _kernels
 
-    @njit
-    def distance(p0, d, w):
-        return sweep_distance(0.3, -0.2, 2.0, p0[0], d[0], w[0], 2.0, 1.0, 12.0)
+    if kernel == "distance":
+        search, n_args = _kernels._search_distance, 15
 
-    arrays = [np.array([[0.0, 0.0, 0.0]]), np.array([[1.5, 0.5, 0.0]]),
+        @njit
+        def ask(p0, d, w):
+            return sweep_distance(0.3, -0.2, 2.0, p0[0], d[0], w[0], 2.0, 1.0, 12.0)
+    else:
+        search, n_args = _kernels._search_within, 16
+
+        @njit
+        def ask(p0, d, w):
+            return sweep_within(0.3, -0.2, 2.0, p0[0], d[0], w[0], 2.0, 1.0, 12.0, 1.0)
+
+    # a move with an axial part, near the point: the search itself answers
+    arrays = [np.array([[0.0, 0.0, 0.0]]), np.array([[1.5, 0.5, 0.4]]),
               np.array([[0.0, 0.0, 1.0]])]
     frozen = [a.copy() for a in arrays]
     for a in frozen:
         a.flags.writeable = False
     # other tests in this process may have compiled other versions (other callers' types)
-    before = set(_kernels._search_distance.signatures)
-    assert distance(*arrays) == distance(*frozen)
-    assert len(distance.signatures) == 2          # the caller: one version for each
-    sigs = _kernels._search_distance.signatures
-    assert (types.float64,) * 15 in sigs
+    before = set(search.signatures)
+    assert ask(*arrays) == ask(*frozen)
+    assert len(ask.signatures) == 2          # the caller: one version for each
+    sigs = search.signatures
+    assert (types.float64,) * n_args in sigs
     assert len(set(sigs) - before) <= 1
     assert not any(isinstance(t, types.Array) for sig in sigs for t in sig)
