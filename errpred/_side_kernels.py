@@ -147,7 +147,10 @@ def side_stock_hits(origin, basis, pixel, nx, ny, tip, frame, R, r, c, top, box,
             world[m, 1] = wy
             world[m, 2] = wz
             m += 1
-    return index[:m].copy(), xyz[:m].copy(), world[:m].copy()
+    # the kept rows as views of the arrays filled (no copy: on the flower mold's 2 million
+    # pixel side views, 97 % kept, the copies were 30 % of the kernel's time; the rows
+    # after them are held only as long as the view's arrays are)
+    return index[:m], xyz[:m], world[:m]
 
 
 @njit(cache=True, nogil=True)
