@@ -27,7 +27,7 @@ import numpy as np
 
 from . import constants as K
 from ._cluster_kernels import inside_any_sweep_clustered, sweep_margin_clustered
-from ._interval_kernels import cells_smooth, interval_membership
+from ._interval_kernels import box_membership, cells_smooth, interval_membership
 from .tool import MicroEdges, Tool
 
 __all__ = ["BottomTemplate", "Finished", "SampleGrid", "StockView", "stock_view"]
@@ -174,10 +174,12 @@ class BottomTemplate:
         it is steep or at a silhouette, the mesh decides (exact, slower).
         """
         if getattr(stock, "is_box", False):
-            world = tip + xyz_local @ frame
             lo, hi = stock.bounds
-            e = K.MEMBERSHIP_EPS_MM
-            return np.all((world >= lo - e) & (world <= hi + e), axis=1)
+            return box_membership(np.ascontiguousarray(xyz_local, dtype=float),
+                                  np.ascontiguousarray(tip, dtype=float),
+                                  np.ascontiguousarray(frame, dtype=float),
+                                  np.array(lo, dtype=float), np.array(hi, dtype=float),
+                                  K.MEMBERSHIP_EPS_MM)
         inside, unsure = interval_membership(
             np.ascontiguousarray(xyz_local, dtype=float), interval.top, interval.bottom,
             interval.smooth_top, interval.smooth_bottom, self.pixel_mm, self.depth_offset_mm,

@@ -6,7 +6,8 @@ import math
 
 import numpy as np
 
-from errpred._interval_kernels import interval_membership
+from errpred._interval_kernels import box_membership, interval_membership
+from errpred.frames import tool_frame
 
 
 def _numpy_twin(xyz, top, bottom, smooth_top, smooth_bottom, p, depth_offset, e):
@@ -77,3 +78,31 @@ def test_cells_smooth_equals_its_numpy_twin():
         a[:8, :8] = math.inf
         got, ref = cells_smooth(a, 0.25), _cells_smooth_twin(a, 0.25)
         assert np.array_equal(got, ref) and got.any() and not got.all()
+
+
+def test_box_membership_equals_its_numpy_twin():
+    """The box stock's test (``BottomTemplate.in_stock_local``): the kernel answers as the
+    numpy expression it replaced (world points by a matrix product, then the grown box),
+    on tilted frames, with points spread around every face and on the grown faces to
+    within a micrometre."""
+    rng = np.random.default_rng(11)
+    lo, hi, e = np.array([-3.9, -3.9, -9.95]), np.array([61.1, 61.05, 0.0]), 1e-6
+    for trial in range(6):
+        axis = rng.normal(size=3) * [0.3, 0.3, 1.0]
+        axis /= np.linalg.norm(axis)
+        frame = tool_frame(axis, rng.normal(size=3), 1)
+        tip = rng.uniform(lo, hi)
+        xyz = rng.uniform(-40.0, 40.0, (20000, 3))
+        world = tip + xyz @ frame
+        # a quarter moved onto a grown face, a micrometre in or out along its normal
+        k = 5000
+        face = rng.integers(0, 3, k)
+        side = rng.integers(0, 2, k)
+        off = rng.choice([-1e-6, 1e-6], k)
+        target = np.where(side == 1, hi[face] + e, lo[face] - e) + off * np.where(side, 1, -1)
+        world[np.arange(k), face] = target
+        xyz[:k] = (world[:k] - tip) @ frame.T
+        twin = np.all(((tip + xyz @ frame) >= lo - e) & ((tip + xyz @ frame) <= hi + e), axis=1)
+        got = box_membership(xyz, tip, frame, lo, hi, e)
+        assert np.array_equal(got, twin)
+        assert 0 < got.sum() < xyz.shape[0]
