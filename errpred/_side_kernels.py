@@ -4,7 +4,8 @@ The side view looks across the tool axis at the finished surface (``docs/method.
 §3). Per pixel it needs where the pixel's ray first meets the tool's envelope and whether
 that point lies in the stock (in the material interval the view rendered,
 :func:`interval_contains`); the side view asks both at once and keeps only the pixels
-whose hit is in the stock (:func:`side_stock_hits`, about one in eight), as the cutting
+whose hit is in the stock (:func:`side_stock_hits`; about one in eight on the bundled
+mold-ball program, nearly all on a flat end mill's wall in a box stock), as the cutting
 and finished regions are made of those alone. The numpy code these replace made about thirty passes
 over the view's ~55,000 pixels and kept every pixel's arrays; each kernel is one pass.
 
@@ -90,7 +91,8 @@ def side_stock_hits(origin, basis, pixel, nx, ny, tip, frame, R, r, c, top, box,
                     bottom, top_depth, eps):
     """The pixels of a side view whose first hit on the tool's cutting envelope lies in
     the stock, and their hits: what the side view's cutting and finished regions are
-    made of, without the other pixels' arrays.
+    made of. The rows returned are the first of arrays sized for every pixel (views, not
+    copies), so the memory of the whole view is held as long as they are.
 
     The view (``origin`` (3,) [mm], ``basis`` (3, 3) rows ``u, v, d``, ``pixel``
     [mm], ``nx`` x ``ny`` pixels; see :class:`errpred.raster.camera.View`) must look

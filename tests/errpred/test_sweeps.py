@@ -531,7 +531,7 @@ def test_a_radius_tools_search_compiles_once_for_read_only_and_writable_sweeps(k
         def ask(p0, d, w):
             return sweep_within(0.3, -0.2, 2.0, p0[0], d[0], w[0], 2.0, 1.0, 12.0, 1.0)
 
-    # a move with an axial part, near the point: the search itself answers
+    # a move with an axial part (the point lies in the tool at the move's start)
     arrays = [np.array([[0.0, 0.0, 0.0]]), np.array([[1.5, 0.5, 0.4]]),
               np.array([[0.0, 0.0, 1.0]])]
     frozen = [a.copy() for a in arrays]
