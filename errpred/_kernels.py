@@ -18,6 +18,15 @@ All kernels take plain float64 arrays so they run without the GIL. The same
 tests for many points at once, pruned per cluster of points, are in
 ``_cluster_kernels.py``; the stock's depth-interval test in
 ``_interval_kernels.py``.
+
+The helpers that take only scalars (``_core_dist``, ``_dist_half_strip``,
+``_golden``, ``_strip_bound``, ``_split_bound``) are inlined by LLVM
+(``forceinline``); the wrappers given array rows (``sweep_distance``,
+``sweep_within``, ``sweep_lower_bound``, ``_in_box``, ``_reach_bound``) by numba
+(``inline="always"``), which alone drops the rows' views. Numba's inlining of the
+helpers too copied them into every call site and ran its passes there again: 33 s of
+the prediction's 82 s of compiling on an empty cache (``docs/architecture.md``, "A
+numba kernel").
 """
 
 from __future__ import annotations
@@ -36,7 +45,7 @@ GOLDEN_ITERATIONS = 40
 _INV_PHI = (math.sqrt(5.0) - 1.0) / 2.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _core_dist(x, y, z, px, py, pz, wx, wy, wz, c, r, top):
     """Distance from (x,y,z) to the core of a tool with tip p, axis w, flute top."""
     vx, vy, vz = x - px, y - py, z - pz
@@ -54,7 +63,7 @@ def _core_dist(x, y, z, px, py, pz, wx, wy, wz, c, r, top):
     return math.sqrt(dr * dr + dz * dz)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _dist_half_strip(ax, ay, az, dx, dy, dz, wx, wy, wz, lmax):
     """Distance from a to {s d + l w : 0 <= s <= 1, 0 <= l <= lmax} (|w| = 1)."""
     dd = dx * dx + dy * dy + dz * dz
@@ -113,7 +122,7 @@ def _dist_half_strip(ax, ay, az, dx, dy, dz, wx, wy, wz, lmax):
     return math.sqrt(best)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _golden(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top, lim):
     """Golden-section search over s of the core distance of (x, y, z) - s d: the
     smaller of its last two values, or the first value within ``lim`` (``-inf``:
@@ -195,7 +204,7 @@ def _search_distance(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top):
     return best
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _strip_bound(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top):
     """The distance from (x, y, z) to the swept axis strip minus ``c`` [mm]: a lower
     bound of the distance to the swept core (the core lies within ``c`` of its axis
@@ -204,7 +213,7 @@ def _strip_bound(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top):
                             dz, wx, wy, wz, top - r) - c
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _split_bound(x, y, z, px, py, pz, dx, dy, dz, wx, wy, wz, c, r, top):
     """``(bound, exact)``: a lower bound of the distance from (x, y, z) to the swept
     core of a tool with ``c > 0``, and whether it is the distance itself.

@@ -545,3 +545,39 @@ def test_a_radius_tools_search_compiles_once_for_read_only_and_writable_sweeps(k
     assert (types.float64,) * n_args in sigs
     assert len(set(sigs) - before) <= 1
     assert not any(isinstance(t, types.Array) for sig in sigs for t in sig)
+
+
+@pytest.mark.parametrize("helper", ["_core_dist", "_dist_half_strip", "_golden", "_strip_bound",
+                                    "_split_bound"])
+def test_the_sweep_tests_scalar_helpers_are_inlined_by_llvm_not_by_numba(helper):
+    """The scalar helpers of the sweep tests are inlined where they are called, by LLVM
+    (``forceinline``), not by numba (``inline="always"``): numba's inlining copies a
+    callee's IR into every call site and runs its passes again there, which took 33 s
+    of the prediction's 82 s of compiling on an empty cache; LLVM's gives the same
+    answers (``benchmarks/check_geometry_same.py``: the same bytes). Fails where a helper is
+    inlined by numba again, or where a caller keeps a call to it (the call would cost
+    more than a ball end mill's closed form)."""
+    from numba import njit
+
+    from errpred import _kernels
+
+    disp = getattr(_kernels, helper)
+    assert disp.targetoptions.get("inline", "never") == "never"
+    assert disp.targetoptions.get("forceinline") is True
+
+    @njit(cache=False)
+    def ask(p0, d, w, x):
+        # the sweep tests as the clustered kernels call them: a ball, a radius end mill
+        return (sweep_distance(x, -0.2, 2.0, p0[0], d[0], w[0], 0.0, 3.0, 12.0)
+                + sweep_distance(x, -0.2, 2.0, p0[0], d[0], w[0], 2.0, 1.0, 12.0)
+                + sweep_lower_bound(x, -0.2, 2.0, p0[0], d[0], w[0], 2.0, 1.0, 12.0)
+                + sweep_within(x, -0.2, 2.0, p0[0], d[0], w[0], 2.0, 1.0, 12.0, 1.0))
+
+    p0, d, w = (np.array([[0.0, 0.0, 0.0]]), np.array([[1.5, 0.5, 0.4]]),
+                np.array([[0.0, 0.0, 1.0]]))
+    assert math.isfinite(ask(p0, d, w, 0.3))
+    # the caller and its linked callees (_search_distance, _search_within): no call to
+    # the helper is left in any of them
+    llvm = "\n".join(ask.inspect_llvm().values())
+    calls = [ln for ln in llvm.splitlines() if " call " in ln and f"{len(helper)}{helper}" in ln]
+    assert not calls, calls[:2]
