@@ -23,7 +23,8 @@ The helpers that take only scalars (``_core_dist``, ``_dist_half_strip``,
 ``_golden``, ``_strip_bound``, ``_split_bound``) are inlined by LLVM
 (``forceinline``); the wrappers given array rows (``sweep_distance``,
 ``sweep_within``, ``sweep_lower_bound``, ``_in_box``, ``_reach_bound``) by numba
-(``inline="always"``), which alone drops the rows' views. Numba's inlining of the
+(``inline="always"``): forced into LLVM's inlining, a ball's exact test of every point
+was 3 times slower (the rows' views, likely). Numba's inlining of the
 helpers too copied them into every call site and ran its passes there again: 33 s of
 the prediction's 82 s of compiling on an empty cache (``docs/architecture.md``, "A
 numba kernel").
