@@ -1,10 +1,13 @@
 """Probes of the simulated NC's Modbus server, run as a process of their own (so that
 their clients do not share the server's interpreter lock), each printing one JSON line.
 
-``python -m tests.sim.server_probe reads PORT CLIENTS SECONDS ROUNDS [--commands]``
+``python -m tests.sim.server_probe reads PORT CLIENTS SECONDS ROUNDS [--commands] [--period-ms P]``
     ``ROUNDS`` rounds of ``SECONDS`` wall seconds each: ``CLIENTS`` connections to
     127.0.0.1:PORT, each reading 125 input registers of the accelerometer ring in a
-    loop (one request in flight per connection). Per round: the round trip of every
+    loop (one request in flight per connection): back to back, or with ``--period-ms``
+    once every ``P`` ms as a polling client does (the clients' phases spread evenly
+    over the period; a slot missed because an answer came late is skipped, not made
+    up, so a server that cannot keep up shows as fewer reads). Per round: the round trip of every
     read [s] and the errors (exception answers, wrong lengths, a connection lost). The
     frames are built by hand (function 4, MBAP header): the client's own cost is a few
     microseconds a read. With ``--commands`` one more connection acts as a controller
@@ -63,15 +66,24 @@ OFFSETS = ((2.0, -2.0), (-2.0, 2.0), (3.0, 0.0), (0.0, 3.0), (-3.0, 0.0), (0.0, 
 
 
 async def _reader(port: int, k: int, stop_at: float, budget: list[int],
-                  out: list[float], errors: list[str]) -> None:
+                  out: list[float], errors: list[str], period_s: float = 0.0,
+                  phase_s: float = 0.0) -> None:
     try:
         reader, writer = await asyncio.open_connection("127.0.0.1", port)
     except OSError as exc:
         errors.append(f"connect: {exc}")
         return
     tid = 0
+    next_at = time.monotonic() + phase_s
     try:
         while time.monotonic() < stop_at and budget[0] > 0:
+            if period_s > 0.0:
+                now = time.monotonic()
+                if next_at > now:
+                    await asyncio.sleep(next_at - now)
+                    if time.monotonic() >= stop_at:
+                        break
+                next_at += period_s * max(1.0, -(-(time.monotonic() - next_at) // period_s))
             budget[0] -= 1
             tid = (tid + 1) & 0xFFFF
             addr = RING_START + ((k * 37 + tid) * COUNT) % (2 * RING_SAMPLES - COUNT)
@@ -129,12 +141,14 @@ async def _commander(port: int, stop_at: float, errors: list[str]) -> int:
     return sent
 
 
-async def _reads(port: int, clients: int, seconds: float, commands: bool) -> dict:
+async def _reads(port: int, clients: int, seconds: float, commands: bool,
+                 period_s: float = 0.0) -> dict:
     out: list[float] = []
     errors: list[str] = []
     budget = [10 ** 9]
     stop_at = time.monotonic() + seconds
-    jobs = [_reader(port, k, stop_at, budget, out, errors) for k in range(clients)]
+    jobs = [_reader(port, k, stop_at, budget, out, errors, period_s, k * period_s / clients)
+            for k in range(clients)]
     if commands:
         jobs.append(_commander(port, stop_at, errors))
     res = await asyncio.gather(*jobs)
@@ -257,8 +271,10 @@ def main(argv: list[str]) -> int:
             pass
     if what == "reads":
         clients, seconds, rounds = int(argv[2]), float(argv[3]), int(argv[4])
-        res = {"rounds": [asyncio.run(_reads(port, clients, seconds, "--commands" in argv))
-                          for _ in range(rounds)]}
+        period_s = float(argv[argv.index("--period-ms") + 1]) / 1e3 \
+            if "--period-ms" in argv else 0.0
+        res = {"rounds": [asyncio.run(_reads(port, clients, seconds, "--commands" in argv,
+                                             period_s)) for _ in range(rounds)]}
     elif what == "watchdog":
         res = _watchdog(port, int(argv[2]), int(argv[3]), "--no-heartbeat" not in argv)
     else:

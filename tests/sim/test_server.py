@@ -207,6 +207,14 @@ WATCHDOG_MS = 100
 #: The watchdog's allowance past ``watchdog_ms`` [s] and the read latency bounds [s].
 WATCHDOG_LATE_S = 0.050
 P99_ONE_S, P99_FIFTY_S = 0.005, 0.050
+#: How often each of the fifty clients polls [ms]: a SCADA/HMI poll rate, 1,000 reads/s
+#: in all. Fifty clients back to back keep the probe and the server, both real-time,
+#: busy on both cores of a 2-core machine; the kernel then throttles real-time work for
+#: the rest of each second once it has had 95 % of it (``sched_rt_runtime_us``): p99
+#: of 52-61 ms in some rounds measured here with the machine loaded; in one CI run,
+#: 3,136 reads in 2 s, the last answered 1.02 s after they were sent. That measures
+#: the kernel's throttle and the probe's own load, not the server.
+POLL_FIFTY_MS = 50
 
 
 def _cutting_server(scenario) -> NCServer:
@@ -278,21 +286,30 @@ def test_watchdog_resets_the_offset_on_time_while_cutting(cutting):
     assert cutting.error is None
 
 
-@pytest.mark.parametrize("clients, bound_s", [(1, P99_ONE_S), (50, P99_FIFTY_S)])
-def test_read_latency_while_cutting(cutting, clients, bound_s):
+@pytest.mark.parametrize("clients, period_ms, bound_s",
+                         [(1, 0, P99_ONE_S), (50, POLL_FIFTY_MS, P99_FIFTY_S)])
+def test_read_latency_while_cutting(cutting, clients, period_ms, bound_s):
     """125-register reads while the NC cuts and a controller beats and commands a new
-    offset every 0.25 s: p99 within the bound, no error."""
+    offset every 0.25 s: p99 within the bound, no error. One client reads back to back;
+    fifty poll, each once every ``POLL_FIFTY_MS``, and every poll is answered in time
+    for the next (not more than a tenth of the slots missed)."""
     if not cutting.realtime:
         pytest.skip("the server's process could not take the real-time scheduling class "
                     "(needs root or CAP_SYS_NICE): its latency is the machine's load's")
     t_sim = cutting.nc.state.time_s
-    r = _probe("reads", cutting.port, clients, 1.0, 2, "--commands")
+    seconds, rounds = 1.0, 2
+    r = _probe("reads", cutting.port, clients, seconds, rounds, "--commands",
+               *(("--period-ms", period_ms) if period_ms else ()))
     # the NC cut all along (on a loaded machine it runs behind the wall clock)
     assert cutting.store.get("cutting") == 1 and cutting.nc.state.time_s > t_sim + 0.1
     lat = np.concatenate([x["latency_s"] for x in r["rounds"]])
     assert not any(x["errors"] for x in r["rounds"]), r["rounds"][0]["errors"][:3]
     assert sum(x["commands"] for x in r["rounds"]) >= 4
-    assert lat.size >= 500 * clients ** 0.5
+    if period_ms:
+        slots = clients * rounds * round(seconds * 1e3 / period_ms)
+        assert lat.size >= 0.9 * slots, (lat.size, slots)
+    else:
+        assert lat.size >= 500
     p99 = float(np.percentile(lat, 99))
     assert p99 <= bound_s, (f"p99 {p99 * 1e3:.2f} ms with {clients} client(s) (p50 "
                             f"{np.percentile(lat, 50) * 1e3:.2f} ms, load "
