@@ -65,9 +65,11 @@ def _edited(text: str) -> tuple[str, list[int]]:
 
 @pytest.fixture(scope="module")
 def long_case(case):
-    """Ten passes 1.2 mm apart: the first four beyond the tool's reach of the last."""
+    """Ten passes 1.2 mm apart, 12 mm long (150 blocks): the first four beyond the tool's
+    reach of the last; a change near the end is followed to two of stage 2's windows of
+    kept states (128 blocks), 63 of them computed again on the way."""
     tool, stock, _, res = case
-    return tool, stock, plane_raster(SLOPE, R, passes=10, pick=1.2, length=24.0, step=1.0,
+    return tool, stock, plane_raster(SLOPE, R, passes=10, pick=1.2, length=12.0, step=1.0,
                                      axis=AXIS), res
 
 

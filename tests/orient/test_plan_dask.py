@@ -9,6 +9,9 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 from orient.plan import plan  # noqa: E402
+from orient.scenario import load_plan_scenario  # noqa: E402
+
+from tests.thin_wall import thin_wall_copy, wall_mode  # noqa: E402
 
 
 def test_local_cluster_plan_equals_one_process(planned):
@@ -88,26 +91,40 @@ def test_a_wall_level_a_worker_is_solving_is_waited_for_not_solved_again(one_wor
     assert got == [(0, "here"), (9, "worker"), (4, "here")]
 
 
-def test_dask_tasks_use_the_one_thread_margin_kernel(planned, one_worker, monkeypatch):
+@pytest.fixture(scope="module")
+def light_planned(tmp_path_factory):
+    """The thin wall's first three passes with one wall mode instead of the finite
+    elements, and its plan in one process (about 5 s instead of the whole wall's 35 s:
+    117 cutter locations, still past the margin kernel's threshold of postures)."""
+    scn = load_plan_scenario(thin_wall_copy(tmp_path_factory.mktemp("light") / "scn", None,
+                                            wall_mode(2.0e7), cam_lines=124))
+    return scn, plan(scn)
+
+
+def test_dask_tasks_use_the_one_thread_margin_kernel(light_planned, one_worker, monkeypatch):
     """On a cluster the workers are the parallelism: no task calls the threaded margin
     kernel (the speed choice's rows passed its size threshold and used it, and the job's
     warm-up compiled it, 2 s more, for them alone). The plan is the one-process plan."""
     import orient.stability._kernels as kernels
+    from orient.constants import ZOA_PARALLEL_MIN_POSTURES
 
-    scn, one = planned
+    scn, one = light_planned
     serial = kernels.margin_batch_serial
-    calls = {"serial": 0}
+    calls = {"serial": 0, "largest": 0}
 
     def threaded(*args):
         raise AssertionError("the threaded margin kernel was called in a Dask task")
 
     def counted(*args):
         calls["serial"] += 1
+        calls["largest"] = max(calls["largest"], len(args[0]))
         return serial(*args)
 
     monkeypatch.setattr(kernels, "margin_batch", threaded)
     monkeypatch.setattr(kernels, "margin_batch_serial", counted)
     dist = plan(scn, client=one_worker)
     assert calls["serial"] > 0
+    # a call the size threshold alone would have given to the threaded kernel
+    assert calls["largest"] >= ZOA_PARALLEL_MIN_POSTURES
     np.testing.assert_array_equal(one.cl.axis, dist.cl.axis)
     np.testing.assert_array_equal(one.margin, dist.margin)
