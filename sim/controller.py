@@ -305,13 +305,14 @@ class Controller:
         self._seq = int(client.holding("orient_seq"))
         self._last_cause: str | None = None
         # compile and load orient's kernels (and the wall's modes) now, not at the
-        # first chatter
+        # first chatter; a controller that only watches (open loop) never needs the
+        # margins, nor the wall's finite elements behind them (10-15 s of set-up)
         if geometry.touch.size:
             i = int(geometry.touch[0])
             geometry.point = i
             lead0, tilt0 = float(geometry.cam_lead[i]), float(geometry.cam_tilt[i])
             geometry.cut_sense(lead0, tilt0)
-            if strategy == "eigen":
+            if strategy == "eigen" and act:
                 geometry.margin(lead0, tilt0)
                 geometry.prefetch(np.array([[lead0 + 0.01, tilt0], [lead0, tilt0 + 0.01]]))
 

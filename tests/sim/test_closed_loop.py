@@ -12,9 +12,23 @@ from sim.cli import main
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
+    from orient.workpiece import WorkpieceModel
+
     d = tmp_path_factory.mktemp("closed-loop")
     rep, png = d / "report.json", d / "spectra.png"
-    assert main(["run", "--report", str(rep), "--plot", str(png)]) == 0
+    built = []
+    init = WorkpieceModel.__init__
+
+    def counted(self, *args, **kwargs):
+        built.append(1)
+        init(self, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(WorkpieceModel, "__init__", counted)
+        assert main(["run", "--report", str(rep), "--plot", str(png)]) == 0
+    # the open loop runs on the closed loop's workpiece model (its finite elements are
+    # most of an NC's set-up)
+    assert len(built) == 1
     return json.loads(rep.read_text()), png
 
 
