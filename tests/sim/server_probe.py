@@ -1,13 +1,15 @@
 """Probes of the simulated NC's Modbus server, run as a process of their own (so that
 their clients do not share the server's interpreter lock), each printing one JSON line.
 
-``python -m tests.sim.server_probe reads PORT CLIENTS SECONDS ROUNDS [--commands] [--period-ms P]``
+``python -m tests.sim.server_probe reads PORT CLIENTS SECONDS ROUNDS [--commands]
+[--period-ms P]``
     ``ROUNDS`` rounds of ``SECONDS`` wall seconds each: ``CLIENTS`` connections to
     127.0.0.1:PORT, each reading 125 input registers of the accelerometer ring in a
     loop (one request in flight per connection): back to back, or with ``--period-ms``
     once every ``P`` ms as a polling client does (the clients' phases spread evenly
-    over the period; a slot missed because an answer came late is skipped, not made
-    up, so a server that cannot keep up shows as fewer reads). Per round: the round trip of every
+    over the period; a slot that passed while an answer was awaited is read at once,
+    the slots missed entirely are skipped, not made up: a server that cannot keep up
+    shows as fewer reads). Per round: the round trip of every
     read [s] and the errors (exception answers, wrong lengths, a connection lost). The
     frames are built by hand (function 4, MBAP header): the client's own cost is a few
     microseconds a read. With ``--commands`` one more connection acts as a controller
