@@ -37,6 +37,7 @@ from __future__ import annotations
 import asyncio
 import importlib.util
 import json
+import math
 import os
 import socket
 import struct
@@ -85,7 +86,9 @@ async def _reader(port: int, k: int, stop_at: float, budget: list[int],
                     await asyncio.sleep(next_at - now)
                     if time.monotonic() >= stop_at:
                         break
-                next_at += period_s * max(1.0, -(-(time.monotonic() - next_at) // period_s))
+                # the next slot after now (one on when on time)
+                late = time.monotonic() - next_at
+                next_at += period_s * max(1, math.ceil(late / period_s))
             budget[0] -= 1
             tid = (tid + 1) & 0xFFFF
             addr = RING_START + ((k * 37 + tid) * COUNT) % (2 * RING_SAMPLES - COUNT)

@@ -9,7 +9,7 @@ from orient.scenario import load_plan_scenario
 from sim.controller import Controller, ProgramGeometry
 from sim.sensors import Accelerometers
 
-from tests.thin_wall import thin_wall_copy, wall_mode
+from .job_scenario import light_scenario
 
 
 class _Registers:
@@ -26,8 +26,7 @@ class _Registers:
 
 @pytest.fixture(scope="module")
 def scn(tmp_path_factory):
-    return load_plan_scenario(thin_wall_copy(tmp_path_factory.mktemp("ctl") / "scn", None,
-                                             wall_mode(2.0e7), cam_lines=124))
+    return load_plan_scenario(light_scenario(tmp_path_factory.mktemp("ctl") / "scn"))
 
 
 @pytest.mark.parametrize("act", [True, False])
