@@ -18,8 +18,8 @@ from numba import njit
 from ._kernels import (_in_box, _reach_bound, _sphere, sweep_distance, sweep_lower_bound,
                        sweep_within)
 from ._sort_kernels import argsort_stable, grown
-from .constants import (CLUSTER_COARSE, CLUSTER_RECENT, CLUSTER_SUPER, HOT_ROUNDS,
-                        HOT_ROUNDS_BALL, HOT_SEED_POINTS, HOT_SEED_POINTS_BALL,
+from .constants import (CLUSTER_COARSE, CLUSTER_RECENT, CLUSTER_SUPER, FEW_SWEEPS,
+                        HOT_ROUNDS, HOT_ROUNDS_BALL, HOT_SEED_POINTS, HOT_SEED_POINTS_BALL,
                         HOT_SEED_SWEEPS, HOT_SEED_SWEEPS_BALL, MARGIN_SEED_POINTS)
 
 __all__ = ["inside_any_sweep_clustered", "read_only", "sweep_margin_clustered"]
@@ -429,6 +429,19 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
     if k == 0 or p0.shape[0] == 0:
         return out
     lim = r + eps
+    if p0.shape[0] <= FEW_SWEEPS:
+        # a few sweeps (the move the tool is on, past the sweeps' height map): each point
+        # against each, in the order given; binning and its short lists cost more
+        for i in range(k):
+            if not candidates[i]:
+                continue
+            x, y, z = points[i, 0], points[i, 1], points[i, 2]
+            for j in range(p0.shape[0]):
+                if _in_box(j, x, y, z, eps, lo, hi) and sweep_within(x, y, z, p0[j], d[j],
+                                                                      w[j], c, r, top, lim):
+                    out[i] = True
+                    break
+        return out
     # first, every point against a few sweeps that hold many (:func:`_hot_sweep`, one
     # a round, from the points left): only the others are binned
     rest = candidates.copy()

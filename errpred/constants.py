@@ -48,8 +48,15 @@ ZMAP_CATCHUP_PER_BLOCK = 2
 #: the sweeps skipped are not inserted into every tile they reach, but into each
 #: tile a later query touches, when it does (a stage-1 worker's next chunk skips
 #: the other workers' chunks; a run may start far into the program). Below it
-#: (consecutive blocks: 1-3 sweeps, an arc's chords more) every tile follows.
-ZMAP_JUMP_SWEEPS = 32
+#: every tile follows (eager insertion, the tests' reference). 1: every query is
+#: a jump, so a new sweep goes only into the tiles a query touches, when it does:
+#: at 32 (consecutive blocks inserted eagerly) inserting a block's sweep into the
+#: ~20 tiles a D10 ball reaches was 10 % of stage 1 on the mold-ball contour slice
+#: (1.3 ms a sweep), and the queries touch only the tiles on the stock's side.
+#: bench_errpred.py, one core, the median of two repeats, two runs in turn (with
+#: FEW_SWEEPS): contour 54.6 and 56.3 -> 59.2 and 61.5 blocks/s, raster 62.6 and
+#: 64.6 -> 69.7 and 71.5; check_geometry_same.py --blocks 60 --dense: the same bytes.
+ZMAP_JUMP_SWEEPS = 1
 #: A tile filled with at most this many sweeps (caught up after a jump, or new at
 #: a map time this small) tests each one's bounds; with more, the sweep index is
 #: asked, whose grid gives every sweep of the program near the tile, the later
@@ -86,6 +93,11 @@ CLUSTER_SUPER = 4
 #: bins before (latest first); only a bin with a point none of them holds gets
 #: its short list and the exact tests against it [-].
 CLUSTER_RECENT = 8
+#: A membership test against at most this many sweeps tests each point against
+#: each of them, without binning (:func:`errpred._cluster_kernels.inside_any_sweep_clustered`):
+#: on the mold-ball slices, the current move's sweeps past the height map (one
+#: sweep, ~790 points a call) took 0.26 ms a call binned [-].
+FEW_SWEEPS = 4
 #: Before binning, points are tested against a few sweeps likely to hold many
 #: of them (in finishing, the moves just behind the tool and the pass before),
 #: picked in HOT_ROUNDS rounds: each round, of the first HOT_SEED_SWEEPS sweeps

@@ -16,8 +16,10 @@ map's time goes back to the state kept at the map's first query, or starts the
 map again. A query ``ZMAP_JUMP_SWEEPS`` or more sweeps later is a jump: the tiles
 are left behind, and each is caught up, with the skipped sweeps that reach it, when
 a query next touches it; a tile left behind never answers (it reads as not
-allocated). Cells are allocated by tiles where sweeps reach and queries ask, and
-beyond a budget the least recently used tiles are dropped (to be filled again, if
+allocated). By default every later query is a jump: a sweep goes only into the
+tiles queries touch (eager insertion into every tile it reaches, a larger
+``ZMAP_JUMP_SWEEPS``, is the tests' reference: the same contents, bit for bit).
+Cells are allocated by tiles where sweeps reach and queries ask, and beyond a budget the least recently used tiles are dropped (to be filled again, if
 asked for, with the earlier sweeps that reach them).
 """
 

@@ -92,6 +92,39 @@ def test_clustered_kernels_equal_the_plain_ones():
         assert np.array_equal(m[cand] <= 1e-6, a[cand])
 
 
+@pytest.mark.parametrize("tool", [Tool("ball", 10.0, flute_length_mm=20.0),
+                                  Tool("radius", 10.0, 1.0, flute_length_mm=20.0)])
+def test_membership_against_a_few_sweeps_is_each_point_against_each(tool):
+    """Up to ``FEW_SWEEPS`` sweeps (the move the tool is on, past the height map) are
+    tested point by point without binning; with one more they are binned. Either way
+    a point is inside where some sweep holds it within the tolerance, on the sweeps'
+    tight bounds too (points just below a tip, within the tolerance, count)."""
+    from errpred.constants import FEW_SWEEPS
+
+    rng = np.random.default_rng(5)
+    tips = np.cumsum(np.vstack([[0.0, 0.0, 0.0], rng.normal(0, 0.4, (FEW_SWEEPS + 1, 3))]),
+                     axis=0)
+    axis = np.tile([0.0, 0.0, 1.0], (tips.shape[0], 1))
+    sw = build_sweeps(CutterLocations.from_arrays(tips, axis, 1000.0, 8000.0), tool)
+    c, r, top, eps = tool.core_radius_mm, tool.corner_radius_mm, tool.flute_length_mm, 1e-3
+    # points around the tools' surfaces, and a few just below the tips
+    pts = np.concatenate([
+        tips[rng.integers(0, tips.shape[0], 3000)]
+        + rng.normal(0, 1, (3000, 3)) * [tool.radius_mm, tool.radius_mm, 2.0],
+        tips + [0.0, 0.0, -0.5 * eps]])
+    cand = rng.uniform(size=pts.shape[0]) < 0.9
+    cand[-tips.shape[0]:] = True
+    for n in range(1, len(sw) + 1):
+        assert (n <= FEW_SWEEPS) == (n < len(sw))   # both paths, the last binned
+        p0, d, w, lo, hi = (a[:n] for a in (sw.p0, sw.d, sw.w, sw.lo, sw.hi))
+        got = inside_any_sweep_clustered(pts, cand, p0, d, w, lo, hi, c, r, top, eps, 0.2)
+        want = np.array([bool(cand[i]) and any(
+            sweep_within(*pts[i], p0[j], d[j], w[j], c, r, top, r + eps) for j in range(n))
+            for i in range(pts.shape[0])])
+        assert np.array_equal(got, want)
+        assert 0.1 < want[cand].mean() < 0.9 and want[-tips.shape[0]:][:n].all()
+
+
 def test_index_query_is_a_superset_and_local():
     rng = np.random.default_rng(2)
     pts = np.cumsum(rng.normal(0, 0.6, (5000, 3)), axis=0)

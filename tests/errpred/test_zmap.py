@@ -283,6 +283,43 @@ def test_handed_over_kept_state_is_taken_once():
                           want.classify(pts, float(L[len(L) // 3])))
 
 
+def test_by_default_a_sweep_goes_only_into_the_tiles_queries_touch(monkeypatch):
+    """Query by query along the program, one sweep at a time, on one side of the
+    passes: the default map puts each new sweep only into the tiles a query touches
+    (the tiles the sweeps reach on the other side stay behind, and none is filled
+    with a sweep more than once), and answers as the eager map (every sweep into every
+    tile it reaches) does, bit for bit in every tile it holds current."""
+    tool = Tool("ball", 6.0, flute_length_mm=12.0)
+    sw = build_sweeps(_wavy_raster(), tool)
+    rng = np.random.default_rng(4)
+    queries = []
+    for t in range(40, 120):
+        # points around the tip of sweep t, on the -y side only
+        tip = sw.p0[t] + sw.d[t]
+        xy = tip[:2] + rng.uniform([-1.5, -3.0], [1.5, 0.0], (300, 2))
+        queries.append((t, np.column_stack([xy, _wavy(xy) + rng.uniform(-0.2, 0.2, 300)])))
+    maps = {}
+    for lazy in (True, False):
+        if not lazy:
+            monkeypatch.setattr(K, "ZMAP_JUMP_SWEEPS", 10**9)
+        z = SweepMap(sw, tool)
+        out, behind = [], 0
+        for t, pts in queries:
+            out.append(z.classify(pts, float(sw.path_end[t])))
+            slots = z.tile_index.ravel()[z.tile_index.ravel() >= 0]
+            behind = max(behind, int((z._filled[slots] < z.time).sum()))
+        maps[lazy] = (z, out, behind)
+    (lz, lazy_out, lazy_behind), (ez, eager_out, eager_behind) = maps[True], maps[False]
+    assert lazy_behind > 0 and eager_behind == 0
+    for a, b in zip(lazy_out, eager_out, strict=True):
+        assert np.array_equal(a, b)
+    assert any((a != 0).sum() > 100 for a in lazy_out)
+    for key, slot in enumerate(lz.tile_index.ravel()):
+        if slot >= 0 and lz._filled[slot] == lz.time:
+            assert np.array_equal(lz._vals[slot], ez._vals[ez.tile_index.ravel()[key]],
+                                  equal_nan=True)
+
+
 def test_a_jump_leaves_tiles_behind_and_each_is_caught_up_as_eager_insertion_fills_it(
         monkeypatch):
     """Queries that jump (``ZMAP_JUMP_SWEEPS`` or more sweeps after the map's time) leave
