@@ -423,7 +423,8 @@ def inside_any_sweep_clustered(points, candidates, p0, d, w, lo, hi, c, r, top, 
     ``r + eps + bin radius`` of the bin's centre (triangle inequality), so the
     exact test runs against that short list only. Same result as
     :func:`inside_any_sweep`, much faster when many sweeps are near but few
-    reach the points (finishing: the neighbouring passes).
+    reach the points (finishing: the neighbouring passes). Against at most
+    ``FEW_SWEEPS`` sweeps, each point is tested against each (no binning).
     """
     k = points.shape[0]
     out = np.zeros(k, dtype=np.bool_)

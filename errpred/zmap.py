@@ -19,8 +19,9 @@ a query next touches it; a tile left behind never answers (it reads as not
 allocated). By default every later query is a jump: a sweep goes only into the
 tiles queries touch (eager insertion into every tile it reaches, a larger
 ``ZMAP_JUMP_SWEEPS``, is the tests' reference: the same contents, bit for bit).
-Cells are allocated by tiles where sweeps reach and queries ask, and beyond a budget the least recently used tiles are dropped (to be filled again, if
-asked for, with the earlier sweeps that reach them).
+Cells are allocated by tiles where queries ask (with eager insertion, also where
+sweeps reach), and beyond a budget the least recently used tiles are dropped (to
+be filled again, if asked for, with the earlier sweeps that reach them).
 """
 
 from __future__ import annotations
