@@ -191,6 +191,36 @@ def _fmt(rates):
     return f"min {min(rates):7.1f}  median {statistics.median(rates):7.1f}"
 
 
+def fill_map_along(model, blocks):
+    """Fill the sweeps' height map of ``model`` (a :class:`errpred.geometry.GeometryModel`
+    whose map is on) at the start of ``blocks``: every tile within a tool radius (and a
+    tile) of their path, with every sweep before them that reaches it (the path every
+    half tile, offsets half a tile apart; a coarser ring, a radius to each side, left
+    tiles between its points to be filled from scratch inside the timed runs). Returns
+    the map."""
+    zmap = model._sweep_map()
+    i0 = model.block_points(blocks[0])[0]
+    i1 = model.block_points(blocks[-1])[1]
+    start = float(model.path[i0])
+    r = model.tool.radius_mm
+    half = 0.5 * zmap.cell * zmap.size
+    tips = model.cl.tip[i0:i1 + 1]
+    if zmap.frame is not None:          # the map's grid lies across its axis
+        tips = tips @ zmap.frame.T
+    steps = np.maximum(np.ceil(np.linalg.norm(np.diff(tips, axis=0), axis=1) / half), 1)
+    path = np.concatenate([tips[:1]] + [a + (b - a) * (np.arange(1, k + 1) / k)[:, None]
+                                        for a, b, k in zip(tips[:-1], tips[1:],
+                                                           steps.astype(int))])
+    reach = np.arange(-r - 2 * half, r + 2 * half + 1e-9, half)
+    ring = np.array([(a, b, 0.0) for a in reach for b in reach
+                     if np.hypot(a, b) <= r + 2 * half])
+    around = (path[:, None, :] + ring).reshape(-1, 3)
+    if zmap.frame is not None:
+        around = around @ zmap.frame    # world points (classify turns them)
+    zmap.classify(np.ascontiguousarray(around), start)
+    return zmap
+
+
 def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
     s = load(bundled_scenario(scenario))
     s = dataclasses.replace(s, lines=(first, 10**9))
@@ -207,26 +237,8 @@ def bench_slice(label, scenario, first, n_blocks, repeat, workers, sensitivity):
         # slice, filled with every sweep before it that reaches them, are start-up here
         # (marginal cost per block), so force the map and fill them first
         pred.model.use_sweep_map = True
-        zmap = pred.model._sweep_map()
-        i0 = pred.model.block_points(blocks[0])[0]
-        i1 = pred.model.block_points(blocks[-1])[1]
-        start = float(pred.model.path[i0])
-        # every tile within a tool radius (and a tile) of the path: the path every half
-        # tile, offsets half a tile apart (a coarser ring, a radius to each side, left
-        # tiles between its points to be filled from scratch inside the timed runs)
-        r = pred.tool.radius_mm
-        half = 0.5 * zmap.cell * zmap.size
-        tips = pred.model.cl.tip[i0:i1 + 1]
-        steps = np.maximum(np.ceil(np.linalg.norm(np.diff(tips, axis=0), axis=1) / half), 1)
-        path = np.concatenate([tips[:1]] + [a + (b - a) * (np.arange(1, k + 1) / k)[:, None]
-                                            for a, b, k in zip(tips[:-1], tips[1:],
-                                                               steps.astype(int))])
-        reach = np.arange(-r - 2 * half, r + 2 * half + 1e-9, half)
-        ring = np.array([(a, b, 0.0) for a in reach for b in reach
-                         if np.hypot(a, b) <= r + 2 * half])
-        around = (path[:, None, :] + ring).reshape(-1, 3)
         t0 = time.perf_counter()
-        zmap.classify(around, start)
+        zmap = fill_map_along(pred.model, blocks)
         held = int((zmap.tile_index >= 0).sum())
         print(f"  sweeps' height map: {held} tiles along the slice filled with the "
               f"{zmap.time:,} sweeps before it: {time.perf_counter() - t0:.1f} s")

@@ -311,6 +311,23 @@ class Sweeps:
                              self.corner_radius_mm, self.top_mm, float(t1_end),
                              float(t2_start))
 
+    def in_frame(self, frame: np.ndarray) -> "Sweeps":
+        """The same sweeps (ids, path lengths, tool) in another frame: a point ``p``
+        becomes ``frame @ p`` (``frame``'s rows, orthonormal, are the new axes in this
+        one's); their bounds and index made there."""
+        rot = np.asarray(frame, dtype=float)
+        p0, d, w = (np.ascontiguousarray(a @ rot.T) for a in (self.p0, self.d, self.w))
+        R = self.core_radius_mm + self.corner_radius_mm
+        height = self.top_mm + self.corner_radius_mm
+        l0, h0 = _cylinder_bounds(p0, w, height, R)
+        l1, h1 = _cylinder_bounds(p0 + d, w, height, R)
+        lo, hi = np.minimum(l0, l1), np.maximum(h0, h1)
+        return Sweeps(p0=p0, d=d, w=w, lo=lo, hi=hi, path_start=self.path_start,
+                      path_end=self.path_end, cl_index=self.cl_index,
+                      core_radius_mm=self.core_radius_mm,
+                      corner_radius_mm=self.corner_radius_mm, top_mm=self.top_mm,
+                      cell_mm=self.cell_mm, **_build_grid(lo, hi, self.cell_mm))
+
     def clipped(self, ids: np.ndarray, path_lo: float, path_hi: float):
         """The parts of sweeps ``ids`` between two path lengths.
 

@@ -25,7 +25,8 @@ class RemovedMemo:
     Where a height map of the sweeps applies (:class:`~errpred.zmap.SweepMap`),
     it answers first: a sample it finds inside an earlier sweep is inside T1; one
     below every sweep it holds is tested against the rest of T1 only (the move
-    the tool is on); the others as before.
+    the tool is on, and the sweeps of other axes than the map's); the others as
+    before.
 
     Parameters
     ----------
@@ -66,7 +67,7 @@ class RemovedMemo:
         if below.any():
             if self._rest is None:
                 # the parts of T1 the map does not hold yet (the current move)
-                late = np.flatnonzero(self._t1_ids >= zmap.time)
+                late = np.flatnonzero(~zmap.holds(self._t1_ids))
                 self._rest = read_only(*(np.ascontiguousarray(a[late]) for a in self._t1))
             if self._rest[0].shape[0]:
                 out |= inside_any_sweep_clustered(world, below, *self._rest, *self._tail)

@@ -3,11 +3,14 @@
 The seeds make engagement a depth-buffer question (``docs/method.md`` §3): what
 earlier moves removed is rendered once, and each micro-edge sample becomes a
 look-up, with exact tests only near a boundary. :class:`SweepMap` does this for
-programs whose every move keeps the tool axis vertical with a ball end mill (a
-3-axis finishing program): per cell of a horizontal grid it keeps bounds of
-the inserted sweeps' solids over the cell's column (:mod:`errpred._zmap_kernels`),
-so a sample below every solid, or inside one, is known without an exact test.
-Samples between the bounds, and the sweeps not yet inserted (the move the tool is
+a ball end mill's sweeps that share one tool axis (a 3-axis finishing program's
+vertical one, a 3+2 program's tilted one; :func:`sweep_map` picks the axis most
+sweeps have, where at least ``ZMAP_AXIS_SHARE`` of them do): in a frame whose z is
+that axis (the world frame for a vertical one), per cell of a grid across the
+axis, it keeps bounds of the inserted sweeps' solids over the cell's column
+(:mod:`errpred._zmap_kernels`), so a sample below every solid, or inside one, is
+known without an exact test. Samples between the bounds, the sweeps of other
+axes, and the sweeps not yet inserted (the move the tool is
 on), go to the exact test as before; every answer is the exact one.
 
 The map is filled in program order: a query at path length ``L`` needs the
@@ -32,6 +35,7 @@ import numpy as np
 
 from . import constants as K
 from ._zmap_kernels import classify, empty_tile, insert_sweeps, tiles_of
+from .frames import tool_frame
 from .sweeps import Sweeps
 from .tool import Tool
 
@@ -43,12 +47,12 @@ _STATE = ("time", "tile_index", "_vals", "_owner", "_used", "_free", "_filled")
 
 
 class SweepMap:
-    """Bounds of the sweeps inserted so far, per cell of a horizontal grid.
+    """Bounds of the sweeps inserted so far, per cell of a grid across the map's axis.
 
     Parameters
     ----------
     sweeps : Sweeps
-        The program's sweeps; every axis vertical (+z), see :func:`sweep_map`.
+        The program's sweeps, world frame (:func:`sweep_map`).
     tool : Tool
         A ball end mill.
     cell_mm : float [mm]
@@ -57,10 +61,28 @@ class SweepMap:
         Cells a tile side.
     max_tiles : int
         Tiles kept at most (least recently used dropped first).
+    axis : ndarray, shape (3,), optional
+        The unit tool axis of the sweeps the map holds (the others are tested
+        exactly: :meth:`holds`); None: every sweep, all of them vertical (+z).
+        :meth:`classify` takes world points either way.
     """
 
     def __init__(self, sweeps: Sweeps, tool: Tool, cell_mm: float = K.ZMAP_CELL_MM,
-                 tile: int = K.ZMAP_TILE_CELLS, max_tiles: int = K.ZMAP_MAX_TILES) -> None:
+                 tile: int = K.ZMAP_TILE_CELLS, max_tiles: int = K.ZMAP_MAX_TILES,
+                 axis: np.ndarray | None = None) -> None:
+        #: which sweeps the map holds: those whose axis is ``axis`` (all of them if
+        #: every axis is); the others are left to the exact test (:meth:`holds`)
+        if axis is None:
+            self.held = np.ones(len(sweeps), dtype=bool)
+        else:
+            self.held = np.all(sweeps.w == np.asarray(axis, dtype=float), axis=1)
+        self.all_held = bool(self.held.all())
+        #: the map's frame (rows: its axes in world coordinates, the third the held
+        #: axis), or None where that axis is +z (the world frame itself)
+        self.frame = None
+        if axis is not None and not np.array_equal(axis, (0.0, 0.0, 1.0)):
+            self.frame = tool_frame(axis, (1.0, 0.0, 0.0))
+            sweeps = sweeps.in_frame(self.frame)
         self.sweeps = sweeps
         self.cell = float(cell_mm)
         self.size = int(tile)
@@ -154,8 +176,9 @@ class SweepMap:
         sw = self.sweeps
         span = self.cell * self.size
         grow = self.lim + self.cell
-        lo = np.minimum(sw.p0[ids, :2], sw.p0[ids, :2] + sw.d[ids, :2]) - grow
-        hi = np.maximum(sw.p0[ids, :2], sw.p0[ids, :2] + sw.d[ids, :2]) + grow
+        own = ids[self.held[ids]]       # the tiles the held ones reach
+        lo = np.minimum(sw.p0[own, :2], sw.p0[own, :2] + sw.d[own, :2]) - grow
+        hi = np.maximum(sw.p0[own, :2], sw.p0[own, :2] + sw.d[own, :2]) + grow
         a0 = np.clip(np.floor((lo - self.origin) / span).astype(np.int64), 0, self.shape - 1)
         a1 = np.clip(np.floor((hi - self.origin) / span).astype(np.int64), 0, self.shape - 1)
         keys = set()
@@ -182,9 +205,19 @@ class SweepMap:
         out[behind] = -1
         return out.reshape(self.tile_index.shape)
 
+    def holds(self, ids: np.ndarray) -> np.ndarray:
+        """Which of sweeps ``ids`` the map answers for: inserted by its time, and of
+        the held axis."""
+        ids = np.asarray(ids, dtype=np.int64)
+        return (ids < self.time) & self.held[ids]
+
     def _insert_only(self, ids: np.ndarray, index: np.ndarray | None = None) -> None:
-        """Insert sweeps ``ids`` into the tiles of ``index`` (default: every allocated
-        tile)."""
+        """Insert sweeps ``ids`` (those of the held axis) into the tiles of ``index``
+        (default: every allocated tile)."""
+        if not self.all_held:
+            ids = ids[self.held[ids]]
+            if ids.size == 0:
+                return
         sw = self.sweeps
         insert_sweeps(ids, sw.p0, sw.d, self.rc, self.lim, self.top, self.cell, self.size,
                       self._vals, self.tile_index if index is None else index, self.origin)
@@ -282,6 +315,8 @@ class SweepMap:
         -------
         ndarray, shape (k,), int8
         """
+        if self.frame is not None:
+            points = np.ascontiguousarray(points @ self.frame.T)
         self._clock += 1
         fresh = self._advance(t1_end)
         keys = tiles_of(points, self.origin, self.cell, self.size, self.shape)
@@ -296,11 +331,16 @@ class SweepMap:
 
 
 def sweep_map(sweeps: Sweeps, tool: Tool) -> SweepMap | None:
-    """A :class:`SweepMap` of ``sweeps`` if the map applies (a ball end mill, every
-    axis vertical, some sweeps), else None."""
+    """A :class:`SweepMap` of ``sweeps`` if the map applies, else None: a ball end mill,
+    and an axis that at least ``ZMAP_AXIS_SHARE`` of the sweeps have (the one most of
+    them have; ties: the first of them in numpy's sorted order), the map of those."""
     if len(sweeps) == 0 or tool.core_radius_mm != 0.0:
         return None
     w = sweeps.w
-    if not (np.all(w[:, 2] == 1.0) and np.all(w[:, :2] == 0.0)):
+    if np.all(w[:, 2] == 1.0) and np.all(w[:, :2] == 0.0):
+        return SweepMap(sweeps, tool)                  # a 3-axis program: every sweep
+    axes, counts = np.unique(w, axis=0, return_counts=True)
+    k = int(np.argmax(counts))
+    if counts[k] < K.ZMAP_AXIS_SHARE * len(sweeps):
         return None
-    return SweepMap(sweeps, tool)
+    return SweepMap(sweeps, tool, axis=axes[k])

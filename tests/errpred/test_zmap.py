@@ -178,14 +178,90 @@ def test_map_going_back_restores_its_first_state():
     assert zmap.time == 51
 
 
-def test_map_applies_to_three_axis_ball_end_milling_only():
+def test_map_applies_to_ball_end_milling_along_an_axis_most_sweeps_have():
     cl = _wavy_raster(passes=3)
-    assert sweep_map(build_sweeps(cl, Tool("ball", 6.0)), Tool("ball", 6.0)) is not None
+    ball = Tool("ball", 6.0)
+    vertical = sweep_map(build_sweeps(cl, ball), ball)
+    assert vertical is not None and vertical.frame is None and vertical.all_held
     bull = Tool("radius", 6.0, 1.0)
     assert sweep_map(build_sweeps(cl, bull), bull) is None
-    tilted = CutterLocations.from_arrays(cl.tip, [0.0, math.sin(0.1), math.cos(0.1)], 1000.0,
-                                         8000.0)
-    assert sweep_map(build_sweeps(tilted, Tool("ball", 6.0)), Tool("ball", 6.0)) is None
+    # a 3+2 program: one tilted axis throughout, held in a frame whose z is that axis
+    axis = np.array([0.0, math.sin(0.1), math.cos(0.1)])
+    tilted = CutterLocations.from_arrays(cl.tip, axis, 1000.0, 8000.0)
+    zmap = sweep_map(build_sweeps(tilted, ball), ball)
+    assert zmap is not None and zmap.all_held
+    np.testing.assert_allclose(zmap.frame[2], axis, atol=1e-15)
+    np.testing.assert_allclose(zmap.frame @ zmap.frame.T, np.eye(3), atol=1e-15)
+    # an axis that turns along the passes: no axis held by most sweeps, no map
+    turning = np.column_stack([np.zeros(len(cl)), np.sin(np.linspace(0, 0.3, len(cl))),
+                               np.cos(np.linspace(0, 0.3, len(cl)))])
+    five = CutterLocations.from_arrays(cl.tip, turning, 1000.0, 8000.0)
+    assert sweep_map(build_sweeps(five, ball), ball) is None
+
+
+def _rotation(a: float, b: float) -> np.ndarray:
+    """A rotation about x by ``a`` then about y by ``b`` [rad]."""
+    ca, sa, cb, sb = math.cos(a), math.sin(a), math.cos(b), math.sin(b)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, ca, -sa], [0.0, sa, ca]])
+    ry = np.array([[cb, 0.0, sb], [0.0, 1.0, 0.0], [-sb, 0.0, cb]])
+    return ry @ rx
+
+
+@pytest.mark.parametrize("mixed", [False, True], ids=["3+2", "mostly-3+2"])
+def test_a_tilted_map_answers_as_the_exact_test_of_t1(mixed):
+    """The wavy raster turned as a whole (a 3+2 program: the tool tilted by 30 and 20
+    deg): the map, in the frame of the tilted axis, gives the exact test's answers, and
+    most of them. With some sweeps of another axis among them (every 25th cutter
+    location's tool turned by a further 2 deg: 83 % of the sweeps keep the tilted
+    axis), those are not in the map: the point's T1 test
+    (:class:`errpred.t1memo.RemovedMemo`) tests them exactly, and still answers as the
+    exact test of every sweep."""
+    from errpred._cluster_kernels import read_only
+    from errpred.t1memo import RemovedMemo
+
+    tool = Tool("ball", 6.0, flute_length_mm=12.0)
+    cl = _wavy_raster()
+    rot = _rotation(math.radians(30.0), math.radians(20.0))
+    axis = np.tile(rot @ np.array([0.0, 0.0, 1.0]), (len(cl), 1))
+    if mixed:
+        axis[::25] = rot @ np.array([0.0, math.sin(math.radians(2.0)),
+                                     math.cos(math.radians(2.0))])
+    turned = CutterLocations.from_arrays(cl.tip @ rot.T, axis, 1000.0, 8000.0)
+    sw = build_sweeps(turned, tool)
+    zmap = sweep_map(sw, tool)
+    assert zmap is not None and zmap.frame is not None and zmap.all_held == (not mixed)
+    rng = np.random.default_rng(11)
+    decided = total = 0
+    for frac in (0.3, 0.6, 0.95):
+        time = int(frac * len(sw))
+        t1_end = float(sw.path_end[time - 1])
+        xy = rng.uniform([0.0, -5.0], [12.0, 5.0], (4000, 2))
+        dz = rng.choice([1e-4, 1e-3, 1e-2, 0.1, 1.0], 4000) * rng.choice([-1, 1], 4000)
+        local = np.column_stack([xy, _wavy(xy) + dz + rng.uniform(-0.05, 0.05, 4000)])
+        pts = np.ascontiguousarray(local @ rot.T)
+        exact = _exact(sw, tool, pts, time)
+        state = zmap.classify(pts, t1_end)
+        held = zmap.holds(np.arange(len(sw)))
+        assert held.sum() == (sw.w[:time] == axis[-1]).all(axis=1).sum()
+        # the map's answers: inside a held sweep, or below every held one
+        in_held = _exact_of(sw, tool, pts, np.flatnonzero(held))
+        assert not (state[in_held] == -1).any()
+        assert not (state[~in_held] == 1).any()
+        ids = np.arange(time)
+        t1 = read_only(*(np.ascontiguousarray(a[ids]) for a in (sw.p0, sw.d, sw.w, sw.lo,
+                                                                   sw.hi)))
+        memo = RemovedMemo(tool, t1, zmap, t1_end, ids)
+        assert np.array_equal(memo.test(pts), exact)
+        decided += int((state != 0).sum())
+        total += len(pts)
+    assert decided > 0.6 * total
+
+
+def _exact_of(sw, tool, pts, ids):
+    """The exact test of ``pts`` against sweeps ``ids``."""
+    return inside_any_sweep(pts, np.ones(len(pts), dtype=np.bool_), sw.p0[ids], sw.d[ids],
+                            sw.w[ids], sw.lo[ids] - 1.0, sw.hi[ids] + 1.0, 0.0,
+                            tool.corner_radius_mm, tool.flute_length_mm, K.MEMBERSHIP_EPS_MM)
 
 
 @pytest.mark.parametrize("slope", [20.0, 35.0])
