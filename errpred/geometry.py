@@ -410,7 +410,8 @@ class GeometryModel:
             mid = 0.5 * (lo + hi)
             # the stretch's wear: the point's engagement times a length that makes its
             # coarse sample count integrate like the stations' counts over the stretch
-            c_mid = self._material_at(mid, start)
+            at = np.flatnonzero(stations[a:b] == mid)   # a station there already
+            c_mid = int(counts[a + at[0]]) if at.size else self._material_at(mid, start)
             share = (float(counts[a:b].sum()) * step / c_mid) if c_mid else hi - lo
             tries = [mid] + sorted(stations[a:b].tolist(), key=lambda x: abs(x - mid))
             for L in tries:
