@@ -268,6 +268,41 @@ def test_cutting_distance_of_a_straight_slot():
     assert np.all(out.wear_mm[~flank & (pred.edges.z > 2.0)] == 0.0)
 
 
+def test_a_stretch_whose_middle_is_a_station_takes_that_stations_count(monkeypatch):
+    """A slot's 12.5 mm block cuts at all five of its pre-check stations (a quarter
+    diameter apart); its cutting stretch's middle is the third station: the point's
+    stretch length is the stations' counts over that count, the middle not tested a
+    second time."""
+    tool = Tool("flat", D, flutes=2, helix_deg=0.0, flute_length_mm=6.0)
+    stock = Stock.from_box([-40.0, -30.0, 0.001], [40.0, 30.0, 2.0])
+    prog = parse_program("G21 G90 G94\nS6000 M3\nG0 X-20 Y0 Z0\nG1 X-10 F600\nG1 X2.5\n"
+                         "M30\n")
+    res = Resolution(pixel_mm=D / 32, angle_step_rad=math.radians(4.0))
+    model = GeometryModel(tool, stock, cutter_locations(prog), res, sensitivity=False)
+    block = 2                   # the program's blocks: G0 X-20, G1 X-10, G1 X2.5
+    i0, i1 = model.block_points(block)
+    start, end = float(model.path[i0 - 1]), float(model.path[i1])
+    stations = model._stations(start, end)
+    mid = 0.5 * (start + end)
+    assert (start, end) == (10.0, 22.5) and len(stations) == 5 and mid == stations[2]
+    real = GeometryModel._material_at
+    calls = []
+
+    def spy(self, L, block_start, rapid=False):
+        count = real(self, L, block_start, rapid)
+        calls.append((L, count))
+        return count
+
+    monkeypatch.setattr(GeometryModel, "_material_at", spy)
+    (g,) = model.geometry(block)
+    assert g.status != "no-cut"
+    assert [L for L, _ in calls] == stations.tolist()       # the middle is not tested again
+    counts = [c for _, c in calls]
+    assert all(c > 0 for c in counts)
+    step = (end - start) / len(stations)
+    assert g.cut_length_mm == sum(counts) * step / real(model, mid, start)
+
+
 def test_a_block_that_repeats_the_position_is_no_cut_and_wears_nothing():
     """A plunge, then a G1 to where the plunge ended (as LinuxCNC's arcspiral.ngc has),
     then a slot: the repeated position removes nothing and adds no wear; the slot's
