@@ -66,11 +66,13 @@ ZMAP_SCAN_SWEEPS = 4096
 #: The sweeps' height map is made where at least this share of the sweeps have one
 #: axis (every one in a 3-axis program, a 3+2 program's tilted one, a 5-axis
 #: program's most common posture): it holds those, in a frame whose z is that axis,
-#: and the others are tested exactly. Below this share a point's earlier sweeps are
-#: mostly of other axes: the bundled thin wall's most common axis has 61 % of its
-#: sweeps, all in its last pass, and with the map its planned program's dense stage 1
-#: took 24.3 s against 21.1 s without (the exact tests of the other passes' sweeps
-#: remain; the map's filling is added) [-].
+#: and the others are tested exactly. Where many sweeps are of other axes a point's
+#: earlier sweeps are mostly those, and the map only adds its filling: the bundled thin
+#: wall's most common axis has 61 % of its sweeps (all in its last pass), and with the
+#: map its planned program's dense stage 1 took 24.3 s against 21.1 s without; the
+#: mold core's planned program keeps the vertical axis in 59 % of its sweeps, and its
+#: first 5,000 blocks took 53.4 s against 47.6 s. A 3+2 program (all of them) gains
+#: x1.08-1.29 (benchmarks/bench_tilted.py). Shares between were not measured [-].
 ZMAP_AXIS_SHARE = 0.75
 #: Rounding allowance of the height map's decisions [mm]: far above the
 #: closed forms' rounding (~1e-12 mm), far below a cell.
