@@ -95,12 +95,24 @@ def _wavy(xy):
     return 0.6 * np.sin(0.5 * xy[:, 0]) + 0.3 * np.cos(0.7 * xy[:, 1])
 
 
-def _exact(sw, tool, pts, time):
-    """The exact T1 test of ``pts`` against sweeps ``0 .. time - 1``."""
-    ids = np.arange(time)
+def _exact_of(sw, tool, pts, ids):
+    """The exact test of ``pts`` against sweeps ``ids``."""
     return inside_any_sweep(pts, np.ones(len(pts), dtype=np.bool_), sw.p0[ids], sw.d[ids],
                             sw.w[ids], sw.lo[ids] - 1.0, sw.hi[ids] + 1.0, 0.0,
                             tool.corner_radius_mm, tool.flute_length_mm, K.MEMBERSHIP_EPS_MM)
+
+
+def _exact(sw, tool, pts, time):
+    """The exact T1 test of ``pts`` against sweeps ``0 .. time - 1``."""
+    return _exact_of(sw, tool, pts, np.arange(time))
+
+
+def _near_wavy(rng, n):
+    """``n`` points around the wavy surface (within 1e-4 to 1 mm of it, either side,
+    and jittered by up to 0.05 mm), (n, 3)."""
+    xy = rng.uniform([0.0, -5.0], [12.0, 5.0], (n, 2))
+    dz = rng.choice([1e-4, 1e-3, 1e-2, 0.1, 1.0], n) * rng.choice([-1, 1], n)
+    return np.column_stack([xy, _wavy(xy) + dz + rng.uniform(-0.05, 0.05, n)])
 
 
 def _classify_twin(points, vals, tile_index, origin, cell, size, guard):
@@ -142,9 +154,7 @@ def test_map_answers_are_the_exact_tests_and_most_are_answered(cell):
         time = int(frac * len(sw))
         t1_end = float(sw.path_end[time - 1])
         # points around the envelope of what is cut so far, some far off it
-        xy = rng.uniform([0.0, -5.0], [12.0, 5.0], (6000, 2))
-        dz = rng.choice([1e-4, 1e-3, 1e-2, 0.1, 1.0], 6000) * rng.choice([-1, 1], 6000)
-        pts = np.column_stack([xy, _wavy(xy) + dz + rng.uniform(-0.05, 0.05, 6000)])
+        pts = _near_wavy(rng, 6000)
         state = zmap.classify(pts, t1_end)
         assert zmap.time == time
         exact = _exact(sw, tool, pts, time)
@@ -235,10 +245,7 @@ def test_a_tilted_map_answers_as_the_exact_test_of_t1(mixed):
     for frac in (0.3, 0.6, 0.95):
         time = int(frac * len(sw))
         t1_end = float(sw.path_end[time - 1])
-        xy = rng.uniform([0.0, -5.0], [12.0, 5.0], (4000, 2))
-        dz = rng.choice([1e-4, 1e-3, 1e-2, 0.1, 1.0], 4000) * rng.choice([-1, 1], 4000)
-        local = np.column_stack([xy, _wavy(xy) + dz + rng.uniform(-0.05, 0.05, 4000)])
-        pts = np.ascontiguousarray(local @ rot.T)
+        pts = np.ascontiguousarray(_near_wavy(rng, 4000) @ rot.T)
         exact = _exact(sw, tool, pts, time)
         state = zmap.classify(pts, t1_end)
         held = zmap.holds(np.arange(len(sw)))
@@ -255,13 +262,6 @@ def test_a_tilted_map_answers_as_the_exact_test_of_t1(mixed):
         decided += int((state != 0).sum())
         total += len(pts)
     assert decided > 0.6 * total
-
-
-def _exact_of(sw, tool, pts, ids):
-    """The exact test of ``pts`` against sweeps ``ids``."""
-    return inside_any_sweep(pts, np.ones(len(pts), dtype=np.bool_), sw.p0[ids], sw.d[ids],
-                            sw.w[ids], sw.lo[ids] - 1.0, sw.hi[ids] + 1.0, 0.0,
-                            tool.corner_radius_mm, tool.flute_length_mm, K.MEMBERSHIP_EPS_MM)
 
 
 @pytest.mark.parametrize("slope", [20.0, 35.0])
