@@ -223,3 +223,8 @@ SPLIT_AIR_MIN_S = 0.25
 COVERAGE_LISTED = 8
 #: Upper end of the job page's spectrum plot (above the tool and wall modes) [Hz].
 SPECTRUM_MAX_HZ = 8000.0
+#: The main job's SIGINT or SIGTERM whose exception C swallowed (the handler ran in a
+#: callback from C, as numba's compiler makes while it compiles a kernel) is sent
+#: again this much later (sim.staging.terminate_as_interrupt) [s]: the callback has
+#: returned by then (its calls take micro- to milliseconds), and a user waits no longer.
+SIGNAL_REDELIVER_S = 0.05

@@ -19,10 +19,13 @@ import os
 import shutil
 import signal
 import socket
+import sys
 import tempfile
 import threading
 from collections.abc import Iterator
 from pathlib import Path
+
+from .constants import SIGNAL_REDELIVER_S
 
 __all__ = ["OWNER_RECORD", "Interrupted", "commit", "remove_stale", "staging_folder",
            "terminate_as_interrupt"]
@@ -95,7 +98,14 @@ def remove_stale(out: Path) -> list[Path]:
 def terminate_as_interrupt() -> Iterator[None]:
     """Within the block, SIGINT and SIGTERM raise :class:`Interrupted` (once: a second
     signal while the first unwinds is ignored, so the clean-up is not cut short); the
-    previous handlers are back after it. Outside the main thread it does nothing."""
+    previous handlers are back after it. Outside the main thread it does nothing.
+
+    Python runs a signal's handler in whatever Python code the main thread runs next,
+    and that may be a callback from C (numba's compiler calls back into Python while
+    it compiles a kernel), where the exception cannot propagate: C ignores it
+    (``sys.unraisablehook``). Such a lost :class:`Interrupted` is sent again,
+    ``SIGNAL_REDELIVER_S`` later, when the callback has returned.
+    """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -107,10 +117,24 @@ def terminate_as_interrupt() -> Iterator[None]:
         fired.append(signum)
         raise Interrupted(signum)
 
+    hook = sys.unraisablehook
+
+    def lost(unraisable) -> None:
+        exc = unraisable.exc_value
+        if isinstance(exc, Interrupted) and fired:
+            fired.clear()
+            timer = threading.Timer(SIGNAL_REDELIVER_S, os.kill, (os.getpid(), exc.signum))
+            timer.daemon = True
+            timer.start()
+            return
+        hook(unraisable)
+
     before = {s: signal.signal(s, handler) for s in _SIGNALS}
+    sys.unraisablehook = lost
     try:
         yield
     finally:
+        sys.unraisablehook = hook
         for s, h in before.items():
             signal.signal(s, h)
 

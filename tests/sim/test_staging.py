@@ -4,6 +4,7 @@ killed outright is removed by the next run only when its owner is certainly gone
 
 from __future__ import annotations
 
+import ctypes
 import json
 import os
 import signal
@@ -15,7 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from sim.staging import OWNER_RECORD, commit, remove_stale, staging_folder
+from sim.staging import (OWNER_RECORD, Interrupted, commit, remove_stale, staging_folder,
+                         terminate_as_interrupt)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -112,3 +114,30 @@ def test_signal_during_the_job_leaves_nothing_and_stale_folders_go(tmp_path, sig
     assert f"interrupted by {signal.Signals(signum).name}" in err
     assert list(tmp_path.glob(".job-*")) == []
     assert not out.exists()
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_whose_exception_a_callback_from_c_swallowed_is_delivered_again(signum):
+    """The handler runs in a callback from C (as numba's compiler calls back into Python
+    while a fresh job compiles its kernels), where its exception cannot propagate: C
+    ignores it. The signal is sent again, so the block still ends in Interrupted; the
+    previous handlers and unraisable hook are back after it."""
+    calls = []
+
+    def in_callback():
+        calls.append(1)
+        signal.raise_signal(signum)   # handled here, inside the callback
+
+    callback = ctypes.CFUNCTYPE(None)(in_callback)
+    hook = sys.unraisablehook
+    before = signal.getsignal(signum)
+    t0 = time.monotonic()
+    with pytest.raises(Interrupted) as caught:
+        with terminate_as_interrupt():
+            callback()                # C calls it; the exception raised in it is lost
+            assert calls == [1]
+            while time.monotonic() - t0 < 10.0:
+                time.sleep(0.01)      # the signal again, now in Python code
+    assert caught.value.signum == signum
+    assert time.monotonic() - t0 < 5.0
+    assert sys.unraisablehook is hook and signal.getsignal(signum) is before
