@@ -40,7 +40,6 @@ from errpred.geometry import GeometryModel  # noqa: E402
 from errpred.pipeline import blocks_in_scope, build_predictor, load  # noqa: E402
 from errpred.raster.meshes import Stock  # noqa: E402
 from errpred.scenario import bundled_scenario  # noqa: E402
-from errpred.zmap import sweep_map  # noqa: E402
 
 
 def rotation(a_deg: float, b_deg: float) -> np.ndarray:
@@ -73,13 +72,13 @@ def main(argv=None) -> None:
     pred = build_predictor(s, sensitivity=False)
     blocks = blocks_in_scope(s, pred.program)[:args.blocks]
     model = turned_model(pred.model, rotation(*args.tilt))
-    zmap = sweep_map(model.sweeps, model.tool)
+    model.use_sweep_map = True
+    zmap = model._sweep_map()
     if zmap is None:
         sys.exit("no height map applies to this program")
     print(f"{args.slice} slice, {len(blocks)} blocks, turned by {args.tilt[0]:g} deg about x "
           f"and {args.tilt[1]:g} deg about y: tool axis {np.round(model.cl.axis[0], 4)}, "
           f"map {'in the world frame' if zmap.frame is None else 'across the tilted axis'}")
-    model.use_sweep_map = True
     t0 = time.perf_counter()
     fill_map_along(model, blocks)
     print(f"  the map's tiles along the slice filled: {time.perf_counter() - t0:.1f} s")

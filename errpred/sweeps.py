@@ -317,16 +317,11 @@ class Sweeps:
         one's); their bounds and index made there."""
         rot = np.asarray(frame, dtype=float)
         p0, d, w = (np.ascontiguousarray(a @ rot.T) for a in (self.p0, self.d, self.w))
-        R = self.core_radius_mm + self.corner_radius_mm
-        height = self.top_mm + self.corner_radius_mm
-        l0, h0 = _cylinder_bounds(p0, w, height, R)
-        l1, h1 = _cylinder_bounds(p0 + d, w, height, R)
-        lo, hi = np.minimum(l0, l1), np.maximum(h0, h1)
-        return Sweeps(p0=p0, d=d, w=w, lo=lo, hi=hi, path_start=self.path_start,
-                      path_end=self.path_end, cl_index=self.cl_index,
-                      core_radius_mm=self.core_radius_mm,
-                      corner_radius_mm=self.corner_radius_mm, top_mm=self.top_mm,
-                      cell_mm=self.cell_mm, **_build_grid(lo, hi, self.cell_mm))
+        return _indexed(p0, d, w, self.core_radius_mm + self.corner_radius_mm,
+                        self.top_mm + self.corner_radius_mm, self.cell_mm,
+                        path_start=self.path_start, path_end=self.path_end,
+                        cl_index=self.cl_index, core_radius_mm=self.core_radius_mm,
+                        corner_radius_mm=self.corner_radius_mm, top_mm=self.top_mm)
 
     def clipped(self, ids: np.ndarray, path_lo: float, path_hi: float):
         """The parts of sweeps ``ids`` between two path lengths.
@@ -532,18 +527,24 @@ def build_sweeps(cl: CutterLocations, tool: Tool, *,
     ps = cum[seg - 1] + t0 * seg_len[seg]
     pe = cum[seg - 1] + t1 * seg_len[seg]
     R = tool.radius_mm
-    height = tool.flute_length_mm + tool.corner_radius_mm
-    l0, h0 = _cylinder_bounds(p0, w, height, R)
-    l1, h1 = _cylinder_bounds(p0 + d, w, height, R)
-    lo, hi = np.minimum(l0, l1), np.maximum(h0, h1)
     cell = float(cell_mm) if cell_mm is not None else K.SWEEP_GRID_CELL_PER_RADIUS * R
     if not (math.isfinite(cell) and cell > 0):
         raise ValueError(f"cell_mm: expected a finite value > 0, got {cell_mm!r}")
-    grid = _build_grid(lo, hi, cell)
-    return Sweeps(p0=p0, d=d, w=w, lo=lo, hi=hi, path_start=ps, path_end=pe,
-                  cl_index=seg, core_radius_mm=tool.core_radius_mm,
-                  corner_radius_mm=tool.corner_radius_mm, top_mm=tool.flute_length_mm,
-                  cell_mm=cell, **grid)
+    return _indexed(p0, d, w, R, tool.flute_length_mm + tool.corner_radius_mm, cell,
+                    path_start=ps, path_end=pe, cl_index=seg,
+                    core_radius_mm=tool.core_radius_mm,
+                    corner_radius_mm=tool.corner_radius_mm, top_mm=tool.flute_length_mm)
+
+
+def _indexed(p0, d, w, radius: float, height: float, cell: float, **rest) -> Sweeps:
+    """Sweeps of tips ``p0`` to ``p0 + d`` with axes ``w``, each bounded by the tool's
+    cylinder (``radius``, ``height`` up the axis) at both ends, with the grid of ``cell``
+    over the bounds; ``rest``: the other fields."""
+    l0, h0 = _cylinder_bounds(p0, w, height, radius)
+    l1, h1 = _cylinder_bounds(p0 + d, w, height, radius)
+    lo, hi = np.minimum(l0, l1), np.maximum(h0, h1)
+    return Sweeps(p0=p0, d=d, w=w, lo=lo, hi=hi, cell_mm=cell, **rest,
+                  **_build_grid(lo, hi, cell))
 
 
 def _build_grid(lo: np.ndarray, hi: np.ndarray, cell: float) -> dict:
