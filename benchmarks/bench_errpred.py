@@ -205,8 +205,6 @@ def fill_map_along(model, blocks):
     r = model.tool.radius_mm
     half = 0.5 * zmap.cell * zmap.size
     tips = model.cl.tip[i0:i1 + 1]
-    if zmap.frame is not None:          # the map's grid lies across its axis
-        tips = tips @ zmap.frame.T
     steps = np.maximum(np.ceil(np.linalg.norm(np.diff(tips, axis=0), axis=1) / half), 1)
     path = np.concatenate([tips[:1]] + [a + (b - a) * (np.arange(1, k + 1) / k)[:, None]
                                         for a, b, k in zip(tips[:-1], tips[1:],
@@ -214,9 +212,9 @@ def fill_map_along(model, blocks):
     reach = np.arange(-r - 2 * half, r + 2 * half + 1e-9, half)
     ring = np.array([(a, b, 0.0) for a in reach for b in reach
                      if np.hypot(a, b) <= r + 2 * half])
+    if zmap.frame is not None:          # the map's grid lies across its axis
+        ring = ring @ zmap.frame
     around = (path[:, None, :] + ring).reshape(-1, 3)
-    if zmap.frame is not None:
-        around = around @ zmap.frame    # world points (classify turns them)
     zmap.classify(np.ascontiguousarray(around), start)
     return zmap
 
