@@ -18,6 +18,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import tempfile
 from collections.abc import Mapping
@@ -142,6 +143,10 @@ def run_rs274(path: str | os.PathLike, *, tool_lengths_mm: Mapping[int, float] |
         msg = (proc.stderr.strip() or proc.stdout.strip()).replace("executing", "").strip()
         # one line: rs274 prints its message, then the block it refused
         msg = " | ".join(ln.strip() for ln in msg.splitlines() if ln.strip())
+        if not msg:     # no message of rs274's own: how it ended says what happened
+            code = proc.returncode
+            msg = (f"killed by {signal.Signals(-code).name}" if code < 0
+                   else f"exit status {code}") + ", no message"
         raise Rs274Error(f"rs274 refused {os.fspath(path)}: {msg}")
     return parse_canon(text)
 

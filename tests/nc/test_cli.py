@@ -223,6 +223,24 @@ def test_check_rs274_refusal_is_one_line(tmp_path, capsys, rs274):
         run_rs274(path, timeout_s=1e-6)
 
 
+@pytest.mark.parametrize("ending, said", [("exit 3", "exit status 3, no message"),
+                                           ("kill -SEGV $$", "killed by SIGSEGV, no message")])
+def test_rs274_that_ends_without_a_message_is_named_by_how_it_ended(tmp_path, monkeypatch,
+                                                                     ending, said):
+    """An rs274 that fails and prints nothing (a crash): the error says how it ended."""
+    import nc.linuxcnc as L
+
+    fake = tmp_path / "rs274"
+    fake.write_text(f"#!/bin/sh\n{ending}\n")
+    fake.chmod(0o755)
+    monkeypatch.setattr(L, "rs274_path", lambda: str(fake))
+    path = tmp_path / "p.ngc"
+    path.write_text("G21 G1 X1 F100\nM2\n")
+    with pytest.raises(L.Rs274Error) as caught:
+        L.run_rs274(path)
+    assert str(caught.value) == f"rs274 refused {path}: {said}"
+
+
 def test_parse_reports_unknown_position_and_reference_points(tmp_path, capsys):
     path = tmp_path / "p.nc"
     path.write_text("G21 G90\nG0 X1 Y1 Z5\nG91 G28 Z0\nG90 G0 X2 Y2\nG0 Z5\nG1 Z0 F100\nM30\n")
